@@ -1,0 +1,24 @@
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "datasets" / "synthetic_aom"
+
+
+@pytest.fixture
+def data_dir():
+    return DATA
+
+
+@pytest.fixture
+def write_csv(tmp_path):
+    """Write text to a CSV file in tmp_path and return its path."""
+    def _write(text, name="data.csv"):
+        p = tmp_path / name
+        p.write_text(text)
+        return p
+    return _write
