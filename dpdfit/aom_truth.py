@@ -141,14 +141,18 @@ class HeterodyneNoise:
     The demodulated phasor is ``s(A) e^{i phi(A)} + leak + n``, with
     ``s = sqrt(eta/eta_ref)`` the beat amplitude relative to full drive,
     ``n`` complex Gaussian noise of per-quadrature std ``sigma_iq`` and a
-    small constant RF/optical ``leak`` phasor.  The phase noise therefore
-    grows as ``sigma_iq / s`` and the leak biases the phase at low drive,
-    which is why the paper fits only ``A >= 0.1`` (Supplement S1).
-    ``phase_err`` reports ``sigma_iq / s`` (the leak is not in the error bar).
+    small constant RF/optical ``leak`` phasor, so the phase noise grows as
+    ``sigma_iq / s``.  Below ``s_lock`` (A ~ 0.1 for the default AOM) the
+    demodulator no longer tracks the weak beat and its noise grows by the
+    factor ``excess``; the recorded ``phase_err`` (``sigma_iq / s``) does not
+    know this.  That is why the phase is unreliable below A = 0.1 and the
+    paper fits only ``A >= 0.1`` (Supplement S1).
     """
 
     sigma_iq: float = 1.0e-3
-    leak: complex = 2.0e-4 * np.exp(1j * 1.0)
+    leak: complex = 3.0e-5 * np.exp(1j * 1.0)
+    s_lock: float = 0.17
+    excess: float = 10.0
 
 
 def simulate_amplitude_run(aom: BraggAOM, A, rng: np.random.Generator,
@@ -166,8 +170,9 @@ def simulate_phase_run(aom: BraggAOM, A, rng: np.random.Generator,
     """One phase-calibration run: columns ``A, phase_rad, phase_err``."""
     A = np.asarray(A, dtype=float)
     s = np.sqrt(aom.efficiency(A) / aom.eta_ref)
+    sig = noise.sigma_iq * np.where(s < noise.s_lock, noise.excess, 1.0)
     z = (s * np.exp(1j * aom.phase(A)) + noise.leak
-         + noise.sigma_iq * (rng.standard_normal(A.shape) + 1j * rng.standard_normal(A.shape)))
+         + sig * (rng.standard_normal(A.shape) + 1j * rng.standard_normal(A.shape)))
     # phase relative to the weak-drive limit; the experiment references the
     # phase to the reference beam, an overall constant removed at A -> 0
     phase = np.angle(z)

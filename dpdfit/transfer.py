@@ -150,7 +150,7 @@ class TransferFunction:
                     a0)
             # y peaks at a0 above A_corr, then rolls off: branch ends where y = A_corr
             a_star = a0 if self.y(a0) == Ac else brentq(
-                lambda a: float(self.y(a)) - Ac, 0.0, a0, xtol=1e-15, rtol=4e-16)
+                lambda a: float(self.y(a)) - Ac, 0.0, a0, xtol=1e-15, rtol=1e-15)
             top = (float(a_star), bad)
         object.__setattr__(self, "_branch_top", top)
         return top

@@ -1,0 +1,220 @@
+"""The command line: contracts (names, keys, files) and bad-input behaviour."""
+
+import hashlib
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from dpdfit.cli import main
+from dpdfit.calibration import load_calibration
+from dpdfit.transfer import TransferFunction
+
+CONTRACT_KEYS = ["A_corr", "A_corr_stderr", "phi_at_1", "phi_at_1_stderr"]
+AMP_KEYS = ["powers", "coefficients", "stderr", "covariance", "monotone"]
+PHASE_KEYS = ["powers", "coefficients", "stderr", "covariance"]
+
+
+def run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def bundled(tmp_path, data_dir):
+    amp = tmp_path / "amp.csv"
+    ph = tmp_path / "phase.csv"
+    shutil.copy(data_dir / "calibration_amplitude.csv", amp)
+    shutil.copy(data_dir / "calibration_phase.csv", ph)
+    return amp, ph
+
+
+def test_calibrate_writes_contract_json_and_plots(bundled, tmp_path, capsys):
+    amp, ph = bundled
+    out = tmp_path / "calibration.json"
+    code, stdout, err = run(["calibrate", "--amplitude", amp, "--phase", ph, "-o", out,
+                             "--plot", tmp_path / "figs"], capsys)
+    assert code == 0, err
+    d = json.loads(out.read_text())
+    for k in CONTRACT_KEYS:
+        assert isinstance(d[k], float)
+    for k in AMP_KEYS:
+        assert k in d["amplitude"]
+    for k in PHASE_KEYS:
+        assert k in d["phase"]
+    assert d["amplitude"]["powers"] == list(range(1, 9))
+    assert d["phase"]["powers"] == list(range(1, 6))
+    assert d["amplitude"]["coefficients"][0] == 1.0
+    assert d["A_corr"] == pytest.approx(sum(d["amplitude"]["coefficients"]), rel=1e-12)
+    assert np.array(d["amplitude"]["covariance"]).shape == (8, 8)
+    assert d["amplitude"]["source"]["sha256"] == hashlib.sha256(amp.read_bytes()).hexdigest()
+    truth = json.loads((amp.parent.parent / "truth.json").read_text()) if False else None
+    for name in ["fig1a_amplitude.png", "fig1b_phase.png", "fig1c_predistortion.png",
+                 "fig1_calibration.png"]:
+        png = tmp_path / "figs" / name
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "A_corr=y(1)" in stdout and "order scan" in stdout
+    # JSON round trip into the API
+    cal = load_calibration(out)
+    assert cal.A_corr == d["A_corr"]
+
+
+def test_calibrate_recovers_truth_of_bundled_data(bundled, tmp_path, capsys, data_dir):
+    amp, ph = bundled
+    out = tmp_path / "c.json"
+    assert run(["calibrate", "--amplitude", amp, "--phase", ph, "-o", out], capsys)[0] == 0
+    d = json.loads(out.read_text())
+    truth = json.loads((data_dir / "truth.json").read_text())
+    assert abs(d["A_corr"] - truth["A_corr_true"]) < 3 * d["A_corr_stderr"]
+    assert abs(d["phi_at_1"] - truth["phi_at_1_true"]) < 3 * d["phi_at_1_stderr"]
+
+
+def test_lut_csv_npy_json(bundled, tmp_path, capsys):
+    amp, ph = bundled
+    cal = tmp_path / "calibration.json"
+    assert run(["calibrate", "--amplitude", amp, "--phase", ph, "-o", cal], capsys)[0] == 0
+    code, out, err = run(["lut", cal, "--points", 257, "-o", tmp_path / "lut.csv"], capsys)
+    assert code == 0, err
+    import pandas as pd
+    df = pd.read_csv(tmp_path / "lut.csv", comment="#")
+    assert list(df.columns) == ["target_amplitude", "rf_amplitude", "clamped"]
+    assert len(df) == 257
+    arr = np.load(tmp_path / "lut.npy")
+    assert arr.shape == (257, 2)
+    assert np.array_equal(arr[:, 0], df["target_amplitude"].to_numpy())
+    assert np.array_equal(arr[:, 1], df["rf_amplitude"].to_numpy())
+    prov = json.loads((tmp_path / "lut.json").read_text())
+    d = json.loads(cal.read_text())
+    assert prov["A_corr"] == d["A_corr"] and prov["order"] == 8
+    assert prov["calibration_sha256"] == hashlib.sha256(cal.read_bytes()).hexdigest()
+    assert prov["amplitude_input_sha256"] == hashlib.sha256(amp.read_bytes()).hexdigest()
+    assert "created" in prov
+    header = [l for l in (tmp_path / "lut.csv").read_text().splitlines() if l.startswith("#")]
+    assert any(l.startswith("# calibration_sha256:") for l in header)
+    tf = TransferFunction.from_calibration(load_calibration(cal))
+    inside = ~df["clamped"].astype(bool).to_numpy()
+    assert np.max(np.abs(tf.f_am(arr[inside, 1]) - arr[inside, 0])) <= 1e-12
+    assert np.all(arr[~inside, 1] == 1.0)
+
+
+def test_polyfit_cli_json_keys(tmp_path, capsys):
+    x = np.linspace(-1, 1, 30)
+    y = 1 + 2 * x - 0.5 * x ** 3
+    p = tmp_path / "d.csv"
+    p.write_text("t,v,s\n" + "".join(f"{float(a)!r},{float(b)!r},0.1\n" for a, b in zip(x, y)))
+    code, out, err = run(["polyfit", p, "--x", "t", "--y", "v", "--powers", "0:3",
+                          "--sigma", "s", "--json"], capsys)
+    assert code == 0, err
+    d = json.loads(out)
+    for k in ["coefficients", "stderr", "covariance", "residual_std", "r2", "aic", "bic",
+              "condition_number"]:
+        assert k in d
+    assert np.allclose(d["coefficients"], [1, 2, 0, -0.5], atol=1e-12)
+    code, out, err = run(["polyfit", p, "--x", "t", "--y", "v", "--powers", "1,3"], capsys)
+    assert code == 0 and "coefficient" in out.lower()
+
+
+# ----------------------------------------------------------------- bad input
+
+def _bad(capsys, argv, needle, tmp_path, inputs=()):
+    before = {p: p.read_bytes() for p in inputs}
+    code, out, err = run(argv, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dpdfit: error:"), err
+    assert needle in lines[0], lines[0]
+    for p, b in before.items():
+        assert p.read_bytes() == b          # input untouched
+    leftovers = [q.name for q in tmp_path.iterdir() if q.name.startswith(".") or
+                 q.suffix in (".json", ".npy", ".part")]
+    assert not leftovers, leftovers       # no partial output
+    return lines[0]
+
+
+def _amp_text(rows):
+    return "A,power\n" + "".join(f"{a},{p}\n" for a, p in rows)
+
+
+GOOD = [(a, (np.sin(np.pi / 2 * a) * 1.3) ** 2) for a in np.linspace(0, 1, 21)]
+
+
+@pytest.mark.parametrize("text, needle", [
+    ("A,pwr\n0.1,1\n", "column 'power': required column is missing (found 'pwr'"),
+    (_amp_text(GOOD[:5] + [(0.5, "nan")] + GOOD[6:]), "column 'power', row 6: value is NaN"),
+    (_amp_text(GOOD[:5] + [(0.5, "inf")] + GOOD[6:]), "column 'power', row 6: value is inf"),
+    (_amp_text(GOOD[:3] + [(1.5, 0.3)] + GOOD[4:]), "column 'A', row 4: value 1.5 is outside [0, 1]"),
+    (_amp_text(GOOD[:5]), "needs at least 8 distinct amplitudes"),
+    ("", "file is empty"),
+    ("A,power\n", "no data rows"),
+    ("A,power,power_err\n" + "".join(f"{a},{p},0.001\n" for a, p in GOOD)
+     + "0.5,9.0,0.001\n", "duplicate A=0.5 with contradicting values"),
+])
+def test_calibrate_bad_input(tmp_path, capsys, text, needle):
+    p = tmp_path / "amp.csv"
+    p.write_text(text)
+    line = _bad(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "cal.json"], needle,
+                tmp_path, [p])
+    assert "amp.csv" in line
+
+
+def test_consistent_duplicates_are_accepted(tmp_path, capsys):
+    rows = GOOD + [(0.5, GOOD[10][1] + 1e-4)]
+    p = tmp_path / "amp.csv"
+    p.write_text("A,power,power_err\n" + "".join(f"{a},{v},0.001\n" for a, v in rows))
+    code, out, err = run(["calibrate", "--amplitude", p, "-o", tmp_path / "c.json"], capsys)
+    assert code == 0, err
+
+
+def test_refuses_to_overwrite_input(bundled, tmp_path, capsys):
+    amp, ph = bundled
+    _bad(capsys, ["calibrate", "--amplitude", amp, "-o", amp], "refusing to overwrite",
+         tmp_path, [amp])
+
+
+def test_lut_not_invertible(tmp_path, capsys):
+    cal = {"amplitude": {"powers": [1, 2, 3], "coefficients": [1.0, -2.0, 1.25],
+                         "stderr": [0, 0, 0], "covariance": [[0] * 3] * 3, "monotone": False}}
+    p = tmp_path / "bad_cal.jsn"
+    p.write_text(json.dumps(cal))
+    line = _bad(capsys, ["lut", p, "--points", 11, "-o", tmp_path / "lut.csv"],
+                "dy/dA <= 0 at A = 0.400000", tmp_path, [p])
+    assert not (tmp_path / "lut.csv").exists()
+
+
+def test_lut_bad_calibration_file(tmp_path, capsys):
+    p = tmp_path / "x.txt"
+    p.write_text("{not json")
+    _bad(capsys, ["lut", p, "-o", tmp_path / "lut.csv"], "not valid JSON", tmp_path, [p])
+
+
+def test_polyfit_bad_powers_and_columns(tmp_path, capsys):
+    p = tmp_path / "d.csv"
+    p.write_text("x,y\n1,2\n2,3\n3,5\n")
+    _bad(capsys, ["polyfit", p, "--x", "x", "--y", "y", "--powers", "a:b"], "bad power range",
+         tmp_path, [p])
+    _bad(capsys, ["polyfit", p, "--x", "x", "--y", "yy", "--powers", "0:1"],
+         "column 'yy': required column is missing", tmp_path, [p])
+    _bad(capsys, ["polyfit", p, "--x", "x", "--y", "y", "--powers", "0:5"], "3 points for 6 coefficients",
+         tmp_path, [p])
+
+
+def test_multi_run_file_needs_run(tmp_path, capsys, data_dir):
+    src = (data_dir / "calibration_amplitude.csv").read_text().splitlines()
+    header = [l for l in src if not l.startswith("#")][0]
+    body = [l for l in src if not l.startswith("#")][1:]
+    two = [header] + body + [l.replace("R001", "R002") for l in body]
+    p = tmp_path / "runs.csv"
+    p.write_text("\n".join(two) + "\n")
+    _bad(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "c.json"],
+         "holds 2 runs (R001, R002)", tmp_path, [p])
+    code, out, err = run(["calibrate", "--amplitude", p, "--run", "R002", "-o",
+                          tmp_path / "c.json", "--order-scan", "none"], capsys)
+    assert code == 0, err
+    assert json.loads((tmp_path / "c.json").read_text())["amplitude"]["source"]["run"] == "R002"
+    code, out, err = run(["calibrate", "--amplitude", p, "--all-runs", "-o",
+                          tmp_path / "runs.json"], capsys)
+    assert code == 0, err
+    d = json.loads((tmp_path / "runs.json").read_text())
+    assert [r["run"] for r in d["amplitude_runs"]] == ["R001", "R002"]
