@@ -527,12 +527,11 @@ def fit_phase(A, phase, phase_err=None, order: int = 5, *, A_min: float = 0.1,
     res = polyfit(A[use], phase[use], range(1, order + 1),
                   sigma=None if err is None else err[use])
     cov = np.asarray(res.covariance)
-    ones = np.ones(order)
     return PhaseCalibration(
         powers=tuple(res.powers), coefficients=_frozen(res.coefficients),
         covariance=_frozen(cov), stderr=_frozen(res.stderr),
         phi_at_1=float(np.sum(res.coefficients)),
-        phi_at_1_stderr=float(np.sqrt(ones @ cov @ ones)),
+        phi_at_1_stderr=float(res.predict_stderr(1.0)),
         A_min=float(A_min), A_max=float(A_max), n_points=n_use,
         n_excluded=int(A.size - n_use), chi2=float(res.chi2), dof=int(res.dof),
         reduced_chi2=float(res.reduced_chi2), residual_std=float(res.residual_std),

@@ -1,5 +1,10 @@
 import os
 import sys
+
+# Small dense problems: threaded BLAS only adds scheduling overhead on a shared
+# 2-core machine (must be set before numpy is imported).
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
 from pathlib import Path
 
 import numpy as np
