@@ -57,6 +57,11 @@ def _frozen(a) -> np.ndarray:
     return a
 
 
+def _num(value, default=float("nan")) -> float:
+    """float(value), with JSON null (None) read as ``default``."""
+    return float(default) if value is None else float(value)
+
+
 def _vander(A, powers) -> np.ndarray:
     return np.asarray(A, dtype=float)[..., None] ** np.asarray(powers)
 
@@ -211,16 +216,16 @@ class AmplitudeCalibration:
             stderr=_frozen(d["stderr"]),
             raw_coefficients=_frozen(d.get("raw_coefficients", d["coefficients"])),
             raw_covariance=_frozen(d.get("raw_covariance", d["covariance"])),
-            A_corr=float(d.get("A_corr", np.sum(d["coefficients"]))),
-            A_corr_stderr=float(d.get("A_corr_stderr", np.nan)),
-            power_scale=float(d.get("power_scale", 1.0)),
+            A_corr=_num(d.get("A_corr"), np.sum(d["coefficients"])),
+            A_corr_stderr=_num(d.get("A_corr_stderr"), np.nan),
+            power_scale=_num(d.get("power_scale"), 1.0),
             monotone=bool(d["monotone"]),
             nonmonotone_intervals=[tuple(iv) for iv in d.get("nonmonotone_intervals", [])],
-            chi2=float(d.get("chi2", np.nan)), dof=int(d.get("dof", 0)),
-            reduced_chi2=float(d.get("reduced_chi2", np.nan)),
+            chi2=_num(d.get("chi2"), np.nan), dof=int(d.get("dof", 0)),
+            reduced_chi2=_num(d.get("reduced_chi2"), np.nan),
             sigma_source=d.get("sigma_source", "unknown"), n_points=int(d.get("n_points", 0)),
-            aic=float(d.get("aic", np.nan)), bic=float(d.get("bic", np.nan)),
-            log_likelihood=float(d.get("log_likelihood", np.nan)),
+            aic=_num(d.get("aic"), np.nan), bic=_num(d.get("bic"), np.nan),
+            log_likelihood=_num(d.get("log_likelihood"), np.nan),
             source=dict(d.get("source", {})), order_table=list(d.get("order_table", [])))
 
     def report(self) -> str:
@@ -267,7 +272,7 @@ def _amplitude_core(A, power, sigma, order):
 
     # start: signed square root of the power, an ordinary polynomial fit
     s = np.sign(power) * np.sqrt(np.abs(power))
-    b0 = np.asarray(polyfit(A, s, powers).coefficients)
+    b0 = np.asarray(polyfit(A, s, powers, sigma=1.0).coefficients)  # start only
     if b0[0] < 0:
         b0 = -b0
 
@@ -279,7 +284,12 @@ def _amplitude_core(A, power, sigma, order):
 
     sol = least_squares(resid, b0, jac=jac, method="lm", x_scale="jac",
                         xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000)
+    if not sol.success and sol.status <= 0:
+        raise FitError(f"amplitude fit did not converge ({sol.message})")
     b = sol.x if sol.x[0] > 0 else -sol.x
+    if not np.all(np.isfinite(b)) or b[0] <= 0:
+        raise FitError("fitted slope at the origin is not positive: the data do not look "
+                       "like an amplitude calibration (power rising from ~0 at A = 0)")
     # Covariance (and one last Gauss-Newton step) from the linearised problem,
     # which is a weighted polynomial fit: z = (P + y0^2)/(2 y0) with sigma
     # sigma_P/(2|y0|); solved by the ill-conditioning-safe polyfit.
@@ -465,17 +475,17 @@ class PhaseCalibration:
         return cls(
             powers=tuple(int(p) for p in d["powers"]), coefficients=_frozen(d["coefficients"]),
             covariance=_frozen(d["covariance"]), stderr=_frozen(d["stderr"]),
-            phi_at_1=float(d.get("phi_at_1", np.sum(d["coefficients"]))),
-            phi_at_1_stderr=float(d.get("phi_at_1_stderr", np.nan)),
-            A_min=float(d.get("A_min", 0.1)), A_max=float(d.get("A_max", 1.0)),
+            phi_at_1=_num(d.get("phi_at_1"), np.sum(d["coefficients"])),
+            phi_at_1_stderr=_num(d.get("phi_at_1_stderr"), np.nan),
+            A_min=_num(d.get("A_min"), 0.1), A_max=_num(d.get("A_max"), 1.0),
             n_points=int(d.get("n_points", 0)), n_excluded=int(d.get("n_excluded", 0)),
-            chi2=float(d.get("chi2", np.nan)), dof=int(d.get("dof", 0)),
-            reduced_chi2=float(d.get("reduced_chi2", np.nan)),
-            residual_std=float(d.get("residual_std", np.nan)),
-            sigma_source=d.get("sigma_source", "unknown"), aic=float(d.get("aic", np.nan)),
-            bic=float(d.get("bic", np.nan)),
-            log_likelihood=float(d.get("log_likelihood", np.nan)),
-            condition_number=float(d.get("condition_number", np.nan)),
+            chi2=_num(d.get("chi2"), np.nan), dof=int(d.get("dof", 0)),
+            reduced_chi2=_num(d.get("reduced_chi2"), np.nan),
+            residual_std=_num(d.get("residual_std"), np.nan),
+            sigma_source=d.get("sigma_source", "unknown"), aic=_num(d.get("aic"), np.nan),
+            bic=_num(d.get("bic"), np.nan),
+            log_likelihood=_num(d.get("log_likelihood"), np.nan),
+            condition_number=_num(d.get("condition_number"), np.nan),
             source=dict(d.get("source", {})))
 
     def report(self) -> str:

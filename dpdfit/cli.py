@@ -55,6 +55,12 @@ def cmd_polyfit(args) -> int:
         print(json.dumps(to_jsonable(d), indent=2))
     else:
         print(res.report())
+        cov = np.asarray(res.covariance)
+        names = [f"c{k}" for k in res.powers]
+        print("[[Covariance]]")
+        print("    " + " ".join(f"{n:>12s}" for n in names))
+        for n, row in zip(names, cov):
+            print(f"{n:>4s}" + " ".join(f"{v:12.4e}" for v in row))
     return 0
 
 
@@ -94,7 +100,7 @@ def _all_runs(args) -> int:
                   f"{ph.phi_at_1_stderr:9.6f}")
     if args.output:
         atomic_write_json(args.output, out)
-        print(f"wrote {args.output}")
+        print(f"wrote {args.output}", file=sys.stderr)
     return 0
 
 
@@ -118,11 +124,11 @@ def cmd_calibrate(args) -> int:
     else:
         print(cal.report())
         if args.output:
-            print(f"wrote {args.output}")
+            print(f"wrote {args.output}", file=sys.stderr)
     if args.plot:
         from .plots import plot_calibration
         for p in plot_calibration(cal, args.plot, amp_data, ph_data):
-            print(f"wrote {p}")
+            print(f"wrote {p}", file=sys.stderr)
     return 0
 
 
@@ -174,7 +180,7 @@ def cmd_lut(args) -> int:
     print(f"predistortion table: {args.points} points, A_corr = {amp.A_corr:.6f}"
           + (f"; fitted y(A) rolls off after its peak, inverse reaches A_corr at "
              f"A = {a_star:.6f}" if rolloff else ""))
-    print(f"wrote {out_csv}\nwrote {out_npy}\nwrote {out_json}")
+    print(f"wrote {out_csv}\nwrote {out_npy}\nwrote {out_json}", file=sys.stderr)
     return 0
 
 
