@@ -568,7 +568,7 @@ def calibrate_amplitude(data: CalibrationData, order: int = 8, order_scan=None
     and names the file and rows.
     """
     noise = None
-    if data.error is None:
+    if data.error is None and np.unique(data.A).size < data.A.size:
         # robust per-point scatter from a preliminary fit, to judge duplicates
         try:
             pre = fit_amplitude(data.A, data.value, None, order)
@@ -590,7 +590,8 @@ def calibrate_phase(data: CalibrationData, order: int = 5, A_min: float = 0.1,
     """Phase fit of one validated run, with the duplicate check."""
     use = (data.A >= A_min) & (data.A <= A_max)
     noise = None
-    if data.error is None and use.sum() > order + 1:
+    if (data.error is None and use.sum() > order + 1
+            and np.unique(data.A[use]).size < use.sum()):
         pre = polyfit(data.A[use], data.value[use], range(1, order + 1))
         r = data.value[use] - pre.predict(data.A[use])
         noise = 1.4826 * np.median(np.abs(r - np.median(r)))
