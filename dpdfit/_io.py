@@ -105,3 +105,30 @@ def to_jsonable(obj):
 def atomic_write_json(path: str | os.PathLike, obj) -> None:
     """Serialise ``obj`` (numpy-aware) as indented JSON, atomically."""
     atomic_write_text(path, json.dumps(to_jsonable(obj), indent=2) + "\n")
+
+
+def write_csv_with_header(path: str | os.PathLike, df, meta: dict) -> None:
+    """Write a pandas table as CSV with ``# key: <json>`` provenance lines on top, atomically.
+
+    Read it back with :func:`read_csv_with_header` (or
+    ``pandas.read_csv(path, comment="#")`` for the table alone).
+    """
+    header = "".join(f"# {k}: {json.dumps(to_jsonable(v))}\n" for k, v in meta.items())
+    atomic_write_text(path, header + df.to_csv(index=False, float_format="%.12g"))
+
+
+def read_csv_header(path: str | os.PathLike) -> dict:
+    """The ``# key: <json>`` lines at the top of a CSV file, as a dict."""
+    meta = {}
+    with open(path) as fh:
+        for line in fh:
+            if not line.startswith("#"):
+                break
+            key, sep, val = line[1:].partition(":")
+            if not sep:
+                continue
+            try:
+                meta[key.strip()] = json.loads(val.strip())
+            except json.JSONDecodeError:
+                meta[key.strip()] = val.strip()
+    return meta

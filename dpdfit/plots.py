@@ -122,3 +122,103 @@ def plot_calibration(cal: Calibration, outdir: str | os.PathLike,
         plt.close(fig)
         written.append(path)
     return written
+
+
+def plot_sweep(df, outdir: str | os.PathLike) -> list[str]:
+    """Figures of the amplitude sweep, as PNG files in ``outdir``.
+
+    ``fig2_spectral.png`` (a: R10 vs A, b: dP_n vs A), ``figS6_spectral.png``
+    (a: R10, b: R23, c: dP_n), ``fig5_eps_vs_eta.png`` (eps_est vs eta_bar,
+    log-log, thresholds and eta_bar_corr) and ``figS4_phase_space.png``
+    (trajectory of Cardioid(1,2) with a 10 % n = 0 or n = 3 tone).
+    Simulation only (dashed, as the paper draws simulations).
+    """
+    from .fidelity import calibrate_g, phase_space
+    from .sweep import thresholds
+
+    plt = _pyplot()
+    Ac = df.attrs.get("A_corr")
+    mean = df[df["sideband"] == "mean"]
+    d1 = mean[mean["dpd"] == 1].sort_values("A")
+    d0 = mean[mean["dpd"] == 0].sort_values("A")
+    style = {1: dict(color="C0", ls="--", label="DPD (sim.)"),
+             0: dict(color="C3", ls="--", label="no DPD (sim.)")}
+
+    def ratio_panel(ax, col, title):
+        for d, sub in ((1, d1), (0, d0)):
+            ax.plot(sub["A"], sub[col], **style[d])
+        if Ac:
+            ax.axvline(Ac, color="0.5", ls="--", lw=1)
+        ax.set(xlabel="normalised RF amplitude $A$", ylabel=col.replace("_dB", " (dB)"),
+               title=title)
+        ax.legend(fontsize=7)
+
+    def dp_panel(ax, title):
+        ax.plot(d1["A"], d1["dP1_dB"], color="green", ls="--", label="$\\Delta P_1$")
+        ax.plot(d1["A"], d1["dP2_dB"], color="purple", ls=":", label="$\\Delta P_2$")
+        ax.axhline(0, color="0.7", lw=0.8)
+        if Ac:
+            ax.axvline(Ac, color="0.5", ls="--", lw=1)
+        ax.set(xlabel="normalised RF amplitude $A$", ylabel="$\\Delta P_n$ (dB)", title=title)
+        ax.legend(fontsize=7)
+
+    th = thresholds(df)
+
+    def eps_panel(ax):
+        for d, sub in ((1, d1), (0, d0)):
+            ok = (sub["eps_est"] > 0) & (sub["eta_bar"] > 0)
+            ax.loglog(sub["eta_bar"][ok], sub["eps_est"][ok], color=style[d]["color"],
+                      label=style[d]["label"].replace(" (sim.)", ""))
+        for (lev, val), c in zip({"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}.items(),
+                                 ("green", "purple", "goldenrod")):
+            ax.axhline(val, color=c, ls="--", lw=0.8)
+            for key in ("dpd", "no_dpd"):
+                x = th["eta_th"][key][lev]
+                if x:
+                    ax.plot([x], [val], "ko", ms=3)
+                    ax.annotate(f"{x:.3f}", (x, val), fontsize=6, xytext=(2, 3),
+                                textcoords="offset points")
+        for key, c in (("dpd", "C0"), ("no_dpd", "C3")):
+            x = th["eta_corr"].get(key)
+            if x:
+                ax.axvline(x, color=c, ls="-.", lw=1)
+        ax.set(xlabel="time-averaged diffraction efficiency $\\bar\\eta$",
+               ylabel="$\\epsilon_{est} = 1 - F_{est}$", title="estimated infidelity")
+        ax.legend(fontsize=7)
+
+    def phase_space_panel(ax):
+        x = np.linspace(0, 2 * np.pi, 800)
+        s = 1 / np.sqrt(1.5)
+        for n_im, c, lab in ((None, "0.5", "ideal"), (0, "m", "n = 0 tone (10 %)"),
+                             (3, "C0", "n = 3 tone (10 %)")):
+            n = np.array([1, 2] + ([] if n_im is None else [n_im]))
+            r = np.array([s, -s] + ([] if n_im is None else [0.1]))
+            g = calibrate_g(n, r, (1, 2))
+            F, G, _ = phase_space(n, r, 0.0, g, x)
+            ax.plot(F, G, color=c, ls="--" if n_im is None else "-", label=lab)
+            ax.plot(F[-1], G[-1], "s", color=c, ms=4)
+        ax.plot(0, 0, "ko", ms=3)
+        ax.set(xlabel="$F$", ylabel="$G$", title="phase space (Fig. S4)", aspect="equal")
+        ax.legend(fontsize=7)
+
+    figures = {
+        "fig2_spectral.png": [lambda ax: ratio_panel(ax, "R10_dB", "(a) $R_{10}$"),
+                              lambda ax: dp_panel(ax, "(b) gate-tone power change")],
+        "figS6_spectral.png": [lambda ax: ratio_panel(ax, "R10_dB", "(a) $R_{10}$"),
+                               lambda ax: ratio_panel(ax, "R23_dB", "(b) $R_{23}$"),
+                               lambda ax: dp_panel(ax, "(c) $\\Delta P_n$")],
+        "fig5_eps_vs_eta.png": [eps_panel],
+        "figS4_phase_space.png": [phase_space_panel],
+    }
+    written = []
+    with staged_outputs() as stage:
+        for name, panels in figures.items():
+            fig, axes = plt.subplots(1, len(panels), figsize=(4.4 * len(panels), 3.6),
+                                     constrained_layout=True)
+            for ax, draw in zip(np.atleast_1d(axes), panels):
+                draw(ax)
+            path = os.path.join(outdir, name)
+            fig.savefig(stage(path), dpi=130, format="png")
+            plt.close(fig)
+            written.append(path)
+    return written

@@ -27,3 +27,5 @@ def write_csv(tmp_path):
         p.write_text(text)
         return p
     return _write
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # test-only helpers (exact_ms)
