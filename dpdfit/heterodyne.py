@@ -21,14 +21,15 @@ Procedure (:func:`trace_tone_powers`)
    a sinusoid ``a cos(2 pi f t + p)`` reads ``a**2 / 2`` at its peak bin to
    within the flat-top scalloping loss (< 0.01 dB at any position between
    bins).  It is computed by :func:`flattop_periodogram`, which gives the
-   same numbers (agreement ~1e-12 relative, see the tests) in ~1/6 of the
-   time: scipy's ``periodogram`` runs through ``ShortTimeFFT`` and spends
-   most of its time generating the 2^21-point window and summing it with a
-   Python-level ``sum``.  The periodic flat-top window is a 5-term cosine
-   sum, so windowing is a 9-tap convolution of the plain ``rfft`` and the
-   constant detrend is zeroing the DC bin -- both exact identities of the
-   discrete Fourier transform -- and only the bins of the detection band are
-   formed.
+   same numbers (to ~1e-11 relative, asserted in the tests) about 7x faster
+   for 2^21 samples (``benchmarks/heterodyne_speed.py``): scipy 1.17's
+   ``periodogram`` runs through ``ShortTimeFFT``, generates the 2^21-point
+   window (4 cosines per sample) and sums it with a Python-level ``sum``,
+   which together take several times the FFT.  The periodic flat-top window
+   is a 5-term cosine sum, so windowing is a 9-tap convolution of the plain
+   ``rfft`` and the constant detrend is zeroing the DC bin -- both exact
+   identities of the discrete Fourier transform -- and only the bins of the
+   detection band are formed.
 2. **dB reference.**  ``P_dB = 10 log10(2 * S)`` where ``S`` is the
    'spectrum' periodogram value: 0 dB is a sinusoid of unit *peak*
    amplitude in the trace's units, i.e. ``a cos(2 pi f t + p)`` reads
@@ -199,9 +200,13 @@ def _harmonics(values, name: str) -> tuple[int, ...]:
         raise InputError(f"{name} must be a sequence of integers, got {values!r}") from None
     out = []
     for v in vals:
-        if isinstance(v, (bool, np.bool_)) or not float(v).is_integer():
+        try:
+            ok = not isinstance(v, (bool, np.bool_)) and float(v).is_integer()
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+        if not ok:
             raise InputError(f"{name}: {v!r} is not an integer harmonic number")
-        out.append(int(v))
+        out.append(int(float(v)))
     if len(set(out)) != len(out):
         raise InputError(f"{name} lists a harmonic more than once: {out}")
     return tuple(sorted(out))
@@ -437,12 +442,13 @@ class TraceSpectrum:
 
         lines = [
             "[[Heterodyne tone powers]] (Supplement S4: flat-top periodogram)",
-            f"    trace            = {self.n_samples} samples at fs = {_hz(self.fs).replace('Hz', 'S/s')}"
-            f" ({self.n_samples / self.fs * 1e3:.4g} ms), bin = {self.resolution_hz:.4g} Hz",
+            f"    trace            = {self.n_samples} samples at fs = "
+            f"{_hz(self.fs).replace('Hz', 'S/s')} ({self.n_samples / self.fs * 1e3:.4g} ms), "
+            f"bin = {self.resolution_hz:.4g} Hz",
             f"    beat             = f_det {_hz(self.f_det)}, nu {_hz(self.nu)}, "
             f"xi0 {_hz(self.xi0)}"
             + ("  (sidebands swapped)" if self.swap_sidebands else ""),
-            f"    dB reference     = 0 dB: sinusoid of unit peak amplitude (trace units)",
+            "    dB reference     = 0 dB: sinusoid of unit peak amplitude (trace units)",
             f"    noise floor      = {num(self.noise_floor_dB, '.2f')} dB (median over "
             f"{_hz(self.noise_band_hz[0])} .. {_hz(self.noise_band_hz[1])}, "
             f"{self.n_noise_bins} bins, tones excluded)",
@@ -579,12 +585,12 @@ def trace_tone_powers(trace, fs: float, f_det: float, nu: float, xi0: float,
 
     # resolution: adjacent harmonics' main lobes (+/-5 bins) must not overlap
     if L * df >= xi0 / 2:
-        n_min = math.floor(2 * L * fs / xi0) + 1
+        n_need = 2 * L * fs / xi0
         raise InputError(
             f"trace too short to resolve xi0 = {_hz(xi0)}: {N} samples at fs = {fs:g} Hz give "
             f"bins of fs/N = {_hz(df)}, and the flat-top main lobe spans +/-{L} bins, which must "
-            f"stay within xi0/2 (5*fs/N < xi0/2); need more than {n_min} samples "
-            f"({n_min / fs * 1e3:.3g} ms)")
+            f"stay within xi0/2 (5*fs/N < xi0/2); need more than {n_need:.0f} samples "
+            f"({n_need / fs * 1e3:.3g} ms)")
 
     blue_sign = -1 if swap_sidebands else 1
     signs = {"red": -blue_sign, "blue": blue_sign}
