@@ -394,6 +394,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="A_corr if the sweep file's header lacks it")
     h.add_argument("--json", action="store_true")
     h.set_defaults(func=cmd_thresholds)
+
+    from .heterodyne import add_spectrum_command
+    add_spectrum_command(sub)
     return p
 
 
