@@ -6,6 +6,11 @@ Data flow (one module per stage)::
     polyfit      stable weighted polynomial least squares
     calibration  AOM amplitude y(A) and phase phi(A) fits with uncertainties
     transfer     forward AM/PM model, inverse f_AM^-1, predistortion table
+    waveforms    multi-tone gate waveforms (Cardioid), sampling grid, DPD
+    spectrum     tone powers of simulated fields; R10, R23
+    heterodyne   tone powers of recorded heterodyne traces (S4)
+    fidelity     closed-form phase-space fidelity estimate (S5), Table S2
+    sweep        amplitude sweep, eta_bar, r_rel, threshold efficiencies (S6)
     plots        figures (matplotlib, at the edge)
     cli          the ``dpdfit`` command, a thin layer over this API
 
@@ -21,6 +26,11 @@ from .calibration import (  # noqa: E402
     AmplitudeCalibration, Calibration, PhaseCalibration, amplitude_order_table,
     calibrate_amplitude, calibrate_phase, fit_amplitude, fit_phase, load_calibration)
 from .transfer import TransferFunction, predistortion_table  # noqa: E402
+from .waveforms import ToneSet, cardioid, sample_grid, synthesize, predistort  # noqa: E402
+from .spectrum import field_tone_powers, simulate_field  # noqa: E402
+from .heterodyne import trace_tone_powers, trace_estimate, load_trace  # noqa: E402
+from .fidelity import bell_fidelity, estimate, im_requirements, phase_space  # noqa: E402
+from .sweep import SweepConfig, run_sweep, thresholds  # noqa: E402
 
 __all__ = [
     "__version__", "DpdfitError", "FitError", "InputError", "NotInvertibleError",
@@ -28,4 +38,7 @@ __all__ = [
     "AmplitudeCalibration", "Calibration", "PhaseCalibration", "amplitude_order_table",
     "calibrate_amplitude", "calibrate_phase", "fit_amplitude", "fit_phase",
     "load_calibration", "TransferFunction", "predistortion_table",
+    "ToneSet", "cardioid", "sample_grid", "synthesize", "predistort", "field_tone_powers",
+    "simulate_field", "trace_tone_powers", "trace_estimate", "load_trace", "bell_fidelity",
+    "estimate", "im_requirements", "phase_space", "SweepConfig", "run_sweep", "thresholds",
 ]

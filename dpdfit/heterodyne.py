@@ -899,10 +899,60 @@ def _parse_int_list(spec: str, option: str) -> tuple[int, ...]:
     return tuple(out)
 
 
+def trace_estimate(res: "TraceSpectrum", nbar: float = 0.1, formula: str = "exact") -> dict:
+    """Spectrum-based fidelity estimate (S5) from a trace's tone powers.
+
+    Per sideband group: ``F_est`` from the measured ``P_n`` of all requested
+    harmonics (needs the gate tones valid; otherwise ``None``).  An IM tone at
+    the noise floor enters with its reading, an upper limit of its power, so
+    ``F_est`` is then a lower limit (``limit: "lower"``).  ``mean`` averages the
+    two sidebands (S5.4).
+    """
+    from .fidelity import estimate
+    out = {}
+    for name in ("red", "blue"):
+        t = getattr(res, name)
+        if not all(t.valid[n] for n in res.gate):
+            out[name] = {"F_est": None, "eps_est": None, "limit": None,
+                         "reason": "a gate tone failed validation"}
+            continue
+        h = list(res.harmonics)
+        est = estimate([t.P_dB[n] for n in h], h, gate=tuple(res.gate), nbar=nbar,
+                       formula=formula)
+        lim = "lower" if any(not t.valid[n] for n in h if n not in res.gate) else None
+        out[name] = {"F_est": float(est.F_est), "eps_est": float(est.eps_est), "limit": lim,
+                     "reason": "ok"}
+    r, b = out["red"], out["blue"]
+    if r["F_est"] is None or b["F_est"] is None:
+        out["F_est"], out["eps_est"], out["limit"] = None, None, None
+    else:
+        out["F_est"] = 0.5 * (r["F_est"] + b["F_est"])
+        out["eps_est"] = 1.0 - out["F_est"]
+        out["limit"] = "lower" if (r["limit"] or b["limit"]) else None
+    out.update(formula=formula, nbar=float(nbar))
+    return out
+
+
+def delta_powers(res_dpd: "TraceSpectrum", res_ref: "TraceSpectrum") -> dict:
+    """``dP_n = P_n(this) - P_n(reference)`` in dB per sideband and their mean.
+
+    For DPD vs no-DPD traces at matched A (S9).  A difference is ``None``
+    unless the tone is valid in both traces.
+    """
+    out = {}
+    for name in ("red", "blue"):
+        a, b = getattr(res_dpd, name), getattr(res_ref, name)
+        out[name] = {str(n): (a.P_dB[n] - b.P_dB[n] if a.valid[n] and b.valid[n] else None)
+                     for n in res_dpd.harmonics if n in res_ref.harmonics}
+    out["mean"] = {k: (None if out["red"][k] is None or out["blue"][k] is None
+                       else 0.5 * (out["red"][k] + out["blue"][k])) for k in out["red"]}
+    return out
+
+
 def cmd_spectrum(args) -> int:
     """``dpdfit spectrum``: tone powers of a heterodyne trace (report or JSON)."""
     if args.output:
-        refuse_overwriting_inputs([args.output], [args.trace])
+        refuse_overwriting_inputs([args.output], [args.trace, args.compare])
     x = load_trace(args.trace)
     try:
         res = trace_tone_powers(
@@ -917,12 +967,41 @@ def cmd_spectrum(args) -> int:
         raise
     d = res.to_dict()
     d["source"] = str(args.trace)
+    if args.estimate:
+        d["estimate"] = trace_estimate(res, args.nbar, args.formula)
+    if args.compare:
+        ref_x = load_trace(args.compare)
+        try:
+            ref = trace_tone_powers(
+                ref_x, args.fs, args.fdet, args.nu, args.xi0, harmonics=res.harmonics,
+                gate=res.gate, search_hz=args.search_hz,
+                max_freq_error_hz=args.max_freq_error_hz, min_snr_db=args.min_snr_db,
+                im_min_snr_db=args.im_min_snr_db, swap_sidebands=args.swap_sidebands)
+        except InputError as exc:
+            if exc.file is None:
+                raise InputError(str(exc), file=str(args.compare)) from None
+            raise
+        d["dP_dB"] = delta_powers(res, ref)
+        d["compare_source"] = str(args.compare)
     if args.output:
         atomic_write_json(args.output, d)
     if args.json:
         print(json.dumps(to_jsonable(d), indent=2))
     else:
         print(res.report())
+        if args.estimate:
+            e = d["estimate"]
+            def _f(v):
+                return "-" if v is None else f"{v:.6f}"
+            print(f"[[Estimate]] (S5, formula {e['formula']}, nbar {e['nbar']:g})"
+                  + ("  lower limits: an IM tone is at the noise floor" if e["limit"] else ""))
+            print(f"    F_est red {_f(e['red']['F_est'])}   blue {_f(e['blue']['F_est'])}"
+                  f"   mean {_f(e['F_est'])}")
+        if args.compare:
+            dp = d["dP_dB"]["mean"]
+            print(f"[[dP vs {args.compare}]] mean over sidebands: "
+                  + ", ".join(f"dP{k} = {'-' if v is None else f'{v:+.3f}'} dB"
+                              for k, v in dp.items()))
         if args.output:
             print(f"wrote {args.output}", file=sys.stderr)
     return 0
@@ -959,6 +1038,13 @@ def add_spectrum_command(subparsers) -> argparse.ArgumentParser:
                    help="IM tones below this SNR are upper limits, dB (10)")
     s.add_argument("--swap-sidebands", action="store_true",
                    help="blue group at f_det - (nu + n xi0), red at f_det + ...")
+    s.add_argument("--estimate", action="store_true",
+                   help="add the spectrum-based fidelity estimate F_est (S5)")
+    s.add_argument("--nbar", type=float, default=0.1, help="thermal phonon number (0.1)")
+    s.add_argument("--formula", choices=["exact", "paper"], default="exact",
+                   help="Bell-fidelity expression for --estimate (exact)")
+    s.add_argument("--compare", metavar="REF_TRACE",
+                   help="reference trace (e.g. no DPD at the same A): adds dP_n = P_n - P_n(ref)")
     s.add_argument("--json", action="store_true", help="print the JSON instead of a report")
     s.add_argument("-o", "--output", help="also write the JSON to this file")
     s.set_defaults(func=cmd_spectrum)
