@@ -953,34 +953,28 @@ def cmd_spectrum(args) -> int:
     """``dpdfit spectrum``: tone powers of a heterodyne trace (report or JSON)."""
     if args.output:
         refuse_overwriting_inputs([args.output], [args.trace, args.compare])
-    x = load_trace(args.trace)
-    try:
-        res = trace_tone_powers(
-            x, args.fs, args.fdet, args.nu, args.xi0,
-            harmonics=_parse_int_list(args.harmonics, "--harmonics"),
-            gate=_parse_int_list(args.gate, "--gate"), search_hz=args.search_hz,
-            max_freq_error_hz=args.max_freq_error_hz, min_snr_db=args.min_snr_db,
-            im_min_snr_db=args.im_min_snr_db, swap_sidebands=args.swap_sidebands)
-    except InputError as exc:
-        if exc.file is None:
-            raise InputError(str(exc), file=str(args.trace)) from None
-        raise
+    harmonics = _parse_int_list(args.harmonics, "--harmonics")
+    gate = _parse_int_list(args.gate, "--gate")
+
+    def analyse(path):
+        try:
+            return trace_tone_powers(
+                load_trace(path), args.fs, args.fdet, args.nu, args.xi0, harmonics=harmonics,
+                gate=gate, search_hz=args.search_hz, max_freq_error_hz=args.max_freq_error_hz,
+                min_snr_db=args.min_snr_db, im_min_snr_db=args.im_min_snr_db,
+                swap_sidebands=args.swap_sidebands)
+        except InputError as exc:
+            if exc.file is None:
+                raise InputError(str(exc), file=str(path)) from None
+            raise
+
+    res = analyse(args.trace)
     d = res.to_dict()
     d["source"] = str(args.trace)
     if args.estimate:
         d["estimate"] = trace_estimate(res, args.nbar, args.formula)
     if args.compare:
-        ref_x = load_trace(args.compare)
-        try:
-            ref = trace_tone_powers(
-                ref_x, args.fs, args.fdet, args.nu, args.xi0, harmonics=res.harmonics,
-                gate=res.gate, search_hz=args.search_hz,
-                max_freq_error_hz=args.max_freq_error_hz, min_snr_db=args.min_snr_db,
-                im_min_snr_db=args.im_min_snr_db, swap_sidebands=args.swap_sidebands)
-        except InputError as exc:
-            if exc.file is None:
-                raise InputError(str(exc), file=str(args.compare)) from None
-            raise
+        ref = analyse(args.compare)
         d["dP_dB"] = delta_powers(res, ref)
         d["compare_source"] = str(args.compare)
     if args.output:
