@@ -40,7 +40,7 @@ import pandas as pd
 from scipy.optimize import brentq
 
 __all__ = ["BraggAOM", "PhotodiodeNoise", "HeterodyneNoise",
-           "simulate_amplitude_run", "simulate_phase_run"]
+           "simulate_amplitude_run", "simulate_phase_run", "ou_series"]
 
 
 @dataclass(frozen=True)
@@ -56,11 +56,22 @@ class BraggAOM:
         Optical phase shift at full drive, rad.
     eta_ref : float
         Peak first-order diffraction efficiency at ``A = 1``.
+    memory_tau : float
+        Optional modulator memory, s: the acoustic wave follows the RF
+        envelope through a single-pole response
+        ``H(f) = 1 / (1 + i 2 pi (f - memory_offset_hz) tau)`` (complex
+        baseband around the carrier; an offset of the AOM's centre frequency
+        from the carrier makes it asymmetric between red and blue tones)
+        before the static Bragg nonlinearity (a Wiener model).  0 = memoryless.
+    memory_offset_hz : float
+        Offset of the AOM response centre from the RF carrier, Hz.
     """
 
     A_corr: float = 0.5655
     phi_1: float = 0.2776
     eta_ref: float = 0.80
+    memory_tau: float = 0.0
+    memory_offset_hz: float = 0.0
     g: float = field(init=False)
 
     def __post_init__(self):
@@ -102,6 +113,20 @@ class BraggAOM:
         mag = np.abs(x)
         theta = np.angle(x)
         return self.y(mag) * np.exp(1j * (theta + self.phase(mag)))
+
+    def field_periodic(self, x, fs: float):
+        """Optical field for one period (or a periodic record) of RF envelope samples.
+
+        Applies the memory response (if ``memory_tau > 0``) exactly for a
+        periodic record by FFT, then the static model :meth:`field`.
+        ``x`` has the samples along the last axis, sample rate ``fs`` (Hz).
+        """
+        x = np.asarray(x)
+        if self.memory_tau > 0:
+            f = np.fft.fftfreq(x.shape[-1], 1.0 / fs)
+            H = 1.0 / (1.0 + 2j * np.pi * (f - self.memory_offset_hz) * self.memory_tau)
+            x = np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
+        return self.field(x)
 
     @property
     def true_A_corr(self) -> float:
@@ -179,3 +204,19 @@ def simulate_phase_run(aom: BraggAOM, A, rng: np.random.Generator,
     with np.errstate(divide="ignore"):
         err = np.where(s > 0, noise.sigma_iq / np.maximum(s, 1e-300), np.pi)
     return pd.DataFrame({"A": A, "phase_rad": phase, "phase_err": np.minimum(err, np.pi)})
+
+
+def ou_series(times, sigma: float, tau: float, rng: np.random.Generator) -> np.ndarray:
+    """Stationary Ornstein-Uhlenbeck process sampled at (irregular) ``times``.
+
+    Zero mean, standard deviation ``sigma``, correlation time ``tau`` (same
+    units as ``times``): ``x_{k+1} = x_k e^{-dt/tau} + sigma sqrt(1 - e^{-2 dt/tau}) N(0,1)``.
+    Used for run-to-run drift of the AOM's transfer function (Supplement S2).
+    """
+    t = np.asarray(times, dtype=float)
+    x = np.empty(t.size)
+    x[0] = sigma * rng.standard_normal()
+    for k in range(1, t.size):
+        a = np.exp(-(t[k] - t[k - 1]) / tau)
+        x[k] = a * x[k - 1] + sigma * np.sqrt(1 - a * a) * rng.standard_normal()
+    return x

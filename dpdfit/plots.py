@@ -124,14 +124,18 @@ def plot_calibration(cal: Calibration, outdir: str | os.PathLike,
     return written
 
 
-def plot_sweep(df, outdir: str | os.PathLike) -> list[str]:
+def plot_sweep(df, outdir: str | os.PathLike, measured=None) -> list[str]:
     """Figures of the amplitude sweep, as PNG files in ``outdir``.
 
     ``fig2_spectral.png`` (a: R10 vs A, b: dP_n vs A), ``figS6_spectral.png``
     (a: R10, b: R23, c: dP_n), ``fig5_eps_vs_eta.png`` (eps_est vs eta_bar,
     log-log, thresholds and eta_bar_corr) and ``figS4_phase_space.png``
     (trajectory of Cardioid(1,2) with a 10 % n = 0 or n = 3 tone).
-    Simulation only (dashed, as the paper draws simulations).
+    Simulations are dashed, as in the paper; ``measured`` (the table of
+    :func:`dpdfit.analyze` with columns ``A, dpd, sideband, R10_dB, R23_dB,
+    dP1_dB, dP2_dB, eta_bar, eps_est, P0_valid, P3_valid``) adds the
+    recorded curves as solid lines (ratios only where the IM tone was above
+    the noise floor).
     """
     from .fidelity import calibrate_g, phase_space
     from .sweep import thresholds
@@ -144,9 +148,21 @@ def plot_sweep(df, outdir: str | os.PathLike) -> list[str]:
     style = {1: dict(color="C0", ls="--", label="DPD (sim.)"),
              0: dict(color="C3", ls="--", label="no DPD (sim.)")}
 
+    meas = None if measured is None else measured[measured["sideband"] == "mean"]
+
+    def measured_line(ax, d, x, y, valid_col=None):
+        if meas is None:
+            return
+        sub = meas[meas["dpd"] == d].sort_values("A")
+        if valid_col is not None:
+            sub = sub[sub[valid_col] == 1]
+        ax.plot(sub[x], sub[y], color=style[d]["color"], ls="-", marker=".", ms=3,
+                label=style[d]["label"].replace("sim.", "measured"))
+
     def ratio_panel(ax, col, title):
         for d, sub in ((1, d1), (0, d0)):
             ax.plot(sub["A"], sub[col], **style[d])
+            measured_line(ax, d, "A", col, "P0_valid" if col == "R10_dB" else "P3_valid")
         if Ac:
             ax.axvline(Ac, color="0.5", ls="--", lw=1)
         ax.set(xlabel="normalised RF amplitude $A$", ylabel=col.replace("_dB", " (dB)"),
@@ -156,6 +172,12 @@ def plot_sweep(df, outdir: str | os.PathLike) -> list[str]:
     def dp_panel(ax, title):
         ax.plot(d1["A"], d1["dP1_dB"], color="green", ls="--", label="$\\Delta P_1$")
         ax.plot(d1["A"], d1["dP2_dB"], color="purple", ls=":", label="$\\Delta P_2$")
+        if meas is not None:
+            sub = meas[meas["dpd"] == 1].sort_values("A")
+            ax.plot(sub["A"], sub["dP1_dB"], color="green", marker=".", ms=3, ls="-",
+                    label="$\\Delta P_1$ measured")
+            ax.plot(sub["A"], sub["dP2_dB"], color="purple", marker=".", ms=3, ls="-",
+                    label="$\\Delta P_2$ measured")
         ax.axhline(0, color="0.7", lw=0.8)
         if Ac:
             ax.axvline(Ac, color="0.5", ls="--", lw=1)
@@ -168,7 +190,12 @@ def plot_sweep(df, outdir: str | os.PathLike) -> list[str]:
         for d, sub in ((1, d1), (0, d0)):
             ok = (sub["eps_est"] > 0) & (sub["eta_bar"] > 0)
             ax.loglog(sub["eta_bar"][ok], sub["eps_est"][ok], color=style[d]["color"],
-                      label=style[d]["label"].replace(" (sim.)", ""))
+                      ls="--" if meas is not None else "-",
+                      label=style[d]["label"].replace(" (sim.)", "") + (" (sim.)" if meas is not None else ""))
+            if meas is not None:
+                ms = meas[(meas["dpd"] == d) & (meas["eps_est"] > 0)].sort_values("eta_bar")
+                ax.loglog(ms["eta_bar"], ms["eps_est"], color=style[d]["color"], ls="-",
+                          marker=".", ms=3, label=style[d]["label"].replace("sim.", "measured"))
         for (lev, val), c in zip({"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}.items(),
                                  ("green", "purple", "goldenrod")):
             ax.axhline(val, color=c, ls="--", lw=0.8)

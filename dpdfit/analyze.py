@@ -1,0 +1,457 @@
+"""`dpdfit analyze`: every analysis dpdfit has, run on a campaign folder.
+
+Each analysis reads only the files it needs; a missing file skips that
+analysis (with the reason in the summary), a malformed file stops that
+analysis with the one-line error naming file, column and row, and the others
+go on.  All outputs are staged and published together at the end, so a
+previous results folder is never half-overwritten.
+
+Analyses (in order):
+
+1. ``calibration`` -- the amplitude run the day's predistortion table came
+   from (``campaign.json``), the phase run used for the model; every
+   amplitude and phase run for the per-run table.  -> ``calibration.json``,
+   ``calibration_runs.csv``, Fig. 1.
+2. ``sweep`` -- the simulated amplitude sweep from that calibration at the
+   spectra's ``nu``, ``xi0`` (S6). -> ``sweep.csv``, Figs. 2, 5, S4, S6.
+3. ``spectra`` -- measured tone powers (``spectra.csv``): ``R10``, ``R23``,
+   ``dP_n``, ``F_est`` per A and flag, ``eta_bar`` from the simulation's
+   spline (S6.5), measured threshold efficiencies. -> ``spectra_measured.csv``,
+   Figs. 2/S6/5 with measured (solid) and simulated (dashed) curves.
+4. ``traces`` -- the bundled raw traces re-analysed and checked against
+   ``spectra.csv``. -> ``traces_check.csv``.
+5. ``gates`` -- count inference (population and parity fidelity, alignment)
+   is not part of this version; reported as skipped when the files exist.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import __version__
+from ._io import staged_outputs, to_jsonable
+from .calibration import Calibration, calibrate_amplitude, calibrate_phase
+from .errors import DpdfitError, InputError
+from .fidelity import estimate
+from .sweep import SweepConfig, _first_crossing, efficiency_spline, run_sweep, thresholds
+from .tables import list_runs, read_calibration, read_table
+from .transfer import TransferFunction
+
+__all__ = ["analyze", "PAPER"]
+
+#: Headline numbers of the paper, for the realism table.
+PAPER = {
+    "A_corr": 0.5655,
+    "R10_gain_dB": "3-5",
+    "eta_th_ratio": {"1e-2": 1.5, "1e-3": 2.1, "1e-4": 1.9},
+    "F_bell_A0.5": {"dpd": 0.9697, "no_dpd": 0.9542},
+    "alpha_khz": 3.42,
+    "delta": -0.018,
+}
+
+
+class _Results:
+    """Collects outputs in memory; written atomically at the end."""
+
+    def __init__(self):
+        self.files: dict[str, object] = {}
+        self.summary: dict = {"analyses": {}}
+
+    def text(self, name, text):
+        self.files[name] = text
+
+    def table(self, name, df, meta=None):
+        self.files[name] = ("csv", df, meta or {})
+
+    def status(self, analysis, state, detail=""):
+        self.summary["analyses"][analysis] = {"status": state, "detail": detail}
+
+
+def _step(label):
+    print(f"[analyze] {label} ...", file=sys.stderr, flush=True)
+    return time.perf_counter()
+
+
+def _done(t0):
+    print(f"[analyze]   done in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
+
+
+def _campaign_json(folder: Path) -> dict:
+    p = folder / "campaign.json"
+    if not p.exists():
+        return {}
+    try:
+        return json.loads(p.read_text())
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=str(p)) from None
+
+
+# --------------------------------------------------------------------------- analyses
+
+
+def _calibration(folder, camp, res, figdir, plots):
+    amp_path = folder / "calibration_amplitude.csv"
+    if not amp_path.exists():
+        res.status("calibration", "skipped", "calibration_amplitude.csv not found")
+        return None
+    run = camp.get("predistortion_table", {}).get("amplitude_run")
+    df = read_table(amp_path, ["A", "power"], ["power_err", "run", "timestamp"],
+                    ranges={"A": (0, 1)}, positive=["power_err"])
+    runs = list_runs(df)
+    if run is None and runs:
+        run = "latest"
+    amp_data = read_calibration(amp_path, "amplitude", run)
+    amp = calibrate_amplitude(amp_data, camp.get("order", 8), order_scan=range(4, 13))
+    ph = ph_data = None
+    ph_path = folder / "calibration_phase.csv"
+    rows = []
+    for r in runs or [None]:
+        c = calibrate_amplitude(read_calibration(amp_path, "amplitude", r), camp.get("order", 8))
+        rows.append({"kind": "amplitude", "run": r, "timestamp": c.source.get("timestamp"),
+                     "value": c.A_corr, "stderr": c.A_corr_stderr, "quantity": "A_corr",
+                     "monotone": int(c.monotone), "reduced_chi2": c.reduced_chi2})
+    if ph_path.exists():
+        pdf = read_table(ph_path, ["A", "phase_rad"], ["phase_err", "run", "timestamp"],
+                         ranges={"A": (0, 1)}, positive=["phase_err"])
+        prun = camp.get("phase_run_for_model") or ("latest" if list_runs(pdf) else None)
+        ph_data = read_calibration(ph_path, "phase", prun)
+        ph = calibrate_phase(ph_data)
+        for r in list_runs(pdf) or [None]:
+            c = calibrate_phase(read_calibration(ph_path, "phase", r))
+            rows.append({"kind": "phase", "run": r, "timestamp": c.source.get("timestamp"),
+                         "value": c.phi_at_1, "stderr": c.phi_at_1_stderr,
+                         "quantity": "phi_at_1", "monotone": None,
+                         "reduced_chi2": c.reduced_chi2})
+    cal = Calibration(amplitude=amp, phase=ph)
+    res.text("calibration.json", json.dumps(to_jsonable(cal.to_dict()), indent=2) + "\n")
+    runs_df = pd.DataFrame(rows)
+    res.table("calibration_runs.csv", runs_df)
+    a = runs_df[runs_df.kind == "amplitude"]["value"]
+    p = runs_df[runs_df.kind == "phase"]["value"]
+    res.summary["calibration"] = {
+        "lut_run": amp.source.get("run"), "A_corr": amp.A_corr,
+        "A_corr_stderr": amp.A_corr_stderr, "monotone": amp.monotone,
+        "phi_at_1": None if ph is None else ph.phi_at_1,
+        "phi_at_1_stderr": None if ph is None else ph.phi_at_1_stderr,
+        "n_amplitude_runs": int(a.size), "A_corr_runs_mean": float(a.mean()),
+        "A_corr_runs_std": float(a.std(ddof=1)) if a.size > 1 else None,
+        "n_phase_runs": int(p.size),
+        "phi_at_1_runs_mean": float(p.mean()) if p.size else None,
+        "phi_at_1_runs_std": float(p.std(ddof=1)) if p.size > 1 else None,
+    }
+    if plots is not None:
+        from .plots import plot_calibration
+        plots.append(lambda stage: plot_calibration(cal, figdir, amp_data, ph_data))
+    res.status("calibration", "ok", f"amplitude run {amp.source.get('run')}, "
+                                    f"{len(runs) or 1} amplitude / {p.size} phase runs fitted")
+    return cal
+
+
+def _sweep(cal, camp, res, formula):
+    if cal is None:
+        res.status("sweep", "skipped", "needs the calibration")
+        return None
+    cfg = SweepConfig(nu=camp.get("nu_hz", 1.84e6), xi0=camp.get("xi0_spectra_hz", 20e3),
+                      nbar=camp.get("nbar_assumed", 0.1), eta_ref=camp.get("eta_ref", 0.8),
+                      formula=formula)
+    df = run_sweep(TransferFunction.from_calibration(cal), cfg)
+    res.table("sweep.csv", df, dict(df.attrs))
+    res.summary["sweep"] = thresholds(df)
+    res.status("sweep", "ok", f"{len(cfg.amplitudes)} amplitudes x 2 flags, formula {formula}")
+    return df
+
+
+def _spectra(folder, sweep, camp, res, formula):
+    path = folder / "spectra.csv"
+    if not path.exists():
+        res.status("spectra", "skipped", "spectra.csv not found")
+        return None
+    cols = ["A", "dpd", "sideband", "n", "P_dB"]
+    df = read_table(path, cols, ["valid", "snr_db"], numeric=["A", "dpd", "n", "P_dB"],
+                    ranges={"A": (0, 1), "dpd": (0, 1)})
+    bad = ~df["sideband"].isin(["red", "blue"])
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise InputError(f"sideband must be red or blue, got '{df['sideband'].iloc[i]}'",
+                         file=str(path), column="sideband", row=i + 1)
+    df["dpd"] = df["dpd"].astype(int)
+    df["n"] = df["n"].astype(int)
+    if "valid" not in df.columns:
+        df["valid"] = 1
+    df["valid"] = pd.to_numeric(df["valid"], errors="coerce").fillna(0).astype(int)
+    key = ["A", "dpd", "sideband"]
+    P = df.pivot_table(index=key, columns="n", values="P_dB").reset_index()
+    V = df.pivot_table(index=key, columns="n", values="valid", aggfunc="min").reset_index()
+    for n in (0, 1, 2, 3):
+        if n not in P.columns:
+            raise InputError(f"no rows with n = {n}", file=str(path), column="n")
+    rows = []
+    for (A, d), grp in P.groupby(["A", "dpd"]):
+        vals = {}
+        for sb in ("red", "blue"):
+            g = grp[grp.sideband == sb]
+            if len(g) != 1:
+                continue
+            p = g[[0, 1, 2, 3]].to_numpy(dtype=float)[0]
+            v = V[(V.A == A) & (V.dpd == d) & (V.sideband == sb)][[0, 1, 2, 3]].to_numpy()[0]
+            nb = camp.get("nbar_assumed", 0.1)
+            F = (float(estimate(p, (0, 1, 2, 3), nbar=nb, formula=formula).F_est),
+                 float(estimate(p, (0, 1, 2, 3), nbar=nb, formula="paper").F_est)
+                 ) if v[1] and v[2] else (np.nan, np.nan)
+            vals[sb] = (p, v, F)
+        if not vals:
+            continue
+        for sb, (p, v, F) in list(vals.items()) + ([("mean", (
+                np.mean([x[0] for x in vals.values()], axis=0),
+                np.min([x[1] for x in vals.values()], axis=0),
+                tuple(np.mean([x[2] for x in vals.values()], axis=0))))] if len(vals) == 2 else []):
+            rows.append({"A": A, "dpd": d, "sideband": sb, "P0_dB": p[0], "P1_dB": p[1],
+                         "P2_dB": p[2], "P3_dB": p[3], "R10_dB": p[1] - p[0],
+                         "R23_dB": p[2] - p[3], "P0_valid": int(v[0]), "P3_valid": int(v[3]),
+                         "gate_valid": int(v[1] and v[2]), "F_est": F[0], "eps_est": 1 - F[0],
+                         "F_est_paper": F[1], "eps_est_paper": 1 - F[1]})
+    m = pd.DataFrame(rows)
+    # dP_n at matched A and eta_bar from the simulation's spline (S6.5)
+    m["dP1_dB"] = np.nan
+    m["dP2_dB"] = np.nan
+    for sb in ("red", "blue", "mean"):
+        d1 = m[(m.dpd == 1) & (m.sideband == sb)].set_index("A")
+        d0 = m[(m.dpd == 0) & (m.sideband == sb)].set_index("A")
+        common = d1.index.intersection(d0.index)
+        for n in (1, 2):
+            diff = d1.loc[common, f"P{n}_dB"] - d0.loc[common, f"P{n}_dB"]
+            for flag in (0, 1):
+                sel = (m.dpd == flag) & (m.sideband == sb) & m.A.isin(common)
+                m.loc[sel, f"dP{n}_dB"] = diff.reindex(m.loc[sel, "A"]).to_numpy()
+    m["eta_bar"] = np.nan
+    th = None
+    if sweep is not None:
+        for flag in (0, 1):
+            sp = efficiency_spline(sweep, flag)
+            sel = m.dpd == flag
+            m.loc[sel, "eta_bar"] = sp(m.loc[sel, "A"].to_numpy())
+        th = {"eta_corr": sweep.attrs.get("eta_corr"), "formula": formula, "eta_th": {},
+              "eta_th_paper_formula": {}}
+        for flag, k in ((1, "dpd"), (0, "no_dpd")):
+            sub = m[(m.dpd == flag) & (m.sideband == "mean") & (m.gate_valid == 1)]
+            for key, col in (("eta_th", "eps_est"), ("eta_th_paper_formula", "eps_est_paper")):
+                th[key][k] = {lev: _first_crossing(sub["eta_bar"], sub[col], val)
+                              for lev, val in {"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}.items()}
+    m = m.sort_values(["dpd", "A", "sideband"], ignore_index=True)
+    res.table("spectra_measured.csv", m)
+    mean = m[m.sideband == "mean"]
+    d1, d0 = mean[mean.dpd == 1].set_index("A"), mean[mean.dpd == 0].set_index("A")
+    Ac = (sweep.attrs.get("A_corr") if sweep is not None else None) or 0.56
+    both = d1.index.intersection(d0.index)
+    sel = [a for a in both if 0.2 <= a <= Ac - 0.05 and d1.loc[a, "P0_valid"] and d0.loc[a, "P0_valid"]]
+    gain = (d1.loc[sel, "R10_dB"] - d0.loc[sel, "R10_dB"]) if sel else pd.Series(dtype=float)
+    res.summary["spectra"] = {
+        "n_amplitudes": int(len(both)),
+        "R10_gain_dB_below_A_corr": {"min": float(gain.min()) if len(gain) else None,
+                                     "max": float(gain.max()) if len(gain) else None,
+                                     "mean": float(gain.mean()) if len(gain) else None,
+                                     "A_range": [float(min(sel)), float(max(sel))] if sel else None},
+        "thresholds_measured": th,
+    }
+    res.status("spectra", "ok", f"{len(both)} amplitudes with both flags")
+    return m
+
+
+def _traces(folder, camp, res, spectra_df):
+    idx_path = folder / "traces.csv"
+    if not idx_path.exists():
+        res.status("traces", "skipped", "traces.csv not found")
+        return
+    from .heterodyne import load_trace, trace_tone_powers
+    idx = read_table(idx_path, ["file", "A", "dpd", "fs", "fdet", "nu", "xi0"],
+                     numeric=["A", "dpd", "fs", "fdet", "nu", "xi0"])
+    rows = []
+    raw = None
+    if (folder / "spectra.csv").exists():
+        raw = pd.read_csv(folder / "spectra.csv", comment="#")
+    for i, r in idx.iterrows():
+        f = folder / r["file"]
+        if not f.exists():
+            raise InputError(f"listed trace file '{r['file']}' not found", file=str(idx_path),
+                             column="file", row=i + 1)
+        t = trace_tone_powers(load_trace(f), r["fs"], r["fdet"], r["nu"], r["xi0"])
+        for sb in ("red", "blue"):
+            tones = getattr(t, sb)
+            for n in t.harmonics:
+                ref = np.nan
+                if raw is not None:
+                    s = raw[np.isclose(raw.A, r["A"]) & (raw.dpd == int(r["dpd"]))
+                            & (raw.sideband == sb) & (raw.n == n)]
+                    ref = float(s["P_dB"].iloc[0]) if len(s) else np.nan
+                rows.append({"file": r["file"], "A": r["A"], "dpd": int(r["dpd"]), "sideband": sb,
+                             "n": int(n), "P_dB": tones.P_dB[n], "valid": int(tones.valid[n]),
+                             "P_dB_in_spectra_csv": ref, "difference_dB": tones.P_dB[n] - ref})
+    chk = pd.DataFrame(rows)
+    res.table("traces_check.csv", chk)
+    diff = chk["difference_dB"].abs().max() if len(chk) else np.nan
+    res.summary["traces"] = {"n_traces": int(len(idx)),
+                             "max_abs_difference_to_spectra_csv_dB": float(diff)}
+    res.status("traces", "ok", f"{len(idx)} raw traces re-analysed")
+
+
+# --------------------------------------------------------------------------- report
+
+
+def _realism(res) -> list[dict]:
+    s = res.summary
+    rows = []
+    cal = s.get("calibration") or {}
+    rows.append({"quantity": "A_corr = y(1) (mean of runs)", "paper": PAPER["A_corr"],
+                 "dpdfit": cal.get("A_corr_runs_mean")})
+    rows.append({"quantity": "sigma of y(1) over runs", "paper": 0.0091,
+                 "dpdfit": cal.get("A_corr_runs_std")})
+    rows.append({"quantity": "phi(1) (mean of runs), rad", "paper": 0.2776,
+                 "dpdfit": cal.get("phi_at_1_runs_mean")})
+    rows.append({"quantity": "sigma of phi(1) over runs, rad", "paper": 0.0009,
+                 "dpdfit": cal.get("phi_at_1_runs_std")})
+    g = (s.get("spectra") or {}).get("R10_gain_dB_below_A_corr") or {}
+    rows.append({"quantity": "R10 gain with DPD below A_corr (dB, min..max)",
+                 "paper": PAPER["R10_gain_dB"],
+                 "dpdfit": None if g.get("min") is None else f"{g['min']:.1f}..{g['max']:.1f}"})
+    th = (s.get("spectra") or {}).get("thresholds_measured") or {}
+    for key, label in (("eta_th_paper_formula", "paper formula"),
+                       ("eta_th", f"{th.get('formula', 'exact')} formula")):
+        for lev, pv in PAPER["eta_th_ratio"].items():
+            try:
+                ratio = th[key]["dpd"][lev] / th[key]["no_dpd"][lev]
+            except (KeyError, TypeError, ZeroDivisionError):
+                ratio = None
+            rows.append({"quantity": f"eta_th ratio DPD/no DPD at {lev} (measured spectra, "
+                                     f"{label})", "paper": pv, "dpdfit": ratio})
+    for key, pv in PAPER["F_bell_A0.5"].items():
+        rows.append({"quantity": f"Bell fidelity at A=0.5, {key}", "paper": pv,
+                     "dpdfit": "count inference not in this version"})
+    rows.append({"quantity": "alpha (kHz)", "paper": PAPER["alpha_khz"],
+                 "dpdfit": "alignment fit not in this version"})
+    rows.append({"quantity": "delta", "paper": PAPER["delta"],
+                 "dpdfit": "alignment fit not in this version"})
+    return rows
+
+
+def _fmt(v):
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def _summary_md(res, folder, formula) -> str:
+    s = res.summary
+    lines = [f"# dpdfit analysis of `{folder}`", "",
+             f"dpdfit {__version__}; fidelity formula `{formula}`.", "", "## Analyses", ""]
+    for name, st in s["analyses"].items():
+        lines.append(f"- **{name}**: {st['status']}" + (f" — {st['detail']}" if st["detail"] else ""))
+    cal = s.get("calibration")
+    if cal:
+        lines += ["", "## Calibration", "",
+                  f"- predistortion run {cal['lut_run']}: A_corr = {cal['A_corr']:.5f} "
+                  f"± {cal['A_corr_stderr']:.5f} (monotone: {cal['monotone']})",
+                  f"- {cal['n_amplitude_runs']} amplitude runs: mean y(1) = "
+                  f"{_fmt(cal['A_corr_runs_mean'])}, sd {_fmt(cal['A_corr_runs_std'])}"]
+        if cal.get("phi_at_1") is not None:
+            lines.append(f"- phase: phi(1) = {cal['phi_at_1']:.5f} ± {cal['phi_at_1_stderr']:.5f} rad; "
+                         f"{cal['n_phase_runs']} runs, sd {_fmt(cal['phi_at_1_runs_std'])} rad")
+    for key, title in (("sweep", "Simulated sweep"), ):
+        th = s.get(key)
+        if th:
+            lines += ["", f"## {title}: threshold efficiencies", "",
+                      "| | eta_corr | 1e-2 | 1e-3 | 1e-4 |", "|---|---|---|---|---|"]
+            for k in ("no_dpd", "dpd"):
+                lines.append(f"| {k} | {_fmt(th['eta_corr'][k])} | " + " | ".join(
+                    _fmt(th["eta_th"][k][lev]) for lev in ("1e-2", "1e-3", "1e-4")) + " |")
+    sp = s.get("spectra")
+    if sp and sp.get("thresholds_measured"):
+        th = sp["thresholds_measured"]
+        lines += ["", "## Measured spectra: threshold efficiencies", "",
+                  "| | 1e-2 | 1e-3 | 1e-4 |", "|---|---|---|---|"]
+        for k in ("no_dpd", "dpd"):
+            lines.append(f"| {k} | " + " | ".join(_fmt(th["eta_th"][k][lev])
+                                                  for lev in ("1e-2", "1e-3", "1e-4")) + " |")
+    lines += ["", "## Realism: paper vs this campaign", "", "| quantity | paper | dpdfit |",
+              "|---|---|---|"]
+    for r in s.get("realism", []):
+        lines.append(f"| {r['quantity']} | {_fmt(r['paper'])} | {_fmt(r['dpdfit'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: str = "exact",
+            plots: bool = True) -> dict:
+    """Run every analysis on a campaign folder; write results into ``outdir``.
+
+    Returns the summary dict (also written as ``summary.json``); its
+    ``analyses`` entry says per analysis ``ok``, ``skipped`` (why) or
+    ``failed`` (the error line).
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("campaign folder not found", file=str(folder))
+    out = Path(outdir)
+    res = _Results()
+    figdir = out / "figures"
+    plot_jobs: list = [] if plots else None
+    failures = []
+
+    def guarded(name, fn, *a):
+        t0 = _step(name)
+        try:
+            return fn(*a)
+        except DpdfitError as exc:
+            res.status(name, "failed", str(exc))
+            failures.append(f"{name}: {exc}")
+            print(f"dpdfit: error: {exc}", file=sys.stderr)
+            return None
+        finally:
+            _done(t0)
+
+    camp = {}
+    try:
+        camp = _campaign_json(folder)
+        res.summary["campaign"] = camp.get("name", folder.name)
+    except DpdfitError as exc:
+        failures.append(str(exc))
+        print(f"dpdfit: error: {exc}", file=sys.stderr)
+    cal = guarded("calibration", _calibration, folder, camp, res, figdir, plot_jobs)
+    sweep = guarded("sweep", _sweep, cal, camp, res, formula)
+    meas = guarded("spectra", _spectra, folder, sweep, camp, res, formula)
+    guarded("traces", _traces, folder, camp, res, meas)
+    gate_files = [f for f in ("populations.csv", "parity.csv", "gate_rates.csv", "time_scans.csv")
+                  if (folder / f).exists()]
+    res.status("gates", "skipped",
+               (f"{', '.join(gate_files)} present; " if gate_files else "no gate files; ")
+               + "count inference (population/parity fidelity, alignment) is not in this version")
+    res.summary["realism"] = _realism(res)
+    res.summary["failures"] = failures
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = _step("writing results")
+    with staged_outputs() as stage:
+        for name, obj in res.files.items():
+            path = stage(out / name)
+            if isinstance(obj, tuple):
+                _, df, meta = obj
+                text = "".join(f"# {k}: {json.dumps(to_jsonable(v))}\n" for k, v in meta.items())
+                path.write_text(text + df.to_csv(index=False, float_format="%.10g"))
+            else:
+                path.write_text(obj)
+        stage(out / "summary.json").write_text(json.dumps(to_jsonable(res.summary), indent=2) + "\n")
+        stage(out / "summary.md").write_text(_summary_md(res, folder, formula))
+    if plot_jobs is not None:
+        for job in plot_jobs:
+            job(None)
+        if sweep is not None:
+            from .plots import plot_sweep
+            plot_sweep(sweep, figdir, measured=meas)
+    _done(t0)
+    return res.summary
