@@ -452,7 +452,7 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = 20260329, effects: 
         files.update({"populations.csv": _csv(pop), "parity.csv": _csv(par),
                       "gate_rates.csv": _csv(rates), "time_scans.csv": _csv(ts)})
     campaign = {
-        "name": out.name,
+        "name": f"synthetic campaign, seed {cfg.seed}",
         "synthetic": True,
         "generator": f"dpdfit {__version__} simulate-campaign --seed {cfg.seed}",
         "nu_hz": cfg.nu, "xi0_spectra_hz": cfg.xi0_spec, "f_det_hz": cfg.f_det,
@@ -470,7 +470,7 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = 20260329, effects: 
     truth = {"config": _jsonable_config(cfg), "calibration": cal_truth, "gates": gate_truth}
     files["campaign.json"] = json.dumps(campaign, indent=2, sort_keys=True) + "\n"
     files["truth.json"] = json.dumps(truth, indent=2, sort_keys=True, default=float) + "\n"
-    files["README.md"] = _readme(cfg, out.name)
+    files["README.md"] = _readme(cfg, f"Synthetic campaign (seed {cfg.seed})")
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:

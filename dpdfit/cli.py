@@ -305,6 +305,31 @@ def cmd_thresholds(args) -> int:
     return 0
 
 
+# ----------------------------------------------------------------------------- campaign
+
+
+def cmd_simulate_campaign(args) -> int:
+    from .campaign import parse_effects, simulate_campaign
+    effects = parse_effects(args.effects)
+    simulate_campaign(args.outdir, seed=args.seed, effects=effects)
+    print(f"wrote campaign {args.outdir} (seed {args.seed}"
+          + (f", effects {args.effects}" if effects else "") + ")")
+    return 0
+
+
+def cmd_analyze(args) -> int:
+    from .analyze import analyze
+    out = Path(args.output)
+    folder = Path(args.folder)
+    if folder.resolve() == out.resolve():
+        raise InputError("results folder must differ from the campaign folder", file=str(out))
+    summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots)
+    for name, st in summary["analyses"].items():
+        print(f"{name:12s} {st['status']:8s} {st['detail']}")
+    print(f"results in {out}/ (summary.md, summary.json)")
+    return 2 if summary["failures"] else 0
+
+
 # ----------------------------------------------------------------------------- parser
 
 
@@ -397,6 +422,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .heterodyne import add_spectrum_command
     add_spectrum_command(sub)
+
+    c = sub.add_parser("simulate-campaign",
+                       help="simulate a complete synthetic measurement campaign")
+    c.add_argument("outdir", help="new folder to write the campaign into")
+    c.add_argument("--seed", type=int, default=20260329, help="random seed (20260329)")
+    c.add_argument("--effects", metavar="NAME=STRENGTH,...",
+                   help="effects to conceal (see dpdfit.campaign.EFFECTS)")
+    c.set_defaults(func=cmd_simulate_campaign)
+
+    a = sub.add_parser("analyze", help="run every analysis on a campaign folder (main job)")
+    a.add_argument("folder", help="campaign folder (campaign.json, calibration_*.csv, ...)")
+    a.add_argument("-o", "--output", required=True, help="results folder")
+    a.add_argument("--formula", choices=["exact", "paper"], default="exact",
+                   help="Bell-fidelity expression for F_est (exact)")
+    a.add_argument("--no-plots", action="store_true", help="skip the figures")
+    a.set_defaults(func=cmd_analyze)
     return p
 
 

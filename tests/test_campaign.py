@@ -1,0 +1,108 @@
+"""Campaign simulator (small configuration) and the `analyze` main job."""
+
+import json
+import shutil
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from dpdfit.analyze import analyze
+from dpdfit.campaign import CampaignConfig, campaign_hashes, parse_effects, simulate_campaign
+from dpdfit.cli import main
+from dpdfit.errors import InputError
+
+SMALL = CampaignConfig(n_amp_runs=4, n_phase_runs=2, cal_points=101,
+                       trace_amplitudes=(0.2, 0.35, 0.5), n_samples=2 ** 19,
+                       bundled_traces=((0.5, 0),))
+
+
+def quiet(label, total):
+    from dpdfit._progress import Progress
+    return Progress(label, total, enabled=False)
+
+
+@pytest.fixture(scope="module")
+def small_campaign(tmp_path_factory):
+    out = tmp_path_factory.mktemp("c") / "camp"
+    simulate_campaign(out, config=SMALL, progress=quiet, include_gates=False)
+    return out
+
+
+def test_parse_effects():
+    assert parse_effects("aom_memory=50, spam_offset=0.002") == {"aom_memory": 50.0,
+                                                                  "spam_offset": 0.002}
+    assert parse_effects(None) == {}
+    with pytest.raises(InputError, match="unknown effect 'nope'"):
+        parse_effects("nope=1")
+    with pytest.raises(InputError, match="NAME=STRENGTH"):
+        parse_effects("aom_memory")
+
+
+def test_layout_and_determinism(small_campaign, tmp_path):
+    files = {p.name for p in small_campaign.iterdir()}
+    assert {"campaign.json", "calibration_amplitude.csv", "calibration_phase.csv", "spectra.csv",
+            "traces.csv", "traces", "README.md", "truth.json"} <= files
+    amp = pd.read_csv(small_campaign / "calibration_amplitude.csv")
+    assert list(amp.columns) == ["run", "timestamp", "A", "power", "power_err"]
+    assert amp["run"].nunique() == 4
+    sp = pd.read_csv(small_campaign / "spectra.csv")
+    assert {"A", "dpd", "sideband", "n", "P_dB"} <= set(sp.columns)
+    assert set(sp["sideband"]) == {"red", "blue"} and set(sp["dpd"]) == {0, 1}
+    idx = pd.read_csv(small_campaign / "traces.csv")
+    assert list(idx.columns[:7]) == ["file", "A", "dpd", "fs", "fdet", "nu", "xi0"]
+    again = tmp_path / "again"
+    simulate_campaign(again, config=SMALL, progress=quiet, include_gates=False)
+    assert campaign_hashes(again) == campaign_hashes(small_campaign)
+    other = tmp_path / "other"
+    simulate_campaign(other, config=CampaignConfig(**{**SMALL.__dict__, "seed": 7}),
+                      progress=quiet, include_gates=False)
+    assert campaign_hashes(other)["spectra.csv"] != campaign_hashes(small_campaign)["spectra.csv"]
+
+
+def test_refuses_non_empty_output(small_campaign):
+    with pytest.raises(InputError, match="exists and is not empty"):
+        simulate_campaign(small_campaign, config=SMALL, progress=quiet, include_gates=False)
+
+
+def test_analyze_runs_everything_present(small_campaign, tmp_path):
+    out = tmp_path / "res"
+    s = analyze(small_campaign, out, plots=False)
+    st = {k: v["status"] for k, v in s["analyses"].items()}
+    assert st == {"calibration": "ok", "sweep": "ok", "spectra": "ok", "traces": "ok",
+                  "gates": "skipped"}
+    for f in ("summary.md", "summary.json", "calibration.json", "sweep.csv",
+              "spectra_measured.csv", "traces_check.csv", "calibration_runs.csv"):
+        assert (out / f).exists(), f
+    # the raw trace reproduces the spectra table (stored with 10 significant digits)
+    assert s["traces"]["max_abs_difference_to_spectra_csv_dB"] < 1e-6
+    assert not list(out.glob(".*part"))
+
+
+def test_analyze_missing_and_malformed_files(small_campaign, tmp_path, capsys):
+    camp = tmp_path / "camp"
+    shutil.copytree(small_campaign, camp)
+    (camp / "traces.csv").unlink()
+    sp = (camp / "spectra.csv").read_text().splitlines()
+    cells = sp[5].split(",")
+    cells[4] = "oops"
+    sp[5] = ",".join(cells)
+    (camp / "spectra.csv").write_text("\n".join(sp) + "\n")
+    out = tmp_path / "res"
+    out.mkdir()
+    (out / "summary.json").write_text("old")
+    code = main(["analyze", str(camp), "-o", str(out), "--no-plots"])
+    captured = capsys.readouterr()
+    assert code == 2
+    assert "spectra.csv, column 'P_dB', row 5: 'oops' is not a number" in captured.err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["analyses"]["traces"]["status"] == "skipped"
+    assert "traces.csv not found" in s["analyses"]["traces"]["detail"]
+    assert s["analyses"]["spectra"]["status"] == "failed"
+    assert s["analyses"]["calibration"]["status"] == "ok"
+    assert s["analyses"]["sweep"]["status"] == "ok"
+
+
+def test_analyze_missing_folder(tmp_path, capsys):
+    code = main(["analyze", str(tmp_path / "nope"), "-o", str(tmp_path / "r")])
+    assert code == 2 and "campaign folder not found" in capsys.readouterr().err
