@@ -46,7 +46,7 @@ from .transfer import TransferFunction, predistortion_table
 from .waveforms import cardioid, sample_grid, synthesize
 
 __all__ = ["CampaignConfig", "simulate_campaign", "parse_effects", "EFFECTS",
-           "generate_trace", "CAMPAIGN_FILES"]
+           "generate_trace", "regenerate_trace", "campaign_hashes", "CAMPAIGN_FILES"]
 
 CAMPAIGN_FILES = ("campaign.json", "calibration_amplitude.csv", "calibration_phase.csv",
                   "spectra.csv", "traces.csv", "populations.csv", "parity.csv",
@@ -298,6 +298,30 @@ def generate_trace(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
     carrier = np.exp(1j * (2 * np.pi * (cfg.f_det / cfg.fs) * n + phase0))
     trace = power * (y * carrier).real + cfg.trace_noise_rms * rng.standard_normal(cfg.n_samples)
     return trace, power
+
+
+def regenerate_trace(seed: str, effects: dict | None = None,
+                     config: CampaignConfig | None = None) -> tuple[np.ndarray, float]:
+    """Regenerate one trace of a campaign from its ``traces.csv`` seed string.
+
+    ``seed`` is ``"<campaign seed>:4:<amplitude index>:<dpd>"``; ``effects``
+    must be those the campaign was simulated with.  Returns the int16 samples
+    and the scale exactly as a bundled ``.npz`` holds them (volts = q * scale).
+    """
+    try:
+        camp_seed, purpose, i, d = (int(v) for v in str(seed).split(":"))
+        if purpose != 4:
+            raise ValueError
+    except ValueError:
+        raise InputError(f"trace seed '{seed}' is not '<seed>:4:<index>:<dpd>'") from None
+    cfg = dataclasses.replace(config or CampaignConfig(), seed=camp_seed)
+    cfg = cfg.with_effects(effects or {})
+    if not 0 <= i < len(cfg.trace_amplitudes) or d not in (0, 1):
+        raise InputError(f"trace seed '{seed}': amplitude index or dpd out of range")
+    _, _, aom, tf, _ = _calibrations(cfg)
+    x, _ = generate_trace(cfg, aom, _dpd_lut(tf, cfg.lut_points), float(cfg.trace_amplitudes[i]),
+                          d, (4, i, d))
+    return _int16(x)
 
 
 def _int16(trace: np.ndarray) -> tuple[np.ndarray, float]:

@@ -106,3 +106,15 @@ def test_analyze_missing_and_malformed_files(small_campaign, tmp_path, capsys):
 def test_analyze_missing_folder(tmp_path, capsys):
     code = main(["analyze", str(tmp_path / "nope"), "-o", str(tmp_path / "r")])
     assert code == 2 and "campaign folder not found" in capsys.readouterr().err
+
+
+def test_trace_regenerates_from_its_seed(small_campaign):
+    from dpdfit.campaign import regenerate_trace
+    idx = pd.read_csv(small_campaign / "traces.csv")
+    row = idx.iloc[0]
+    with np.load(small_campaign / row["file"]) as z:
+        q, scale = z["trace"], float(z["scale"])
+    q2, scale2 = regenerate_trace(row["seed"], config=SMALL)
+    assert np.array_equal(q, q2) and scale == scale2
+    with pytest.raises(InputError, match="is not '<seed>:4:<index>:<dpd>'"):
+        regenerate_trace("garbage")
