@@ -27,6 +27,29 @@ OUT = ROOT / "datasets" / "synthetic_campaign"
 SEED = 20260329
 
 
+NOTES = """## Where the physics does not reach the paper's numbers
+
+* **Bell fidelity at A = 0.5 (paper: 0.970 with DPD, 0.954 without).** With the
+  error budget the paper states (state preparation 0.3 % per ion, T2 = 50 ms,
+  heating < 0.01 quanta/ms, nbar = 0.1, detection < 1e-4, 0.2 dB power
+  fluctuation) and the intermodulation this AOM produces, the exact dynamics
+  give about 0.99 for both flags (see the table above): the DPD advantage at
+  A = 0.5 is ~0.2 percentage points, not 1.6. The paper's own budget leaves
+  0.6-0.9 % unexplained (Supplement S8); we do not inject an unexplained error
+  into the nominal campaign. `dpdfit simulate-campaign --effects` can add
+  named effects (dephasing, SPAM, heating, memory, ...) on purpose.
+* **Threshold-efficiency ratios.** With the printed fidelity formula (as the
+  paper used) the measured-spectra ratios are close to the paper's; with the
+  validated exact formula (dpdfit's default) they differ, because the exact
+  expression halves every infidelity and so moves each crossing.
+* **The spread of phi(1)** over 6 runs is a single draw of a drift process with
+  sigma 0.0009 rad; six samples scatter widely around it.
+* **alpha ~ 3.4 kHz** is built in: the Rabi-frequency scale is chosen so the
+  anchor (A = 0.4, no DPD) calibrates to xi0 = 3.42 kHz. delta and the measured
+  Bell fidelities need the count inference of a later release.
+"""
+
+
 def fmt(v):
     if v is None:
         return "-"
@@ -51,14 +74,20 @@ def main():
     g = truth.get("gates") or {}
     if g:
         lines += ["", "## Simulator truth of the gate experiments", "",
-                  "Exact Bell-state fidelity of the simulated two-ion state (mean over the scans, "
-                  "with SPAM, dephasing, heating and laser-power fluctuation), and the true and "
-                  "calibrated gate rates:", "",
-                  "| A | dpd | xi0 true (kHz) | xi0 calibrated (kHz) | Bell fidelity |",
-                  "|---|---|---|---|---|"]
+                  "Per setting, mean over its scans: the exact Bell-state fidelity of the "
+                  "simulated two-ion state after the gate (best Bell phase; dephasing, heating, "
+                  "IM tones, AM-to-PM and the scan's laser-power error included; ideal state "
+                  "preparation and detection), and the fidelity the ideal measurement would "
+                  "report, (F_pop + F_par)/2 from the exact outcome probabilities including "
+                  "preparation and detection errors; true and calibrated gate rates.", "",
+                  "| A | dpd | xi0 true (kHz) | xi0 calibrated (kHz) | Bell fidelity of the state "
+                  "| (F_pop + F_par)/2, exact probabilities |",
+                  "|---|---|---|---|---|---|"]
         for s in g["settings"]:
             lines.append(f"| {s['A']} | {s['dpd']} | {s['xi0_true_hz'] / 1e3:.3f} | "
-                         f"{s['xi0_cal_hz'] / 1e3:.3f} | {s['bell_fidelity_mean_over_scans']:.4f} |")
+                         f"{s['xi0_cal_hz'] / 1e3:.3f} | {s['bell_fidelity_mean_over_scans']:.4f} "
+                         f"| {s['apparent_fidelity_mean_over_scans']:.4f} |")
+    lines += ["", NOTES]
     (OUT / "REALISM.md").write_text("\n".join(lines) + "\n")
     print(f"wrote {OUT}", file=sys.stderr)
 
