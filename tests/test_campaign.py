@@ -118,3 +118,20 @@ def test_trace_regenerates_from_its_seed(small_campaign):
     assert np.array_equal(q, q2) and scale == scale2
     with pytest.raises(InputError, match="is not '<seed>:4:<index>:<dpd>'"):
         regenerate_trace("garbage")
+
+
+def test_effects_change_the_recordings(tmp_path):
+    base = CampaignConfig(**{**SMALL.__dict__, "trace_amplitudes": (0.5,), "bundled_traces": ()})
+    a, b = tmp_path / "a", tmp_path / "b"
+    simulate_campaign(a, config=base, progress=quiet, include_gates=False)
+    simulate_campaign(b, config=base, effects={"aom_memory": 40, "aom_memory_offset": 30},
+                      progress=quiet, include_gates=False)
+    sa, sb = (pd.read_csv(p / "spectra.csv") for p in (a, b))
+    ia = sa.set_index(["dpd", "sideband", "n"])["P_dB"]
+    ib = sb.set_index(["dpd", "sideband", "n"])["P_dB"]
+    # memory with an offset centre: red and blue gate tones no longer equal
+    asym = abs(ib[(0, "red", 1)] - ib[(0, "blue", 1)])
+    assert asym > 0.5 and abs(ia[(0, "red", 1)] - ia[(0, "blue", 1)]) < 0.1
+    truth = json.loads((b / "truth.json").read_text())
+    assert truth["config"]["memory_tau"] == pytest.approx(40e-9)
+    assert truth["config"]["effects"] == {"aom_memory": 40.0, "aom_memory_offset": 30.0}
