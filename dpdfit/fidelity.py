@@ -402,3 +402,50 @@ def im_requirements(nbar: float = 0.1, formula: str = "exact", levels=(1e-2, 1e-
             row[f"{lev:.0e}".replace("e-0", "e-")] = brentq(f, lo, hi, xtol=1e-9)
         out[str(n_im)] = row
     return out
+
+
+# --------------------------------------------------------------------------- time scans
+
+
+def cardioid_populations(t, xi0: float, nbar: float = 0.1, n=(1, 2), r=None):
+    """Ideal two-ion populations ``P00, P01+P10, P11`` versus time (Fig. S7).
+
+    The ideal gate (tones ``n`` with signed amplitudes ``r``, default the
+    unit-normalised Cardioid(1,2) ``+/-1/sqrt(1.5)``, ``eta Omega`` calibrated
+    so that ``Phi(1/xi0) = pi/2``) acting on ``|00>`` and a thermal mode:
+    ``U(t) = D(alpha(t) S) exp(-i Phi_s(t) S^2)`` with ``S = (sigma_x1 +
+    sigma_x2)/2``, ``|alpha|^2 = (F^2 + G^2)/2`` and ``Phi_s = Phi + F G/2``
+    from the closed-form trajectory; the thermal average of the displacement
+    gives ``exp(-(nbar + 1/2) |alpha|^2 (s - s')^2)`` on the coherences
+    between ``S`` eigenvalues ``s, s'``.
+
+    Parameters
+    ----------
+    t : array_like
+        Times, s.
+    xi0 : float
+        Calibrated gate detuning, Hz.
+    nbar : float
+        Thermal phonon number.
+
+    Returns
+    -------
+    ndarray, shape ``t.shape + (3,)``
+    """
+    t = np.asarray(t, dtype=float)
+    n = np.asarray(n, dtype=float)
+    r = np.array([1.0, -1.0]) / np.sqrt(1.5) if r is None else np.asarray(r, dtype=float)
+    g = calibrate_g(n, r, tuple(int(v) for v in n))
+    F, G, Phi = phase_space(n, r, 0.0, g, 2 * np.pi * xi0 * t)
+    a2 = 0.5 * (F ** 2 + G ** 2)
+    th = Phi + 0.5 * F * G
+    s = np.array([1.0, 0.0, 0.0, -1.0])                 # |++>, |+->, |-+>, |--> of S
+    ds = s[:, None] - s[None, :]
+    dq = s[:, None] ** 2 - s[None, :] ** 2
+    rho_x = 0.25 * np.exp(-1j * th[..., None, None] * dq
+                          - (nbar + 0.5) * a2[..., None, None] * ds ** 2)
+    h = np.array([[1.0, 1.0], [1.0, -1.0]]) / np.sqrt(2)
+    H = np.kron(h, h)                                    # x basis -> z basis
+    rho_z = H @ rho_x @ H
+    p = np.real(np.diagonal(rho_z, axis1=-2, axis2=-1))
+    return np.stack([p[..., 0], p[..., 1] + p[..., 2], p[..., 3]], axis=-1)
