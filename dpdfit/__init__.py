@@ -11,6 +11,10 @@ Data flow (one module per stage)::
     heterodyne   tone powers of recorded heterodyne traces (S4)
     fidelity     closed-form phase-space fidelity estimate (S5), Table S2
     sweep        amplitude sweep, eta_bar, r_rel, threshold efficiencies (S6)
+    counts       population/parity fidelities from raw counts, pooling (S7)
+    alignment    the alpha/delta fit of photodiode curves to gate data (S6.3-S6.4)
+    campaign     synthetic campaign simulator; gate_sim its exact gate dynamics
+    analyze      the main job: every analysis on a campaign folder
     plots        figures (matplotlib, at the edge)
     cli          the ``dpdfit`` command, a thin layer over this API
 
@@ -31,6 +35,10 @@ from .spectrum import field_tone_powers, simulate_field  # noqa: E402
 from .heterodyne import trace_tone_powers, trace_estimate, load_trace  # noqa: E402
 from .fidelity import bell_fidelity, estimate, im_requirements, phase_space  # noqa: E402
 from .sweep import SweepConfig, run_sweep, thresholds  # noqa: E402
+from .counts import (fit_parity, gate_fidelities, merge_parity, pool_populations,  # noqa: E402
+                     population_fidelity, read_parity, read_populations)
+from .alignment import align  # noqa: E402
+from .analyze import analyze  # noqa: E402
 
 __all__ = [
     "__version__", "DpdfitError", "FitError", "InputError", "NotInvertibleError",
@@ -41,4 +49,6 @@ __all__ = [
     "ToneSet", "cardioid", "sample_grid", "synthesize", "predistort", "field_tone_powers",
     "simulate_field", "trace_tone_powers", "trace_estimate", "load_trace", "bell_fidelity",
     "estimate", "im_requirements", "phase_space", "SweepConfig", "run_sweep", "thresholds",
+    "fit_parity", "gate_fidelities", "merge_parity", "pool_populations", "population_fidelity",
+    "read_parity", "read_populations", "align", "analyze",
 ]

@@ -305,6 +305,78 @@ def cmd_thresholds(args) -> int:
     return 0
 
 
+# ----------------------------------------------------------------------------- counts
+
+
+GATE_KEYS = ["A", "dpd", "F_pop", "F_pop_err", "F_par", "F_par_err", "F", "F_err", "contrast",
+             "phi0", "n_scans", "shots", "interval_method"]
+
+
+def _gate_table(pop_path, par_path, interval, rates_path=None):
+    from .counts import gate_fidelities, read_parity, read_populations
+    pop = read_populations(pop_path)
+    par = read_parity(par_path)
+    tab = gate_fidelities(pop, par, interval=interval)
+    if rates_path:
+        rates = read_table(rates_path, ["A", "dpd", "xi0_khz", "xi0_err_khz"],
+                           ranges={"dpd": (0, 1)})
+        rates["dpd"] = rates["dpd"].astype(int)
+        tab = tab.merge(rates[["A", "dpd", "xi0_khz", "xi0_err_khz"]], on=["A", "dpd"],
+                        how="left")
+    return tab
+
+
+def cmd_fidelity(args) -> int:
+    outs = [args.output] if args.output else []
+    refuse_overwriting_inputs(outs, [args.populations, args.parity, args.gate_rates])
+    tab = _gate_table(args.populations, args.parity, args.interval, args.gate_rates)
+    records = tab.to_dict(orient="records")
+    if args.output:
+        from ._io import atomic_write_text
+        atomic_write_text(args.output, tab.to_csv(index=False, float_format="%.10g"))
+    if args.json:
+        print(json.dumps(to_jsonable(records), indent=2))
+    else:
+        print(f"{'A':>6s} {'dpd':>3s} {'F_pop':>9s} {'+/-':>7s} {'F_par':>9s} {'+/-':>7s} "
+              f"{'F':>9s} {'+/-':>7s} {'scans':>5s} {'shots':>6s}")
+        for r in records:
+            print(f"{r['A']:6.3f} {int(r['dpd']):3d} {r['F_pop']:9.5f} {r['F_pop_err']:7.5f} "
+                  f"{r['F_par']:9.5f} {r['F_par_err']:7.5f} {r['F']:9.5f} {r['F_err']:7.5f} "
+                  f"{int(r['n_scans']):5d} {int(r['shots']):6d}")
+    if args.plot:
+        from .counts import merge_parity, read_parity
+        from .plots import plot_parity_only
+        par = merge_parity(read_parity(args.parity))
+        for p in plot_parity_only(tab, par, args.plot):
+            print(f"wrote {p}", file=sys.stderr)
+    if args.output:
+        print(f"wrote {args.output}", file=sys.stderr)
+    return 0
+
+
+def cmd_align(args) -> int:
+    from .alignment import align
+    gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
+                      numeric=["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
+                      ranges={"dpd": (0, 1)})
+    from .sweep import COLUMNS
+    sweep = read_table(args.sweep, COLUMNS, numeric=[c for c in COLUMNS if c != "sideband"])
+    sweep["dpd"] = sweep["dpd"].astype(int)
+    meta = read_csv_header(args.sweep)
+    sweep.attrs["A_corr"] = meta.get("A_corr")
+    fit = align(gate, sweep, args.sigma_db)
+    if args.json:
+        print(json.dumps(to_jsonable(fit.to_dict()), indent=2))
+    else:
+        print(fit.report())
+    if args.plot:
+        from .plots import plot_gate_figures
+        g = gate.copy()
+        for p in plot_gate_figures(g, sweep, fit, args.plot):
+            print(f"wrote {p}", file=sys.stderr)
+    return 0
+
+
 # ----------------------------------------------------------------------------- campaign
 
 
@@ -422,6 +494,27 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .heterodyne import add_spectrum_command
     add_spectrum_command(sub)
+
+    f = sub.add_parser("fidelity", help="Bell fidelities from raw population and parity counts (S7)")
+    f.add_argument("--populations", required=True, metavar="POP.csv",
+                   help="A, dpd, scan, n_even, shots (or n00, n01_10, n11, shots)")
+    f.add_argument("--parity", required=True, metavar="PARITY.csv",
+                   help="A, dpd, scan, phase_rad, n_even, shots")
+    f.add_argument("--interval", choices=["wilson", "clopper-pearson"], default="wilson",
+                   help="population interval near 1 (wilson)")
+    f.add_argument("--gate-rates", metavar="RATES.csv", help="A, dpd, xi0_khz, xi0_err_khz: joined into -o")
+    f.add_argument("-o", "--output", metavar="GATE.csv", help="write the table as CSV")
+    f.add_argument("--json", action="store_true", help="print a JSON list (one record per A, dpd)")
+    f.add_argument("--plot", metavar="DIR", help="write the parity-fringe figure (Fig. S8)")
+    f.set_defaults(func=cmd_fidelity)
+
+    al = sub.add_parser("align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
+    al.add_argument("--gate", required=True, help="A, dpd, xi0_khz, xi0_err_khz, F, F_err")
+    al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")
+    al.add_argument("--sigma-db", type=float, default=0.2, help="laser-power fluctuation, dB (0.2)")
+    al.add_argument("--json", action="store_true")
+    al.add_argument("--plot", metavar="DIR", help="write Figs. 3 and 4 (PNG)")
+    al.set_defaults(func=cmd_align)
 
     c = sub.add_parser("simulate-campaign",
                        help="simulate a complete synthetic measurement campaign")

@@ -249,3 +249,184 @@ def plot_sweep(df, outdir: str | os.PathLike, measured=None) -> list[str]:
             plt.close(fig)
             written.append(path)
     return written
+
+
+def _save(plt, fig, stage, outdir, name, written):
+    path = os.path.join(outdir, name)
+    fig.savefig(stage(path), dpi=130, format="png")
+    plt.close(fig)
+    written.append(path)
+
+
+def plot_gate_figures(gate, sweep, fit, outdir, parity=None, time_scans=None,
+                      highlight=None, nbar: float = 0.1) -> list[str]:
+    """Figures of the measured side (main-text Figs. 3, 4; Supplement Figs. S7, S8).
+
+    Parameters
+    ----------
+    gate : DataFrame
+        ``A, dpd, xi0_khz, xi0_err_khz, F, F_err`` (+ ``contrast``, ``phi0``).
+    sweep : DataFrame
+        The simulated sweep (for the photodiode curves).
+    fit : AlignmentFit or None
+        Alignment result (curves are drawn shifted by ``delta`` on the
+        ``alpha r_rel`` axis, with the power-fluctuation band).
+    parity : dict, optional
+        ``{(A, dpd): (phases, n_even, shots)}`` merged parity data (fits are
+        drawn from ``gate``'s ``contrast`` and ``phi0``).
+    time_scans : DataFrame, optional
+        ``A, dpd, t_us, n00, n01_10, n11, shots``.
+    highlight : ((A, dpd), (A, dpd)), optional
+        The pair whose parity fringes go into Fig. 3's side panel.
+    """
+    from .alignment import K_DB
+    from .fidelity import cardioid_populations
+    from .sweep import eta_corr
+
+    plt = _pyplot()
+    style = {1: dict(color="C0", marker="s", label="DPD"), 0: dict(color="C3", marker="o",
+                                                                  label="no DPD")}
+    written: list[str] = []
+    mean = sweep[sweep["sideband"] == "mean"]
+
+    def fringe(ax, key, title=None):
+        ph, k, n = parity[key]
+        row = gate[(np.isclose(gate["A"], key[0])) & (gate["dpd"] == key[1])].iloc[0]
+        ax.errorbar(ph, 2 * k / n - 1, yerr=2 * np.sqrt(np.clip(k / n * (1 - k / n), 1e-12, None) / n),
+                    fmt=style[key[1]]["marker"], mfc="none", color=style[key[1]]["color"], ms=4)
+        x = np.linspace(0, 2 * np.pi, 300)
+        ax.plot(x, row["contrast"] * np.cos(2 * x + row["phi0"]), color=style[key[1]]["color"],
+                label=f"A={key[0]:g} {style[key[1]]['label']}: C={row['contrast']:.3f}")
+        ax.set(xlabel="analysis phase $\\varphi$ (rad)", ylabel="parity $\\Pi$",
+               ylim=(-1.1, 1.1), title=title)
+        ax.legend(fontsize=7, loc="lower left")
+
+    with staged_outputs() as stage:
+        # Fig. 3: fidelity vs gate rate
+        ncols = 2 if (highlight and parity) else 1
+        fig, axes = plt.subplots(1, ncols, figsize=(5.2 * ncols, 4), constrained_layout=True)
+        ax = np.atleast_1d(axes)[0]
+        for d in (1, 0):
+            g = gate[gate["dpd"] == d]
+            ax.errorbar(g["xi0_khz"], g["F"], xerr=g["xi0_err_khz"], yerr=g["F_err"],
+                        fmt=style[d]["marker"], color=style[d]["color"], label=f"gate, {style[d]['label']}")
+            if fit is not None:
+                c = mean[mean["dpd"] == d].sort_values("A")
+                xi = fit.alpha_khz * c["r_rel"].to_numpy()
+                F = c["F_est"].to_numpy() + fit.delta
+                band = xi * K_DB * fit.sigma_db
+                ax.plot(xi, F, color=style[d]["color"], label=f"photodiode, {style[d]['label']}")
+                ax.fill_betweenx(F, xi - band, xi + band, color=style[d]["color"], alpha=0.15)
+        if highlight:
+            for key in highlight:
+                row = gate[(np.isclose(gate["A"], key[0])) & (gate["dpd"] == key[1])]
+                if len(row):
+                    ax.plot(row["xi0_khz"], row["F"], "o", mfc="none", mec="k", ms=12, mew=2)
+        lo = np.nanmin(gate["F"]) - 0.03
+        ax.set(xlabel="gate rate $\\xi_0$ (kHz)", ylabel="Bell-state fidelity",
+               xlim=(0.9 * gate["xi0_khz"].min(), 1.1 * gate["xi0_khz"].max()),
+               ylim=(lo, 1.0), title="fidelity vs gate rate (Fig. 3)")
+        ax.legend(fontsize=7)
+        if ncols == 2:
+            ax2 = np.atleast_1d(axes)[1]
+            for key in highlight:
+                if key in parity:
+                    fringe(ax2, key, "highlighted pair: parity fringes")
+        _save(plt, fig, stage, outdir, "fig3_fidelity_vs_rate.png", written)
+
+        # Fig. 4: fidelity vs eta_bar
+        fig, ax = plt.subplots(figsize=(5.2, 4), constrained_layout=True)
+        ec = eta_corr(sweep)
+        for d in (1, 0):
+            c = mean[mean["dpd"] == d].sort_values("A")
+            shift = fit.delta if fit is not None else 0.0
+            ax.plot(c["eta_bar"], c["F_est"] + shift, color=style[d]["color"],
+                    label=f"photodiode{' + delta' if fit is not None else ''}, {style[d]['label']}")
+            if fit is not None:
+                p = fit.points[fit.points["dpd"] == d]
+                ax.errorbar(p["eta_bar"], p["F"], yerr=p["F_err"], fmt=style[d]["marker"],
+                            color=style[d]["color"], label=f"gate, {style[d]['label']}")
+            key = "dpd" if d == 1 else "no_dpd"
+            if ec.get(key):
+                ax.axvline(ec[key], color=style[d]["color"], ls="--", lw=1)
+        ax.set(xlabel="time-averaged diffraction efficiency $\\bar\\eta$",
+               ylabel="Bell-state fidelity", ylim=(np.nanmin(gate["F"]) - 0.03, 1.0),
+               title="fidelity vs efficiency (Fig. 4)")
+        ax.legend(fontsize=7)
+        _save(plt, fig, stage, outdir, "fig4_fidelity_vs_eta.png", written)
+
+        # Fig. S8: all parity fringes
+        if parity:
+            keys = sorted(parity)
+            nc = 4
+            nr = -(-len(keys) // nc)
+            fig, axes = plt.subplots(nr, nc, figsize=(3.2 * nc, 2.6 * nr), constrained_layout=True,
+                                     squeeze=False)
+            for ax, key in zip(axes.flat, keys):
+                fringe(ax, key)
+            for ax in list(axes.flat)[len(keys):]:
+                ax.axis("off")
+            _save(plt, fig, stage, outdir, "figS8_parity_fringes.png", written)
+
+        # Fig. S7: time scans with the ideal model
+        if time_scans is not None and len(time_scans):
+            flags = sorted(time_scans["dpd"].unique(), reverse=True)
+            fig, axes = plt.subplots(1, len(flags), figsize=(5 * len(flags), 3.8),
+                                     constrained_layout=True, squeeze=False)
+            for ax, d in zip(axes.flat, flags):
+                ts = time_scans[time_scans["dpd"] == d].sort_values("t_us")
+                A = float(ts["A"].iloc[0])
+                row = gate[(np.isclose(gate["A"], A)) & (gate["dpd"] == d)]
+                N = ts["shots"].to_numpy()
+                for col, lab, c, m in (("n00", "$P_{00}$", "C0", "o"),
+                                       ("n01_10", "$P_{01}+P_{10}$", "C1", "s"),
+                                       ("n11", "$P_{11}$", "C2", "^")):
+                    p = ts[col].to_numpy() / N
+                    ax.errorbar(ts["t_us"], p, yerr=np.sqrt(p * (1 - p) / N), fmt=m, mfc="none",
+                                color=c, ms=4, label=lab)
+                if len(row):
+                    xi0 = float(row["xi0_khz"].iloc[0]) * 1e3
+                    t = np.linspace(0, ts["t_us"].max() * 1e-6, 400)
+                    P = cardioid_populations(t, xi0, nbar)
+                    for j, c in enumerate(("C0", "C1", "C2")):
+                        ax.plot(t * 1e6, P[:, j], color=c)
+                    ax.axvline(1e6 / xi0, color="k", ls="--", lw=1)
+                ax.set(xlabel="time ($\\mu$s)", ylabel="population", ylim=(-0.02, 1.02),
+                       title=f"A = {A:g}, {style[d]['label']}")
+                ax.legend(fontsize=7)
+            _save(plt, fig, stage, outdir, "figS7_time_scans.png", written)
+    return written
+
+
+def plot_parity_only(gate, merged_parity, outdir) -> list[str]:
+    """Fig. S8 alone: merged parity fringes of every setting with their fits.
+
+    ``merged_parity`` is the DataFrame of :func:`dpdfit.counts.merge_parity`
+    (``A, dpd, phase_rad, n_even, shots``).
+    """
+    parity = {}
+    for (A, d), g in merged_parity.groupby(["A", "dpd"]):
+        parity[(float(A), int(d))] = (g["phase_rad"].to_numpy(), g["n_even"].to_numpy(),
+                                      g["shots"].to_numpy())
+    plt = _pyplot()
+    keys = sorted(parity)
+    nc = 4
+    nr = max(1, -(-len(keys) // nc))
+    written: list[str] = []
+    with staged_outputs() as stage:
+        fig, axes = plt.subplots(nr, nc, figsize=(3.2 * nc, 2.6 * nr), constrained_layout=True,
+                                 squeeze=False)
+        for ax, key in zip(axes.flat, keys):
+            ph, k, n = parity[key]
+            row = gate[(np.isclose(gate["A"], key[0])) & (gate["dpd"] == key[1])].iloc[0]
+            c = "C0" if key[1] else "C3"
+            ax.errorbar(ph, 2 * k / n - 1, yerr=2 * np.sqrt(np.clip(k / n * (1 - k / n), 1e-12, None) / n),
+                        fmt="s" if key[1] else "o", mfc="none", color=c, ms=4)
+            x = np.linspace(0, 2 * np.pi, 300)
+            ax.plot(x, row["contrast"] * np.cos(2 * x + row["phi0"]), color=c)
+            ax.set(title=f"A={key[0]:g} {'DPD' if key[1] else 'no DPD'}: C={row['contrast']:.3f}",
+                   ylim=(-1.1, 1.1), xlabel="$\\varphi$ (rad)", ylabel="$\\Pi$")
+        for ax in list(axes.flat)[len(keys):]:
+            ax.axis("off")
+        _save(plt, fig, stage, outdir, "figS8_parity_fringes.png", written)
+    return written
