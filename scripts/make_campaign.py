@@ -19,6 +19,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from dpdfit.analyze import _fmt as fmt
 from dpdfit.analyze import analyze
 from dpdfit.campaign import simulate_campaign
 
@@ -55,14 +56,6 @@ NOTES = """## Where the physics does not reach the paper's numbers
   overestimates the IM infidelity (by about 2x at A = 0.6), which offsets
   part of the SPAM and dephasing loss in delta.
 """
-
-
-def fmt(v):
-    if v is None:
-        return "-"
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    return str(v)
 
 
 def main():
