@@ -20,7 +20,9 @@ Analyses (in order):
    Figs. 2/S6/5 with measured (solid) and simulated (dashed) curves.
 4. ``traces`` -- the bundled raw traces re-analysed and checked against
    ``spectra.csv``. -> ``traces_check.csv``.
-5. ``gates`` -- count inference (S7): population and parity fidelities per
+5. ``stability`` -- y(1) and phi(1) per run: mean, sd, drift test, Allan
+   deviation, curve envelopes (S2). -> ``stability_*.json``, Figs. S2, S3.
+6. ``gates`` -- count inference (S7): population and parity fidelities per
    setting pooled over scans (``gate.csv``, joined with ``gate_rates.csv``),
    the alignment fit of ``alpha`` and ``delta`` against the simulated sweep
    (``alignment_points.csv``), Figs. 3, 4, S7, S8.
@@ -303,6 +305,31 @@ def _traces(folder, camp, res, spectra_df):
     res.status("traces", "ok", f"{len(idx)} raw traces re-analysed")
 
 
+def _stability(folder, res, figdir, plots):
+    from .stability import plot_stability, stability
+    done = []
+    for kind, name in (("amplitude", "calibration_amplitude.csv"),
+                       ("phase", "calibration_phase.csv")):
+        path = folder / name
+        if not path.exists():
+            continue
+        st = stability(path, kind=kind)
+        res.text(f"stability_{kind}.json", json.dumps(to_jsonable(st.to_dict()), indent=2) + "\n")
+        d = st.to_dict()
+        res.summary.setdefault("stability", {})[kind] = {
+            k: d[k] for k in ("mean", "std", "relative_std", "n_runs", "span_days",
+                              "trend_per_day", "trend_per_day_err")}
+        if plots is not None:
+            plots.append(lambda stage, st=st: plot_stability(st, figdir))
+        done.append(f"{kind}: {st.n_runs} runs, sd {st.std:.3g}, trend "
+                    f"{st.trend_per_day:+.2e} +/- {st.trend_per_day_err:.1e} /day")
+    if not done:
+        res.status("stability", "skipped", "no calibration files")
+        return None
+    res.status("stability", "ok", "; ".join(done))
+    return True
+
+
 def _read_time_scans(path):
     cols = ["A", "dpd", "t_us", "n00", "n01_10", "n11", "shots"]
     ts = read_table(path, cols, ranges={"A": (0, 1), "dpd": (0, 1)})
@@ -510,6 +537,7 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
         failures.append(str(exc))
         print(f"dpdfit: error: {exc}", file=sys.stderr)
     cal = guarded("calibration", _calibration, folder, camp, res, figdir, plot_jobs)
+    guarded("stability", _stability, folder, res, figdir, plot_jobs)
     sweep = guarded("sweep", _sweep, cal, camp, res, formula)
     meas = guarded("spectra", _spectra, folder, sweep, camp, res, formula)
     guarded("traces", _traces, folder, camp, res, meas)

@@ -493,7 +493,9 @@ def build_parser() -> argparse.ArgumentParser:
     h.set_defaults(func=cmd_thresholds)
 
     from .heterodyne import add_spectrum_command
+    from .stability import add_stability_command
     add_spectrum_command(sub)
+    add_stability_command(sub)
 
     f = sub.add_parser("fidelity", help="Bell fidelities from raw population and parity counts (S7)")
     f.add_argument("--populations", required=True, metavar="POP.csv",
