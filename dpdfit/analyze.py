@@ -26,6 +26,9 @@ Analyses (in order):
    setting pooled over scans (``gate.csv``, joined with ``gate_rates.csv``),
    the alignment fit of ``alpha`` and ``delta`` against the simulated sweep
    (``alignment_points.csv``), Figs. 3, 4, S7, S8.
+7. ``budget`` -- the error budget of Table S3 (S8) from ``budget.toml`` in
+   the campaign folder (or the paper's inputs), with the gate times from
+   ``gate_rates.csv`` and ``delta`` from the alignment fit. -> ``budget.json``.
 """
 
 from __future__ import annotations
@@ -410,6 +413,31 @@ def _gates(folder, camp, res, sweep, figdir, plots, nbar):
     return tab
 
 
+def _budget(folder, res):
+    """Table S3 from the campaign's budget.toml (or the paper's inputs) and the fitted delta."""
+    from .budget import error_budget, load_budget_config
+    path = folder / "budget.toml"
+    cfg = load_budget_config(path) if path.exists() else None
+    al = (res.summary.get("gates") or {}).get("alignment")
+    if al:
+        cfg = dict(cfg or {})
+        cfg["delta"] = {"value": al["delta"], "error": al["delta_err"], "enabled": True}
+    rates = folder / "gate_rates.csv"
+    if rates.exists():
+        g = read_table(rates, ["A", "dpd", "xi0_khz"])
+        cfg = dict(cfg or {})
+        cfg["gate"] = {**(cfg.get("gate") or {}), "rates_khz": [float(v) for v in g["xi0_khz"]]}
+    b = error_budget(cfg)
+    d = b.to_dict()
+    res.text("budget.json", json.dumps(to_jsonable(d), indent=2) + "\n")
+    res.summary["budget"] = {k: d[k] for k in ("state_preparation", "dephasing", "heating",
+                                               "detection", "total", "delta", "unexplained")}
+    src = "budget.toml" if path.exists() else "the paper's inputs"
+    res.status("budget", "ok", f"inputs from {src}; delta from "
+                               f"{'the alignment fit' if al else 'the inputs'}")
+    return b
+
+
 # --------------------------------------------------------------------------- report
 
 
@@ -543,6 +571,7 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
     guarded("traces", _traces, folder, camp, res, meas)
     guarded("gates", _gates, folder, camp, res, sweep, figdir, plot_jobs,
             camp.get("nbar_assumed", 0.1))
+    guarded("budget", _budget, folder, res)
     res.summary["realism"] = _realism(res)
     res.summary["failures"] = failures
     out.mkdir(parents=True, exist_ok=True)
