@@ -26,7 +26,10 @@ Analyses (in order):
    setting pooled over scans (``gate.csv``, joined with ``gate_rates.csv``),
    the alignment fit of ``alpha`` and ``delta`` against the simulated sweep
    (``alignment_points.csv``), Figs. 3, 4, S7, S8.
-7. ``budget`` -- the error budget of Table S3 (S8) from ``budget.toml`` in
+7. ``propagation`` -- emcee posterior of the day's amplitude calibration with
+   the run-to-run drift model, 10^4 draws pushed through the sweep at
+   A = 0.5 for a fresh and a 30-day-old table. -> ``propagation.json``.
+8. ``budget`` -- the error budget of Table S3 (S8) from ``budget.toml`` in
    the campaign folder (or the paper's inputs), with the gate times from
    ``gate_rates.csv`` and ``delta`` from the alignment fit. -> ``budget.json``.
 """
@@ -413,6 +416,37 @@ def _gates(folder, camp, res, sweep, figdir, plots, nbar):
     return tab
 
 
+def _propagation(folder, camp, res, cal, A=0.5, stale_days=(0.0, 30.0), draws=10000):
+    """MCMC posterior of the day's calibration and the drift of y(1), pushed into F_est(A)."""
+    from .posterior import propagate
+    amp_path = folder / "calibration_amplitude.csv"
+    if cal is None or not amp_path.exists():
+        res.status("propagation", "skipped", "needs the calibration runs")
+        return None
+    df = read_table(amp_path, ["A", "power"], ["power_err", "run", "timestamp"],
+                    ranges={"A": (0, 1)}, positive=["power_err"])
+    if len(list_runs(df)) < 2:
+        res.status("propagation", "skipped", "drift needs >= 2 calibration runs")
+        return None
+    out = {}
+    for d in stale_days:
+        p = propagate(df, A, stale_days=d, draws=draws, phase=cal.phase,
+                      run=cal.amplitude.source.get("run"), seed=1,
+                      nu=camp.get("nu_hz", 1.84e6), xi0=camp.get("xi0_spectra_hz", 20e3),
+                      nbar=camp.get("nbar_assumed", 0.1), eta_ref=camp.get("eta_ref", 0.8),
+                      recalibration_loss=1e-4)
+        out[f"stale_days={d:g}"] = p.to_dict()
+    res.text("propagation.json", json.dumps(to_jsonable(out), indent=2) + "\n")
+    first = out[f"stale_days={stale_days[-1]:g}"]
+    res.summary["propagation"] = {"A": A, "draws": draws, "results": {
+        k: {flag: {q: v[flag][q] for q in ("F_est_median", "F_est_q2.5", "F_est_q97.5")}
+            for flag in ("dpd", "no_dpd")} for k, v in out.items()},
+        "tau": first.get("tau"), "n_independent": first.get("n_independent")}
+    res.status("propagation", "ok", f"A = {A:g}, {draws} posterior draws, stale "
+                                    + ", ".join(f"{d:g}" for d in stale_days) + " days")
+    return out
+
+
 def _budget(folder, res):
     """Table S3 from the campaign's budget.toml (or the paper's inputs) and the fitted delta."""
     from .budget import error_budget, load_budget_config
@@ -571,6 +605,7 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
     guarded("traces", _traces, folder, camp, res, meas)
     guarded("gates", _gates, folder, camp, res, sweep, figdir, plot_jobs,
             camp.get("nbar_assumed", 0.1))
+    guarded("propagation", _propagation, folder, camp, res, cal)
     guarded("budget", _budget, folder, res)
     res.summary["realism"] = _realism(res)
     res.summary["failures"] = failures

@@ -495,8 +495,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .heterodyne import add_spectrum_command
     from .stability import add_stability_command
     from .budget import add_budget_command
+    from .posterior import add_propagate_command
     add_spectrum_command(sub)
     add_stability_command(sub)
+    add_propagate_command(sub)
     add_budget_command(sub)
 
     f = sub.add_parser("fidelity", help="Bell fidelities from raw population and parity counts (S7)")

@@ -70,7 +70,7 @@ def test_analyze_runs_everything_present(small_campaign, tmp_path):
     s = analyze(small_campaign, out, plots=False)
     st = {k: v["status"] for k, v in s["analyses"].items()}
     assert st == {"calibration": "ok", "stability": "ok", "sweep": "ok", "spectra": "ok",
-                  "traces": "ok", "gates": "skipped", "budget": "ok"}
+                  "traces": "ok", "gates": "skipped", "propagation": "ok", "budget": "ok"}
     for f in ("summary.md", "summary.json", "calibration.json", "sweep.csv",
               "spectra_measured.csv", "traces_check.csv", "calibration_runs.csv"):
         assert (out / f).exists(), f
