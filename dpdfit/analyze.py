@@ -416,7 +416,8 @@ def _gates(folder, camp, res, sweep, figdir, plots, nbar):
     return tab
 
 
-def _propagation(folder, camp, res, cal, A=0.5, stale_days=(0.0, 30.0), draws=10000):
+def _propagation(folder, camp, res, cal, figdir=None, plots=None, A=0.5,
+                 stale_days=(0.0, 30.0), draws=10000):
     """MCMC posterior of the day's calibration and the drift of y(1), pushed into F_est(A)."""
     from .posterior import propagate
     amp_path = folder / "calibration_amplitude.csv"
@@ -429,6 +430,16 @@ def _propagation(folder, camp, res, cal, A=0.5, stale_days=(0.0, 30.0), draws=10
         res.status("propagation", "skipped", "drift needs >= 2 calibration runs")
         return None
     out = {}
+    if plots is not None:
+        from .posterior import plot_corner, sample_amplitude_posterior
+        run = cal.amplitude.source.get("run")
+        sub = df[df["run"] == run] if run else df
+        post = sample_amplitude_posterior(
+            sub["A"].to_numpy(float), sub["power"].to_numpy(float),
+            sub["power_err"].to_numpy(float) if "power_err" in sub.columns else None,
+            cal.amplitude.order, seed=1)
+        plots.append(lambda stage, post=post: plot_corner(
+            post, Path(figdir) / "figS_posterior_corner.png"))
     for d in stale_days:
         p = propagate(df, A, stale_days=d, draws=draws, phase=cal.phase,
                       run=cal.amplitude.source.get("run"), seed=1,
@@ -436,12 +447,21 @@ def _propagation(folder, camp, res, cal, A=0.5, stale_days=(0.0, 30.0), draws=10
                       nbar=camp.get("nbar_assumed", 0.1), eta_ref=camp.get("eta_ref", 0.8),
                       recalibration_loss=1e-4)
         out[f"stale_days={d:g}"] = p.to_dict()
+    from .posterior import threshold_distribution
+    for d in stale_days:
+        out[f"stale_days={d:g}"]["thresholds"] = threshold_distribution(
+            df, stale_days=d, draws=1000, phase=cal.phase, run=cal.amplitude.source.get("run"),
+            seed=1, nu=camp.get("nu_hz", 1.84e6), xi0=camp.get("xi0_spectra_hz", 20e3),
+            nbar=camp.get("nbar_assumed", 0.1), eta_ref=camp.get("eta_ref", 0.8))
     res.text("propagation.json", json.dumps(to_jsonable(out), indent=2) + "\n")
     first = out[f"stale_days={stale_days[-1]:g}"]
     res.summary["propagation"] = {"A": A, "draws": draws, "results": {
         k: {flag: {q: v[flag][q] for q in ("F_est_median", "F_est_q2.5", "F_est_q97.5")}
             for flag in ("dpd", "no_dpd")} for k, v in out.items()},
-        "tau": first.get("tau"), "n_independent": first.get("n_independent")}
+        "tau": first.get("tau"), "n_independent": first.get("n_independent"),
+        "thresholds": {k: {flag: {lev: v["thresholds"][flag][lev].get("median")
+                                  for lev in ("1e-2", "1e-3", "1e-4")}
+                           for flag in ("dpd", "no_dpd")} for k, v in out.items()}}
     res.status("propagation", "ok", f"A = {A:g}, {draws} posterior draws, stale "
                                     + ", ".join(f"{d:g}" for d in stale_days) + " days")
     return out
@@ -605,7 +625,7 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
     guarded("traces", _traces, folder, camp, res, meas)
     guarded("gates", _gates, folder, camp, res, sweep, figdir, plot_jobs,
             camp.get("nbar_assumed", 0.1))
-    guarded("propagation", _propagation, folder, camp, res, cal)
+    guarded("propagation", _propagation, folder, camp, res, cal, figdir, plot_jobs)
     guarded("budget", _budget, folder, res)
     res.summary["realism"] = _realism(res)
     res.summary["failures"] = failures

@@ -576,7 +576,8 @@ class _Forward:
         self.nbar, self.formula, self.eta_ref = nbar, formula, eta_ref
         self.harmonics = (0, 1, 2, 3)
         w = synthesize(self.tones, self.grid, np.array([float(A)]))[0]
-        self.M, self.G = {}, {}
+        self.M, self.G, self.M2 = {}, {}, {}
+        self.pm_powers = None if phase is None else np.asarray(phase.powers)
         kb, kr = self.grid.tone_bins(self.harmonics)
         N = self.grid.n_samples
         for dpd in (0, 1):
@@ -587,15 +588,29 @@ class _Forward:
             spec = np.fft.fft(basis * np.exp(1j * ph)[None, :], axis=-1) / N
             self.M[dpd] = (spec[:, kb], spec[:, kr])                 # (K, 4) each
             self.G[dpd] = basis @ basis.T / N                        # mean y^2 = a G a
+            if self.pm_powers is not None:
+                # first-order response to a phase-coefficient perturbation db:
+                # exp(i(phi + dphi)) = exp(i phi)(1 + i dphi), dphi = sum_l db_l |x|^l
+                pb = mag[None, :] ** self.pm_powers[:, None]          # (P, N)
+                s2 = np.fft.fft(basis[:, None, :] * pb[None, :, :] * np.exp(1j * ph), axis=-1) / N
+                self.M2[dpd] = (1j * s2[..., kb], 1j * s2[..., kr])  # (K, P, 4) each
         self.gate_signs = tuple(np.sign([self.tones.r_blue[self.tones.n.index(k)]
                                          for k in (1, 2)]))
 
-    def evaluate(self, a, dpd: int) -> dict:
+    def evaluate(self, a, dpd: int, db=None) -> dict:
+        """Tone powers etc. for coefficient draws ``a`` (D, K); ``db`` (D, P) optional
+        phase-coefficient perturbations, to first order (|dphi| ~ 1e-3 rad: the
+        neglected second order is ~1e-6 of the tone amplitudes)."""
         from .fidelity import estimate
         a = np.atleast_2d(a)
         Mb, Mr = self.M[dpd]
-        Pb = 10 * np.log10(np.maximum(np.abs(a @ Mb) ** 2, 1e-300))
-        Pr = 10 * np.log10(np.maximum(np.abs(a @ Mr) ** 2, 1e-300))
+        cb, cr = a @ Mb, a @ Mr
+        if db is not None and dpd in self.M2:
+            M2b, M2r = self.M2[dpd]
+            cb = cb + np.einsum("dk,dl,klh->dh", a, db, M2b)
+            cr = cr + np.einsum("dk,dl,klh->dh", a, db, M2r)
+        Pb = 10 * np.log10(np.maximum(np.abs(cb) ** 2, 1e-300))
+        Pr = 10 * np.log10(np.maximum(np.abs(cr) ** 2, 1e-300))
         F = 0.5 * sum(estimate(P, self.harmonics, gate_signs=self.gate_signs, nbar=self.nbar,
                                formula=self.formula).F_est for P in (Pr, Pb))
         R10 = 0.5 * ((Pr[:, 1] - Pr[:, 0]) + (Pb[:, 1] - Pb[:, 0]))
@@ -749,9 +764,15 @@ def propagate(posterior_or_runs, A: float, stale_days: float = 0.0, draws: int =
     if sd > 0:
         a, _ = _perturb(a, rng.normal(0.0, sd, size=a.shape[0]))
     fw = _Forward(lut_fit, phase, A, nu, xi0, nbar, formula, eta_ref)
+    db = None
+    if phase is not None:
+        # the phase fit is linear-Gaussian: its posterior (flat prior) is N(b, C) exactly
+        db = rng.multivariate_normal(np.zeros(len(phase.powers)), np.asarray(phase.covariance),
+                                     size=a.shape[0])
     samples, point = {}, {}
     for dpd, key in ((1, "dpd"), (0, "no_dpd")):
-        parts = [fw.evaluate(a[i:i + chunk], dpd) for i in range(0, a.shape[0], chunk)]
+        parts = [fw.evaluate(a[i:i + chunk], dpd, None if db is None else db[i:i + chunk])
+                 for i in range(0, a.shape[0], chunk)]
         samples[key] = {k: _frozen(np.concatenate([p[k] for p in parts])) for k in parts[0]}
         pt = fw.evaluate(np.asarray(lut_fit.coefficients)[None, :], dpd)
         point[key] = {k: float(v[0]) for k, v in pt.items()}
@@ -763,6 +784,85 @@ def propagate(posterior_or_runs, A: float, stale_days: float = 0.0, draws: int =
                              sigma_drift=sd, samples=samples, point=point,
                              tau=post.tau_max, n_independent=post.n_independent,
                              wall_time=time.perf_counter() - t0, recalibration=rc)
+
+
+def _first_crossing_rows(x, y, level):
+    """Row-wise first rise of ``y`` through ``level`` along increasing ``x``, log-log interpolated.
+
+    Vectorised form of :func:`dpdfit.sweep._first_crossing` for a batch of
+    curves (rows); NaN where the curve never reaches ``level`` or starts above it.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    order = np.argsort(x, axis=1)
+    x = np.take_along_axis(x, order, axis=1)
+    y = np.take_along_axis(y, order, axis=1)
+    above = y >= level
+    has = above.any(axis=1) & ~above[:, 0]
+    i = np.where(has, np.argmax(above, axis=1), 1)
+    r = np.arange(x.shape[0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lx0, lx1 = np.log(x[r, i - 1]), np.log(x[r, i])
+        ly0, ly1 = np.log(np.maximum(y[r, i - 1], 1e-300)), np.log(np.maximum(y[r, i], 1e-300))
+        out = np.exp(lx0 + (np.log(level) - ly0) * (lx1 - lx0) / (ly1 - ly0))
+    return np.where(has, out, np.nan)
+
+
+def threshold_distribution(posterior_or_runs, stale_days: float = 0.0, draws: int = 2000, *,
+                           amplitudes=None, levels=(1e-2, 1e-3, 1e-4), phase=None, run=None,
+                           seed=None, order: int = 8, n_walkers: int = 32, n_steps: int = 400,
+                           force: bool = False, nu: float = 1.84e6, xi0: float = 20e3,
+                           nbar: float = 0.1, formula: str = "exact", eta_ref: float = 0.80) -> dict:
+    """Distribution of the threshold efficiencies ``eta_th(eps)`` and ``eta_bar_corr``.
+
+    Every predictive draw of the true transfer function (as in :func:`propagate`,
+    including the Gaussian posterior of the phase polynomial when ``phase`` is given)
+    is pushed through the sweep on an amplitude grid (default 40 points on
+    0.05..1) for both flags, with the predistortion table of the calibration;
+    per draw, ``eta_th`` is the first rise of ``eps_est`` through each level in
+    log-log interpolation (as :func:`dpdfit.sweep.thresholds`).  Returns, per
+    flag and level, the median and the 68 % / 95 % intervals over the draws
+    (``null`` entries when fewer than half of the draws reach the level), and
+    the fraction of draws that reach it.
+    """
+    amplitudes = np.linspace(0.05, 1.0, 40) if amplitudes is None else np.asarray(amplitudes)
+    post, fit0, drift = _prepare(posterior_or_runs, order, run, seed, n_walkers, n_steps,
+                                 force, False)
+    if stale_days > 0 and drift is None:
+        raise InputError("stale_days > 0 needs a drift model (at least 2 calibration runs)")
+    sd = drift.sigma(stale_days) if drift is not None else 0.0
+    rng = np.random.default_rng(None if seed is None else seed + 2)
+    idx = rng.integers(0, post.a_draws.shape[0], size=int(draws))
+    b = np.asarray(post.b_draws)[idx]
+    a = b / b[:, :1]
+    if sd > 0:
+        a, _ = _perturb(a, rng.normal(0.0, sd, size=a.shape[0]))
+    db = None if phase is None else rng.multivariate_normal(
+        np.zeros(len(phase.powers)), np.asarray(phase.covariance), size=a.shape[0])
+    out = {}
+    for dpd, key in ((1, "dpd"), (0, "no_dpd")):
+        eps = np.empty((a.shape[0], amplitudes.size))
+        eta = np.empty_like(eps)
+        for j, A in enumerate(amplitudes):
+            r = _Forward(fit0, phase, float(A), nu, xi0, nbar, formula, eta_ref).evaluate(a, dpd, db)
+            eps[:, j] = 1.0 - r["F_est"]
+            eta[:, j] = r["eta_bar"]
+        row = {}
+        for lev in levels:
+            th = _first_crossing_rows(eta, eps, lev)
+            ok = np.isfinite(th)
+            name = f"{lev:.0e}".replace("e-0", "e-")
+            if ok.mean() >= 0.5:
+                q = np.quantile(th[ok], [0.5, 0.16, 0.84, 0.025, 0.975])
+                row[name] = {"median": float(q[0]), "q16": float(q[1]), "q84": float(q[2]),
+                             "q2.5": float(q[3]), "q97.5": float(q[4]),
+                             "fraction_reached": float(ok.mean())}
+            else:
+                row[name] = {"median": None, "fraction_reached": float(ok.mean())}
+        out[key] = row
+    out.update({"stale_days": float(stale_days), "draws": int(draws),
+                "amplitudes": [float(v) for v in amplitudes]})
+    return out
 
 
 def recalibration(calibration: AmplitudeCalibration, A: float, loss: float = 1e-4, *,
@@ -891,10 +991,22 @@ def cmd_propagate(args) -> int:
                     order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
                     n_steps=args.steps, force=args.force, progress=args.progress,
                     recalibration_loss=args.loss)
+    d = res.to_dict()
+    if args.thresholds:
+        d["thresholds"] = threshold_distribution(
+            df, stale_days=args.stale_days, draws=min(args.draws, 2000), phase=phase,
+            order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
+            n_steps=args.steps, force=args.force)
     if args.json:
-        print(json.dumps(to_jsonable(res.to_dict()), indent=2))
+        print(json.dumps(to_jsonable(d), indent=2))
     else:
         print(res.report())
+        if args.thresholds:
+            for flag in ("no_dpd", "dpd"):
+                print(f"    eta_th {flag:7s}: " + ", ".join(
+                    f"{lev}: " + ("-" if v.get("median") is None else
+                                  f"{v['median']:.4f} [{v['q16']:.4f}, {v['q84']:.4f}]")
+                    for lev, v in d["thresholds"][flag].items()))
     return 0
 
 
@@ -925,6 +1037,9 @@ def add_propagate_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0, help="random seed (0)")
     s.add_argument("--loss", type=float, default=1e-4,
                    help="fidelity loss for the recalibration answer (1e-4)")
+    s.add_argument("--thresholds", action="store_true",
+                   help="also the distribution of the threshold efficiencies (40-point sweep "
+                        "per draw; uses min(draws, 2000) draws)")
     s.add_argument("--force", action="store_true", help="report an unconverged chain")
     s.add_argument("--progress", action="store_true", help="progress line on stderr")
     s.add_argument("--json", action="store_true", help="print JSON instead of a report")

@@ -241,3 +241,70 @@ def test_cli(tmp_path, capsys):
                                  str(tmp_path / "short.csv"), "--A", "0.5"])
     with pytest.raises(DpdfitError, match="R003"):
         args.func(args)
+
+
+def test_threshold_rows_match_scalar_first_crossing():
+    from dpdfit.posterior import _first_crossing_rows
+    from dpdfit.sweep import _first_crossing
+    rng = np.random.default_rng(3)
+    x = np.sort(rng.uniform(0.01, 0.5, (50, 30)), axis=1)
+    y = 1e-5 * (x / 0.01) ** rng.uniform(1.5, 3.5, (50, 1)) * rng.uniform(0.5, 2, (50, 30))
+    for lev in (1e-2, 1e-3, 1e-4):
+        rows = _first_crossing_rows(x, y, lev)
+        for i in range(50):
+            ref = _first_crossing(x[i], y[i], lev)
+            assert (np.isnan(rows[i]) and ref is None) or rows[i] == pytest.approx(ref, rel=1e-12)
+
+
+def test_threshold_distribution_brackets_the_point_estimate():
+    """With a fresh table the draws' thresholds scatter around the sweep of the fit itself."""
+    from dpdfit.aom_truth import BraggAOM, simulate_amplitude_run
+    from dpdfit.posterior import threshold_distribution
+    from dpdfit.calibration import fit_amplitude
+    from dpdfit.sweep import SweepConfig, run_sweep, thresholds
+    from dpdfit.transfer import TransferFunction
+    rng = np.random.default_rng(8)
+    frames = []
+    for k in range(3):
+        d = simulate_amplitude_run(BraggAOM(A_corr=0.5655 + 0.005 * k), np.linspace(0, 1, 201), rng)
+        d.insert(0, "run", f"R{k}")
+        d.insert(1, "timestamp", pd.Timestamp("2026-01-01", tz="UTC") + pd.Timedelta(days=k))
+        frames.append(d)
+    df = pd.concat(frames, ignore_index=True)
+    grid = np.linspace(0.05, 1.0, 40)
+    dist = threshold_distribution(df, 0.0, draws=400, amplitudes=grid, seed=2)
+    last = df[df.run == "R2"]
+    fit = fit_amplitude(last.A, last.power, last.power_err)
+    sw = run_sweep(TransferFunction(fit.powers, fit.coefficients),
+                   SweepConfig(amplitudes=grid, am_only=True))
+    point = thresholds(sw)["eta_th"]
+    for flag in ("dpd", "no_dpd"):
+        for lev in ("1e-2", "1e-3"):
+            q = dist[flag][lev]
+            assert q["q2.5"] <= point[flag][lev] <= q["q97.5"], (flag, lev, q, point[flag][lev])
+
+
+def test_phase_perturbation_first_order_matches_exact_forward():
+    """The draw-batched phase perturbation equals the exact forward model to first order."""
+    import dataclasses
+    from dpdfit.aom_truth import BraggAOM, simulate_amplitude_run, simulate_phase_run
+    from dpdfit.calibration import fit_amplitude, fit_phase
+    from dpdfit.posterior import _Forward
+    rng = np.random.default_rng(4)
+    aom = BraggAOM()
+    grid = np.linspace(0, 1, 201)
+    d = simulate_amplitude_run(aom, grid, rng)
+    fit = fit_amplitude(d.A, d.power, d.power_err)
+    p = simulate_phase_run(aom, grid, rng)
+    ph = fit_phase(p.A, p.phase_rad, p.phase_err)
+    db = rng.multivariate_normal(np.zeros(5), np.asarray(ph.covariance))
+    ph2 = dataclasses.replace(ph, coefficients=np.asarray(ph.coefficients) + db)
+    a = np.asarray(fit.coefficients)[None, :]
+    for dpd in (0, 1):
+        approx = _Forward(fit, ph, 0.6).evaluate(a, dpd, db[None, :])
+        exact = _Forward(fit, ph2, 0.6)
+        # the LUT of ph2's forward model is the same (amplitude only); compare the field tones
+        e = exact.evaluate(a, dpd)
+        for k in ("F_est", "eta_bar"):
+            assert approx[k] == pytest.approx(e[k], rel=1e-6, abs=1e-7)
+        assert approx["R10_dB"] == pytest.approx(e["R10_dB"], abs=0.02)
