@@ -575,6 +575,49 @@ def _summary_md(res, folder, formula) -> str:
         for k in ("no_dpd", "dpd"):
             lines.append(f"| {k} | " + " | ".join(_fmt(th["eta_th"][k][lev])
                                                   for lev in ("1e-2", "1e-3", "1e-4")) + " |")
+    st = s.get("stability")
+    if st:
+        lines += ["", "## Calibration stability", "",
+                  "| kind | runs | span (days) | mean | sd | relative sd | trend per day |",
+                  "|---|---|---|---|---|---|---|"]
+        for kind, d in st.items():
+            lines.append(f"| {kind} | {d['n_runs']} | {_fmt(d['span_days'])} | {_fmt(d['mean'])} | "
+                         f"{_fmt(d['std'])} | {_fmt(d['relative_std'])} | "
+                         f"{_fmt(d['trend_per_day'])} ± {_fmt(d['trend_per_day_err'])} |")
+    g = s.get("gates")
+    if g:
+        lines += ["", "## Gate fidelities from the counts", "", "| setting | F | ± | F_pop | F_par |",
+                  "|---|---|---|---|---|"]
+        for key, d in g["fidelities"].items():
+            lines.append(f"| {key} | {d['F']:.4f} | {d['F_err']:.4f} | {d['F_pop']:.4f} | "
+                         f"{d['F_par']:.4f} |")
+        al = g.get("alignment")
+        if al:
+            lines += ["", f"Alignment: alpha = {al['alpha_khz']:.3f} ± {al['alpha_khz_err']:.3f} kHz, "
+                          f"delta = {al['delta']:+.4f} ± {al['delta_err']:.4f}, correlation "
+                          f"{al['correlation']:+.2f}, reduced chi2 {al['redchi']:.2f}."]
+    pr = s.get("propagation")
+    if pr:
+        lines += ["", f"## Calibration posterior and drift propagated into F_est (A = {pr['A']:g})",
+                  "", "| table age | flag | F_est median | 95 % interval | eta_th 1e-3 (median) |",
+                  "|---|---|---|---|---|"]
+        for k, v in pr["results"].items():
+            for flag in ("dpd", "no_dpd"):
+                th = (pr.get("thresholds") or {}).get(k, {}).get(flag, {}).get("1e-3")
+                lines.append(f"| {k.split('=')[1]} days | {flag} | {v[flag]['F_est_median']:.6f} | "
+                             f"[{v[flag]['F_est_q2.5']:.6f}, {v[flag]['F_est_q97.5']:.6f}] | "
+                             f"{_fmt(th)} |")
+        lines.append(f"\nChain: tau {_fmt(pr.get('tau'))} steps, {_fmt(pr.get('n_independent'))} "
+                     "independent samples.")
+    b = s.get("budget")
+    if b:
+        lines += ["", "## Error budget (Table S3; loss of (F_pop + F_par)/2)", "",
+                  "| source | estimate | error |", "|---|---|---|"]
+        for k in ("state_preparation", "dephasing", "heating", "detection", "total", "delta",
+                  "unexplained"):
+            v = b.get(k)
+            if isinstance(v, dict):
+                lines.append(f"| {k} | {v['estimate']:.5f} | {v['error']:.5f} |")
     lines += ["", "## Realism: paper vs this campaign", "", "| quantity | paper | dpdfit |",
               "|---|---|---|"]
     for r in s.get("realism", []):
