@@ -710,6 +710,27 @@ def _prepare(posterior_or_runs, order, run, seed, n_walkers, n_steps, force, pro
     return post, fits[chosen], drift
 
 
+def _predictive_draws(post, drift, stale_days, phase, draws, rng):
+    """Draws of the later day's true transfer function: ``(a, db, sigma_drift)``.
+
+    ``a`` (draws, K): posterior draws of the normalised amplitude coefficients,
+    their ``y(1)`` moved by the drift ``N(0, sigma(stale_days))``; ``db``
+    (draws, P) or None: phase-coefficient perturbations from the phase fit's
+    posterior, which is exactly Gaussian ``N(b, C)`` (linear model, flat prior).
+    """
+    if stale_days > 0 and drift is None:
+        raise InputError("stale_days > 0 needs a drift model (at least 2 calibration runs)")
+    sd = drift.sigma(stale_days) if drift is not None else 0.0
+    idx = rng.integers(0, post.a_draws.shape[0], size=int(draws))
+    b = np.asarray(post.b_draws)[idx]
+    a = b / b[:, :1]
+    if sd > 0:
+        a, _ = _perturb(a, rng.normal(0.0, sd, size=a.shape[0]))
+    db = None if phase is None else rng.multivariate_normal(
+        np.zeros(len(phase.powers)), np.asarray(phase.covariance), size=a.shape[0])
+    return a, db, sd
+
+
 def propagate(posterior_or_runs, A: float, stale_days: float = 0.0, draws: int = 10000, *,
               phase: PhaseCalibration | None = None, lut_fit: AmplitudeCalibration | None = None,
               drift: DriftModel | None = None, order: int = 8, run=None, seed=None,
@@ -754,21 +775,9 @@ def propagate(posterior_or_runs, A: float, stale_days: float = 0.0, draws: int =
                                   force, progress)
     drift = drift or drift0
     lut_fit = lut_fit or fit0
-    if stale_days > 0 and drift is None:
-        raise InputError("stale_days > 0 needs a drift model (at least 2 calibration runs)")
-    sd = drift.sigma(stale_days) if drift is not None else 0.0
-    rng = np.random.default_rng(None if seed is None else seed + 1)
-    idx = rng.integers(0, post.a_draws.shape[0], size=int(draws))
-    b = np.asarray(post.b_draws)[idx]
-    a = b / b[:, :1]
-    if sd > 0:
-        a, _ = _perturb(a, rng.normal(0.0, sd, size=a.shape[0]))
+    a, db, sd = _predictive_draws(post, drift, stale_days, phase, draws,
+                                  np.random.default_rng(None if seed is None else seed + 1))
     fw = _Forward(lut_fit, phase, A, nu, xi0, nbar, formula, eta_ref)
-    db = None
-    if phase is not None:
-        # the phase fit is linear-Gaussian: its posterior (flat prior) is N(b, C) exactly
-        db = rng.multivariate_normal(np.zeros(len(phase.powers)), np.asarray(phase.covariance),
-                                     size=a.shape[0])
     samples, point = {}, {}
     for dpd, key in ((1, "dpd"), (0, "no_dpd")):
         parts = [fw.evaluate(a[i:i + chunk], dpd, None if db is None else db[i:i + chunk])
@@ -828,17 +837,8 @@ def threshold_distribution(posterior_or_runs, stale_days: float = 0.0, draws: in
     amplitudes = np.linspace(0.05, 1.0, 40) if amplitudes is None else np.asarray(amplitudes)
     post, fit0, drift = _prepare(posterior_or_runs, order, run, seed, n_walkers, n_steps,
                                  force, False)
-    if stale_days > 0 and drift is None:
-        raise InputError("stale_days > 0 needs a drift model (at least 2 calibration runs)")
-    sd = drift.sigma(stale_days) if drift is not None else 0.0
-    rng = np.random.default_rng(None if seed is None else seed + 2)
-    idx = rng.integers(0, post.a_draws.shape[0], size=int(draws))
-    b = np.asarray(post.b_draws)[idx]
-    a = b / b[:, :1]
-    if sd > 0:
-        a, _ = _perturb(a, rng.normal(0.0, sd, size=a.shape[0]))
-    db = None if phase is None else rng.multivariate_normal(
-        np.zeros(len(phase.powers)), np.asarray(phase.covariance), size=a.shape[0])
+    a, db, _ = _predictive_draws(post, drift, stale_days, phase, draws,
+                                 np.random.default_rng(None if seed is None else seed + 2))
     out = {}
     for dpd, key in ((1, "dpd"), (0, "no_dpd")):
         eps = np.empty((a.shape[0], amplitudes.size))
