@@ -35,24 +35,10 @@ except ImportError:                      # run from a source checkout
     from dpdfit.polyfit import polyfit
 
 
-# --------------------------------------------------------------------------
-# problems (the same data as tests/test_polyfit.py)
-# --------------------------------------------------------------------------
-def hard_case(with_sigma):
-    rng = np.random.default_rng(20240611)
-    x = np.linspace(-9.0, -3.0, 60)
-    y = np.exp(x / 3) * np.sin(x) + 0.01 * rng.standard_normal(x.size)
-    sigma = 0.01 * (1 + rng.uniform(size=x.size)) if with_sigma else None
-    return x, y, tuple(range(11)), sigma
-
-
-def no_constant_case(with_sigma):
-    rng = np.random.default_rng(7)
-    x = np.linspace(0.0, 1.0, 60)
-    y = np.tanh(1.7 * x) / np.tanh(1.7) + 0.005 * rng.standard_normal(x.size)
-    sigma = 0.005 * (0.5 + rng.uniform(size=x.size)) if with_sigma else None
-    return x, y, tuple(range(1, 9)), sigma
-
+# problems and the 50-digit reference: the very ones the tests use
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tests"))
+from test_polyfit import hard_case, no_constant_case  # noqa: E402
+from test_polyfit import mp_reference as _mp_reference  # noqa: E402
 
 CASES = [
     ("degree 10 with constant, x in [-9,-3], 60 points", hard_case),
@@ -60,29 +46,10 @@ CASES = [
 ]
 
 
-# --------------------------------------------------------------------------
-# reference and competitors
-# --------------------------------------------------------------------------
-def mp_reference(x, y, powers, sigma, dps=50):
-    """Coefficients and standard errors by 50-digit normal equations."""
-    with mpmath.workdps(dps):
-        n, p = len(x), len(powers)
-        w = [mpmath.mpf(1) if sigma is None else 1 / mpmath.mpf(float(s))
-             for s in (sigma if sigma is not None else [None] * n)]
-        A = mpmath.matrix(n, p)
-        b = mpmath.matrix(n, 1)
-        for i in range(n):
-            xi = mpmath.mpf(float(x[i]))
-            for j, k in enumerate(powers):
-                A[i, j] = w[i] * xi ** k
-            b[i] = w[i] * mpmath.mpf(float(y[i]))
-        ninv = mpmath.inverse(A.T * A)
-        coef = ninv * (A.T * b)
-        res = b - A * coef
-        chi2 = mpmath.fsum(res[i] ** 2 for i in range(n))
-        scale = 1 if sigma is not None else chi2 / (n - p)
-        return ([coef[j] for j in range(p)],
-                [mpmath.sqrt(scale * ninv[j, j]) for j in range(p)])
+def mp_reference(x, y, powers, sigma):
+    """(coefficients, stderr) of the 50-digit solution (tests/test_polyfit.py)."""
+    ref = _mp_reference(x, y, powers, sigma)
+    return ref["coefficients"], ref["stderr"]
 
 
 def weighted_vandermonde(x, y, powers, sigma):
