@@ -67,6 +67,12 @@ EFFECTS = {
     "detector_nonlinearity": ("1/full scale", "quadratic photodiode response "
                                               "P_meas = P (1 + k P/P_full) in calibrations"),
     "higher_nbar": ("quanta", "extra initial mean phonon number"),
+    "am_pm_omitted": ("rad", "AM-to-PM conversion in the beam path after the calibrated AOM "
+                             "(phase at full drive, ~|y|^2), not seen by the phase calibration"),
+    "higher_order_im": ("1", "fifth-order field distortion after the calibrated AOM: relative "
+                             "field change at full drive (~|y|^4)"),
+    "calibration_drift": ("fraction", "A_corr of the calibration behind the predistortion table "
+                                      "relative to the gate day (the AOM drifted since)"),
 }
 
 
@@ -125,6 +131,10 @@ class CampaignConfig:
     lut_points: int = 4096
     order: int = 8
     stale_days: float = 0.0
+    table_drift: float = 0.0
+    # beam path after the calibrated AOM (concealed effects; 0 = none)
+    post_pm_rad: float = 0.0
+    post_k5: float = 0.0
     # heterodyne spectra (Supplement S4)
     fs: float = 1e9
     n_samples: int = 2 ** 21
@@ -135,6 +145,11 @@ class CampaignConfig:
     trace_noise_rms: float = 0.015
     power_jitter_db: float = 0.2
     bundled_traces: tuple = ((0.5, 0), (0.5, 1))
+    spectra_harmonics: tuple = (-1, 0, 1, 2, 3, 4)
+    #: "traces": synthesise every heterodyne trace and extract its tones (S4);
+    #: "direct": exact tone amplitudes of the field plus the complex noise that
+    #: the flat-top extraction of such a trace would add (fast; harness campaigns)
+    spectra_mode: str = "traces"
     # gate experiments (Supplement S7, main text)
     gate_amplitudes: tuple = (0.4, 0.5, 0.6, 0.7, 0.8)
     eta_ld: float = 0.026
@@ -176,6 +191,12 @@ class CampaignConfig:
                 kw["detector_nonlinearity"] = s
             elif name == "higher_nbar":
                 kw["nbar"] = self.nbar + s
+            elif name == "am_pm_omitted":
+                kw["post_pm_rad"] = s
+            elif name == "higher_order_im":
+                kw["post_k5"] = s
+            elif name == "calibration_drift":
+                kw["table_drift"] = s
         return dataclasses.replace(self, effects=dict(effects), **kw)
 
 
@@ -250,10 +271,25 @@ def _calibrations(cfg: CampaignConfig):
     target_day = gate_day - cfg.stale_days
     lut_run = int(np.argmin(np.abs(days - target_day)))
     sub = amp_rows[lut_run]
+    if cfg.table_drift:
+        # the table was made from a calibration of the AOM before it drifted
+        # by table_drift in A_corr (a run that is not among the recordings)
+        aom_t = BraggAOM(A_corr=float(A_corr[lut_run]) * (1 + cfg.table_drift),
+                         phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
+        sub = simulate_amplitude_run(aom_t, grid, _rng(cfg, 7), cfg.photodiode)
+        if cfg.detector_nonlinearity:
+            p = sub["power"].to_numpy()
+            sub["power"] = p * (1 + cfg.detector_nonlinearity * p / cfg.photodiode.p_full)
     fit = fit_amplitude(sub["A"], sub["power"], sub["power_err"], cfg.order)
+    day_fit = fit_amplitude(amp_rows[-1]["A"], amp_rows[-1]["power"],
+                            amp_rows[-1]["power_err"], cfg.order)
     tf = TransferFunction(fit.powers, fit.coefficients)
     truth = {"amplitude_runs": amp_truth, "phase_runs": ph_truth, "gate_day": float(gate_day),
              "lut_run": f"R{lut_run + 1:03d}", "lut_fit_A_corr": fit.A_corr,
+             "day_fit_A_corr": day_fit.A_corr,
+             "lut_relative_A_corr": fit.A_corr / day_fit.A_corr - 1,
+             "detector_nonlinearity_rel_max": cfg.detector_nonlinearity
+             * float(amp_rows[-1]["power"].max()) / cfg.photodiode.p_full,
              "day_A_corr": float(A_corr[-1]), "day_phi_at_1": float(phi1[-1])}
     return amp, ph, day_aom, tf, truth
 
@@ -261,9 +297,35 @@ def _calibrations(cfg: CampaignConfig):
 # --------------------------------------------------------------------------- traces
 
 
+def _beam_path(cfg: CampaignConfig, aom: BraggAOM, y: np.ndarray) -> np.ndarray:
+    """Distortion after the calibrated AOM (concealed effects ``am_pm_omitted``,
+    ``higher_order_im``): ``y (1 + k5 r^4) exp(i phi r^2)``, ``r = |y| / y(1)``."""
+    if not (cfg.post_pm_rad or cfg.post_k5):
+        return y
+    r2 = (np.abs(y) / aom.true_A_corr) ** 2
+    return y * (1 + cfg.post_k5 * r2 ** 2) * np.exp(1j * cfg.post_pm_rad * r2)
+
+
 def _dpd_lut(tf: TransferFunction, points: int):
     target, rf, _ = predistortion_table(tf, points)
     return target, rf
+
+
+def _trace_field(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int) -> np.ndarray:
+    """One gate period (``fs / xi0_spec`` samples) of the optical field envelope."""
+    tones = cardioid()
+    per = int(round(cfg.fs / cfg.xi0_spec))                   # samples per gate period
+    t = np.arange(per) / cfg.fs
+    fb, fr = tones.frequencies(cfg.nu, cfg.xi0_spec)
+    env = np.zeros(per)
+    for f_b, f_r, r in zip(fb, fr, tones.r_blue):
+        env += r * (np.cos(2 * np.pi * f_b * t) + np.cos(2 * np.pi * f_r * t))
+    # at 1 GS/s (~500 samples per cycle) the sampled peak is the continuous one
+    env *= A / np.max(np.abs(env))
+    if dpd:
+        target, rf_tab = lut
+        env = np.sign(env) * np.interp(np.abs(env), target, rf_tab)
+    return _beam_path(cfg, aom, aom.field_periodic(env, cfg.fs))
 
 
 def generate_trace(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
@@ -277,19 +339,8 @@ def generate_trace(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
     scaled by the laser-power jitter and given white detector noise.
     """
     rng = _rng(cfg, *seed_key)
-    tones = cardioid()
-    per = int(round(cfg.fs / cfg.xi0_spec))                   # samples per gate period
-    t = np.arange(per) / cfg.fs
-    fb, fr = tones.frequencies(cfg.nu, cfg.xi0_spec)
-    env = np.zeros(per)
-    for f_b, f_r, r in zip(fb, fr, tones.r_blue):
-        env += r * (np.cos(2 * np.pi * f_b * t) + np.cos(2 * np.pi * f_r * t))
-    # at 1 GS/s (~500 samples per cycle) the sampled peak is the continuous one
-    env *= A / np.max(np.abs(env))
-    if dpd:
-        target, rf_tab = lut
-        env = np.sign(env) * np.interp(np.abs(env), target, rf_tab)
-    y = aom.field_periodic(env, cfg.fs)
+    y = _trace_field(cfg, aom, lut, A, dpd)
+    per = y.size
     reps = -(-cfg.n_samples // per)
     y = np.tile(y, reps)[:cfg.n_samples]
     n = np.arange(cfg.n_samples)
@@ -298,6 +349,43 @@ def generate_trace(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
     carrier = np.exp(1j * (2 * np.pi * (cfg.f_det / cfg.fs) * n + phase0))
     trace = power * (y * carrier).real + cfg.trace_noise_rms * rng.standard_normal(cfg.n_samples)
     return trace, power
+
+
+def _flattop_enbw() -> float:
+    """Equivalent noise bandwidth (bins) of the flat-top window of the extraction."""
+    from scipy.signal import get_window
+    w = get_window("flattop", 1 << 16, fftbins=True)
+    return float(w.size * np.sum(w ** 2) / np.sum(w) ** 2)
+
+
+def direct_tones(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
+                 seed_key: tuple) -> dict:
+    """Tone powers as the extraction of a trace would report them, without the trace.
+
+    The exact Fourier amplitudes ``c`` of the field's tones, times the
+    trace's laser-power factor, plus the complex noise that white detector
+    noise of rms ``sigma`` leaves in a flat-top amplitude estimate from
+    ``N`` samples: ``E|n|^2 = 4 sigma^2 ENBW / N``.  The reported floor is
+    the median of that noise power (``ln 2`` times its mean), as in
+    :func:`dpdfit.heterodyne.trace_tone_powers`; validity follows its SNR
+    rules (20 dB for gate tones, 10 dB for IM tones).
+    """
+    rng = _rng(cfg, *seed_key)
+    power = 10 ** (cfg.power_jitter_db * rng.standard_normal() / 20)
+    y = _trace_field(cfg, aom, lut, A, dpd)
+    spec = np.fft.fft(y) / y.size
+    n = np.asarray(cfg.spectra_harmonics)
+    k = np.rint((cfg.nu + n * cfg.xi0_spec) / cfg.xi0_spec).astype(int)
+    N0 = 4 * cfg.trace_noise_rms ** 2 * _flattop_enbw() / cfg.n_samples
+    floor_db = 10 * np.log10(N0 * np.log(2))
+    out = {}
+    for sb, kk in (("blue", k), ("red", -k)):
+        noise = np.sqrt(N0 / 2) * (rng.standard_normal(n.size) + 1j * rng.standard_normal(n.size))
+        P = 20 * np.log10(np.abs(power * spec[kk % y.size] + noise))
+        snr = P - floor_db
+        valid = np.where(np.isin(n, (1, 2)), snr >= 20.0, snr >= 10.0)
+        out[sb] = (P, valid, snr)
+    return out
 
 
 def regenerate_trace(seed: str, effects: dict | None = None,
@@ -336,9 +424,20 @@ def _spectra(cfg, aom, lut, progress):
     with progress("heterodyne traces", len(items)) as p:
         for i, A, d in items:
             key = (4, i, d)
+            if cfg.spectra_mode == "direct":
+                tones = direct_tones(cfg, aom, lut, float(A), d, key)
+                for sb in ("red", "blue"):
+                    P, valid, snr = tones[sb]
+                    for j, nn in enumerate(cfg.spectra_harmonics):
+                        rows.append({"A": float(A), "dpd": d, "sideband": sb, "n": int(nn),
+                                     "P_dB": float(P[j]), "valid": int(valid[j]),
+                                     "snr_db": float(snr[j])})
+                p.update()
+                continue
             x, power = generate_trace(cfg, aom, lut, float(A), d, key)
             q, scale = _int16(x)
-            res = trace_tone_powers(q * scale, cfg.fs, cfg.f_det, cfg.nu, cfg.xi0_spec)
+            res = trace_tone_powers(q * scale, cfg.fs, cfg.f_det, cfg.nu, cfg.xi0_spec,
+                                    harmonics=cfg.spectra_harmonics)
             for sb in ("red", "blue"):
                 t = getattr(res, sb)
                 for n in res.harmonics:
@@ -367,7 +466,7 @@ def _gate_spectrum(cfg, aom, lut, A, dpd):
     if dpd:
         target, rf_tab = lut
         w = np.sign(w) * np.interp(np.abs(w), target, rf_tab)
-    y = aom.field_periodic(w, grid.fs)
+    y = _beam_path(cfg, aom, aom.field_periodic(w, grid.fs))
     spec = np.fft.fft(y) / grid.n_samples
     n = np.asarray(cfg.harmonics_gate)
     kb, kr = grid.tone_bins(n)
@@ -467,6 +566,7 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = 20260329, effects: 
                          file=str(out))
     cfg = (config or CampaignConfig(seed=seed))
     cfg = dataclasses.replace(cfg, seed=seed) if config is None else cfg
+    nominal = cfg
     cfg = cfg.with_effects(effects or {})
     amp, ph, aom, tf, cal_truth = _calibrations(cfg)
     lut = _dpd_lut(tf, cfg.lut_points)
@@ -489,11 +589,18 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = 20260329, effects: 
         "nu_hz": cfg.nu, "xi0_spectra_hz": cfg.xi0_spec, "f_det_hz": cfg.f_det,
         "fs_traces_hz": cfg.fs, "eta_ld": cfg.eta_ld, "nbar_assumed": cfg.nbar,
         "eta_ref": cfg.eta_ref, "order": cfg.order,
-        "predistortion_table": {"amplitude_run": cal_truth["lut_run"], "points": cfg.lut_points,
+        # what the lab's records say: the table was made from the gate day's run
+        "predistortion_table": {"amplitude_run": f"R{cfg.n_amp_runs:03d}",
+                                "points": cfg.lut_points,
                                 "order": cfg.order, "interpolation": "linear"},
         "phase_run_for_model": f"P{cfg.n_phase_runs:03d}",
         "gate_waveform": "Cardioid(1,2)",
         "parity_phases": 16, "nominal_shots": 625,
+        # the lab's error model (its own characterisation, Table S3), not the truth
+        "error_model": {"nbar": nominal.nbar, "T2_s": nominal.T2,
+                        "heating_quanta_per_s": nominal.ndot, "p_prep": nominal.p_prep,
+                        "p_det": nominal.p_det, "power_jitter_db": nominal.power_jitter_db,
+                        "xi0_rel_err": nominal.xi0_rel_err},
         "units": {"A": "normalised RF amplitude", "power": "photodiode V*us (arbitrary)",
                   "phase_rad": "rad", "P_dB": "dB re unit-amplitude sinusoid in trace volts",
                   "xi0_khz": "kHz", "t_us": "microseconds", "timestamp": "ISO 8601 UTC"},

@@ -1,0 +1,425 @@
+"""Discrepancy diagnosis: locate, name, model and show the improvement (issue #7).
+
+Steps (:func:`diagnose`):
+
+1. **Baseline.**  The simulation built from the campaign's own calibration
+   (:mod:`dpdfit.effects`) predicts every observable of
+   :mod:`dpdfit.observables`.  Its existing parameters (nuisances) are refitted
+   first, with Gaussian priors from the calibration: if that absorbs the
+   mismatch there is nothing to explain.
+2. **Locate.**  Standardised residuals ``z = (recorded - simulated)/sigma`` of
+   each series (observable x sideband x flag, ordered by A, xi0 or t) are
+   scanned for intervals of significant deviation (:func:`dpdfit.scan.scan_intervals`),
+   Bonferroni-corrected over all intervals and all series.
+3. **Name.**  Each catalog effect, and pairs of the three best, is fitted
+   jointly to all observables (nuisances refitted with it) by
+   ``scipy.optimize.least_squares``; effects are ranked by
+   ``delta_bic = BIC(effect) - BIC(baseline)`` (negative favours the effect)
+   and a likelihood-ratio test (``p_value``: Wilks, chi2 with as many degrees
+   of freedom as the effect has parameters).
+4. **Verdict.**  ``"none"`` when the baseline fits (global chi2 p-value and
+   no located interval below ``ALPHA``); else the best effect if it is
+   decisive (``delta_bic < -BIC_DECISIVE``, LRT ``p < ALPHA``) *and* leaves an
+   acceptable fit (chi2 p-value >= ``ALPHA_FIT``); a pair ``"a+b"`` when only
+   a pair does that; else ``"unexplained"``.
+
+Parameter errors are the Gauss-Newton ones, ``(J^T J)^-1`` of the standardised
+residuals at the optimum (1 sigma); ``params_err`` is NaN when a parameter
+sits at its bound.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import chi2 as chi2_dist
+from scipy.stats import norm
+
+from .effects import EFFECTS, NUISANCES, GateModel, ToneModel
+from .observables import Campaign, load_campaign, tone_features
+from .scan import scan_intervals
+
+__all__ = ["diagnose", "Diagnosis", "Problem", "ALPHA", "BIC_DECISIVE"]
+
+#: global false-alarm level of a mismatch (3 sigma)
+ALPHA = 0.0027
+#: a fit is acceptable if its chi2 p-value is at least this
+ALPHA_FIT = 1e-4
+#: |delta BIC| that counts as decisive (Kass & Raftery: > 10 "very strong")
+BIC_DECISIVE = 10.0
+#: effects considered by default
+DEFAULT_EFFECTS = ("am_pm_omitted", "aom_memory", "stale_calibration", "higher_order_im",
+                   "detector_nonlinearity", "motional_heating", "dephasing", "spam_offset",
+                   "gate_rate_miscalibration")
+
+
+class Problem:
+    """All observables of a campaign and the residual function of a parameter set."""
+
+    def __init__(self, camp: Campaign, with_gates: bool = True):
+        self.camp = camp
+        self.tone = ToneModel(camp)
+        self.meas = tone_features(camp.P_dB, camp.A_tones, camp.sd_dB)
+        self.gate = (GateModel(camp, self.tone) if with_gates and camp.gates is not None
+                     else None)
+        em = camp.error_model
+        self.sig_jit = float(em["power_jitter_db"])
+        self.prior = {"a_scale": max(self.tone.A_corr_err / self.tone.A_corr, 1e-5),
+                      "phase_scale": (max(self.tone.phi1_err / max(abs(self.tone.phig[-1]), 1e-12),
+                                          1e-5) if self.tone.has_phase else 1e-5)}
+        if self.gate is not None:
+            g = self.gate.gates
+            self.g_meas = {q: g[q].to_numpy() for q in ("F_pop", "imb", "C")}
+            self.g_shot = {q: g[q + "_shot"].to_numpy() for q in ("F_pop", "imb", "C")}
+            ts = camp.time_scans
+            if ts is not None:
+                parts = []
+                for (A, d), t in ts.groupby(["A", "dpd"], sort=False):
+                    parts.append(t[t.t_s > 0])
+                import pandas as pd
+                self.ts = pd.concat(parts, ignore_index=True)
+            else:
+                self.ts = None
+        self.center = {"a_scale": 1.0, "phase_scale": 1.0}
+        if self.gate is not None:
+            for k in range(self.gate.n_time_scans):
+                self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
+                self.center[f"eps_ts{k}"] = 0.0
+        self._cache_key, self._cache_val = None, None
+
+    def _tone_features(self, p: dict) -> dict:
+        keys = ("a_scale", "phase_scale", "drift", "tau", "f_off", "dphi", "k5", "k_det")
+        key = tuple(float(p.get(k, np.nan)) for k in keys)
+        if key != self._cache_key:
+            self._cache_key, self._cache_val = key, self.tone.features(p)
+        return self._cache_val
+
+    # -------------------------------------------------------------- residuals
+    def residuals(self, p: dict, with_prior: bool = True) -> np.ndarray:
+        return np.concatenate([np.ravel(z) for _, z in self.blocks(p, with_prior)])
+
+    def blocks(self, p: dict, with_prior: bool = True):
+        """(label, z) blocks; labels are dicts of observable/sideband/dpd/x."""
+        out = []
+        model = self._tone_features(p)
+        for name, (v, e) in self.meas.items():
+            m = model[name]
+            if name == "gate_power":
+                m = m + float(p.get("gate_power_offset", 0.0))
+                e = np.sqrt(e ** 2 + self.sig_jit ** 2)
+            z = (v - m) / e
+            out.append(({"kind": "tones", "observable": name}, z))
+        if self.gate is not None:
+            pr = self.gate.predict(p)
+            for q in ("F_pop", "imb", "C"):
+                sig = np.sqrt(self.g_shot[q] ** 2 + pr["var_" + q])
+                out.append(({"kind": "gates", "observable": q},
+                            (self.g_meas[q] - pr[q]) / sig))
+            if self.ts is not None and "P00_t" in pr:
+                N = self.ts["shots"].to_numpy(dtype=float)
+                for q, col in (("P00_t", "n00"), ("P11_t", "n11")):
+                    pm = np.clip(pr[q], 0.5 / N, 1 - 0.5 / N)
+                    z = (self.ts[col].to_numpy() / N - pr[q]) / np.sqrt(pm * (1 - pm) / N)
+                    out.append(({"kind": "time_scan", "observable": q}, z))
+        if with_prior:
+            z = np.array([(p.get(k, self.center[k]) - self.center[k]) / s
+                          for k, s in self.prior.items()])
+            out.append(({"kind": "prior", "observable": "prior"}, z))
+        return out
+
+    def series(self, p: dict):
+        """Series for the interval scan: list of (observable, sideband, dpd, x_name, x, z)."""
+        out = []
+        A = self.camp.A_tones
+        for lab, z in self.blocks(p, with_prior=False):
+            kind, name = lab["kind"], lab["observable"]
+            if kind == "tones":
+                for d in (0, 1):
+                    for j in range(z.shape[2]):
+                        sb = (("red", "blue")[j] if z.shape[2] == 2 else "both")
+                        zz = z[:, d, j]
+                        ok = np.isfinite(zz)
+                        if ok.sum() >= 2:
+                            out.append((name, sb, d, "A", A[ok], zz[ok]))
+            elif kind == "gates":
+                g = self.gate.gates
+                for d in (0, 1):
+                    sel = (g.dpd == d).to_numpy()
+                    if sel.sum() >= 2:
+                        out.append((name, "both", d, "xi0_khz", g.xi0_hz.to_numpy()[sel] / 1e3,
+                                    z[sel]))
+            elif kind == "time_scan":
+                for d in (0, 1):
+                    sel = (self.ts.dpd == d).to_numpy()
+                    if sel.sum() >= 2:
+                        out.append((name, "both", d, "t_us", self.ts.t_s.to_numpy()[sel] * 1e6,
+                                    z[sel]))
+        cal = self.camp.amp_residuals
+        out.append(("calibration_amplitude", "none", -1, "A", cal.A.to_numpy(),
+                    cal.z.to_numpy()))
+        if self.camp.phase_residuals is not None:
+            ph = self.camp.phase_residuals
+            out.append(("calibration_phase", "none", -1, "A", ph.A.to_numpy(), ph.z.to_numpy()))
+        return out
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Best fit of one hypothesis (baseline, an effect or a pair)."""
+
+    effect: str
+    params: dict
+    params_err: dict
+    nuisances: dict
+    chi2: float
+    n_obs: int
+    n_par: int
+    chi2_by_observable: dict
+    n_by_observable: dict
+
+    @property
+    def dof(self) -> int:
+        return max(self.n_obs - self.n_par, 1)
+
+    @property
+    def bic(self) -> float:
+        return self.chi2 + self.n_par * np.log(self.n_obs)
+
+    @property
+    def p_fit(self) -> float:
+        return float(chi2_dist.sf(self.chi2, self.dof))
+
+    def redchi(self) -> dict:
+        return {k: self.chi2_by_observable[k] / max(self.n_by_observable[k], 1)
+                for k in self.chi2_by_observable}
+
+
+def _fit(prob: Problem, effects: tuple, starts=None) -> FitResult:
+    names, lo, hi, x0, scale = [], [], [], [], []
+    for k, s in prob.prior.items():
+        c = prob.center[k]
+        names.append(k)
+        lo.append(c - 50 * s)
+        hi.append(c + 50 * s)
+        x0.append(c)
+        scale.append(s)
+    names.append("gate_power_offset")
+    lo.append(-20.0)
+    hi.append(20.0)
+    x0.append(float(np.nanmedian(prob.meas["gate_power"][0] - prob.tone.features({})[
+        "gate_power"])))
+    scale.append(0.05)
+    eff_params = []
+    for e in effects:
+        for par in EFFECTS[e].params:
+            names.append(par.name)
+            lo.append(par.lo)
+            hi.append(par.hi)
+            x0.append(par.start)
+            scale.append(par.scale)
+            eff_params.append(par.name)
+    lo, hi = np.array(lo), np.array(hi)
+
+    def fun(x):
+        z = prob.residuals(dict(zip(names, x)))
+        return np.where(np.isfinite(z), z, 0.0)
+
+    i_off = names.index("gate_power_offset")
+    mask_n = np.isfinite(prob.residuals({"gate_power_offset": x0[i_off]}))
+    candidates = [np.array(x0)]
+    if "f_off" in eff_params:
+        for f in (-6.0, 6.0):
+            x = np.array(x0)
+            x[names.index("f_off")] = f
+            candidates.append(x)
+    if "tau" in eff_params:
+        x = np.array(x0)
+        x[names.index("tau")] = 100.0
+        candidates.append(x)
+    if starts:
+        for st in starts:
+            x = np.array(x0)
+            for k, v in st.items():
+                if k in names:
+                    x[names.index(k)] = v
+            candidates.append(x)
+    best = None
+    for x in candidates:
+        try:
+            r = least_squares(fun, np.clip(x, lo, hi), bounds=(lo, hi), x_scale=np.array(scale),
+                              method="trf", diff_step=1e-4, max_nfev=200 * len(names))
+        except ValueError:
+            continue
+        if best is None or r.cost < best.cost:
+            best = r
+    x = best.x
+    J = best.jac
+    try:
+        cov = np.linalg.pinv(J.T @ J)
+        err = np.sqrt(np.clip(np.diag(cov), 0, None))
+    except np.linalg.LinAlgError:
+        err = np.full(x.size, np.nan)
+    at_bound = (np.isclose(x, lo, rtol=0, atol=1e-9 * np.maximum(1, np.abs(lo)))
+                | np.isclose(x, hi, rtol=0, atol=1e-9 * np.maximum(1, np.abs(hi))))
+    err = np.where(at_bound, np.nan, err)
+    p = dict(zip(names, x))
+    chi_obs, n_obs = {}, {}
+    for lab, z in prob.blocks(p, with_prior=False):
+        z = z[np.isfinite(z)]
+        key = f"{lab['kind']}:{lab['observable']}"
+        chi_obs[key] = float(np.sum(z ** 2))
+        n_obs[key] = int(z.size)
+    z_all = prob.residuals(p)
+    z_all = z_all[np.isfinite(z_all)]
+    return FitResult(effect="+".join(effects) if effects else "baseline",
+                     params={k: float(p[k]) for k in eff_params},
+                     params_err={k: float(err[names.index(k)]) for k in eff_params},
+                     nuisances={k: float(p[k]) for k in names if k not in eff_params},
+                     chi2=float(np.sum(z_all ** 2)), n_obs=int(mask_n.sum()),
+                     n_par=len(names), chi2_by_observable=chi_obs, n_by_observable=n_obs)
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Result of :func:`diagnose` (JSON keys of ``dpdfit diagnose --json``)."""
+
+    campaign: str
+    mismatches: list
+    ranking: list
+    verdict: str
+    redchi_before: dict
+    redchi_after: dict
+    baseline: FitResult
+    chosen: FitResult | None
+    baseline_p_value: float
+    seconds: float
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"campaign": self.campaign, "verdict": self.verdict,
+                "mismatches": self.mismatches, "ranking": self.ranking,
+                "redchi_before": self.redchi_before, "redchi_after": self.redchi_after,
+                "baseline_chi2": self.baseline.chi2, "baseline_dof": self.baseline.dof,
+                "baseline_p_value": self.baseline_p_value,
+                "baseline_nuisances": self.baseline.nuisances,
+                "chosen": None if self.chosen is None else {
+                    "effect": self.chosen.effect, "params": self.chosen.params,
+                    "params_err": self.chosen.params_err, "chi2": self.chosen.chi2,
+                    "dof": self.chosen.dof, "p_fit": self.chosen.p_fit},
+                "units": {p.name: p.unit for e in EFFECTS.values() for p in e.params},
+                "conventions": {"delta_bic": "BIC(effect) - BIC(baseline); negative favours "
+                                             "the effect",
+                                "p_value": "likelihood-ratio test against the baseline "
+                                           "(Wilks, chi2 with the effect's parameter count)",
+                                "params_err": "1 sigma, Gauss-Newton (J^T J)^-1",
+                                "significance_sigma": "two-sided Gaussian equivalent of the "
+                                                      "Bonferroni-corrected p-value"},
+                "alpha": ALPHA, "seconds": self.seconds, **self.extra}
+
+    def report(self) -> str:
+        lines = [f"Diagnosis of {self.campaign}",
+                 f"  baseline chi2 = {self.baseline.chi2:.1f} for {self.baseline.dof} dof "
+                 f"(p = {self.baseline_p_value:.2g})",
+                 f"  verdict: {self.verdict}", "", "  mismatches located:"]
+        if not self.mismatches:
+            lines.append("    none")
+        for m in self.mismatches[:12]:
+            lines.append(f"    {m['observable']:>22s} {m['sideband']:>5s} dpd={m['dpd']:>2} "
+                         f"{m['x']}=[{m['range'][0]:.4g}, {m['range'][1]:.4g}] "
+                         f"{m['significance_sigma']:.1f} sigma, {m['shape']}")
+        lines += ["", "  ranking (delta_bic, LRT p):"]
+        for r in self.ranking[:8]:
+            par = ", ".join(f"{k}={v:.4g}+/-{r['params_err'][k]:.2g}" for k, v in
+                            r["params"].items())
+            lines.append(f"    {r['effect']:>40s} {r['delta_bic']:10.1f} {r['p_value']:9.2g}  "
+                         f"{par}")
+        lines += ["", "  reduced chi2 per observable (before -> after):"]
+        for k in self.redchi_before:
+            lines.append(f"    {k:>28s} {self.redchi_before[k]:8.2f} -> "
+                         f"{self.redchi_after.get(k, float('nan')):8.2f}")
+        return "\n".join(lines)
+
+
+def _sigma(p: float) -> float:
+    return float(norm.isf(p / 2)) if p > 0 else float("inf")
+
+
+def _locate(prob: Problem, p: dict) -> list:
+    series = prob.series(p)
+    out = []
+    for name, sb, d, xname, x, z in series:
+        for dev in scan_intervals(x, z, n_series=len(series), alpha=ALPHA):
+            out.append({"observable": name, "sideband": sb, "dpd": None if d < 0 else int(d),
+                        "x": xname, "range": [dev.lo, dev.hi], "n_points": dev.n_points,
+                        "significance_sigma": dev.significance_sigma,
+                        "p_global": dev.p_global, "shape": dev.shape,
+                        "offset": dev.offset, "slope": dev.slope})
+    # red/blue asymmetry: the same feature deviating differently on the two sidebands
+    out.sort(key=lambda m: -m["significance_sigma"])
+    return out
+
+
+def _rank_entry(base: FitResult, f: FitResult) -> dict:
+    dchi = base.chi2 - f.chi2
+    k = f.n_par - base.n_par
+    return {"effect": f.effect, "delta_bic": float(f.bic - base.bic),
+            "p_value": float(chi2_dist.sf(max(dchi, 0.0), k)), "delta_chi2": float(dchi),
+            "params": f.params, "params_err": f.params_err, "chi2": f.chi2, "dof": f.dof,
+            "p_fit": f.p_fit}
+
+
+def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool = True
+             ) -> Diagnosis:
+    """Diagnose a campaign folder (see module doc).
+
+    Parameters
+    ----------
+    folder : path-like
+        Campaign folder (``dpdfit simulate-campaign`` layout).
+    effects : iterable of str
+        Catalog effects to consider (:data:`dpdfit.effects.EFFECTS`).
+    pairs : int
+        Fit the pairs of this many best single effects (0: none).
+    """
+    t0 = time.perf_counter()
+    camp = load_campaign(folder)
+    prob = Problem(camp, with_gates=with_gates)
+    effects = tuple(e for e in effects if with_gates or EFFECTS[e].side == "tones")
+    base = _fit(prob, ())
+    p_base = base.p_fit
+    pb = {**base.nuisances}
+    mismatches = _locate(prob, pb)
+    fits = {e: _fit(prob, (e,)) for e in effects}
+    ranking = sorted((_rank_entry(base, f) for f in fits.values()), key=lambda r: r["delta_bic"])
+    mismatch = p_base < ALPHA or bool(mismatches)
+    top = [r["effect"] for r in ranking[:pairs]]
+    pair_fits = {}
+    if mismatch and pairs >= 2:
+        for a, b in itertools.combinations(top, 2):
+            pair_fits[f"{a}+{b}"] = _fit(prob, (a, b), starts=[{**fits[a].params,
+                                                                **fits[b].params}])
+        ranking = sorted(ranking + [_rank_entry(base, f) for f in pair_fits.values()],
+                         key=lambda r: r["delta_bic"])
+    verdict, chosen = "none", None
+    if mismatch:
+        verdict = "unexplained"
+        singles = [r for r in ranking if "+" not in r["effect"]]
+        best = singles[0] if singles else None
+        ok = (best is not None and best["delta_bic"] < -BIC_DECISIVE and best["p_value"] < ALPHA)
+        if ok and best["p_fit"] >= ALPHA_FIT:
+            verdict, chosen = best["effect"], fits[best["effect"]]
+        else:
+            prs = [r for r in ranking if "+" in r["effect"] and r["delta_bic"] < -BIC_DECISIVE
+                   and r["p_fit"] >= ALPHA_FIT]
+            if prs and (best is None or prs[0]["delta_bic"] < best["delta_bic"] - BIC_DECISIVE):
+                verdict, chosen = prs[0]["effect"], pair_fits[prs[0]["effect"]]
+    after = chosen or base
+    return Diagnosis(campaign=str(folder), mismatches=mismatches, ranking=ranking,
+                     verdict=verdict, redchi_before=base.redchi(), redchi_after=after.redchi(),
+                     baseline=base, chosen=chosen, baseline_p_value=p_base,
+                     seconds=time.perf_counter() - t0,
+                     extra={"nuisances": {k: NUISANCES[k][0] for k in NUISANCES}})

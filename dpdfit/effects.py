@@ -1,0 +1,438 @@
+"""The forward model of a campaign's observables and the catalog of candidate effects (issue #7).
+
+The *baseline* model is the simulation built from the campaign's own
+calibration: the AM/PM polynomials of the model runs, the predistortion table
+computed from the amplitude run that ``campaign.json`` names (4096 points,
+linear interpolation, as the AWG applies it), the Cardioid(1,2) waveform, and
+for the gates the exact two-ion engine (:mod:`dpdfit.gate_sim`) with the lab's
+error model (``campaign.json`` ``error_model``).  Its existing parameters,
+refitted first with priors from the calibration, are the nuisances
+``a_scale`` (amplitude-axis scale of the calibration, prior from the A_corr
+error) and ``phase_scale`` (prior from the phi(1) error).
+
+Each catalog effect is a named extension with physical parameters, units and
+bounds (flat priors inside them); ``EFFECTS`` lists them.  Tone-side effects
+change the field the waveform produces:
+
+* ``am_pm_omitted`` -- extra AM-to-PM, ``exp(i dphi r^2)``, ``r = |y|/y(1)``;
+* ``aom_memory`` -- single-pole response of the modulator to its drive
+  envelope, ``H(f) = 1/(1 + i 2 pi (f - f_off) tau)``, before the static
+  transfer (Wiener model); ``f_off != 0`` makes red and blue differ;
+* ``stale_calibration`` -- the table belongs to a calibration whose A_corr
+  differs by ``drift`` (relative) from the AOM's today;
+* ``higher_order_im`` -- fifth-order field distortion ``y (1 + k5 r^4)``
+  beyond the calibrated transfer (IM5 and up);
+* ``detector_nonlinearity`` -- the calibration photodiode read
+  ``P (1 + k P/P_max)``: the true transfer is the corrected one while the
+  table was built from the distorted one.
+
+Gate-side effects change the gate observables through the engine's linear
+response (computed once per campaign at the time-scan settings and scaled by
+gate time where the effect is a rate): ``dephasing`` (extra rate, 1/s),
+``motional_heating`` (quanta/ms), ``spam_offset`` (extra preparation error per
+ion), ``gate_rate_miscalibration`` (optical power offset at gate time, dB;
+its response is quadratic and includes the lab's known per-scan jitter and
+gate-rate calibration error), ``higher_nbar`` (extra initial phonons).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import gate_sim
+from .observables import HARMONICS, Campaign, tone_features
+from .transfer import TransferFunction, predistortion_table
+from .waveforms import cardioid, sample_grid, synthesize
+
+__all__ = ["Param", "Effect", "EFFECTS", "NUISANCES", "ToneModel", "GateModel"]
+
+
+@dataclass(frozen=True)
+class Param:
+    """One physical parameter: name, unit, bounds (flat prior inside), start, step."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    start: float
+    scale: float
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A named extension of the forward model."""
+
+    name: str
+    side: str                    # "tones" or "gates"
+    params: tuple
+    meaning: str
+
+
+EFFECTS = {e.name: e for e in (
+    Effect("am_pm_omitted", "tones",
+           (Param("dphi", "rad", -1.0, 1.0, 0.0, 0.05),),
+           "AM-to-PM conversion left out of the model (phase at full drive ~ |y|^2)"),
+    Effect("aom_memory", "tones",
+           (Param("tau", "ns", 0.0, 400.0, 30.0, 20.0),
+            Param("f_off", "MHz", -20.0, 20.0, 0.0, 1.0)),
+           "finite response time of the modulator to its drive envelope (single pole)"),
+    Effect("stale_calibration", "tones",
+           (Param("drift", "fraction", -0.15, 0.15, 0.0, 0.01),),
+           "predistortion table from a calibration whose A_corr differs by this fraction"),
+    Effect("higher_order_im", "tones",
+           (Param("k5", "1", -0.5, 0.5, 0.0, 0.01),),
+           "fifth-order field distortion beyond the calibrated transfer (IM5 and up)"),
+    Effect("detector_nonlinearity", "tones",
+           (Param("k_det", "1/P_max", -0.5, 0.5, 0.0, 0.02),),
+           "calibration photodiode response P (1 + k P/P_max)"),
+    Effect("dephasing", "gates",
+           (Param("gamma", "1/s", 0.0, 2000.0, 10.0, 20.0),),
+           "extra qubit dephasing rate (loss grows with gate time)"),
+    Effect("motional_heating", "gates",
+           (Param("ndot", "quanta/ms", 0.0, 5.0, 0.01, 0.05),),
+           "extra heating of the gate mode"),
+    Effect("spam_offset", "gates",
+           (Param("p_prep", "probability", 0.0, 0.2, 0.001, 0.005),),
+           "extra state-preparation error per ion (constant offset)"),
+    Effect("gate_rate_miscalibration", "gates",
+           (Param("eps", "dB", -3.0, 3.0, 0.0, 0.1),),
+           "optical power at gate time differs from the gate-rate calibration"),
+    Effect("higher_nbar", "gates",
+           (Param("dnbar", "quanta", 0.0, 5.0, 0.05, 0.1),),
+           "higher initial mean phonon number"),
+)}
+
+#: existing parameters of the model, refitted first: name -> (unit, meaning)
+NUISANCES = {"a_scale": ("1", "amplitude-axis scale of the calibration (prior: A_corr error)"),
+             "phase_scale": ("1", "scale of the phase polynomial (prior: phi(1) error)"),
+             "gate_power_offset": ("dB", "absolute scale of the heterodyne tone powers")}
+
+
+# --------------------------------------------------------------------------- tones
+
+
+#: oversampling of the tone model's grid beyond the single-nonlinearity no-alias rate
+OVERSAMPLE = 4
+
+
+class ToneModel:
+    """Predicted tone powers of every trace of the spectra grid (both flags).
+
+    The field is computed on the exact no-alias grid of :mod:`dpdfit.waveforms`
+    (one gate period), so each tone falls on one FFT bin.
+    """
+
+    def __init__(self, camp: Campaign, lut_points: int | None = None):
+        amp, ph = camp.amplitude, camp.phase
+        self.tf = TransferFunction(amp.powers, tuple(amp.coefficients),
+                                   () if ph is None else ph.powers,
+                                   () if ph is None else tuple(ph.coefficients))
+        pts = lut_points or int((camp.meta.get("predistortion_table") or {}).get("points", 4096))
+        target, rf, _ = predistortion_table(self.tf, pts)
+        self.lut_target, self.lut_rf = target, rf
+        self.A = camp.A_tones
+        tones = cardioid()
+        g0 = sample_grid(camp.nu, camp.xi0_spectra, tones, extra_harmonics=(-2, 0, 3, 5))
+        # oversampled: predistortion, memory and the static transfer compose to
+        # products beyond the order-9 no-alias bound of a single nonlinearity
+        self.grid = sample_grid(camp.nu, camp.xi0_spectra, tones, fs=g0.fs * OVERSAMPLE,
+                                extra_harmonics=(-2, 0, 3, 5))
+        self.w = synthesize(tones, self.grid, self.A)                 # (nA, N) real
+        self.freq = np.fft.fftfreq(self.grid.n_samples, 1.0 / self.grid.fs)
+        kb, kr = self.grid.tone_bins(HARMONICS)
+        self.kb, self.kr = kb, kr
+        # static transfer on a fine grid (linear interpolation error < 1e-8)
+        self.xg = np.linspace(0.0, 1.0, 8001)
+        self.yg = self.tf.y(self.xg)
+        self.phig = self.tf.f_pm(self.xg)
+        self.A_corr = float(self.tf.A_corr)
+        self.power_scale = float(amp.power_scale)
+        self.P_max = float(np.max(amp.power(np.linspace(0, 1, 201))))
+        self.A_corr_err = float(amp.A_corr_stderr)
+        self.phi1_err = float(ph.phi_at_1_stderr) if ph is not None else 0.0
+        self.has_phase = ph is not None
+
+    def _static(self, x, s, q, k_det):
+        mag = np.minimum(np.abs(x) * s, 1.0)
+        y = np.interp(mag, self.xg, self.yg) / s
+        if k_det:
+            # calibration read P_meas = P (1 + k P/P_max): undo it
+            u = self.power_scale * (s * y) ** 2 / self.P_max
+            Pt = np.where(np.abs(k_det * u) > 1e-12,
+                          (np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0)) - 1)
+                          / (2 * k_det) if k_det else u, u)
+            y = y * np.sqrt(np.where(u > 0, Pt / np.where(u > 0, u, 1.0), 1.0))
+        phi = q * np.interp(mag, self.xg, self.phig)
+        return y * np.exp(1j * (np.angle(x) + phi))
+
+    def field(self, p: dict) -> np.ndarray:
+        """Complex field, shape (nA, 2 dpd, N), for parameters ``p`` (missing = baseline)."""
+        s = float(p.get("a_scale", 1.0))
+        q = float(p.get("phase_scale", 1.0))
+        t = 1.0 + float(p.get("drift", 0.0))
+        w = self.w
+        # table of the (possibly stale) calibration: rf_t(target) = rf(s' target)/s'
+        st = s * self._table_scale(t)
+        rf_tab = np.interp(np.minimum(st * self.lut_target, 1.0), self.lut_target,
+                           self.lut_rf) / st
+        x1 = np.sign(w) * np.interp(np.abs(w), self.lut_target, rf_tab)
+        x = np.stack([w, x1], axis=1).astype(complex)
+        tau = float(p.get("tau", 0.0)) * 1e-9
+        if tau > 0:
+            H = 1.0 / (1.0 + 2j * np.pi * (self.freq - float(p.get("f_off", 0.0)) * 1e6) * tau)
+            x = np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
+        y = self._static(x, s, q, float(p.get("k_det", 0.0)))
+        dphi, k5 = float(p.get("dphi", 0.0)), float(p.get("k5", 0.0))
+        if dphi or k5:
+            r2 = (np.abs(y) / (self.A_corr)) ** 2
+            y = y * (1 + k5 * r2 ** 2) * np.exp(1j * dphi * r2)
+        return y
+
+    def _table_scale(self, t: float) -> float:
+        """Axis scale s' whose scaled calibration y(s'A)/s' has A_corr = t * A_corr."""
+        if t == 1.0:
+            return 1.0
+        # y(s)/s = t A_corr, solved by a few Newton steps on the fine grid
+        target = t * self.A_corr
+        s = 1.0 / t
+        for _ in range(30):
+            val = np.interp(min(s, 1.0), self.xg, self.yg) / s
+            h = 1e-6
+            d = (np.interp(min(s + h, 1.0), self.xg, self.yg) / (s + h) - val) / h
+            if d == 0:
+                break
+            step = (val - target) / d
+            s -= step
+            if abs(step) < 1e-12:
+                break
+        return float(s)
+
+    def P_dB(self, p: dict) -> np.ndarray:
+        """Tone powers, shape (nA, 2 dpd, 2 sideband [red, blue], len(HARMONICS))."""
+        spec = np.fft.fft(self.field(p), axis=-1) / self.grid.n_samples
+        red, blue = spec[..., self.kr], spec[..., self.kb]
+        P = np.stack([np.abs(red) ** 2, np.abs(blue) ** 2], axis=2)
+        return 10 * np.log10(np.maximum(P, 1e-300))
+
+    def features(self, p: dict) -> dict:
+        return {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
+
+    def gate_tones(self, p: dict, A: float, dpd: int, harmonics=tuple(range(-2, 6))):
+        """Engine-convention tone amplitudes (n, b, c) of the gate waveform at ``A``."""
+        i = int(np.argmin(np.abs(self.A - A)))
+        if abs(self.A[i] - A) > 1e-9:
+            tones = cardioid()
+            w = synthesize(tones, self.grid, np.array([A]))
+            saved = self.w
+            try:
+                self.w = w
+                y = self.field(p)[0, dpd]
+            finally:
+                self.w = saved
+        else:
+            y = self.field(p)[i, dpd]
+        spec = np.fft.fft(y) / self.grid.n_samples
+        n = np.asarray(harmonics)
+        kb, kr = self.grid.tone_bins(n)
+        b, c = gate_sim.field_amplitudes(spec[kb], spec[kr])
+        return n, b, c
+
+
+# --------------------------------------------------------------------------- gates
+
+#: finite-difference steps of the gate-side responses
+_STEPS = {"gamma": 100.0, "ndot": 0.1, "p_prep": 0.01, "eps": 0.3, "dnbar": 0.2}
+#: engine tolerances for the diagnosis (probabilities to ~1e-6, far below shot noise)
+_TOL = {"rtol": 1e-7, "atol": 1e-9}
+_LINEAR = ("gamma", "ndot", "p_prep", "dnbar")
+
+
+class GateModel:
+    """Gate observables under the lab's error model and their response to gate-side effects.
+
+    Baseline values per setting come from the engine (nominal error model, no
+    power error), with each setting's ``eta Omega0`` chosen so that the
+    engine's gate rate equals the recorded ``xi0`` (the lab's calibration).
+    Responses to the effect parameters are finite differences of the engine at
+    the time-scan settings (gate end and every scan time); for the other
+    settings, rate effects (dephasing, heating) are scaled by ``T/T_ref`` and
+    constant effects are taken as they are.  The power error's response is
+    quadratic (``lin eps + quad eps^2``); the known random power errors (per-scan
+    jitter, per-setting gate-rate error) add ``quad * var`` to the expected
+    values and ``lin^2 var`` to the imbalance's variance.
+    """
+
+    def __init__(self, camp: Campaign, tone: ToneModel):
+        em = camp.error_model
+        self.em = em
+        self.nominal = dict(nbar=float(em["nbar"]), T2=float(em["T2_s"]),
+                            ndot=float(em["heating_quanta_per_s"]), p_prep=float(em["p_prep"]),
+                            p_det=float(em["p_det"]))
+        g = camp.gates
+        self.gates = g
+        self.ts = camp.time_scans
+        self.base = {}
+        base_p = {}
+        self._tones = {}
+        for r in g.itertuples():
+            n, b, c = tone.gate_tones(base_p, r.A, r.dpd)
+            eO = r.xi0_hz / gate_sim.calibrate_xi0(b, c, n, 1.0)
+            self._tones[(r.A, r.dpd)] = (n, b, c, eO)
+            res = gate_sim.simulate_setting(b, c, n, eO, r.xi0_hz, **self.nominal, **_TOL)
+            self.base[(r.A, r.dpd)] = _summary(res)
+        # responses at the time-scan settings (or the first setting if none)
+        ref = (list(self.ts.groupby(["A", "dpd"]).groups) if self.ts is not None
+               else [(g.A.iloc[0], int(g.dpd.iloc[0]))])
+        self.ref = {}
+        for (A, d) in ref:
+            key = (float(A), int(d))
+            if key not in self._tones:
+                n, b, c = tone.gate_tones(base_p, A, d)
+                xi = float(g.xi0_hz.iloc[0])
+                self._tones[key] = (n, b, c, xi / gate_sim.calibrate_xi0(b, c, n, 1.0))
+            n, b, c, eO = self._tones[key]
+            row = g[np.isclose(g.A, A) & (g.dpd == d)]
+            xi = float(row.xi0_hz.iloc[0]) if len(row) else eO * gate_sim.calibrate_xi0(
+                b, c, n, 1.0)
+            times = None
+            if self.ts is not None:
+                sel = np.isclose(self.ts.A, A) & (self.ts.dpd == d)
+                times = self.ts.loc[sel, "t_s"].to_numpy()
+                times = times[times > 0]
+            out = {"T": 1.0 / xi, "base": self._run(key, xi, {}, times)}
+            for name, step in _STEPS.items():
+                if name == "eps":
+                    out["eps+"] = self._run(key, xi, {"power_error_db": step}, times)
+                    out["eps-"] = self._run(key, xi, {"power_error_db": -step}, times)
+                else:
+                    out[name] = self._run(key, xi, self._perturb(name, step), times)
+            self.ref[key] = out
+        self.sig_jit = float(em["power_jitter_db"])
+
+    def _perturb(self, name, step):
+        nm = self.nominal
+        if name == "gamma":
+            return {"T2": 1.0 / (1.0 / nm["T2"] + step)}
+        if name == "ndot":
+            return {"ndot": nm["ndot"] + step * 1e3}
+        if name == "p_prep":
+            return {"p_prep": nm["p_prep"] + step}
+        if name == "dnbar":
+            return {"nbar": nm["nbar"] + step}
+        raise KeyError(name)
+
+    def _run(self, key, xi, kw, times):
+        n, b, c, eO = self._tones[key]
+        args = dict(self.nominal)
+        args.update(kw)
+        res = gate_sim.simulate_setting(b, c, n, eO, xi, scan_times=times, **args, **_TOL)
+        s = _summary(res)
+        if times is not None:
+            s["P00_t"] = res.scan_pop[:, 0]
+            s["P11_t"] = res.scan_pop[:, 2]
+        return s
+
+    def _ref_for(self, A, d):
+        keys = list(self.ref)
+        same = [k for k in keys if k[1] == d] or keys
+        return self.ref[min(same, key=lambda k: abs(k[0] - A))]
+
+    def _resp(self, ref, q):
+        """Linear responses per unit parameter at a reference: dict param -> d q."""
+        out = {}
+        for name, step in _STEPS.items():
+            if name == "eps":
+                continue
+            out[name] = (np.asarray(ref[name][q]) - np.asarray(ref["base"][q])) / step
+        lin = (np.asarray(ref["eps+"][q]) - np.asarray(ref["eps-"][q])) / (2 * _STEPS["eps"])
+        quad = (np.asarray(ref["eps+"][q]) + np.asarray(ref["eps-"][q])
+                - 2 * np.asarray(ref["base"][q])) / (2 * _STEPS["eps"] ** 2)
+        return out, lin, quad
+
+    def _tables(self):
+        """Per-setting arrays of baseline values and responses (computed once)."""
+        if getattr(self, "_tab", None) is not None:
+            return self._tab
+        g = self.gates
+        tab = {}
+        T = 1.0 / g.xi0_hz.to_numpy()
+        vj = self.sig_jit ** 2
+        rel = g.xi0_rel_err.to_numpy(dtype=float)
+        vx = np.where(np.isfinite(rel), (20 * np.log10(1 + np.nan_to_num(rel))) ** 2, 0.0)
+        ns = g.n_scans.to_numpy(dtype=float)
+        for q in ("F_pop", "imb", "C"):
+            base = np.array([self.base[(r.A, r.dpd)][q] for r in g.itertuples()])
+            resp = {k: np.zeros(len(g)) for k in _LINEAR}
+            lin, quad = np.zeros(len(g)), np.zeros(len(g))
+            for i, r in enumerate(g.itertuples()):
+                ref = self._ref_for(r.A, r.dpd)
+                le, li, qu = self._resp(ref, q)
+                sT = T[i] / ref["T"]
+                for k in _LINEAR:
+                    resp[k][i] = le[k] * (sT if k in ("gamma", "ndot") else 1.0)
+                lin[i], quad[i] = li, qu
+            tab[q] = (base, resp, lin, quad)
+        tab["var"] = (vj, vx, ns)
+        ts = {}
+        if self.ts is not None:
+            for (A, d), _ in self.ts.groupby(["A", "dpd"], sort=False):
+                ref = self.ref[(float(A), int(d))]
+                for q in ("P00_t", "P11_t"):
+                    ts.setdefault(q, []).append(self._resp(ref, q) + (
+                        np.asarray(ref["base"][q], dtype=float),))
+        tab["ts"] = ts
+        self._tab = tab
+        return tab
+
+    def predict(self, p: dict) -> dict:
+        """Predicted gate observables and their model-side variances.
+
+        Returns dict with arrays over the settings (order of ``camp.gates``):
+        ``F_pop, imb, C`` and ``var_*`` (known random power errors), and over
+        the time-scan points (``t > 0``, concatenated over scans): ``P00_t, P11_t``.
+        Time scan ``k`` also takes ``eps_ts{k}``, its own gate-rate error (dB),
+        on top of ``eps``.
+        """
+        tab = self._tables()
+        eps = float(p.get("eps", 0.0))
+        vj, vx, ns = tab["var"]
+        v_mean = vj / ns + vx
+        res = {}
+        for q in ("F_pop", "imb", "C"):
+            base, resp, lin, quad = tab[q]
+            val = base + lin * eps + quad * (eps ** 2 + vj + vx)
+            for k in _LINEAR:
+                val = val + resp[k] * float(p.get(k, 0.0))
+            res[q] = val
+            res["var_" + q] = (lin ** 2 * v_mean + 2 * quad ** 2 * (vj ** 2 / ns + vx ** 2)
+                               + 4 * quad ** 2 * eps ** 2 * v_mean)
+        for q, parts in tab["ts"].items():
+            acc = []
+            for k, (le, li, qu, base) in enumerate(parts):
+                e = eps + float(p.get(f"eps_ts{k}", 0.0))
+                v = base + li * e + qu * e ** 2
+                for name in _LINEAR:
+                    v = v + le[name] * float(p.get(name, 0.0))
+                acc.append(v)
+            res[q] = np.concatenate(acc)
+        return res
+
+    @property
+    def n_time_scans(self) -> int:
+        return 0 if self.ts is None else int(self.ts.groupby(["A", "dpd"]).ngroups)
+
+    def rate_error_db(self) -> float:
+        """1-sigma power-equivalent error (dB) of one setting's gate-rate calibration."""
+        rel = self.gates.xi0_rel_err.to_numpy(dtype=float)
+        rel = float(np.nanmedian(rel)) if np.isfinite(rel).any() else float(
+            self.em.get("xi0_rel_err", 0.01))
+        return float(20 * np.log10(1 + rel))
+
+
+def _summary(res) -> dict:
+    pop = res.pop
+    return {"F_pop": float(pop[0] + pop[2]), "imb": float(pop[0] - pop[2]),
+            "C": float(res.parity_fit()[0])}
