@@ -500,6 +500,10 @@ def build_parser() -> argparse.ArgumentParser:
     add_stability_command(sub)
     add_propagate_command(sub)
     add_budget_command(sub)
+    from .diagnose import add_diagnose_command
+    from .harness import add_harness_command
+    add_diagnose_command(sub)
+    add_harness_command(sub)
 
     f = sub.add_parser("fidelity", help="Bell fidelities from raw population and parity counts (S7)")
     f.add_argument("--populations", required=True, metavar="POP.csv",

@@ -30,6 +30,7 @@ sits at its bound.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import time
 from dataclasses import dataclass, field
@@ -109,8 +110,11 @@ class Problem:
         for name, (v, e) in self.meas.items():
             m = model[name]
             if name == "gate_power":
-                m = m + float(p.get("gate_power_offset", 0.0))
+                # absolute scale of the tone powers: profiled (weighted mean), 1 parameter
                 e = np.sqrt(e ** 2 + self.sig_jit ** 2)
+                r = v - m
+                ok = np.isfinite(r)
+                m = m + (np.sum(r[ok] / e[ok] ** 2) / np.sum(1 / e[ok] ** 2) if ok.any() else 0)
             z = (v - m) / e
             out.append(({"kind": "tones", "observable": name}, z))
         if self.gate is not None:
@@ -198,21 +202,25 @@ class FitResult:
                 for k in self.chi2_by_observable}
 
 
-def _fit(prob: Problem, effects: tuple, starts=None) -> FitResult:
+def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None) -> FitResult:
+    """Least-squares fit of the nuisances plus the effects' parameters.
+
+    ``fixed`` holds nuisances at given values (the baseline's): the tone and
+    gate sides of the model share no parameter, so an effect on one side is
+    fitted with the other side's nuisances held at their baseline optimum,
+    which is exact and saves the other side's model evaluations.
+    """
+    fixed = dict(fixed or {})
     names, lo, hi, x0, scale = [], [], [], [], []
     for k, s in prob.prior.items():
+        if k in fixed:
+            continue
         c = prob.center[k]
         names.append(k)
         lo.append(c - 50 * s)
         hi.append(c + 50 * s)
         x0.append(c)
         scale.append(s)
-    names.append("gate_power_offset")
-    lo.append(-20.0)
-    hi.append(20.0)
-    x0.append(float(np.nanmedian(prob.meas["gate_power"][0] - prob.tone.features({})[
-        "gate_power"])))
-    scale.append(0.05)
     eff_params = []
     for e in effects:
         for par in EFFECTS[e].params:
@@ -225,21 +233,18 @@ def _fit(prob: Problem, effects: tuple, starts=None) -> FitResult:
     lo, hi = np.array(lo), np.array(hi)
 
     def fun(x):
-        z = prob.residuals(dict(zip(names, x)))
+        z = prob.residuals({**fixed, **dict(zip(names, x))})
         return np.where(np.isfinite(z), z, 0.0)
 
-    i_off = names.index("gate_power_offset")
-    mask_n = np.isfinite(prob.residuals({"gate_power_offset": x0[i_off]}))
+    mask_n = np.isfinite(prob.residuals(fixed))
     candidates = [np.array(x0)]
     if "f_off" in eff_params:
-        for f in (-6.0, 6.0):
+        # the red/blue asymmetry's sign picks the branch: start on both
+        for f in (-3.0, 3.0):
             x = np.array(x0)
             x[names.index("f_off")] = f
+            x[names.index("tau")] = 80.0
             candidates.append(x)
-    if "tau" in eff_params:
-        x = np.array(x0)
-        x[names.index("tau")] = 100.0
-        candidates.append(x)
     if starts:
         for st in starts:
             x = np.array(x0)
@@ -266,7 +271,7 @@ def _fit(prob: Problem, effects: tuple, starts=None) -> FitResult:
     at_bound = (np.isclose(x, lo, rtol=0, atol=1e-9 * np.maximum(1, np.abs(lo)))
                 | np.isclose(x, hi, rtol=0, atol=1e-9 * np.maximum(1, np.abs(hi))))
     err = np.where(at_bound, np.nan, err)
-    p = dict(zip(names, x))
+    p = {**fixed, **dict(zip(names, x))}
     chi_obs, n_obs = {}, {}
     for lab, z in prob.blocks(p, with_prior=False):
         z = z[np.isfinite(z)]
@@ -278,9 +283,11 @@ def _fit(prob: Problem, effects: tuple, starts=None) -> FitResult:
     return FitResult(effect="+".join(effects) if effects else "baseline",
                      params={k: float(p[k]) for k in eff_params},
                      params_err={k: float(err[names.index(k)]) for k in eff_params},
-                     nuisances={k: float(p[k]) for k in names if k not in eff_params},
+                     nuisances={k: float(p[k]) for k in p if k not in eff_params},
                      chi2=float(np.sum(z_all ** 2)), n_obs=int(mask_n.sum()),
-                     n_par=len(names), chi2_by_observable=chi_obs, n_by_observable=n_obs)
+                     # every nuisance (fixed ones were fitted in the baseline) + tone offset
+                     n_par=len(prob.prior) + 1 + len(eff_params),
+                     chi2_by_observable=chi_obs, n_by_observable=n_obs)
 
 
 @dataclass(frozen=True)
@@ -393,15 +400,45 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
     p_base = base.p_fit
     pb = {**base.nuisances}
     mismatches = _locate(prob, pb)
-    fits = {e: _fit(prob, (e,)) for e in effects}
+    tone_nuis = {k: base.nuisances[k] for k in ("a_scale", "phase_scale")}
+    gate_nuis = {k: v for k, v in base.nuisances.items() if k.startswith("eps_ts")}
+
+    def other_side(effs):
+        sides = {EFFECTS[e].side for e in effs}
+        return gate_nuis if sides == {"tones"} else tone_nuis if sides == {"gates"} else {}
+
+    fits = {e: _fit(prob, (e,), fixed=other_side((e,))) for e in effects}
     ranking = sorted((_rank_entry(base, f) for f in fits.values()), key=lambda r: r["delta_bic"])
+    # the best tone-side effect also changes the gates' spectra: re-predict the
+    # gates with its field and refit (tone parameters held at their fit)
+    if prob.gate is not None:
+        tone_best = next((r["effect"] for r in ranking if EFFECTS[r["effect"]].side == "tones"),
+                         None)
+        if tone_best is not None and fits[tone_best].bic < base.bic - BIC_DECISIVE:
+            f = fits[tone_best]
+            held = {**f.nuisances, **f.params}
+            held = {k: v for k, v in held.items() if not k.startswith("eps_ts")}
+            saved = prob.gate
+            prob.gate = saved.rebased(prob.tone, held)
+            try:
+                g = _fit(prob, (), fixed=held)
+            finally:
+                prob.gate = saved
+            fits[tone_best] = dataclasses.replace(
+                g, effect=tone_best, params=f.params, params_err=f.params_err,
+                nuisances={k: v for k, v in g.nuisances.items() if k not in f.params},
+                n_par=f.n_par)
+            ranking = sorted((_rank_entry(base, f) for f in fits.values()),
+                             key=lambda r: r["delta_bic"])
     mismatch = p_base < ALPHA or bool(mismatches)
     top = [r["effect"] for r in ranking[:pairs]]
     pair_fits = {}
-    if mismatch and pairs >= 2:
+    best_ok = bool(ranking) and ranking[0]["p_fit"] >= ALPHA_FIT
+    if mismatch and pairs >= 2 and not best_ok:
         for a, b in itertools.combinations(top, 2):
             pair_fits[f"{a}+{b}"] = _fit(prob, (a, b), starts=[{**fits[a].params,
-                                                                **fits[b].params}])
+                                                                **fits[b].params}],
+                                         fixed=other_side((a, b)))
         ranking = sorted(ranking + [_rank_entry(base, f) for f in pair_fits.values()],
                          key=lambda r: r["delta_bic"])
     verdict, chosen = "none", None
@@ -423,3 +460,98 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                      baseline=base, chosen=chosen, baseline_p_value=p_base,
                      seconds=time.perf_counter() - t0,
                      extra={"nuisances": {k: NUISANCES[k][0] for k in NUISANCES}})
+
+
+# --------------------------------------------------------------------------- plots
+
+
+def plot_diagnosis(result: Diagnosis, folder, outdir) -> list[str]:
+    """Before/after standardised residuals of every series, one figure per observable kind.
+
+    Writes ``diagnosis_tones.png``, ``diagnosis_gates.png`` (and time scans)
+    into ``outdir``: baseline residuals (grey) and residuals under the chosen
+    effect (colour), with the located intervals shaded.  Returns the paths.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from pathlib import Path
+    from ._io import staged_outputs
+    camp = load_campaign(folder)
+    prob = Problem(camp, with_gates=result.baseline.n_obs > 0 and camp.gates is not None)
+    pb = {**result.baseline.nuisances}
+    pa = pb if result.chosen is None else {**result.chosen.nuisances, **result.chosen.params}
+    before = {(s[0], s[1], s[2]): s for s in prob.series(pb)}
+    after = {(s[0], s[1], s[2]): s for s in prob.series(pa)}
+    groups = {"tones": [k for k in before if k[0] in (
+                  "R10", "R23", "R5lo", "R5hi", "gate_balance", "red_blue", "gate_power")],
+              "gates": [k for k in before if k[0] in ("F_pop", "imb", "C", "P00_t", "P11_t")],
+              "calibration": [k for k in before if k[0].startswith("calibration")]}
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    with staged_outputs() as stage:
+        for g, keys in groups.items():
+            if not keys:
+                continue
+            n = len(keys)
+            cols = 4 if n > 4 else n
+            rows = -(-n // cols)
+            fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.4 * rows), squeeze=False)
+            for ax, k in zip(axes.flat, keys):
+                _, sb, d, xname, x, z = before[k]
+                ax.axhline(0, color="k", lw=0.5)
+                ax.plot(x, z, "o", ms=3, color="0.6", label="baseline")
+                if k in after and result.chosen is not None:
+                    ax.plot(after[k][4], after[k][5], "o", ms=3, color="C3",
+                            label=result.chosen.effect)
+                for m in result.mismatches:
+                    if (m["observable"], m["sideband"], -1 if m["dpd"] is None else m["dpd"]) == k:
+                        ax.axvspan(*m["range"], color="C1", alpha=0.2)
+                ax.set_title(f"{k[0]} {sb} " + ("" if d < 0 else f"dpd={d}"), fontsize=8)
+                ax.set_xlabel(xname, fontsize=7)
+                ax.set_ylabel("z", fontsize=7)
+                ax.tick_params(labelsize=6)
+            for ax in list(axes.flat)[n:]:
+                ax.axis("off")
+            axes.flat[0].legend(fontsize=6)
+            fig.suptitle(f"standardised residuals: baseline vs {result.verdict}", fontsize=9)
+            fig.tight_layout()
+            name = f"diagnosis_{g}.png"
+            fig.savefig(stage(out / name), dpi=110, format="png")
+            plt.close(fig)
+            paths.append(str(out / name))
+    return paths
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def cmd_diagnose(args) -> int:
+    import json
+    from ._io import to_jsonable
+    res = diagnose(args.campaign, pairs=args.pairs)
+    if args.plot:
+        plot_diagnosis(res, args.campaign, args.plot)
+    if args.json:
+        print(json.dumps(to_jsonable(res.to_dict()), indent=2))
+    else:
+        print(res.report())
+    return 0
+
+
+def add_diagnose_command(subparsers):
+    """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR]``."""
+    s = subparsers.add_parser(
+        "diagnose", help="locate simulation/recording mismatches and name the missing physics",
+        description="Standardised residuals of every observable against the simulation built "
+                    "from the campaign's own calibration; interval scan with Bonferroni "
+                    "correction; catalog effects fitted and ranked by BIC and likelihood-ratio "
+                    "tests; verdict: an effect, 'none' or 'unexplained'.")
+    s.add_argument("campaign", metavar="CAMPAIGN_DIR")
+    s.add_argument("--json", action="store_true", help="print JSON instead of a report")
+    s.add_argument("--plot", metavar="DIR", help="write before/after residual plots into DIR")
+    s.add_argument("--pairs", type=int, default=3,
+                   help="fit pairs of this many best single effects when there is a mismatch (3)")
+    s.set_defaults(func=cmd_diagnose)
+    return s

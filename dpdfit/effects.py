@@ -114,6 +114,19 @@ NUISANCES = {"a_scale": ("1", "amplitude-axis scale of the calibration (prior: A
 # --------------------------------------------------------------------------- tones
 
 
+def _uniform_interp(x, table):
+    """Linear interpolation in a table on the uniform grid 0..1 (as the AWG applies it).
+
+    Hand-written because ``np.interp`` bisects for every sample; on a uniform
+    grid the index is arithmetic (5-10x faster on the model's ~10^5 samples).
+    """
+    n = table.size - 1
+    u = np.clip(x, 0.0, 1.0) * n
+    i = np.minimum(u.astype(np.intp), n - 1)
+    f = u - i
+    return table[i] + f * (table[i + 1] - table[i])
+
+
 #: oversampling of the tone model's grid beyond the single-nonlinearity no-alias rate
 OVERSAMPLE = 4
 
@@ -145,6 +158,12 @@ class ToneModel:
         kb, kr = self.grid.tone_bins(HARMONICS)
         self.kb, self.kr = kb, kr
         # static transfer on a fine grid (linear interpolation error < 1e-8)
+        # polynomial coefficient vectors (index = power) for direct evaluation
+        self._cy = np.zeros(max(amp.powers) + 1)
+        self._cy[list(amp.powers)] = amp.coefficients
+        self._cp = np.zeros((max(ph.powers) + 1) if ph is not None else 1)
+        if ph is not None:
+            self._cp[list(ph.powers)] = ph.coefficients
         self.xg = np.linspace(0.0, 1.0, 8001)
         self.yg = self.tf.y(self.xg)
         self.phig = self.tf.f_pm(self.xg)
@@ -155,9 +174,12 @@ class ToneModel:
         self.phi1_err = float(ph.phi_at_1_stderr) if ph is not None else 0.0
         self.has_phase = ph is not None
 
+    def _poly_y(self, a):
+        return np.polynomial.polynomial.polyval(a, self._cy)
+
     def _static(self, x, s, q, k_det):
         mag = np.minimum(np.abs(x) * s, 1.0)
-        y = np.interp(mag, self.xg, self.yg) / s
+        y = self._poly_y(mag) / s
         if k_det:
             # calibration read P_meas = P (1 + k P/P_max): undo it
             u = self.power_scale * (s * y) ** 2 / self.P_max
@@ -165,7 +187,9 @@ class ToneModel:
                           (np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0)) - 1)
                           / (2 * k_det) if k_det else u, u)
             y = y * np.sqrt(np.where(u > 0, Pt / np.where(u > 0, u, 1.0), 1.0))
-        phi = q * np.interp(mag, self.xg, self.phig)
+        if not self.has_phase:
+            return y * np.exp(1j * np.angle(x))
+        phi = q * np.polynomial.polynomial.polyval(mag, self._cp)
         return y * np.exp(1j * (np.angle(x) + phi))
 
     def field(self, p: dict) -> np.ndarray:
@@ -178,7 +202,7 @@ class ToneModel:
         st = s * self._table_scale(t)
         rf_tab = np.interp(np.minimum(st * self.lut_target, 1.0), self.lut_target,
                            self.lut_rf) / st
-        x1 = np.sign(w) * np.interp(np.abs(w), self.lut_target, rf_tab)
+        x1 = np.sign(w) * _uniform_interp(np.abs(w), rf_tab)
         x = np.stack([w, x1], axis=1).astype(complex)
         tau = float(p.get("tau", 0.0)) * 1e-9
         if tau > 0:
@@ -311,6 +335,45 @@ class GateModel:
                     out[name] = self._run(key, xi, self._perturb(name, step), times)
             self.ref[key] = out
         self.sig_jit = float(em["power_jitter_db"])
+
+    def rebased(self, tone: ToneModel, p: dict) -> "GateModel":
+        """A copy whose baseline values use the field of tone-side parameters ``p``.
+
+        The settings' spectra (and so the engine's baseline values, gate
+        ends and time scans) follow a tone-side effect such as AOM memory;
+        the linear responses to gate-side effects are kept.
+        """
+        import copy
+        new = copy.copy(self)
+        new._tones = dict(self._tones)
+        new.base = {}
+        for key in self.base:
+            A, d = key
+            n, b, c = tone.gate_tones(p, A, d)
+            xi = float(self.gates.xi0_hz[(np.isclose(self.gates.A, A))
+                                         & (self.gates.dpd == d)].iloc[0])
+            eO = xi / gate_sim.calibrate_xi0(b, c, n, 1.0)
+            new._tones[key] = (n, b, c, eO)
+            new.base[key] = _summary(gate_sim.simulate_setting(b, c, n, eO, xi, **self.nominal,
+                                                               **_TOL))
+        new.ref = {}
+        for key, ref in self.ref.items():
+            r2 = dict(ref)
+            times = None
+            if self.ts is not None:
+                sel = np.isclose(self.ts.A, key[0]) & (self.ts.dpd == key[1])
+                times = self.ts.loc[sel, "t_s"].to_numpy()
+                times = times[times > 0]
+            base = new._run(key, 1.0 / ref["T"], {}, times)
+            shift = {q: np.asarray(base[q]) - np.asarray(ref["base"][q]) for q in base}
+            # shift every perturbed run by the same amount: responses unchanged
+            for name, run in ref.items():
+                if name == "T":
+                    continue
+                r2[name] = {q: np.asarray(run[q]) + shift[q] for q in run}
+            new.ref[key] = r2
+        new._tab = None
+        return new
 
     def _perturb(self, name, step):
         nm = self.nominal
