@@ -543,6 +543,25 @@ def _fmt(v):
     return str(v)
 
 
+def _diagnosis(folder, res, figdir, plot_jobs):
+    """Discrepancy diagnosis (issue #7): verdict, mismatches, ranking -> diagnosis.json."""
+    if not (folder / "spectra.csv").exists():
+        res.status("diagnosis", "skipped", "spectra.csv not found")
+        return None
+    from .diagnose import diagnose, plot_diagnosis
+    d = diagnose(folder)
+    dd = d.to_dict()
+    res.files["diagnosis.json"] = json.dumps(to_jsonable(dd), indent=2) + "\n"
+    res.summary["diagnosis"] = {k: dd[k] for k in ("verdict", "redchi_before", "redchi_after",
+                                                   "baseline_p_value", "chosen")}
+    res.summary["diagnosis"]["mismatches"] = dd["mismatches"][:10]
+    res.summary["diagnosis"]["ranking"] = dd["ranking"][:5]
+    if plot_jobs is not None:
+        plot_jobs.append(lambda _: plot_diagnosis(d, folder, figdir))
+    res.status("diagnosis", "ok", f"verdict: {d.verdict}")
+    return d
+
+
 def _summary_md(res, folder, formula) -> str:
     s = res.summary
     lines = [f"# dpdfit analysis of `{folder}`", "",
@@ -618,6 +637,28 @@ def _summary_md(res, folder, formula) -> str:
             v = b.get(k)
             if isinstance(v, dict):
                 lines.append(f"| {k} | {v['estimate']:.5f} | {v['error']:.5f} |")
+    dg = s.get("diagnosis")
+    if dg:
+        lines += ["", "## Discrepancy diagnosis (simulation vs recordings)", "",
+                  f"Verdict: **{dg['verdict']}** (baseline chi2 p-value "
+                  f"{_fmt(dg['baseline_p_value'])}; `diagnosis.json` has everything).", ""]
+        if dg["mismatches"]:
+            lines += ["| observable | sideband | dpd | range | significance | shape |",
+                      "|---|---|---|---|---|---|"]
+            for m in dg["mismatches"]:
+                lines.append(f"| {m['observable']} | {m['sideband']} | {m['dpd']} | "
+                             f"{m['x']} {m['range'][0]:.4g}-{m['range'][1]:.4g} | "
+                             f"{m['significance_sigma']:.1f} sigma | {m['shape']} |")
+        else:
+            lines.append("No interval of significant deviation in any observable.")
+        lines += ["", "| effect | delta BIC | LRT p | parameters |", "|---|---|---|---|"]
+        for r in dg["ranking"]:
+            par = ", ".join(f"{k} = {v:.4g} +/- {r['params_err'][k]:.2g}"
+                            for k, v in r["params"].items())
+            lines.append(f"| {r['effect']} | {r['delta_bic']:.1f} | {r['p_value']:.2g} | {par} |")
+        lines += ["", "| observable | reduced chi2 before | after |", "|---|---|---|"]
+        for k, v in dg["redchi_before"].items():
+            lines.append(f"| {k} | {v:.3g} | {dg['redchi_after'].get(k, float('nan')):.3g} |")
     lines += ["", "## Realism: paper vs this campaign", "", "| quantity | paper | dpdfit |",
               "|---|---|---|"]
     for r in s.get("realism", []):
@@ -670,6 +711,7 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
             camp.get("nbar_assumed", 0.1))
     guarded("propagation", _propagation, folder, camp, res, cal, figdir, plot_jobs)
     guarded("budget", _budget, folder, res)
+    guarded("diagnosis", _diagnosis, folder, res, figdir, plot_jobs)
     res.summary["realism"] = _realism(res)
     res.summary["failures"] = failures
     out.mkdir(parents=True, exist_ok=True)

@@ -272,6 +272,7 @@ _STEPS = {"gamma": 100.0, "ndot": 0.1, "p_prep": 0.01, "eps": 0.3, "dnbar": 0.2}
 #: engine tolerances for the diagnosis (probabilities to ~1e-6, far below shot noise)
 _TOL = {"rtol": 1e-7, "atol": 1e-9}
 _LINEAR = ("gamma", "ndot", "p_prep", "dnbar")
+_XI_STEP = 0.01
 
 
 class GateModel:
@@ -333,8 +334,16 @@ class GateModel:
                     out["eps-"] = self._run(key, xi, {"power_error_db": -step}, times)
                 else:
                     out[name] = self._run(key, xi, self._perturb(name, step), times)
+            # a gate-rate calibration error: tones at xi (1 + e) with the power for xi
+            out["xi+"] = self._run(key, xi * (1 + _XI_STEP), {}, None)
             self.ref[key] = out
         self.sig_jit = float(em["power_jitter_db"])
+        # power error (dB) equivalent to a relative gate-rate error, from the imbalance
+        ks = []
+        for ref in self.ref.values():
+            lin = (ref["eps+"]["imb"] - ref["eps-"]["imb"]) / (2 * _STEPS["eps"])
+            ks.append((ref["xi+"]["imb"] - ref["base"]["imb"]) / _XI_STEP / lin)
+        self.db_per_rel_xi = float(np.mean(np.abs(ks)))
 
     def rebased(self, tone: ToneModel, p: dict) -> "GateModel":
         """A copy whose baseline values use the field of tone-side parameters ``p``.
@@ -424,7 +433,7 @@ class GateModel:
         T = 1.0 / g.xi0_hz.to_numpy()
         vj = self.sig_jit ** 2
         rel = g.xi0_rel_err.to_numpy(dtype=float)
-        vx = np.where(np.isfinite(rel), (20 * np.log10(1 + np.nan_to_num(rel))) ** 2, 0.0)
+        vx = np.where(np.isfinite(rel), (self.db_per_rel_xi * np.nan_to_num(rel)) ** 2, 0.0)
         ns = g.n_scans.to_numpy(dtype=float)
         for q in ("F_pop", "imb", "C"):
             base = np.array([self.base[(r.A, r.dpd)][q] for r in g.itertuples()])
@@ -492,7 +501,7 @@ class GateModel:
         rel = self.gates.xi0_rel_err.to_numpy(dtype=float)
         rel = float(np.nanmedian(rel)) if np.isfinite(rel).any() else float(
             self.em.get("xi0_rel_err", 0.01))
-        return float(20 * np.log10(1 + rel))
+        return float(self.db_per_rel_xi * rel)
 
 
 def _summary(res) -> dict:

@@ -17,7 +17,8 @@ contains every known noise source and nothing else:
   ``MIN_SNR_DB`` are not used (their reading is an upper limit).
 * **gate observables** per setting ``(A, dpd)``, pooled over the scans:
   population fidelity ``F_pop = P00 + P11``, imbalance ``P00 - P11`` and the
-  parity contrast of the count-level merged fringe (:mod:`dpdfit.counts`).
+  mean of the scans' parity contrasts (binomial MLE per scan, :mod:`dpdfit.counts`;
+  not the count-level merge, whose contrast the scans' power jitter washes out).
 * **time scans**: ``P00`` and ``P11`` at each scan time (binomial).
 * **calibration residuals** of the model's own amplitude and phase runs.
 
@@ -34,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from .calibration import calibrate_amplitude, calibrate_phase
-from .counts import fit_parity, merge_parity, read_parity, read_populations
+from .counts import fit_parity, read_parity, read_populations
 from .errors import InputError
 from .tables import read_calibration, read_table
 
@@ -211,7 +212,6 @@ def _gates(folder: Path, meta: dict):
     if not {"n00", "n11"} <= set(pop.columns):
         raise InputError("the diagnosis needs n00 and n11 (imbalance)", file=str(pop_path),
                          column="n00")
-    merged = merge_parity(par)
     rows = []
     for (A, d), g in pop.groupby(["A", "dpd"]):
         r = rates[(np.isclose(rates.A, A)) & (rates.dpd == d)]
@@ -220,9 +220,14 @@ def _gates(folder: Path, meta: dict):
                              column="xi0_khz")
         N = float(g["shots"].sum())
         p00, p11 = g["n00"].sum() / N, g["n11"].sum() / N
-        m = merged[(np.isclose(merged.A, A)) & (merged.dpd == d)]
-        fit = fit_parity(m["phase_rad"].to_numpy(), m["n_even"].to_numpy(),
-                         m["shots"].to_numpy())
+        # contrast per scan, averaged: each scan's power error also moves its
+        # fringe phase, so a count-level merge would wash the contrast out
+        cs, es = [], []
+        for _, sc in par[(np.isclose(par.A, A)) & (par.dpd == d)].groupby("scan"):
+            f = fit_parity(sc["phase_rad"].to_numpy(), sc["n_even"].to_numpy(),
+                           sc["shots"].to_numpy())
+            cs.append(f.A)
+            es.append(f.A_err)
         xi = float(r["xi0_khz"].iloc[0]) * 1e3
         rel = (float(r["xi0_err_khz"].iloc[0]) * 1e3 / xi if "xi0_err_khz" in r.columns
                else np.nan)
@@ -232,7 +237,8 @@ def _gates(folder: Path, meta: dict):
                      "F_pop": p00 + p11, "F_pop_shot": np.sqrt(pe * (1 - pe) / N),
                      "imb": p00 - p11,
                      "imb_shot": np.sqrt(max(p00 + p11 - (p00 - p11) ** 2, 1.0 / N) / N),
-                     "C": float(fit.A), "C_shot": float(fit.A_err)})
+                     "C": float(np.mean(cs)), "C_shot": float(np.sqrt(np.sum(np.square(es)))
+                                                               / len(es))})
     return pd.DataFrame(rows).sort_values(["dpd", "A"], ignore_index=True)
 
 
