@@ -236,7 +236,7 @@ def _calibrations(cfg: CampaignConfig):
     rng = _rng(cfg, 1)
     inner = np.sort(rng.uniform(0, cfg.amp_span_days, cfg.n_amp_runs - 2))
     days = np.concatenate([[0.0], inner, [cfg.amp_span_days]])
-    days = days + rng.uniform(0, 2 / 24, days.size)          # session start jitter
+    days = np.sort(days + rng.uniform(0, 2 / 24, days.size))  # session start jitter
     A_corr = cfg.A_corr_mean + ou_series(days, cfg.A_corr_sigma, cfg.A_corr_tau_days, rng)
     grid = np.round(np.linspace(0.0, 1.0, cfg.cal_points), 10)
     amp_rows, amp_truth = [], []

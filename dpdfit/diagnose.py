@@ -52,6 +52,8 @@ ALPHA = 0.0027
 ALPHA_FIT = 1e-4
 #: |delta BIC| that counts as decisive (Kass & Raftery: > 10 "very strong")
 BIC_DECISIVE = 10.0
+#: cap on residual evaluations per least-squares start
+MAX_NFEV = 40
 #: effects considered by default
 DEFAULT_EFFECTS = ("am_pm_omitted", "aom_memory", "stale_calibration", "higher_order_im",
                    "detector_nonlinearity", "motional_heating", "dephasing", "spam_offset",
@@ -255,8 +257,11 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None) 
     best = None
     for x in candidates:
         try:
+            # a wrong effect against a strong mismatch converges slowly and is
+            # rejected anyway: cap the evaluations (the right one converges in a few)
             r = least_squares(fun, np.clip(x, lo, hi), bounds=(lo, hi), x_scale=np.array(scale),
-                              method="trf", diff_step=1e-4, max_nfev=200 * len(names))
+                              method="trf", diff_step=1e-4, max_nfev=MAX_NFEV,
+                              ftol=1e-8, xtol=1e-8)
         except ValueError:
             continue
         if best is None or r.cost < best.cost:

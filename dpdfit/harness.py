@@ -60,7 +60,7 @@ CONCEALED = tuple(STRENGTHS)
 
 def harness_config(seed: int) -> CampaignConfig:
     """The reduced campaign of the harness (see module doc)."""
-    return CampaignConfig(seed=seed, spectra_mode="direct", n_amp_runs=3, amp_span_days=2.0,
+    return CampaignConfig(seed=seed, spectra_mode="direct", n_amp_runs=3, amp_span_days=5.0,
                           n_phase_runs=2, phase_span_hours=1.0, gate_amplitudes=(0.4, 0.6, 0.8),
                           scan_shots=((625, 625), (625, 625), (625, 625)),
                           time_scan_A=0.6, time_scan_points=13, bundled_traces=())

@@ -146,8 +146,13 @@ def scan_intervals(x, z, *, min_points: int = 2, alpha: float = 0.0027, n_series
             continue
         used[a:b] = True
         off, slope, label = _shape(x[a:b], z[a:b])
+        sig = _sigma_equivalent(float(p_glob[k]))
+        if not np.isfinite(sig):
+            # p underflows: large-|S| asymptotics of the Bonferroni correction,
+            # |S|^2 - 2 ln(n_intervals n_series) (Gaussian tail exp(-z^2/2))
+            sig = float(np.sqrt(max(S[k] ** 2 - 2 * np.log(n_int * n_series), 0.0)))
         out.append(Deviation(lo=float(x[a]), hi=float(x[b - 1]), n_points=int(b - a),
                              statistic=float(S[k]), p_global=float(p_glob[k]),
-                             significance_sigma=_sigma_equivalent(float(p_glob[k])),
+                             significance_sigma=sig,
                              offset=off, slope=slope, shape=label))
     return out

@@ -69,10 +69,10 @@ def test_concealed_campaign_is_named_and_its_parameters_recovered(tmp_path):
     err = d.chosen.params_err
     assert abs(got["tau"] - params["tau_ns"]) < 2 * err["tau"] + 0.02 * params["tau_ns"]
     assert abs(got["f_off"] - params["f_off_MHz"]) < 2 * err["f_off"] + 0.02 * params["f_off_MHz"]
-    # the fit improves in every tone observable
+    # every observable the effect spoiled is described at the level of its errors again
     for k, v in d.redchi_before.items():
-        if k.startswith("tones:") and v > 2:
-            assert d.redchi_after[k] < v / 5
+        if v > 2:
+            assert d.redchi_after[k] < 1.5, (k, v, d.redchi_after[k])
     # the CLI writes the same verdict and the before/after plots
     code = main(["diagnose", str(CONCEALED_DIR), "--json", "--plot", str(tmp_path)])
     assert code == 0
