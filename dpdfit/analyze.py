@@ -667,7 +667,7 @@ def _summary_md(res, folder, formula) -> str:
 
 
 def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: str = "exact",
-            plots: bool = True) -> dict:
+            plots: bool = True, diagnosis: bool = True) -> dict:
     """Run every analysis on a campaign folder; write results into ``outdir``.
 
     Returns the summary dict (also written as ``summary.json``); its
@@ -711,7 +711,10 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
             camp.get("nbar_assumed", 0.1))
     guarded("propagation", _propagation, folder, camp, res, cal, figdir, plot_jobs)
     guarded("budget", _budget, folder, res)
-    guarded("diagnosis", _diagnosis, folder, res, figdir, plot_jobs)
+    if diagnosis:
+        guarded("diagnosis", _diagnosis, folder, res, figdir, plot_jobs)
+    else:
+        res.status("diagnosis", "skipped", "--no-diagnosis")
     res.summary["realism"] = _realism(res)
     res.summary["failures"] = failures
     out.mkdir(parents=True, exist_ok=True)

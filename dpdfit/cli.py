@@ -395,7 +395,8 @@ def cmd_analyze(args) -> int:
     folder = Path(args.folder)
     if folder.resolve() == out.resolve():
         raise InputError("results folder must differ from the campaign folder", file=str(out))
-    summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots)
+    summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
+                      diagnosis=not args.no_diagnosis)
     for name, st in summary["analyses"].items():
         print(f"{name:12s} {st['status']:8s} {st['detail']}")
     print(f"results in {out}/ (summary.md, summary.json)")
@@ -540,6 +541,8 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--formula", choices=["exact", "paper"], default="exact",
                    help="Bell-fidelity expression for F_est (exact)")
     a.add_argument("--no-plots", action="store_true", help="skip the figures")
+    a.add_argument("--no-diagnosis", action="store_true",
+                   help="skip the discrepancy diagnosis (the slowest step, ~1 min)")
     a.set_defaults(func=cmd_analyze)
     return p
 

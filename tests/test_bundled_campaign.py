@@ -34,7 +34,8 @@ def test_analyze_bundled_campaign(tmp_path):
     s = analyze(BUNDLED, tmp_path / "results", plots=False)
     assert {k: v["status"] for k, v in s["analyses"].items()} == {
         "calibration": "ok", "stability": "ok", "sweep": "ok", "spectra": "ok", "traces": "ok",
-        "gates": "ok", "propagation": "ok", "budget": "ok"}
+        "gates": "ok", "propagation": "ok", "budget": "ok", "diagnosis": "ok"}
+    assert s["diagnosis"]["verdict"] == "none"
     cal = s["calibration"]
     assert cal["n_amplitude_runs"] == 34 and cal["n_phase_runs"] == 6
     assert abs(cal["A_corr_runs_mean"] - 0.5655) < 3 * cal["A_corr_runs_std"] / 34 ** 0.5 + 0.002

@@ -67,10 +67,11 @@ def test_refuses_non_empty_output(small_campaign):
 
 def test_analyze_runs_everything_present(small_campaign, tmp_path):
     out = tmp_path / "res"
-    s = analyze(small_campaign, out, plots=False)
+    s = analyze(small_campaign, out, plots=False, diagnosis=False)
     st = {k: v["status"] for k, v in s["analyses"].items()}
     assert st == {"calibration": "ok", "stability": "ok", "sweep": "ok", "spectra": "ok",
-                  "traces": "ok", "gates": "skipped", "propagation": "ok", "budget": "ok"}
+                  "traces": "ok", "gates": "skipped", "propagation": "ok", "budget": "ok",
+                  "diagnosis": "skipped"}
     for f in ("summary.md", "summary.json", "calibration.json", "sweep.csv",
               "spectra_measured.csv", "traces_check.csv", "calibration_runs.csv"):
         assert (out / f).exists(), f
@@ -91,7 +92,7 @@ def test_analyze_missing_and_malformed_files(small_campaign, tmp_path, capsys):
     out = tmp_path / "res"
     out.mkdir()
     (out / "summary.json").write_text("old")
-    code = main(["analyze", str(camp), "-o", str(out), "--no-plots"])
+    code = main(["analyze", str(camp), "-o", str(out), "--no-plots", "--no-diagnosis"])
     captured = capsys.readouterr()
     assert code == 2
     assert "spectra.csv, column 'P_dB', row 5: 'oops' is not a number" in captured.err

@@ -77,7 +77,7 @@ def test_fidelity_too_few_phases(tmp_path, capsys):
 
 def test_analyze_gate_analysis(tmp_path):
     from dpdfit.analyze import analyze
-    s = analyze(CAMP, tmp_path / "res", plots=True)
+    s = analyze(CAMP, tmp_path / "res", plots=True, diagnosis=False)
     assert s["analyses"]["gates"]["status"] == "ok"
     al = s["gates"]["alignment"]
     assert abs(al["alpha_khz"] - 3.42) < 3 * al["alpha_khz_err"]
