@@ -95,7 +95,8 @@ class Problem:
         self._cache_key, self._cache_val = None, None
 
     def _tone_features(self, p: dict) -> dict:
-        keys = ("a_scale", "phase_scale", "drift", "tau", "f_off", "dphi", "k5", "k_det")
+        keys = ("a_scale", "phase_scale", "tau", "f_off", "dphi", "k5", "k_det") + tuple(
+            f"dc{k}" for k in range(2, 9))
         key = tuple(float(p.get(k, np.nan)) for k in keys)
         if key != self._cache_key:
             self._cache_key, self._cache_val = key, self.tone.features(p)
@@ -272,11 +273,21 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None) 
         cov = np.linalg.pinv(J.T @ J)
         err = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
+        cov = np.full((x.size, x.size), np.nan)
         err = np.full(x.size, np.nan)
     at_bound = (np.isclose(x, lo, rtol=0, atol=1e-9 * np.maximum(1, np.abs(lo)))
                 | np.isclose(x, hi, rtol=0, atol=1e-9 * np.maximum(1, np.abs(hi))))
     err = np.where(at_bound, np.nan, err)
     p = {**fixed, **dict(zip(names, x))}
+    params = {k: float(p[k]) for k in eff_params}
+    perr = {k: float(err[names.index(k)]) for k in eff_params}
+    if "dc2" in eff_params:
+        # stale table: report the fractional A_corr difference, sum(dc)/A_corr (delta method)
+        idx = [names.index(f"dc{k}") for k in range(2, 9)]
+        A_corr = prob.tone.A_corr
+        params = {"drift": float(sum(p[names[i]] for i in idx) / A_corr), **params}
+        perr = {"drift": float(np.sqrt(max(np.sum(cov[np.ix_(idx, idx)]), 0.0)) / A_corr),
+                **perr}
     chi_obs, n_obs = {}, {}
     for lab, z in prob.blocks(p, with_prior=False):
         z = z[np.isfinite(z)]
@@ -286,8 +297,7 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None) 
     z_all = prob.residuals(p)
     z_all = z_all[np.isfinite(z_all)]
     return FitResult(effect="+".join(effects) if effects else "baseline",
-                     params={k: float(p[k]) for k in eff_params},
-                     params_err={k: float(err[names.index(k)]) for k in eff_params},
+                     params=params, params_err=perr,
                      nuisances={k: float(p[k]) for k in p if k not in eff_params},
                      chi2=float(np.sum(z_all ** 2)), n_obs=int(mask_n.sum()),
                      # every nuisance (fixed ones were fitted in the baseline) + tone offset

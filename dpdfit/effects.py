@@ -18,8 +18,11 @@ change the field the waveform produces:
 * ``aom_memory`` -- single-pole response of the modulator to its drive
   envelope, ``H(f) = 1/(1 + i 2 pi (f - f_off) tau)``, before the static
   transfer (Wiener model); ``f_off != 0`` makes red and blue differ;
-* ``stale_calibration`` -- the table belongs to a calibration whose A_corr
-  differs by ``drift`` (relative) from the AOM's today;
+* ``stale_calibration`` -- the table belongs to an earlier calibration whose
+  order-8 polynomial is free (``a_k + dc_k``, unit slope kept: a drifted AOM
+  *and* that run's own fit errors); reported as ``drift = sum(dc_k)/A_corr``,
+  the fractional A_corr difference.  The forward model (today's AOM) is
+  unchanged, so only the DPD flag is affected;
 * ``higher_order_im`` -- fifth-order field distortion ``y (1 + k5 r^4)``
   beyond the calibrated transfer (IM5 and up);
 * ``detector_nonlinearity`` -- the calibration photodiode read
@@ -80,8 +83,10 @@ EFFECTS = {e.name: e for e in (
             Param("f_off", "MHz", -20.0, 20.0, 0.0, 1.0)),
            "finite response time of the modulator to its drive envelope (single pole)"),
     Effect("stale_calibration", "tones",
-           (Param("drift", "fraction", -0.15, 0.15, 0.0, 0.01),),
-           "predistortion table from a calibration whose A_corr differs by this fraction"),
+           tuple(Param(f"dc{k}", "1", -0.5, 0.5, 0.0, 0.005) for k in range(2, 9)),
+           "predistortion table from an earlier calibration: its amplitude polynomial "
+           "a_k + dc_k (k = 2..8, a_1 = 1) is free; reported as drift = sum(dc_k)/A_corr, "
+           "the fractional A_corr difference"),
     Effect("higher_order_im", "tones",
            (Param("k5", "1", -0.5, 0.5, 0.0, 0.01),),
            "fifth-order field distortion beyond the calibrated transfer (IM5 and up)"),
@@ -196,12 +201,10 @@ class ToneModel:
         """Complex field, shape (nA, 2 dpd, N), for parameters ``p`` (missing = baseline)."""
         s = float(p.get("a_scale", 1.0))
         q = float(p.get("phase_scale", 1.0))
-        t = 1.0 + float(p.get("drift", 0.0))
         w = self.w
-        # table of the (possibly stale) calibration: rf_t(target) = rf(s' target)/s'
-        st = s * self._table_scale(t)
-        rf_tab = np.interp(np.minimum(st * self.lut_target, 1.0), self.lut_target,
-                           self.lut_rf) / st
+        base_rf = self._stale_table(p)
+        # the whole calibration scaled along the amplitude axis: rf(s target)/s
+        rf_tab = np.interp(np.minimum(s * self.lut_target, 1.0), self.lut_target, base_rf) / s
         x1 = np.sign(w) * _uniform_interp(np.abs(w), rf_tab)
         x = np.stack([w, x1], axis=1).astype(complex)
         tau = float(p.get("tau", 0.0)) * 1e-9
@@ -215,24 +218,19 @@ class ToneModel:
             y = y * (1 + k5 * r2 ** 2) * np.exp(1j * dphi * r2)
         return y
 
-    def _table_scale(self, t: float) -> float:
-        """Axis scale s' whose scaled calibration y(s'A)/s' has A_corr = t * A_corr."""
-        if t == 1.0:
-            return 1.0
-        # y(s)/s = t A_corr, solved by a few Newton steps on the fine grid
-        target = t * self.A_corr
-        s = 1.0 / t
-        for _ in range(30):
-            val = np.interp(min(s, 1.0), self.xg, self.yg) / s
-            h = 1e-6
-            d = (np.interp(min(s + h, 1.0), self.xg, self.yg) / (s + h) - val) / h
-            if d == 0:
-                break
-            step = (val - target) / d
-            s -= step
-            if abs(step) < 1e-12:
-                break
-        return float(s)
+    def _stale_table(self, p: dict) -> np.ndarray:
+        """Table (RF amplitude per target on the uniform grid) of the table's calibration."""
+        if "dc2" not in p:
+            return self.lut_rf
+        # rebuilt even at dc = 0, so the model is smooth in dc for the Jacobian
+        dc = np.array([float(p.get(f"dc{k}", 0.0)) for k in range(2, 9)])
+        c = self._cy.copy()
+        c[2:2 + dc.size] += dc[:max(c.size - 2, 0)]
+        yt = np.polynomial.polynomial.polyval(self.xg, c)
+        # inverse by interpolation on the fine grid (monotone part), clamped to full drive
+        top = int(np.argmax(yt))
+        inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
+        return np.where(self.lut_target >= yt[top], self.xg[top], inv)
 
     def P_dB(self, p: dict) -> np.ndarray:
         """Tone powers, shape (nA, 2 dpd, 2 sideband [red, blue], len(HARMONICS))."""
