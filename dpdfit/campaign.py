@@ -288,6 +288,7 @@ def _calibrations(cfg: CampaignConfig):
              "lut_run": f"R{lut_run + 1:03d}", "lut_fit_A_corr": fit.A_corr,
              "day_fit_A_corr": day_fit.A_corr,
              "lut_relative_A_corr": fit.A_corr / day_fit.A_corr - 1,
+             "lut_relative_y05": float(fit.y(0.5) / day_fit.y(0.5) - 1),
              "detector_nonlinearity_rel_max": cfg.detector_nonlinearity
              * float(amp_rows[-1]["power"].max()) / cfg.photodiode.p_full,
              "day_A_corr": float(A_corr[-1]), "day_phi_at_1": float(phi1[-1])}

@@ -52,8 +52,10 @@ ALPHA = 0.0027
 ALPHA_FIT = 1e-4
 #: |delta BIC| that counts as decisive (Kass & Raftery: > 10 "very strong")
 BIC_DECISIVE = 10.0
+#: stale_calibration's "drift" is the table calibration's fractional y(A) difference at this A
+DRIFT_AT_A = 0.5
 #: cap on residual evaluations per least-squares start
-MAX_NFEV = 40
+MAX_NFEV = 100
 #: effects considered by default
 DEFAULT_EFFECTS = ("am_pm_omitted", "aom_memory", "stale_calibration", "higher_order_im",
                    "detector_nonlinearity", "motional_heating", "dephasing", "spam_offset",
@@ -71,9 +73,8 @@ class Problem:
                      else None)
         em = camp.error_model
         self.sig_jit = float(em["power_jitter_db"])
-        self.prior = {"a_scale": max(self.tone.A_corr_err / self.tone.A_corr, 1e-5),
-                      "phase_scale": (max(self.tone.phi1_err / max(abs(self.tone.phig[-1]), 1e-12),
-                                          1e-5) if self.tone.has_phase else 1e-5)}
+        # existing parameters: the calibration's error modes, N(0, 1) priors
+        self.prior = {k: 1.0 for k in self.tone.mode_names}
         if self.gate is not None:
             g = self.gate.gates
             self.g_meas = {q: g[q].to_numpy() for q in ("F_pop", "imb", "C")}
@@ -87,7 +88,7 @@ class Problem:
                 self.ts = pd.concat(parts, ignore_index=True)
             else:
                 self.ts = None
-        self.center = {"a_scale": 1.0, "phase_scale": 1.0}
+        self.center = {k: 0.0 for k in self.tone.mode_names}
         if self.gate is not None:
             for k in range(self.gate.n_time_scans):
                 self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
@@ -95,8 +96,8 @@ class Problem:
         self._cache_key, self._cache_val = None, None
 
     def _tone_features(self, p: dict) -> dict:
-        keys = ("a_scale", "phase_scale", "tau", "f_off", "dphi", "k5", "k_det") + tuple(
-            f"dc{k}" for k in range(2, 9))
+        keys = ("tau", "f_off", "dphi", "k5", "k_det") + tuple(
+            f"st{i}" for i in range(7)) + tuple(self.tone.mode_names)
         key = tuple(float(p.get(k, np.nan)) for k in keys)
         if key != self._cache_key:
             self._cache_key, self._cache_val = key, self.tone.features(p)
@@ -205,7 +206,8 @@ class FitResult:
                 for k in self.chi2_by_observable}
 
 
-def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None) -> FitResult:
+def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
+         init: dict | None = None) -> FitResult:
     """Least-squares fit of the nuisances plus the effects' parameters.
 
     ``fixed`` holds nuisances at given values (the baseline's): the tone and
@@ -234,6 +236,9 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None) 
             scale.append(par.scale)
             eff_params.append(par.name)
     lo, hi = np.array(lo), np.array(hi)
+    for k, v in (init or {}).items():             # e.g. nuisances at the baseline's optimum
+        if k in names:
+            x0[names.index(k)] = float(np.clip(v, lo[names.index(k)], hi[names.index(k)]))
 
     def fun(x):
         z = prob.residuals({**fixed, **dict(zip(names, x))})
@@ -281,13 +286,16 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None) 
     p = {**fixed, **dict(zip(names, x))}
     params = {k: float(p[k]) for k in eff_params}
     perr = {k: float(err[names.index(k)]) for k in eff_params}
-    if "dc2" in eff_params:
-        # stale table: report the fractional A_corr difference, sum(dc)/A_corr (delta method)
-        idx = [names.index(f"dc{k}") for k in range(2, 9)]
-        A_corr = prob.tone.A_corr
-        params = {"drift": float(sum(p[names[i]] for i in idx) / A_corr), **params}
-        perr = {"drift": float(np.sqrt(max(np.sum(cov[np.ix_(idx, idx)]), 0.0)) / A_corr),
-                **perr}
+    if "st0" in eff_params:
+        # stale table: report the fractional difference of the table's y(A) at A = 0.5
+        # (mid gate range, where the spectra constrain it; y(1) is an extrapolation
+        # for DPD'd waveforms) by the delta method (dc = st @ modes is linear)
+        idx = [names.index(f"st{i}") for i in range(len(prob.tone.stale_modes))]
+        a = DRIFT_AT_A
+        y_a = float(np.polynomial.polynomial.polyval(a, prob.tone._cy))
+        g = prob.tone.stale_modes @ (a ** np.arange(2, 2 + prob.tone.stale_modes.shape[1])) / y_a
+        params = {"drift": float(g @ np.array([p[names[i]] for i in idx])), **params}
+        perr = {"drift": float(np.sqrt(max(g @ cov[np.ix_(idx, idx)] @ g, 0.0))), **perr}
     chi_obs, n_obs = {}, {}
     for lab, z in prob.blocks(p, with_prior=False):
         z = z[np.isfinite(z)]
@@ -415,14 +423,14 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
     p_base = base.p_fit
     pb = {**base.nuisances}
     mismatches = _locate(prob, pb)
-    tone_nuis = {k: base.nuisances[k] for k in ("a_scale", "phase_scale")}
+    tone_nuis = {k: base.nuisances[k] for k in prob.tone.mode_names}
     gate_nuis = {k: v for k, v in base.nuisances.items() if k.startswith("eps_ts")}
 
     def other_side(effs):
         sides = {EFFECTS[e].side for e in effs}
         return gate_nuis if sides == {"tones"} else tone_nuis if sides == {"gates"} else {}
 
-    fits = {e: _fit(prob, (e,), fixed=other_side((e,))) for e in effects}
+    fits = {e: _fit(prob, (e,), fixed=other_side((e,)), init=base.nuisances) for e in effects}
     ranking = sorted((_rank_entry(base, f) for f in fits.values()), key=lambda r: r["delta_bic"])
     # the best tone-side effect also changes the gates' spectra: re-predict the
     # gates with its field and refit (tone parameters held at their fit)
@@ -453,7 +461,7 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
         for a, b in itertools.combinations(top, 2):
             pair_fits[f"{a}+{b}"] = _fit(prob, (a, b), starts=[{**fits[a].params,
                                                                 **fits[b].params}],
-                                         fixed=other_side((a, b)))
+                                         fixed=other_side((a, b)), init=base.nuisances)
         ranking = sorted(ranking + [_rank_entry(base, f) for f in pair_fits.values()],
                          key=lambda r: r["delta_bic"])
     verdict, chosen = "none", None

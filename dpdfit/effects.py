@@ -20,8 +20,9 @@ change the field the waveform produces:
   transfer (Wiener model); ``f_off != 0`` makes red and blue differ;
 * ``stale_calibration`` -- the table belongs to an earlier calibration whose
   order-8 polynomial is free (``a_k + dc_k``, unit slope kept: a drifted AOM
-  *and* that run's own fit errors); reported as ``drift = sum(dc_k)/A_corr``,
-  the fractional A_corr difference.  The forward model (today's AOM) is
+  *and* that run's own fit errors), parametrised by the calibration's 7 error
+  modes; reported as ``drift``, the table calibration's fractional difference
+  of y(0.5) (mid gate range: the spectra constrain it, unlike y(1)).  The forward model (today's AOM) is
   unchanged, so only the DPD flag is affected;
 * ``higher_order_im`` -- fifth-order field distortion ``y (1 + k5 r^4)``
   beyond the calibrated transfer (IM5 and up);
@@ -83,10 +84,11 @@ EFFECTS = {e.name: e for e in (
             Param("f_off", "MHz", -20.0, 20.0, 0.0, 1.0)),
            "finite response time of the modulator to its drive envelope (single pole)"),
     Effect("stale_calibration", "tones",
-           tuple(Param(f"dc{k}", "1", -0.5, 0.5, 0.0, 0.005) for k in range(2, 9)),
+           tuple(Param(f"st{i}", "sigma", -60.0, 60.0, 0.0, 1.0) for i in range(7)),
            "predistortion table from an earlier calibration: its amplitude polynomial "
-           "a_k + dc_k (k = 2..8, a_1 = 1) is free; reported as drift = sum(dc_k)/A_corr, "
-           "the fractional A_corr difference"),
+           "a_k + dc_k (k = 2..8, a_1 = 1) is free, parametrised by the calibration's 7 "
+           "error modes (st_i, in units of their sigma); reported as drift = the table "
+           "calibration's fractional difference of y(0.5)"),
     Effect("higher_order_im", "tones",
            (Param("k5", "1", -0.5, 0.5, 0.0, 0.01),),
            "fifth-order field distortion beyond the calibrated transfer (IM5 and up)"),
@@ -111,8 +113,10 @@ EFFECTS = {e.name: e for e in (
 )}
 
 #: existing parameters of the model, refitted first: name -> (unit, meaning)
-NUISANCES = {"a_scale": ("1", "amplitude-axis scale of the calibration (prior: A_corr error)"),
-             "phase_scale": ("1", "scale of the phase polynomial (prior: phi(1) error)"),
+NUISANCES = {"cal_amp0..3": ("sigma", "largest error modes of the amplitude calibration "
+                                        "(forward model only; prior N(0, 1))"),
+             "cal_phase0..1": ("sigma", "largest error modes of the phase calibration"),
+             "eps_ts*": ("dB", "each time scan's gate-rate error (prior: rate calibration)"),
              "gate_power_offset": ("dB", "absolute scale of the heterodyne tone powers")}
 
 
@@ -134,6 +138,23 @@ def _uniform_interp(x, table):
 
 #: oversampling of the tone model's grid beyond the single-nonlinearity no-alias rate
 OVERSAMPLE = 4
+#: calibration-uncertainty modes refitted as nuisances (amplitude, phase)
+N_AMP_MODES = 4
+N_PHASE_MODES = 2
+
+
+def _modes(cov, powers, k):
+    """Coefficient directions of the ``k`` largest function-space error modes (1 sigma each)."""
+    cov = np.asarray(cov, dtype=float)
+    n = cov.shape[0]
+    if n == 0 or k == 0 or not np.all(np.isfinite(cov)):
+        return np.zeros((0, n))
+    w, U = np.linalg.eigh(0.5 * (cov + cov.T))
+    L = U * np.sqrt(np.clip(w, 0, None))                    # cov = L L^T
+    A = np.linspace(0.0, 1.0, 101)
+    V = A[:, None] ** np.asarray(powers, dtype=float)[None, :]
+    _, sv, Vt = np.linalg.svd(V @ L, full_matrices=False)
+    return np.array([L @ Vt[i] for i in range(min(k, n))])
 
 
 class ToneModel:
@@ -178,13 +199,39 @@ class ToneModel:
         self.A_corr_err = float(amp.A_corr_stderr)
         self.phi1_err = float(ph.phi_at_1_stderr) if ph is not None else 0.0
         self.has_phase = ph is not None
+        # calibration uncertainty as nuisance modes: the coefficient errors
+        # delta = L z (C = L L^T, z ~ N(0, I)) rotated so that the first modes
+        # move y(A) (phi(A)) most on [0, 1]; each mode has a N(0, 1) prior
+        self.amp_modes = _modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:],
+                                N_AMP_MODES)
+        self.phase_modes = (_modes(np.asarray(ph.covariance), ph.powers, N_PHASE_MODES)
+                            if ph is not None else np.zeros((0, 1)))
+        self.stale_modes = _modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:], 7)
+        self.mode_names = ([f"cal_amp{i}" for i in range(len(self.amp_modes))]
+                           + [f"cal_phase{i}" for i in range(len(self.phase_modes))])
 
-    def _poly_y(self, a):
-        return np.polynomial.polynomial.polyval(a, self._cy)
+    def stale_dc(self, p: dict) -> np.ndarray:
+        """Coefficient changes dc_k (k = 2..8) of the stale table's calibration."""
+        v = np.array([float(p.get(f"st{i}", 0.0)) for i in range(len(self.stale_modes))])
+        return v @ self.stale_modes if v.size else np.zeros(0)
 
-    def _static(self, x, s, q, k_det):
+    def _coefficients(self, p: dict):
+        """Forward-model coefficient vectors with the calibration modes applied."""
+        cy, cp = self._cy, self._cp
+        if any(p.get(f"cal_amp{i}", 0.0) for i in range(len(self.amp_modes))):
+            cy = cy.copy()
+            for i, m in enumerate(self.amp_modes):
+                cy[2:2 + m.size] += float(p.get(f"cal_amp{i}", 0.0)) * m
+        if any(p.get(f"cal_phase{i}", 0.0) for i in range(len(self.phase_modes))):
+            cp = cp.copy()
+            for i, m in enumerate(self.phase_modes):
+                cp[1:1 + m.size] += float(p.get(f"cal_phase{i}", 0.0)) * m
+        return cy, cp
+
+    def _static(self, x, s, q, k_det, coef=None):
+        cy, cp = coef if coef is not None else (self._cy, self._cp)
         mag = np.minimum(np.abs(x) * s, 1.0)
-        y = self._poly_y(mag) / s
+        y = np.polynomial.polynomial.polyval(mag, cy) / s
         if k_det:
             # calibration read P_meas = P (1 + k P/P_max): undo it
             u = self.power_scale * (s * y) ** 2 / self.P_max
@@ -194,7 +241,7 @@ class ToneModel:
             y = y * np.sqrt(np.where(u > 0, Pt / np.where(u > 0, u, 1.0), 1.0))
         if not self.has_phase:
             return y * np.exp(1j * np.angle(x))
-        phi = q * np.polynomial.polynomial.polyval(mag, self._cp)
+        phi = q * np.polynomial.polynomial.polyval(mag, cp)
         return y * np.exp(1j * (np.angle(x) + phi))
 
     def field(self, p: dict) -> np.ndarray:
@@ -211,7 +258,7 @@ class ToneModel:
         if tau > 0:
             H = 1.0 / (1.0 + 2j * np.pi * (self.freq - float(p.get("f_off", 0.0)) * 1e6) * tau)
             x = np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
-        y = self._static(x, s, q, float(p.get("k_det", 0.0)))
+        y = self._static(x, s, q, float(p.get("k_det", 0.0)), self._coefficients(p))
         dphi, k5 = float(p.get("dphi", 0.0)), float(p.get("k5", 0.0))
         if dphi or k5:
             r2 = (np.abs(y) / (self.A_corr)) ** 2
@@ -220,17 +267,18 @@ class ToneModel:
 
     def _stale_table(self, p: dict) -> np.ndarray:
         """Table (RF amplitude per target on the uniform grid) of the table's calibration."""
-        if "dc2" not in p:
+        if "st0" not in p:
             return self.lut_rf
-        # rebuilt even at dc = 0, so the model is smooth in dc for the Jacobian
-        dc = np.array([float(p.get(f"dc{k}", 0.0)) for k in range(2, 9)])
+        # rebuilt even at st = 0, so the model is smooth in st for the Jacobian
+        dc = self.stale_dc(p)
         c = self._cy.copy()
-        c[2:2 + dc.size] += dc[:max(c.size - 2, 0)]
+        c[2:2 + dc.size] += dc
         yt = np.polynomial.polynomial.polyval(self.xg, c)
         # inverse by interpolation on the fine grid (monotone part), clamped to full drive
         top = int(np.argmax(yt))
         inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
-        return np.where(self.lut_target >= yt[top], self.xg[top], inv)
+        # as predistortion_table: targets at or above y(1) = A_corr drive full scale
+        return np.where(self.lut_target >= yt[-1], 1.0, inv)
 
     def P_dB(self, p: dict) -> np.ndarray:
         """Tone powers, shape (nA, 2 dpd, 2 sideband [red, blue], len(HARMONICS))."""

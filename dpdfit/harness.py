@@ -74,7 +74,7 @@ def truth_params(effect: str, strengths: dict, truth: dict) -> dict:
     if effect == "aom_memory":
         return {"tau": strengths["aom_memory"], "f_off": strengths["aom_memory_offset"]}
     if effect == "stale_calibration":
-        return {"drift": cal["lut_relative_A_corr"]}
+        return {"drift": cal["lut_relative_y05"]}
     if effect == "higher_order_im":
         return {"k5": strengths["higher_order_im"]}
     if effect == "detector_nonlinearity":
