@@ -52,6 +52,9 @@ ALPHA = 0.0027
 ALPHA_FIT = 1e-4
 #: |delta BIC| that counts as decisive (Kass & Raftery: > 10 "very strong")
 BIC_DECISIVE = 10.0
+#: a pair whose second effect adds less than this fraction of the first's chi2 improvement
+#: names the first (dominant) effect
+DOMINANT_FRACTION = 0.01
 #: stale_calibration's "drift" is the table calibration's fractional y(A) difference at this A
 DRIFT_AT_A = 0.5
 #: cap on residual evaluations per least-squares start
@@ -477,6 +480,13 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                    and r["p_fit"] >= ALPHA_FIT]
             if prs and (best is None or prs[0]["delta_bic"] < best["delta_bic"] - BIC_DECISIVE):
                 verdict, chosen = prs[0]["effect"], pair_fits[prs[0]["effect"]]
+                # a partner that adds < DOMINANT_FRACTION of the improvement only refines
+                # the dominant effect's functional form (e.g. a memory kernel that is not
+                # exactly single-pole): name the dominant effect, describe with the pair
+                if (ok and best["effect"] in verdict.split("+")
+                        and prs[0]["delta_chi2"] - best["delta_chi2"]
+                        < DOMINANT_FRACTION * best["delta_chi2"]):
+                    verdict = best["effect"]
     after = chosen or base
     return Diagnosis(campaign=str(folder), mismatches=mismatches, ranking=ranking,
                      verdict=verdict, redchi_before=base.redchi(), redchi_after=after.redchi(),
