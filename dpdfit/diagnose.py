@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_dist
-from scipy.stats import norm
 
 from .effects import EFFECTS, NUISANCES, GateModel, ToneModel
 from .observables import Campaign, load_campaign, tone_features
@@ -375,10 +374,6 @@ class Diagnosis:
             lines.append(f"    {k:>28s} {self.redchi_before[k]:8.2f} -> "
                          f"{self.redchi_after.get(k, float('nan')):8.2f}")
         return "\n".join(lines)
-
-
-def _sigma(p: float) -> float:
-    return float(norm.isf(p / 2)) if p > 0 else float("inf")
 
 
 def _locate(prob: Problem, p: dict) -> list:

@@ -26,7 +26,6 @@ Runs are independent: :func:`run_harness` spreads them over local processes
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import shutil
@@ -273,9 +272,6 @@ def write_report(summary: dict, path) -> None:
     tmp.write_text(json.dumps(to_jsonable(summary), indent=1, sort_keys=True) + "\n")
     os.replace(tmp, path)
 
-
-def _config_fields() -> list:
-    return [f.name for f in dataclasses.fields(CampaignConfig)]
 
 
 def cmd_harness(args) -> int:
