@@ -487,7 +487,8 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                      verdict=verdict, redchi_before=base.redchi(), redchi_after=after.redchi(),
                      baseline=base, chosen=chosen, baseline_p_value=p_base,
                      seconds=time.perf_counter() - t0,
-                     extra={"nuisances": {k: NUISANCES[k][0] for k in NUISANCES}})
+                     extra={"nuisances": {k: NUISANCES[k][0] for k in NUISANCES},
+                            "warnings": list(camp.warnings)})
 
 
 # --------------------------------------------------------------------------- plots
@@ -558,7 +559,10 @@ def plot_diagnosis(result: Diagnosis, folder, outdir) -> list[str]:
 def cmd_diagnose(args) -> int:
     import json
     from ._io import to_jsonable
+    import sys
     res = diagnose(args.campaign, pairs=args.pairs)
+    for w in res.extra.get("warnings", []):
+        print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:
         plot_diagnosis(res, args.campaign, args.plot)
     if args.json:

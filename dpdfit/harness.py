@@ -91,6 +91,9 @@ def truth_params(effect: str, strengths: dict, truth: dict) -> dict:
 
 def plan(per_effect: int = 20, nulls: int = 20, seed: int = 7, effects=CONCEALED) -> list:
     """The list of injections: dicts with ``concealed``, ``seed``, ``effects``."""
+    if per_effect < 0 or nulls < 0 or per_effect + nulls == 0:
+        raise InputError(f"need --per-effect >= 0 and --nulls >= 0, not both 0 "
+                         f"(got {per_effect} and {nulls})")
     rng = np.random.default_rng(seed)
     jobs = []
     for e in effects:
@@ -165,6 +168,8 @@ def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = Non
                 progress=None) -> dict:
     """Run the harness; returns the summary (see :func:`summarise`) with all runs."""
     jobs = plan(per_effect, nulls, seed, effects)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers must be >= 1, got {workers}")
     t0 = time.perf_counter()
     results = []
     if scheduler:
@@ -298,11 +303,14 @@ def cmd_harness(args) -> int:
 
 def report(s: dict) -> str:
     """Readable harness summary."""
+    def num(v):
+        return "n/a" if v is None else f"{v:.3g}"
+
     lines = [f"Injection-recovery harness: {s['n_runs']} campaigns in {s['seconds']:.0f} s",
-             f"  named correctly overall: {s['named_correctly_overall']}",
-             f"  false-alarm rate (nulls): {s['false_alarm_rate']}",
-             f"  median reduced chi2 before -> after: {s['median_redchi_before']:.3g} -> "
-             f"{s['median_redchi_after']:.3g}", "", "  confusion (concealed -> named):"]
+             f"  named correctly overall: {num(s['named_correctly_overall'])}",
+             f"  false-alarm rate (nulls): {num(s['false_alarm_rate'])}",
+             f"  median reduced chi2 before -> after: {num(s['median_redchi_before'])} -> "
+             f"{num(s['median_redchi_after'])}", "", "  confusion (concealed -> named):"]
     for c, row in s["confusion"].items():
         lines.append(f"    {c:>26s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
     lines += ["", "  recovery (named cases):"]

@@ -81,6 +81,8 @@ class Campaign:
         ``A, dpd, t_s, n00, n11, shots``.
     error_model : dict
         The lab's error model (``campaign.json`` ``error_model``, else defaults).
+    warnings : tuple of str
+        One line each, e.g. a non-monotone model calibration.
     """
 
     folder: Path
@@ -95,6 +97,7 @@ class Campaign:
     gates: pd.DataFrame | None
     time_scans: pd.DataFrame | None
     error_model: dict = field(default_factory=dict)
+    warnings: tuple = ()
 
     @property
     def nu(self) -> float:
@@ -263,6 +266,12 @@ def load_campaign(folder) -> Campaign:
         raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
                          file=str(folder / "campaign.json")) from None
     amp, amp_res, ph, ph_res = _calibrations(folder, meta)
+    warnings = []
+    if not amp.monotone:
+        iv = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in amp.nonmonotone_intervals)
+        warnings.append(f"{folder / 'calibration_amplitude.csv'}, run "
+                        f"{amp.source.get('run', '?')}: amplitude calibration decreases on "
+                        f"A in {iv}; the predistortion table clamps there")
     if not (folder / "spectra.csv").exists():
         raise InputError("the diagnosis needs spectra.csv", file=str(folder))
     A, P, sd = _tones(folder / "spectra.csv")
@@ -270,4 +279,5 @@ def load_campaign(folder) -> Campaign:
     em.update(meta.get("error_model") or {})
     return Campaign(folder=folder, meta=meta, amplitude=amp, phase=ph, amp_residuals=amp_res,
                     phase_residuals=ph_res, A_tones=A, P_dB=P, sd_dB=sd,
-                    gates=_gates(folder, meta), time_scans=_time_scans(folder), error_model=em)
+                    gates=_gates(folder, meta), time_scans=_time_scans(folder), error_model=em,
+                    warnings=tuple(warnings))

@@ -145,3 +145,66 @@ def test_reduced_harness_runs_and_names_most_concealed_effects():
         assert r["verdict"] in labels or "+" in r["verdict"]
     assert s["named_correctly_overall"] >= 6 / 9
     assert s["median_redchi_after"] < s["median_redchi_before"]
+
+
+def _copy_campaign(tmp_path, name):
+    import shutil
+    dst = tmp_path / name
+    shutil.copytree(BUNDLED, dst, ignore=shutil.ignore_patterns("traces", "truth.json"))
+    return dst
+
+
+def _edit_cell(path, row, col, value):
+    lines = path.read_text().splitlines()
+    cells = lines[row].split(",")
+    cells[col] = value
+    lines[row] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("case, expect", [
+    ("nan", "spectra.csv, column 'P_dB', row 7: value is NaN"),
+    ("over_shots", "populations.csv, column 'n00', row 3: count 900 exceeds shots"),
+    ("empty", "spectra.csv: file is empty"),
+    ("no_snr", "spectra.csv, column 'snr_db'"),
+])
+def test_bad_input_one_line_nonzero_exit_input_untouched(tmp_path, capsys, case, expect):
+    camp = _copy_campaign(tmp_path, case)
+    if case == "nan":
+        _edit_cell(camp / "spectra.csv", 7, 4, "nan")
+    elif case == "over_shots":
+        _edit_cell(camp / "populations.csv", 3, 3, "900")
+    elif case == "empty":
+        (camp / "spectra.csv").write_text("")
+    else:
+        import pandas as pd
+        p = camp / "spectra.csv"
+        pd.read_csv(p).drop(columns=["snr_db"]).to_csv(p, index=False)
+    before = {p.name: p.read_bytes() for p in camp.iterdir() if p.is_file()}
+    assert main(["diagnose", str(camp), "--plot", str(tmp_path / "plots")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and expect in err[0], err
+    assert {p.name: p.read_bytes() for p in camp.iterdir() if p.is_file()} == before
+
+
+def test_non_monotone_model_calibration_is_named_in_a_warning(tmp_path):
+    import pandas as pd
+    from dpdfit.observables import load_campaign
+    camp = _copy_campaign(tmp_path, "nonmono")
+    p = camp / "calibration_amplitude.csv"
+    d = pd.read_csv(p)
+    m = (d.run == "R034") & (d.A > 0.6)
+    d.loc[m, "power"] = d.loc[m, "power"].to_numpy()[::-1]
+    d.to_csv(p, index=False)
+    w = load_campaign(camp).warnings
+    assert len(w) == 1 and "calibration_amplitude.csv, run R034" in w[0] and "decreases" in w[0]
+    assert load_campaign(BUNDLED).warnings == ()
+
+
+@pytest.mark.parametrize("args", [["--per-effect", "-1"], ["--per-effect", "0", "--nulls", "0"],
+                                  ["--nulls", "1", "--per-effect", "0", "--workers", "0"],
+                                  ["--effects", "bogus"]])
+def test_harness_refuses_bad_arguments(capsys, args):
+    assert main(["harness", *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("dpdfit: error:")
