@@ -46,7 +46,8 @@ from .transfer import TransferFunction, predistortion_table
 from .waveforms import cardioid, sample_grid, synthesize
 
 __all__ = ["CampaignConfig", "simulate_campaign", "parse_effects", "EFFECTS",
-           "generate_trace", "regenerate_trace", "campaign_hashes", "CAMPAIGN_FILES"]
+           "drive_envelope", "direct_tones", "tone_readout", "generate_trace",
+           "regenerate_trace", "campaign_hashes", "CAMPAIGN_FILES"]
 
 CAMPAIGN_FILES = ("campaign.json", "calibration_amplitude.csv", "calibration_phase.csv",
                   "spectra.csv", "traces.csv", "populations.csv", "parity.csv",
@@ -314,6 +315,11 @@ def _dpd_lut(tf: TransferFunction, points: int):
 
 def _trace_field(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int) -> np.ndarray:
     """One gate period (``fs / xi0_spec`` samples) of the optical field envelope."""
+    return _beam_path(cfg, aom, aom.field_periodic(drive_envelope(cfg, A, lut, dpd), cfg.fs))
+
+
+def drive_envelope(cfg: CampaignConfig, A: float, lut, dpd: int) -> np.ndarray:
+    """One gate period of the real RF envelope: Cardioid(1,2), peak ``A``, DPD by the table."""
     tones = cardioid()
     per = int(round(cfg.fs / cfg.xi0_spec))                   # samples per gate period
     t = np.arange(per) / cfg.fs
@@ -326,7 +332,7 @@ def _trace_field(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int) ->
     if dpd:
         target, rf_tab = lut
         env = np.sign(env) * np.interp(np.abs(env), target, rf_tab)
-    return _beam_path(cfg, aom, aom.field_periodic(env, cfg.fs))
+    return env
 
 
 def generate_trace(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
@@ -371,9 +377,16 @@ def direct_tones(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
     :func:`dpdfit.heterodyne.trace_tone_powers`; validity follows its SNR
     rules (20 dB for gate tones, 10 dB for IM tones).
     """
-    rng = _rng(cfg, *seed_key)
+    return tone_readout(cfg, _trace_field(cfg, aom, lut, A, dpd), _rng(cfg, *seed_key))
+
+
+def tone_readout(cfg: CampaignConfig, y: np.ndarray, rng: np.random.Generator) -> dict:
+    """Tone powers of one period ``y`` of a field as the extraction would report them.
+
+    See :func:`direct_tones`; returns ``{"red"|"blue": (P_dB, valid, snr_db)}``
+    over ``cfg.spectra_harmonics``.
+    """
     power = 10 ** (cfg.power_jitter_db * rng.standard_normal() / 20)
-    y = _trace_field(cfg, aom, lut, A, dpd)
     spec = np.fft.fft(y) / y.size
     n = np.asarray(cfg.spectra_harmonics)
     k = np.rint((cfg.nu + n * cfg.xi0_spec) / cfg.xi0_spec).astype(int)
@@ -524,7 +537,10 @@ def _gates(cfg, aom, lut, progress):
             t = np.linspace(0, cfg.time_scan_max / xi_cal, cfg.time_scan_points)
             res = gate_sim.simulate_setting(
                 b, c, n, eta_Omega0, xi_cal, nbar=cfg.nbar, T2=_t2(cfg), ndot=cfg.ndot,
-                p_prep=cfg.p_prep, p_det=cfg.p_det, parity_phases=phases, scan_times=t)
+                p_prep=cfg.p_prep, p_det=cfg.p_det, parity_phases=phases, scan_times=t,
+                # a time scan is a gate run: it carries the systematic power offset
+                # (no per-scan jitter is drawn, which keeps older campaigns' bytes)
+                power_error_db=cfg.gate_power_offset_db)
             counts = res.sample(rng, 0, 0, shots_scan=625)
             for ti, cnt in zip(t, counts.scan_counts):
                 ts_rows.append({"A": A, "dpd": d, "t_us": ti * 1e6, "n00": int(cnt[0]),

@@ -17,8 +17,11 @@ Steps (:func:`diagnose`):
    ``delta_bic = BIC(effect) - BIC(baseline)`` (negative favours the effect)
    and a likelihood-ratio test (``p_value``: Wilks, chi2 with as many degrees
    of freedom as the effect has parameters).
-4. **Verdict.**  ``"none"`` when the baseline fits (global chi2 p-value and
-   no located interval below ``ALPHA``); else the best effect if it is
+4. **Verdict.**  ``"none"`` when there is no evidence of a mismatch: the
+   baseline's global chi2 p-value, every located interval and the targeted
+   test (the best single effect's LRT p-value times the number of effects
+   tried, with ``delta_bic < -BIC_DECISIVE``) are all above ``ALPHA``
+   (``mismatch_evidence`` lists which fired); else the best effect if it is
    decisive (``delta_bic < -BIC_DECISIVE``, LRT ``p < ALPHA``) *and* leaves an
    acceptable fit (chi2 p-value >= ``ALPHA_FIT``); a pair ``"a+b"`` when only
    a pair does that; else ``"unexplained"``.
@@ -36,6 +39,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_dist
 
@@ -58,6 +62,9 @@ DOMINANT_FRACTION = 0.01
 DRIFT_AT_A = 0.5
 #: cap on residual evaluations per least-squares start
 MAX_NFEV = 100
+#: coarse grid seeding the AOM-memory fit: tau (ns) x f_off (MHz)
+MEMORY_GRID_TAU = (20.0, 45.0, 75.0, 110.0, 160.0)
+MEMORY_GRID_FOFF = (-4.5, -3.0, -2.0, -1.2, -0.6, 0.6, 1.2, 2.0, 3.0, 4.5)
 #: effects considered by default
 DEFAULT_EFFECTS = ("am_pm_omitted", "aom_memory", "stale_calibration", "higher_order_im",
                    "detector_nonlinearity", "motional_heating", "dephasing", "spam_offset",
@@ -86,7 +93,6 @@ class Problem:
                 parts = []
                 for (A, d), t in ts.groupby(["A", "dpd"], sort=False):
                     parts.append(t[t.t_s > 0])
-                import pandas as pd
                 self.ts = pd.concat(parts, ignore_index=True)
             else:
                 self.ts = None
@@ -249,12 +255,18 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
     mask_n = np.isfinite(prob.residuals(fixed))
     candidates = [np.array(x0)]
     if "f_off" in eff_params:
-        # the red/blue asymmetry's sign picks the branch: start on both
-        for f in (-3.0, 3.0):
-            x = np.array(x0)
-            x[names.index("f_off")] = f
-            x[names.index("tau")] = 80.0
-            candidates.append(x)
+        # the memory's chi2 surface has a valley per sign of f_off and local minima
+        # along tau x f_off: seed from a coarse grid (nuisances at their start) and
+        # start from the best point of each sign of f_off
+        it, io = names.index("tau"), names.index("f_off")
+        grid = []
+        for tau in MEMORY_GRID_TAU:
+            for f in MEMORY_GRID_FOFF:
+                x = np.array(x0)
+                x[it], x[io] = tau, f
+                grid.append((float(np.sum(fun(x) ** 2)), x))
+        candidates = [min((g for g in grid if np.sign(g[1][io]) == sgn),
+                          key=lambda g: g[0])[1] for sgn in (-1.0, 1.0)]
     if starts:
         for st in starts:
             x = np.array(x0)
@@ -330,6 +342,9 @@ class Diagnosis:
     baseline_p_value: float
     seconds: float
     extra: dict = field(default_factory=dict)
+    #: residual series (``Problem.series``) of the baseline and the chosen fit, for plots
+    series_before: list = field(default_factory=list, repr=False)
+    series_after: list = field(default_factory=list, repr=False)
 
     def to_dict(self) -> dict:
         return {"campaign": self.campaign, "verdict": self.verdict,
@@ -451,7 +466,19 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                 n_par=f.n_par)
             ranking = sorted((_rank_entry(base, f) for f in fits.values()),
                              key=lambda r: r["delta_bic"])
-    mismatch = p_base < ALPHA or bool(mismatches)
+    # evidence of a mismatch: the global chi2, a located interval, or a targeted test
+    # (the best catalog effect's LRT, Bonferroni-corrected over the effects tried), which
+    # sees effects too weak or too smooth for the interval scan (e.g. slow heating)
+    singles0 = [r for r in ranking if "+" not in r["effect"]]
+    evidence = []
+    if p_base < ALPHA:
+        evidence.append("global_chi2")
+    if mismatches:
+        evidence.append("located_interval")
+    if singles0 and (singles0[0]["p_value"] < ALPHA / len(singles0)
+                     and singles0[0]["delta_bic"] < -BIC_DECISIVE):
+        evidence.append(f"targeted:{singles0[0]['effect']}")
+    mismatch = bool(evidence)
     top = [r["effect"] for r in ranking[:pairs]]
     pair_fits = {}
     best_ok = bool(ranking) and ranking[0]["p_fit"] >= ALPHA_FIT
@@ -483,12 +510,16 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                         < DOMINANT_FRACTION * best["delta_chi2"]):
                     verdict = best["effect"]
     after = chosen or base
+    pb = {**base.nuisances}
+    pa = pb if chosen is None else {**chosen.nuisances, **chosen.params}
     return Diagnosis(campaign=str(folder), mismatches=mismatches, ranking=ranking,
                      verdict=verdict, redchi_before=base.redchi(), redchi_after=after.redchi(),
                      baseline=base, chosen=chosen, baseline_p_value=p_base,
                      seconds=time.perf_counter() - t0,
-                     extra={"nuisances": {k: NUISANCES[k][0] for k in NUISANCES},
-                            "warnings": list(camp.warnings)})
+                     extra={"mismatch_evidence": evidence,
+                            "nuisances": {k: NUISANCES[k][0] for k in NUISANCES},
+                            "warnings": list(camp.warnings)},
+                     series_before=prob.series(pb), series_after=prob.series(pa))
 
 
 # --------------------------------------------------------------------------- plots
@@ -506,12 +537,8 @@ def plot_diagnosis(result: Diagnosis, folder, outdir) -> list[str]:
     import matplotlib.pyplot as plt
     from pathlib import Path
     from ._io import staged_outputs
-    camp = load_campaign(folder)
-    prob = Problem(camp, with_gates=result.baseline.n_obs > 0 and camp.gates is not None)
-    pb = {**result.baseline.nuisances}
-    pa = pb if result.chosen is None else {**result.chosen.nuisances, **result.chosen.params}
-    before = {(s[0], s[1], s[2]): s for s in prob.series(pb)}
-    after = {(s[0], s[1], s[2]): s for s in prob.series(pa)}
+    before = {(s[0], s[1], s[2]): s for s in result.series_before}
+    after = {(s[0], s[1], s[2]): s for s in result.series_after}
     groups = {"tones": [k for k in before if k[0] in (
                   "R10", "R23", "R5lo", "R5hi", "gate_balance", "red_blue", "gate_power")],
               "gates": [k for k in before if k[0] in ("F_pop", "imb", "C", "P00_t", "P11_t")],

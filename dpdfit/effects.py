@@ -6,9 +6,10 @@ computed from the amplitude run that ``campaign.json`` names (4096 points,
 linear interpolation, as the AWG applies it), the Cardioid(1,2) waveform, and
 for the gates the exact two-ion engine (:mod:`dpdfit.gate_sim`) with the lab's
 error model (``campaign.json`` ``error_model``).  Its existing parameters,
-refitted first with priors from the calibration, are the nuisances
-``a_scale`` (amplitude-axis scale of the calibration, prior from the A_corr
-error) and ``phase_scale`` (prior from the phi(1) error).
+refitted first, are the calibration's largest error modes (``cal_amp*``,
+``cal_phase*``: directions of the fit covariance that move y(A), phi(A) most,
+N(0, 1) priors, forward model only) and each time scan's gate-rate error
+(``eps_ts*``); see :data:`NUISANCES`.
 
 Each catalog effect is a named extension with physical parameters, units and
 bounds (flat priors inside them); ``EFFECTS`` lists them.  Tone-side effects
@@ -190,14 +191,10 @@ class ToneModel:
         self._cp = np.zeros((max(ph.powers) + 1) if ph is not None else 1)
         if ph is not None:
             self._cp[list(ph.powers)] = ph.coefficients
-        self.xg = np.linspace(0.0, 1.0, 8001)
-        self.yg = self.tf.y(self.xg)
-        self.phig = self.tf.f_pm(self.xg)
+        self.xg = np.linspace(0.0, 1.0, 8001)           # grid of the stale table's inverse
         self.A_corr = float(self.tf.A_corr)
         self.power_scale = float(amp.power_scale)
         self.P_max = float(np.max(amp.power(np.linspace(0, 1, 201))))
-        self.A_corr_err = float(amp.A_corr_stderr)
-        self.phi1_err = float(ph.phi_at_1_stderr) if ph is not None else 0.0
         self.has_phase = ph is not None
         # calibration uncertainty as nuisance modes: the coefficient errors
         # delta = L z (C = L L^T, z ~ N(0, I)) rotated so that the first modes
@@ -228,37 +225,33 @@ class ToneModel:
                 cp[1:1 + m.size] += float(p.get(f"cal_phase{i}", 0.0)) * m
         return cy, cp
 
-    def _static(self, x, s, q, k_det, coef=None):
-        cy, cp = coef if coef is not None else (self._cy, self._cp)
-        mag = np.minimum(np.abs(x) * s, 1.0)
-        y = np.polynomial.polynomial.polyval(mag, cy) / s
+    def _static(self, x, k_det, coef):
+        cy, cp = coef
+        mag = np.minimum(np.abs(x), 1.0)
+        y = np.polynomial.polynomial.polyval(mag, cy)
         if k_det:
-            # calibration read P_meas = P (1 + k P/P_max): undo it
-            u = self.power_scale * (s * y) ** 2 / self.P_max
-            Pt = np.where(np.abs(k_det * u) > 1e-12,
-                          (np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0)) - 1)
-                          / (2 * k_det) if k_det else u, u)
-            y = y * np.sqrt(np.where(u > 0, Pt / np.where(u > 0, u, 1.0), 1.0))
+            # calibration read u_meas = u (1 + k u), u = P/P_max: the true u solves it
+            u = self.power_scale * y ** 2 / self.P_max
+            u_true = (np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0)) - 1) / (2 * k_det)
+            y = y * np.sqrt(np.where(u > 0, u_true / np.where(u > 0, u, 1.0), 1.0))
         if not self.has_phase:
             return y * np.exp(1j * np.angle(x))
-        phi = q * np.polynomial.polynomial.polyval(mag, cp)
+        phi = np.polynomial.polynomial.polyval(mag, cp)
         return y * np.exp(1j * (np.angle(x) + phi))
 
     def field(self, p: dict) -> np.ndarray:
         """Complex field, shape (nA, 2 dpd, N), for parameters ``p`` (missing = baseline)."""
-        s = float(p.get("a_scale", 1.0))
-        q = float(p.get("phase_scale", 1.0))
-        w = self.w
-        base_rf = self._stale_table(p)
-        # the whole calibration scaled along the amplitude axis: rf(s target)/s
-        rf_tab = np.interp(np.minimum(s * self.lut_target, 1.0), self.lut_target, base_rf) / s
-        x1 = np.sign(w) * _uniform_interp(np.abs(w), rf_tab)
+        return self._field(self.w, p)
+
+    def _field(self, w: np.ndarray, p: dict) -> np.ndarray:
+        """Field for waveforms ``w`` (shape (m, N)) without and with DPD: (m, 2, N)."""
+        x1 = np.sign(w) * _uniform_interp(np.abs(w), self._stale_table(p))
         x = np.stack([w, x1], axis=1).astype(complex)
         tau = float(p.get("tau", 0.0)) * 1e-9
         if tau > 0:
             H = 1.0 / (1.0 + 2j * np.pi * (self.freq - float(p.get("f_off", 0.0)) * 1e6) * tau)
             x = np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
-        y = self._static(x, s, q, float(p.get("k_det", 0.0)), self._coefficients(p))
+        y = self._static(x, float(p.get("k_det", 0.0)), self._coefficients(p))
         dphi, k5 = float(p.get("dphi", 0.0)), float(p.get("k5", 0.0))
         if dphi or k5:
             r2 = (np.abs(y) / (self.A_corr)) ** 2
@@ -293,17 +286,9 @@ class ToneModel:
     def gate_tones(self, p: dict, A: float, dpd: int, harmonics=tuple(range(-2, 6))):
         """Engine-convention tone amplitudes (n, b, c) of the gate waveform at ``A``."""
         i = int(np.argmin(np.abs(self.A - A)))
-        if abs(self.A[i] - A) > 1e-9:
-            tones = cardioid()
-            w = synthesize(tones, self.grid, np.array([A]))
-            saved = self.w
-            try:
-                self.w = w
-                y = self.field(p)[0, dpd]
-            finally:
-                self.w = saved
-        else:
-            y = self.field(p)[i, dpd]
+        w = (self.w[i:i + 1] if abs(self.A[i] - A) <= 1e-9
+             else synthesize(cardioid(), self.grid, np.array([A])))
+        y = self._field(w, p)[0, dpd]
         spec = np.fft.fft(y) / self.grid.n_samples
         n = np.asarray(harmonics)
         kb, kr = self.grid.tone_bins(n)
@@ -345,15 +330,8 @@ class GateModel:
         g = camp.gates
         self.gates = g
         self.ts = camp.time_scans
-        self.base = {}
         base_p = {}
-        self._tones = {}
-        for r in g.itertuples():
-            n, b, c = tone.gate_tones(base_p, r.A, r.dpd)
-            eO = r.xi0_hz / gate_sim.calibrate_xi0(b, c, n, 1.0)
-            self._tones[(r.A, r.dpd)] = (n, b, c, eO)
-            res = gate_sim.simulate_setting(b, c, n, eO, r.xi0_hz, **self.nominal, **_TOL)
-            self.base[(r.A, r.dpd)] = _summary(res)
+        self._tones, self.base = self._settings(tone, base_p)
         # responses at the time-scan settings (or the first setting if none)
         ref = (list(self.ts.groupby(["A", "dpd"]).groups) if self.ts is not None
                else [(g.A.iloc[0], int(g.dpd.iloc[0]))])
@@ -368,11 +346,7 @@ class GateModel:
             row = g[np.isclose(g.A, A) & (g.dpd == d)]
             xi = float(row.xi0_hz.iloc[0]) if len(row) else eO * gate_sim.calibrate_xi0(
                 b, c, n, 1.0)
-            times = None
-            if self.ts is not None:
-                sel = np.isclose(self.ts.A, A) & (self.ts.dpd == d)
-                times = self.ts.loc[sel, "t_s"].to_numpy()
-                times = times[times > 0]
+            times = self._scan_times(key)
             out = {"T": 1.0 / xi, "base": self._run(key, xi, {}, times)}
             for name, step in _STEPS.items():
                 if name == "eps":
@@ -400,26 +374,12 @@ class GateModel:
         """
         import copy
         new = copy.copy(self)
-        new._tones = dict(self._tones)
-        new.base = {}
-        for key in self.base:
-            A, d = key
-            n, b, c = tone.gate_tones(p, A, d)
-            xi = float(self.gates.xi0_hz[(np.isclose(self.gates.A, A))
-                                         & (self.gates.dpd == d)].iloc[0])
-            eO = xi / gate_sim.calibrate_xi0(b, c, n, 1.0)
-            new._tones[key] = (n, b, c, eO)
-            new.base[key] = _summary(gate_sim.simulate_setting(b, c, n, eO, xi, **self.nominal,
-                                                               **_TOL))
+        tones, new.base = self._settings(tone, p)
+        new._tones = {**self._tones, **tones}
         new.ref = {}
         for key, ref in self.ref.items():
             r2 = dict(ref)
-            times = None
-            if self.ts is not None:
-                sel = np.isclose(self.ts.A, key[0]) & (self.ts.dpd == key[1])
-                times = self.ts.loc[sel, "t_s"].to_numpy()
-                times = times[times > 0]
-            base = new._run(key, 1.0 / ref["T"], {}, times)
+            base = new._run(key, 1.0 / ref["T"], {}, self._scan_times(key))
             shift = {q: np.asarray(base[q]) - np.asarray(ref["base"][q]) for q in base}
             # shift every perturbed run by the same amount: responses unchanged
             for name, run in ref.items():
@@ -429,6 +389,25 @@ class GateModel:
             new.ref[key] = r2
         new._tab = None
         return new
+
+    def _settings(self, tone: ToneModel, p: dict):
+        """Tones, ``eta Omega0`` (engine rate = recorded xi0) and baseline values per setting."""
+        tones, base = {}, {}
+        for r in self.gates.itertuples():
+            n, b, c = tone.gate_tones(p, r.A, r.dpd)
+            eO = r.xi0_hz / gate_sim.calibrate_xi0(b, c, n, 1.0)
+            tones[(r.A, r.dpd)] = (n, b, c, eO)
+            base[(r.A, r.dpd)] = _summary(gate_sim.simulate_setting(
+                b, c, n, eO, r.xi0_hz, **self.nominal, **_TOL))
+        return tones, base
+
+    def _scan_times(self, key):
+        """Scan times (s, > 0) of the time scan at setting ``key`` (None without scans)."""
+        if self.ts is None:
+            return None
+        sel = np.isclose(self.ts.A, key[0]) & (self.ts.dpd == key[1])
+        times = self.ts.loc[sel, "t_s"].to_numpy()
+        return times[times > 0]
 
     def _perturb(self, name, step):
         nm = self.nominal

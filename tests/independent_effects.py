@@ -36,14 +36,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.signal import get_window, lfilter
+from scipy.signal import lfilter
 
 from dpdfit.aom_truth import BraggAOM, simulate_amplitude_run
 from dpdfit.calibration import fit_amplitude
-from dpdfit.campaign import simulate_campaign
+from dpdfit.campaign import drive_envelope as campaign_drive_envelope
+from dpdfit.campaign import simulate_campaign, tone_readout
 from dpdfit.harness import _silent, harness_config
 from dpdfit.transfer import TransferFunction, predistortion_table
-from dpdfit.waveforms import cardioid
 
 ETA_REF = 0.8
 
@@ -88,43 +88,10 @@ def day_lut(folder, cfg):
 # --------------------------------------------------------------------------- drive and tones
 
 
-def drive_envelope(cfg, A: float, lut, dpd: int) -> np.ndarray:
-    """One gate period of the (real) RF envelope: Cardioid(1,2), peak A, optional DPD."""
-    tones = cardioid()
-    per = int(round(cfg.fs / cfg.xi0_spec))
-    t = np.arange(per) / cfg.fs
-    fb, fr = tones.frequencies(cfg.nu, cfg.xi0_spec)
-    env = np.zeros(per)
-    for f_b, f_r, r in zip(fb, fr, tones.r_blue):
-        env += r * (np.cos(2 * np.pi * f_b * t) + np.cos(2 * np.pi * f_r * t))
-    env *= A / np.max(np.abs(env))
-    if dpd:
-        target, rf = lut
-        env = np.sign(env) * np.interp(np.abs(env), target, rf)
-    return env
-
-
-def _flattop_enbw() -> float:
-    w = get_window("flattop", 1 << 16, fftbins=True)
-    return float(w.size * np.sum(w ** 2) / np.sum(w) ** 2)
-
-
-def extract_tones(cfg, y: np.ndarray, rng: np.random.Generator):
-    """Tone powers of one period of field ``y`` as the heterodyne extraction reports them."""
-    power = 10 ** (cfg.power_jitter_db * rng.standard_normal() / 20)
-    spec = np.fft.fft(y) / y.size
-    n = np.asarray(cfg.spectra_harmonics)
-    k = np.rint((cfg.nu + n * cfg.xi0_spec) / cfg.xi0_spec).astype(int)
-    N0 = 4 * cfg.trace_noise_rms ** 2 * _flattop_enbw() / cfg.n_samples
-    floor_db = 10 * np.log10(N0 * np.log(2))
-    out = {}
-    for sb, kk in (("blue", k), ("red", -k)):
-        noise = np.sqrt(N0 / 2) * (rng.standard_normal(n.size) + 1j * rng.standard_normal(n.size))
-        P = 20 * np.log10(np.abs(power * spec[kk % y.size] + noise))
-        snr = P - floor_db
-        valid = np.where(np.isin(n, (1, 2)), snr >= 20.0, snr >= 10.0)
-        out[sb] = (P, valid, snr)
-    return out
+# The drive waveform and the heterodyne read-out (noise, floor, validity) are the
+# simulator's own: what is implemented independently here are the *effects*.
+drive_envelope = campaign_drive_envelope
+extract_tones = tone_readout
 
 
 def write_spectra(folder, cfg, field_of, seed_key: int):
