@@ -47,7 +47,7 @@ from .effects import EFFECTS, NUISANCES, GateModel, ToneModel
 from .observables import Campaign, load_campaign, tone_features
 from .scan import scan_intervals
 
-__all__ = ["diagnose", "Diagnosis", "Problem", "ALPHA", "BIC_DECISIVE"]
+__all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE"]
 
 #: global false-alarm level of a mismatch (3 sigma)
 ALPHA = 0.0027
@@ -406,6 +406,30 @@ def _locate(prob: Problem, p: dict) -> list:
     return out
 
 
+def mismatch_evidence(p_base: float, mismatches: list, ranking: list) -> list[str]:
+    """Which tests say the baseline does not describe the recordings (empty: none).
+
+    ``"global_chi2"``: the baseline's chi2 p-value is below ``ALPHA``;
+    ``"located_interval"``: the interval scan found a deviation;
+    ``"targeted:<effect>"``: the best single catalog effect's likelihood-ratio
+    test, Bonferroni-corrected over the single effects tried, is below
+    ``ALPHA`` with ``delta_bic < -BIC_DECISIVE``.  The targeted test sees
+    effects too weak or too smooth for the interval scan (slow heating,
+    a small power offset); the correction keeps its false-alarm rate at ``ALPHA``.
+    """
+    singles = [r for r in ranking if "+" not in r["effect"]]
+    out = []
+    if p_base < ALPHA:
+        out.append("global_chi2")
+    if mismatches:
+        out.append("located_interval")
+    if singles:
+        best = min(singles, key=lambda r: r["delta_bic"])
+        if best["p_value"] * len(singles) < ALPHA and best["delta_bic"] < -BIC_DECISIVE:
+            out.append(f"targeted:{best['effect']}")
+    return out
+
+
 def _rank_entry(base: FitResult, f: FitResult) -> dict:
     dchi = base.chi2 - f.chi2
     k = f.n_par - base.n_par
@@ -466,18 +490,7 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                 n_par=f.n_par)
             ranking = sorted((_rank_entry(base, f) for f in fits.values()),
                              key=lambda r: r["delta_bic"])
-    # evidence of a mismatch: the global chi2, a located interval, or a targeted test
-    # (the best catalog effect's LRT, Bonferroni-corrected over the effects tried), which
-    # sees effects too weak or too smooth for the interval scan (e.g. slow heating)
-    singles0 = [r for r in ranking if "+" not in r["effect"]]
-    evidence = []
-    if p_base < ALPHA:
-        evidence.append("global_chi2")
-    if mismatches:
-        evidence.append("located_interval")
-    if singles0 and (singles0[0]["p_value"] < ALPHA / len(singles0)
-                     and singles0[0]["delta_bic"] < -BIC_DECISIVE):
-        evidence.append(f"targeted:{singles0[0]['effect']}")
+    evidence = mismatch_evidence(p_base, mismatches, ranking)
     mismatch = bool(evidence)
     top = [r["effect"] for r in ranking[:pairs]]
     pair_fits = {}

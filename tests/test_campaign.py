@@ -136,3 +136,19 @@ def test_effects_change_the_recordings(tmp_path):
     truth = json.loads((b / "truth.json").read_text())
     assert truth["config"]["memory_tau"] == pytest.approx(40e-9)
     assert truth["config"]["effects"] == {"aom_memory": 40.0, "aom_memory_offset": 30.0}
+
+
+def test_gate_power_offset_reaches_the_time_scans(tmp_path):
+    """A time scan is a gate run: the systematic power offset acts on it too."""
+    from dpdfit.harness import harness_config
+    cfg = harness_config(11)
+    a, b = tmp_path / "a", tmp_path / "b"
+    simulate_campaign(a, config=cfg, progress=quiet)
+    simulate_campaign(b, config=cfg, effects={"gate_rate_miscalibration": 0.4}, progress=quiet)
+    ta, tb = (pd.read_csv(p / "time_scans.csv") for p in (a, b))
+    late = ta.t_us > ta.t_us.max() / 2
+    # same seed, same draws: only the probabilities differ, and only where the gate acts
+    start = ta.t_us == 0
+    assert (ta.loc[start, "n00"] == tb.loc[start, "n00"]).all()
+    assert (ta.loc[late, ["n00", "n11"]] != tb.loc[late, ["n00", "n11"]]).any(axis=None)
+    assert (a / "spectra.csv").read_bytes() == (b / "spectra.csv").read_bytes()

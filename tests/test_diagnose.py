@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from dpdfit.cli import main
-from dpdfit.diagnose import diagnose
+from dpdfit.diagnose import ALPHA, diagnose, mismatch_evidence
 from dpdfit.effects import EFFECTS
 from dpdfit.harness import CONCEALED, plan, run_harness, summarise
 from dpdfit.scan import scan_intervals
@@ -39,6 +39,7 @@ def test_bundled_null_campaign_has_no_mismatch(bundled):
     d = bundled.to_dict()
     assert d["verdict"] == "none"
     assert d["mismatches"] == []
+    assert d["mismatch_evidence"] == []
     # the baseline describes every observable at the level of its errors
     for k, v in d["redchi_before"].items():
         assert v < 2.5, (k, v)
@@ -65,6 +66,8 @@ def test_concealed_campaign_is_named_and_its_parameters_recovered(tmp_path):
     assert d.mismatches, "the concealed effect must be located"
     # red/blue asymmetry is among the located mismatches
     assert any(m["observable"] == "red_blue" for m in d.mismatches)
+    assert set(d.to_dict()["mismatch_evidence"]) == {"global_chi2", "located_interval",
+                                                     "targeted:aom_memory"}
     got = d.chosen.params
     err = d.chosen.params_err
     assert abs(got["tau"] - params["tau_ns"]) < 2 * err["tau"] + 0.02 * params["tau_ns"]
@@ -83,6 +86,25 @@ def test_cli_refuses_a_folder_that_is_not_a_campaign(tmp_path, capsys):
     assert main(["diagnose", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "campaign.json" in err[0] and str(tmp_path) in err[0]
+
+
+def _entry(effect, delta_bic, p):
+    return {"effect": effect, "delta_bic": delta_bic, "p_value": p}
+
+
+def test_mismatch_evidence_targeted_test_is_bonferroni_corrected():
+    nine = [_entry(f"e{i}", 5.0, 0.5) for i in range(8)]
+    # best effect at p = ALPHA/20: significant after the x9 correction
+    ev = mismatch_evidence(0.5, [], nine + [_entry("heat", -13.0, ALPHA / 20)])
+    assert ev == ["targeted:heat"]
+    # p = ALPHA/2 is significant alone but not after looking at nine effects
+    assert mismatch_evidence(0.5, [], nine + [_entry("heat", -13.0, ALPHA / 2)]) == []
+    # a significant LRT whose BIC is not decisive is no evidence either
+    assert mismatch_evidence(0.5, [], nine + [_entry("heat", -5.0, 1e-8)]) == []
+    # pairs do not count as single effects; the other tests are reported independently
+    ev = mismatch_evidence(1e-4, [{"observable": "R10"}],
+                           nine + [_entry("a+b", -50.0, 1e-12)])
+    assert ev == ["global_chi2", "located_interval"]
 
 
 def test_plan_is_reproducible_and_covers_every_effect():
