@@ -31,7 +31,7 @@ import os
 import shutil
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -163,41 +163,84 @@ class _silent:
         pass
 
 
+def _job_key(job: dict) -> tuple:
+    return (job["concealed"], int(job["seed"]))
+
+
+def _read_log(path: Path) -> dict:
+    """Finished runs of a run log (JSON lines), keyed by (concealed, seed)."""
+    done = {}
+    if path.exists():
+        for i, line in enumerate(path.read_text().splitlines(), 1):
+            if not line.strip():
+                continue
+            try:
+                r = json.loads(line)
+                done[_job_key(r)] = r
+            except (ValueError, KeyError, TypeError):
+                # a line cut by a stop mid-write: that run is simply done again
+                continue
+    return done
+
+
 def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = None,
                 scheduler: str | None = None, seed: int = 7, effects=CONCEALED,
-                progress=None) -> dict:
-    """Run the harness; returns the summary (see :func:`summarise`) with all runs."""
+                progress=None, log=None) -> dict:
+    """Run the harness; returns the summary (see :func:`summarise`) with all runs.
+
+    ``log``: path of a run log (JSON lines).  Every finished run is appended
+    to it at once, so a stopped harness loses nothing; runs of the plan
+    already in the log are not run again (re-running the same command resumes).
+    """
     jobs = plan(per_effect, nulls, seed, effects)
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
     t0 = time.perf_counter()
-    results = []
+    log = None if log is None else Path(log)
+    done = {} if log is None else _read_log(log)
+    if log is not None and log.exists() and log.stat().st_size:
+        with open(log, "rb+") as fh:             # a cut last line: start the next one afresh
+            fh.seek(-1, os.SEEK_END)
+            if fh.read(1) != b"\n":
+                fh.write(b"\n")
+    by_key = {_job_key(j): done[_job_key(j)] for j in jobs if _job_key(j) in done}
+    todo = [j for j in jobs if _job_key(j) not in by_key]
+    results = list(by_key.values())
+
+    def finished(r):
+        from ._io import to_jsonable
+        results.append(r)
+        if log is not None:
+            with open(log, "a") as fh:
+                fh.write(json.dumps(to_jsonable(r), sort_keys=True) + "\n")
+                fh.flush()
+                os.fsync(fh.fileno())
+        if progress:
+            progress(len(results), len(jobs))
+
     if scheduler:
         try:
             from dask.distributed import Client
         except ImportError:
             raise InputError("--scheduler needs dask.distributed: pip install 'dpdfit[dask]'"
                              ) from None
+        from dask.distributed import as_completed as dask_completed
         client = Client(scheduler)
-        futures = client.map(run_one, jobs, pure=False)
-        for f in futures:
-            results.append(f.result())
-            if progress:
-                progress(len(results), len(jobs))
+        for f in dask_completed(client.map(run_one, todo, pure=False)):
+            finished(f.result())
         client.close()
     else:
         workers = workers or os.cpu_count() or 1
         if workers == 1:
-            for j in jobs:
-                results.append(run_one(j))
-                if progress:
-                    progress(len(results), len(jobs))
+            for j in todo:
+                finished(run_one(j))
         else:
             with ProcessPoolExecutor(max_workers=workers) as ex:
-                for r in ex.map(run_one, jobs):
-                    results.append(r)
-                    if progress:
-                        progress(len(results), len(jobs))
+                for f in as_completed([ex.submit(run_one, j) for j in todo]):
+                    finished(f.result())
+    # plan order, whatever order the runs finished in
+    order = {_job_key(j): i for i, j in enumerate(jobs)}
+    results.sort(key=lambda r: order[_job_key(r)])
     out = summarise(results)
     out["seconds"] = time.perf_counter() - t0
     out["workers"] = None if scheduler else (workers or os.cpu_count())
@@ -289,7 +332,7 @@ def cmd_harness(args) -> int:
 
     effects = tuple(args.effects.split(",")) if args.effects else CONCEALED
     s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
-                    effects, progress=prog)
+                    effects, progress=prog, log=args.log)
     if args.progress:
         print(file=sys.stderr)
     if args.output:
@@ -336,6 +379,9 @@ def add_harness_command(subparsers):
     s.add_argument("--effects", help="comma-separated subset of concealed effects")
     s.add_argument("--seed", type=int, default=7, help="seed of the injection plan (7)")
     s.add_argument("--output", "-o", metavar="FILE.json", help="write the full report (all runs)")
+    s.add_argument("--log", metavar="FILE.jsonl",
+                   help="append every finished run to this log at once; runs already in it "
+                        "are not run again (re-running the command resumes)")
     s.add_argument("--progress", action="store_true", help="progress on stderr")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
     s.set_defaults(func=cmd_harness)

@@ -169,6 +169,34 @@ def test_reduced_harness_runs_and_names_most_concealed_effects():
     assert s["median_redchi_after"] < s["median_redchi_before"]
 
 
+def test_harness_log_keeps_every_run_and_resumes(tmp_path, monkeypatch):
+    """Each finished run is logged at once; re-running skips logged runs, redoes a cut one."""
+    import dpdfit.harness as H
+    calls = []
+
+    def fake_run_one(job, workdir=None):
+        calls.append(job["seed"])
+        tp = {"x": 1.0} if job["concealed"] != "none" else {}
+        return {**job, "verdict": job["concealed"], "redchi_before": 2.0, "redchi_after": 1.0,
+                "seconds_simulation": 0.0, "seconds_diagnosis": 0.0, "truth_params": tp,
+                "fit_params": tp, "fit_params_err": {k: 0.1 for k in tp}}
+
+    monkeypatch.setattr(H, "run_one", fake_run_one)
+    log = tmp_path / "runs.jsonl"
+    kw = dict(per_effect=2, nulls=2, workers=1, seed=5, effects=("dephasing", "spam_offset"))
+    s1 = H.run_harness(log=log, **kw)
+    assert len(calls) == 6 and len(log.read_text().splitlines()) == 6
+    calls.clear()
+    s2 = H.run_harness(log=log, **kw)
+    assert calls == [] and s2["confusion"] == s1["confusion"]
+    # a stop mid-write leaves a cut last line: only that run is done again
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[:-1]) + "\n" + lines[-1][:20])
+    s3 = H.run_harness(log=log, **kw)
+    assert len(calls) == 1 and [r["seed"] for r in s3["runs"]] == [r["seed"] for r in s1["runs"]]
+    assert len(H._read_log(log)) == 6                  # the redone run is readable again
+
+
 def _copy_campaign(tmp_path, name):
     import shutil
     dst = tmp_path / name
