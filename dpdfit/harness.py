@@ -205,6 +205,13 @@ def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = Non
                 fh.write(b"\n")
     by_key = {_job_key(j): done[_job_key(j)] for j in jobs if _job_key(j) in done}
     todo = [j for j in jobs if _job_key(j) not in by_key]
+    # run round-robin over the concealed effects (and nulls): any prefix of the
+    # log, e.g. of a stopped harness, is then a balanced sample
+    rank, seen = {}, {}
+    for j in jobs:
+        seen[j["concealed"]] = seen.get(j["concealed"], -1) + 1
+        rank[_job_key(j)] = seen[j["concealed"]]
+    todo.sort(key=lambda j: rank[_job_key(j)])
     results = list(by_key.values())
 
     def finished(r):
