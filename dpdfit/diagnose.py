@@ -62,6 +62,9 @@ DOMINANT_FRACTION = 0.01
 DRIFT_AT_A = 0.5
 #: cap on residual evaluations per least-squares start
 MAX_NFEV = 100
+#: a baseline nuisance further than this (prior sigmas) from its centre also gets a
+#: start from the centre in the effect fits
+FAR_NUISANCE = 5.0
 #: coarse grid seeding the AOM-memory fit: tau (ns) x f_off (MHz)
 MEMORY_GRID_TAU = (20.0, 45.0, 75.0, 110.0, 160.0)
 MEMORY_GRID_FOFF = (-4.5, -3.0, -2.0, -1.2, -0.6, 0.6, 1.2, 2.0, 3.0, 4.5)
@@ -244,9 +247,13 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
             scale.append(par.scale)
             eff_params.append(par.name)
     lo, hi = np.array(lo), np.array(hi)
+    x_prior = np.array(x0)                        # nuisances at their prior centre
+    far = False
     for k, v in (init or {}).items():             # e.g. nuisances at the baseline's optimum
         if k in names:
-            x0[names.index(k)] = float(np.clip(v, lo[names.index(k)], hi[names.index(k)]))
+            i = names.index(k)
+            x0[i] = float(np.clip(v, lo[i], hi[i]))
+            far |= k in prob.prior and abs(x0[i] - prob.center[k]) > FAR_NUISANCE * prob.prior[k]
 
     def fun(x):
         z = prob.residuals({**fixed, **dict(zip(names, x))})
@@ -267,6 +274,12 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
                 grid.append((float(np.sum(fun(x) ** 2)), x))
         candidates = [min((g for g in grid if np.sign(g[1][io]) == sgn),
                           key=lambda g: g[0])[1] for sgn in (-1.0, 1.0)]
+    if far:
+        # the baseline pushed a nuisance far out (it absorbed part of a strong effect,
+        # possibly up to its bound, where the trust region cannot move): also start
+        # from the nuisances' prior centre
+        is_nuis = np.array([k in prob.prior for k in names])
+        candidates += [np.where(is_nuis, x_prior, c) for c in candidates]
     if starts:
         for st in starts:
             x = np.array(x0)
@@ -279,7 +292,10 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
         try:
             # a wrong effect against a strong mismatch converges slowly and is
             # rejected anyway: cap the evaluations (the right one converges in a few)
-            r = least_squares(fun, np.clip(x, lo, hi), bounds=(lo, hi), x_scale=np.array(scale),
+            # strictly inside the bounds: a start on a bound can stall the trust region
+            pad = 1e-6 * (hi - lo)
+            r = least_squares(fun, np.clip(x, lo + pad, hi - pad), bounds=(lo, hi),
+                              x_scale=np.array(scale),
                               method="trf", diff_step=1e-4, max_nfev=MAX_NFEV,
                               ftol=1e-8, xtol=1e-8)
         except ValueError:

@@ -258,3 +258,24 @@ def test_harness_refuses_bad_arguments(capsys, args):
     assert main(["harness", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("dpdfit: error:")
+
+
+def test_strong_tone_effect_fit_escapes_a_baseline_pushed_to_its_bounds(tmp_path):
+    """Regression (harness seed 122199430): the baseline's calibration modes absorb part
+    of a strong detector nonlinearity up to their +/-50 sigma bounds; started there, the
+    effect fit could not move and the campaign was called unexplained."""
+    from dpdfit.campaign import simulate_campaign
+    from dpdfit.diagnose import FAR_NUISANCE, Problem, _fit
+    from dpdfit.harness import _silent, harness_config
+    from dpdfit.observables import load_campaign
+    seed = 122199430
+    truth = simulate_campaign(tmp_path / "c", seed=seed,
+                              effects={"detector_nonlinearity": 0.0992},
+                              config=harness_config(seed), progress=_silent)
+    prob = Problem(load_campaign(tmp_path / "c"), with_gates=False)
+    base = _fit(prob, ())
+    assert max(abs(base.nuisances[k]) for k in prob.tone.mode_names) > FAR_NUISANCE
+    f = _fit(prob, ("detector_nonlinearity",), init=base.nuisances)
+    k_true = truth["calibration"]["detector_nonlinearity_rel_max"]
+    assert abs(f.params["k_det"] - k_true) < 2 * f.params_err["k_det"] + 0.02 * k_true
+    assert f.chi2 < 0.02 * base.chi2
