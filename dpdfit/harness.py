@@ -257,6 +257,11 @@ def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = Non
     return out
 
 
+def _num(v) -> float:
+    """A number from a run record (``None``, JSON's NaN, becomes NaN)."""
+    return float("nan") if v is None else float(v)
+
+
 def summarise(results: list) -> dict:
     """Confusion matrix, false-alarm rate, recovery (bias, coverage) and fit improvement."""
     labels = sorted({r["concealed"] for r in results})
@@ -297,9 +302,10 @@ def summarise(results: list) -> dict:
                          else None,
                          "coverage_2sigma": float(np.mean(np.abs(pulls) <= 2)) if pulls.size
                          else None}
-        within2 = [all(abs((r["fit_params"][k] - r["truth_params"][k]) / r["fit_params_err"][k])
+        within2 = [all(abs((r["fit_params"][k] - r["truth_params"][k]) / _num(r["fit_params_err"]
+                                                                          .get(k)))
                        <= 2 for k in r["truth_params"]
-                       if np.isfinite(r["fit_params_err"].get(k, np.nan)))
+                       if np.isfinite(_num(r["fit_params_err"].get(k))))
                    for r in rs]
         recovery[c] = {"params": per, "n_named": len(rs),
                        "all_params_within_2sigma": float(np.mean(within2)) if within2 else None}
@@ -366,9 +372,10 @@ def report(s: dict) -> str:
     lines += ["", "  recovery (named cases):"]
     for c, r in s["recovery"].items():
         for p, v in r["params"].items():
-            lines.append(f"    {c:>26s} {p:>7s}: n={v['n']} bias={v['bias']} "
-                         f"cov1={v['coverage_1sigma']} cov2={v['coverage_2sigma']}")
-        lines.append(f"    {c:>26s} all params within 2 sigma: {r['all_params_within_2sigma']}")
+            lines.append(f"    {c:>26s} {p:>7s}: n={v['n']} bias={num(v['bias'])} "
+                         f"cov1={num(v['coverage_1sigma'])} cov2={num(v['coverage_2sigma'])}")
+        lines.append(f"    {c:>26s} all params within 2 sigma: "
+                     f"{num(r['all_params_within_2sigma'])}")
     return "\n".join(lines)
 
 
