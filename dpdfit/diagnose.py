@@ -431,7 +431,9 @@ def mismatch_evidence(p_base: float, mismatches: list, ranking: list) -> list[st
     test, Bonferroni-corrected over the single effects tried, is below
     ``ALPHA`` with ``delta_bic < -BIC_DECISIVE``.  The targeted test sees
     effects too weak or too smooth for the interval scan (slow heating,
-    a small power offset); the correction keeps its false-alarm rate at ``ALPHA``.
+    a small power offset).  The correction bounds its false-alarm rate by
+    ``ALPHA`` only if the LRT p-values are calibrated (Wilks); that is not
+    tested, only observed on the harness's null campaigns.
     """
     singles = [r for r in ranking if "+" not in r["effect"]]
     out = []

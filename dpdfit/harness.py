@@ -171,15 +171,19 @@ def _read_log(path: Path) -> dict:
     """Finished runs of a run log (JSON lines), keyed by (concealed, seed)."""
     done = {}
     if path.exists():
-        for i, line in enumerate(path.read_text().splitlines(), 1):
+        lines = path.read_text().splitlines()
+        for i, line in enumerate(lines, 1):
             if not line.strip():
                 continue
             try:
                 r = json.loads(line)
                 done[_job_key(r)] = r
             except (ValueError, KeyError, TypeError):
-                # a line cut by a stop mid-write: that run is simply done again
-                continue
+                if line.lstrip().startswith("{") and not line.rstrip().endswith("}"):
+                    # a record cut by a stop mid-write: that run is simply done again
+                    continue
+                raise InputError(f"{path}, line {i}: not a harness run record "
+                                 f"(is this the right --log file?)") from None
     return done
 
 
@@ -197,6 +201,8 @@ def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = Non
         raise InputError(f"--workers must be >= 1, got {workers}")
     t0 = time.perf_counter()
     log = None if log is None else Path(log)
+    if log is not None and not log.parent.is_dir():
+        raise InputError(f"--log {log}: folder {log.parent} does not exist")
     done = {} if log is None else _read_log(log)
     if log is not None and log.exists() and log.stat().st_size:
         with open(log, "rb+") as fh:             # a cut last line: start the next one afresh

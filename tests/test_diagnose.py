@@ -260,6 +260,23 @@ def test_harness_refuses_bad_arguments(capsys, args):
     assert len(err) == 1 and err[0].startswith("dpdfit: error:")
 
 
+@pytest.mark.parametrize("content, needle", [(None, "does not exist"),
+                                              ("A,dpd\n0.5,1\n", "line 1: not a harness run")])
+def test_harness_refuses_a_bad_log_before_running_and_leaves_it_alone(tmp_path, capsys,
+                                                                    content, needle):
+    log = tmp_path / "nowhere" / "runs.jsonl"
+    if content is not None:
+        log = tmp_path / "runs.csv"
+        log.write_text(content)
+    code = main(["harness", "--per-effect", "0", "--nulls", "1", "--workers", "1",
+                 "--log", str(log)])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0], err
+    if content is not None:
+        assert log.read_text() == content
+
+
 def test_strong_tone_effect_fit_escapes_a_baseline_pushed_to_its_bounds(tmp_path):
     """Regression (harness seed 122199430): the baseline's calibration modes absorb part
     of a strong detector nonlinearity up to their +/-50 sigma bounds; started there, the
