@@ -268,6 +268,13 @@ def _num(v) -> float:
     return float("nan") if v is None else float(v)
 
 
+def _within_2sigma(r: dict) -> bool:
+    """Every true parameter within 2 fitted sigma (parameters without an error are skipped)."""
+    errs = {k: _num(r["fit_params_err"].get(k)) for k in r["truth_params"]}
+    return all(abs((r["fit_params"][k] - t) / errs[k]) <= 2
+               for k, t in r["truth_params"].items() if np.isfinite(errs[k]))
+
+
 def summarise(results: list) -> dict:
     """Confusion matrix, false-alarm rate, recovery (bias, coverage) and fit improvement."""
     labels = sorted({r["concealed"] for r in results})
@@ -308,11 +315,7 @@ def summarise(results: list) -> dict:
                          else None,
                          "coverage_2sigma": float(np.mean(np.abs(pulls) <= 2)) if pulls.size
                          else None}
-        within2 = [all(abs((r["fit_params"][k] - r["truth_params"][k]) / _num(r["fit_params_err"]
-                                                                          .get(k)))
-                       <= 2 for k in r["truth_params"]
-                       if np.isfinite(_num(r["fit_params_err"].get(k))))
-                   for r in rs]
+        within2 = [_within_2sigma(r) for r in rs]
         recovery[c] = {"params": per, "n_named": len(rs),
                        "all_params_within_2sigma": float(np.mean(within2)) if within2 else None}
     conc = [r for r in results if r["concealed"] != "none"]
