@@ -62,6 +62,13 @@ DOMINANT_FRACTION = 0.01
 DRIFT_AT_A = 0.5
 #: cap on residual evaluations per least-squares start
 MAX_NFEV = 100
+#: calibration modes profiled out linearly (:class:`_Profile`): Jacobian step (sigma),
+#: re-linearisations at the optimum, and the change of the modes (sigma) that ends them
+PROFILE_STEP = 0.1
+PROFILE_RELIN = 3
+PROFILE_TOL = 0.05
+#: evaluations of the short runs that choose among several starts
+SCREEN_NFEV = 15
 #: a baseline nuisance further than this (prior sigmas) from its centre also gets a
 #: start from the centre in the effect fits
 FAR_NUISANCE = 5.0
@@ -217,6 +224,55 @@ class FitResult:
                 for k in self.chi2_by_observable}
 
 
+@dataclass(frozen=True)
+class _Opt:
+    """Optimum of one least-squares run: parameters, cost (chi2/2), Jacobian."""
+
+    x: np.ndarray
+    cost: float
+    jac: np.ndarray
+
+
+class _Profile:
+    """The calibration modes profiled out linearly around a point (variable projection).
+
+    The tone model depends smoothly on the calibration's error modes
+    (``cal_amp*``, ``cal_phase*``; N(0, 1) priors), so around a point
+    ``p_lin`` (modes at ``d_lin``) the data residuals are
+    ``z(x, d) ~ z(x, d_lin) + J (d - d_lin)``, with ``J`` their Jacobian in
+    the modes (forward differences, one model evaluation per mode).  For any
+    other parameters ``x`` the modes' optimum is then a ridge solution,
+    ``d = -(J^T J + I)^-1 J^T r0`` with ``r0 = z(x, d_lin) - J d_lin``, and
+    the profiled residual vector is ``[r0 + J d, d]`` (data, priors).  Its
+    sum of squares is the marginal chi2 ``r0^T (I + J J^T)^-1 r0``, so the
+    Gauss-Newton errors of ``x`` include the calibration uncertainty (all
+    its modes) at the cost of one model evaluation per residual call instead
+    of one more Jacobian column per mode.  :func:`_fit` re-linearises at its
+    optimum until the modes settle.  Hand-written: a linear profile inside
+    ``least_squares`` has no library routine.
+    """
+
+    def __init__(self, data_fun, p_lin: dict, modes: list, step: float = PROFILE_STEP):
+        self.modes = modes
+        self.d_lin = np.array([float(p_lin.get(k, 0.0)) for k in modes])
+        z0 = data_fun(p_lin)
+        J = np.empty((z0.size, len(modes)))
+        for i, k in enumerate(modes):
+            J[:, i] = (data_fun({**p_lin, k: self.d_lin[i] + step}) - z0) / step
+        self.J = J
+        self.M = np.linalg.solve(J.T @ J + np.eye(len(modes)), J.T)
+
+    def point(self, p: dict) -> dict:
+        """``p`` with the modes at the linearisation point (where the model is evaluated)."""
+        return {**p, **dict(zip(self.modes, self.d_lin))}
+
+    def solve(self, z: np.ndarray):
+        """(profiled data residuals, modes) from the data residuals at :meth:`point`."""
+        r0 = z - self.J @ self.d_lin
+        d = -self.M @ r0
+        return r0 + self.J @ d, d
+
+
 def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
          init: dict | None = None) -> FitResult:
     """Least-squares fit of the nuisances plus the effects' parameters.
@@ -224,12 +280,16 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
     ``fixed`` holds nuisances at given values (the baseline's): the tone and
     gate sides of the model share no parameter, so an effect on one side is
     fitted with the other side's nuisances held at their baseline optimum,
-    which is exact and saves the other side's model evaluations.
+    which is exact and saves the other side's model evaluations.  The
+    calibration modes that are not held are profiled out linearly
+    (:class:`_Profile`).
     """
     fixed = dict(fixed or {})
+    init = dict(init or {})
+    prof = [k for k in prob.tone.mode_names if k not in fixed]
     names, lo, hi, x0, scale = [], [], [], [], []
     for k, s in prob.prior.items():
-        if k in fixed:
+        if k in fixed or k in prof:
             continue
         c = prob.center[k]
         names.append(k)
@@ -249,29 +309,58 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
     lo, hi = np.array(lo), np.array(hi)
     x_prior = np.array(x0)                        # nuisances at their prior centre
     far = False
-    for k, v in (init or {}).items():             # e.g. nuisances at the baseline's optimum
+    for k, v in init.items():                     # e.g. nuisances at the baseline's optimum
         if k in names:
             i = names.index(k)
             x0[i] = float(np.clip(v, lo[i], hi[i]))
             far |= k in prob.prior and abs(x0[i] - prob.center[k]) > FAR_NUISANCE * prob.prior[k]
+    x0 = np.array(x0)
 
-    def fun(x):
-        z = prob.residuals({**fixed, **dict(zip(names, x))})
+    def params(x) -> dict:
+        return {**fixed, **dict(zip(names, x))}
+
+    def data(p) -> np.ndarray:
+        z = prob.residuals(p, with_prior=False)
         return np.where(np.isfinite(z), z, 0.0)
 
-    mask_n = np.isfinite(prob.residuals(fixed))
+    def prior_z(p) -> np.ndarray:
+        return np.array([(p.get(k, prob.center[k]) - prob.center[k]) / prob.prior[k]
+                         for k in list(prob.prior) if k not in prof])
+
+    def linearise(x, d: dict) -> _Profile | None:
+        return _Profile(data, {**params(x), **d}, prof) if prof else None
+
+    def make_fun(lin):
+        def fun(x):
+            p = params(x)
+            if lin is None:
+                return np.concatenate([data(p), prior_z(p)])
+            zd, d = lin.solve(data(lin.point(p)))
+            return np.concatenate([zd, prior_z(p), d])
+        return fun
+
+    def modes_at(lin, x) -> dict:
+        if lin is None:
+            return {}
+        return dict(zip(prof, lin.solve(data(lin.point(params(x))))[1]))
+
+    # linearised first at the prior centre of the modes (an effect that explains the
+    # recordings leaves them near it), then at the optimum
+    d_init = {k: 0.0 for k in prof}
+    lin0 = linearise(x0, d_init)
     candidates = [np.array(x0)]
     if "f_off" in eff_params:
         # the memory's chi2 surface has a valley per sign of f_off and local minima
         # along tau x f_off: seed from a coarse grid (nuisances at their start) and
         # start from the best point of each sign of f_off
         it, io = names.index("tau"), names.index("f_off")
+        fun0 = make_fun(lin0)
         grid = []
         for tau in MEMORY_GRID_TAU:
             for f in MEMORY_GRID_FOFF:
                 x = np.array(x0)
                 x[it], x[io] = tau, f
-                grid.append((float(np.sum(fun(x) ** 2)), x))
+                grid.append((float(np.sum(fun0(x) ** 2)), x))
         candidates = [min((g for g in grid if np.sign(g[1][io]) == sgn),
                           key=lambda g: g[0])[1] for sgn in (-1.0, 1.0)]
     if far:
@@ -287,21 +376,49 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
                 if k in names:
                     x[names.index(k)] = v
             candidates.append(x)
-    best = None
+    pad = 1e-6 * (hi - lo)
+
+    def solve(x, lin, nfev=MAX_NFEV):
+        # a wrong effect against a strong mismatch converges slowly and is rejected
+        # anyway: cap the evaluations (the right one converges in a few); start
+        # strictly inside the bounds: a start on a bound can stall the trust region
+        fun = make_fun(lin)
+        if not names:
+            z = fun(np.zeros(0))
+            return _Opt(np.zeros(0), 0.5 * float(z @ z), np.zeros((z.size, 0)))
+        r = least_squares(fun, np.clip(x, lo + pad, hi - pad), bounds=(lo, hi),
+                          x_scale=np.array(scale), method="trf", diff_step=1e-4,
+                          max_nfev=nfev, ftol=1e-8, xtol=1e-8)
+        return _Opt(r.x, float(r.cost), r.jac)
+
+    if len(candidates) > 1:
+        # several starts: a short run from each, the best one is refined
+        screened = []
+        for x in candidates:
+            try:
+                screened.append(solve(x, lin0, SCREEN_NFEV))
+            except ValueError:
+                continue
+        if screened:
+            candidates = [min(screened, key=lambda r: r.cost).x]
+    best, best_lin = None, None
     for x in candidates:
+        lin = linearise(x, d_init) if len(names) and prof else lin0
         try:
-            # a wrong effect against a strong mismatch converges slowly and is
-            # rejected anyway: cap the evaluations (the right one converges in a few)
-            # strictly inside the bounds: a start on a bound can stall the trust region
-            pad = 1e-6 * (hi - lo)
-            r = least_squares(fun, np.clip(x, lo + pad, hi - pad), bounds=(lo, hi),
-                              x_scale=np.array(scale),
-                              method="trf", diff_step=1e-4, max_nfev=MAX_NFEV,
-                              ftol=1e-8, xtol=1e-8)
+            r = solve(x, lin)
+            # re-linearise at the optimum until the profiled modes settle
+            for _ in range(PROFILE_RELIN):
+                if lin is None:
+                    break
+                d_new = modes_at(lin, r.x)
+                if max(abs(d_new[k] - v) for k, v in zip(prof, lin.d_lin)) < PROFILE_TOL:
+                    break
+                lin = linearise(r.x, d_new)
+                r = solve(r.x, lin)
         except ValueError:
             continue
         if best is None or r.cost < best.cost:
-            best = r
+            best, best_lin = r, lin
     x = best.x
     J = best.jac
     try:
@@ -313,8 +430,8 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
     at_bound = (np.isclose(x, lo, rtol=0, atol=1e-9 * np.maximum(1, np.abs(lo)))
                 | np.isclose(x, hi, rtol=0, atol=1e-9 * np.maximum(1, np.abs(hi))))
     err = np.where(at_bound, np.nan, err)
-    p = {**fixed, **dict(zip(names, x))}
-    params = {k: float(p[k]) for k in eff_params}
+    p = {**params(x), **modes_at(best_lin, x)}
+    params_ = {k: float(p[k]) for k in eff_params}
     perr = {k: float(err[names.index(k)]) for k in eff_params}
     if "st0" in eff_params:
         # stale table: report the fractional difference of the table's y(A) at A = 0.5
@@ -324,8 +441,10 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
         a = DRIFT_AT_A
         y_a = float(np.polynomial.polynomial.polyval(a, prob.tone._cy))
         g = prob.tone.stale_modes @ (a ** np.arange(2, 2 + prob.tone.stale_modes.shape[1])) / y_a
-        params = {"drift": float(g @ np.array([p[names[i]] for i in idx])), **params}
+        params_ = {"drift": float(g @ np.array([p[names[i]] for i in idx])), **params_}
         perr = {"drift": float(np.sqrt(max(g @ cov[np.ix_(idx, idx)] @ g, 0.0))), **perr}
+    # chi2 and counts of the model itself at the optimum (modes at their profiled values)
+    n_data = int(np.isfinite(prob.residuals(p, with_prior=False)).sum())
     chi_obs, n_obs = {}, {}
     for lab, z in prob.blocks(p, with_prior=False):
         z = z[np.isfinite(z)]
@@ -335,9 +454,9 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
     z_all = prob.residuals(p)
     z_all = z_all[np.isfinite(z_all)]
     return FitResult(effect="+".join(effects) if effects else "baseline",
-                     params=params, params_err=perr,
+                     params=params_, params_err=perr,
                      nuisances={k: float(p[k]) for k in p if k not in eff_params},
-                     chi2=float(np.sum(z_all ** 2)), n_obs=int(mask_n.sum()),
+                     chi2=float(np.sum(z_all ** 2)), n_obs=n_data + len(prob.prior),
                      # every nuisance (fixed ones were fitted in the baseline) + tone offset
                      n_par=len(prob.prior) + 1 + len(eff_params),
                      chi2_by_observable=chi_obs, n_by_observable=n_obs)

@@ -296,3 +296,40 @@ def test_strong_tone_effect_fit_escapes_a_baseline_pushed_to_its_bounds(tmp_path
     k_true = truth["calibration"]["detector_nonlinearity_rel_max"]
     assert abs(f.params["k_det"] - k_true) < 2 * f.params_err["k_det"] + 0.02 * k_true
     assert f.chi2 < 0.02 * base.chi2
+
+
+def test_linear_profile_of_the_calibration_modes_is_the_exact_marginal_fit():
+    """_Profile on a linear model: the profiled residuals' chi2 is the marginal one,
+    r0^T (I + J J^T)^-1 r0, and a fit through it gives the joint fit's parameters and
+    the marginal (Schur-complement) errors of the effect parameters."""
+    from scipy.optimize import least_squares
+    from dpdfit.diagnose import _Profile
+    rng = np.random.default_rng(3)
+    n, kx, kd = 60, 2, 5
+    X, D = rng.normal(size=(n, kx)), rng.normal(size=(n, kd))
+    y = rng.normal(size=n)
+    modes = [f"m{i}" for i in range(kd)]
+
+    def data(p):
+        return X @ np.array([p["a"], p["b"]]) + D @ np.array([p[m] for m in modes]) - y
+
+    lin = _Profile(data, {"a": 0.3, "b": -0.2, **{m: 0.7 for m in modes}}, modes)
+    np.testing.assert_allclose(lin.J, D, atol=1e-9)
+    x = {"a": 0.1, "b": 0.4}
+    zd, d = lin.solve(data(lin.point(x)))
+    r0 = X @ np.array([0.1, 0.4]) - y
+    marg = r0 @ np.linalg.solve(np.eye(n) + D @ D.T, r0)
+    assert np.isclose(zd @ zd + d @ d, marg, rtol=1e-9)
+
+    def prof(v):
+        zd, d = lin.solve(data(lin.point({"a": v[0], "b": v[1]})))
+        return np.concatenate([zd, d])
+    r = least_squares(prof, [0.0, 0.0])
+    # joint linear least squares of (x, d) with the N(0, 1) priors on d
+    A = np.block([[X, D], [np.zeros((kd, kx)), np.eye(kd)]])
+    rhs = np.concatenate([y, np.zeros(kd)])
+    sol = np.linalg.lstsq(A, rhs, rcond=None)[0]
+    cov = np.linalg.inv(A.T @ A)
+    np.testing.assert_allclose(r.x, sol[:kx], rtol=1e-6, atol=1e-8)
+    err = np.sqrt(np.diag(np.linalg.inv(r.jac.T @ r.jac)))
+    np.testing.assert_allclose(err, np.sqrt(np.diag(cov))[:kx], rtol=1e-5)
