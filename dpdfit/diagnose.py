@@ -27,8 +27,9 @@ Steps (:func:`diagnose`):
    a pair does that; else ``"unexplained"``.
 
 Parameter errors are the Gauss-Newton ones, ``(J^T J)^-1`` of the standardised
-residuals at the optimum (1 sigma); ``params_err`` is NaN when a parameter
-sits at its bound.
+residuals at the optimum (1 sigma), with the calibration's error modes profiled
+out (:class:`_Profile`), so they include the calibration uncertainty;
+``params_err`` is NaN when a parameter sits at its bound.
 """
 
 from __future__ import annotations
@@ -67,6 +68,8 @@ MAX_NFEV = 100
 PROFILE_STEP = 0.1
 PROFILE_RELIN = 3
 PROFILE_TOL = 0.05
+#: finite-difference step of the fits' Jacobian, in units of each parameter's scale
+FD_STEP = 1e-3
 #: evaluations of the short runs that choose among several starts
 SCREEN_NFEV = 15
 #: a baseline nuisance further than this (prior sigmas) from its centre also gets a
@@ -386,8 +389,27 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
         if not names:
             z = fun(np.zeros(0))
             return _Opt(np.zeros(0), 0.5 * float(z @ z), np.zeros((z.size, 0)))
-        r = least_squares(fun, np.clip(x, lo + pad, hi - pad), bounds=(lo, hi),
-                          x_scale=np.array(scale), method="trf", diff_step=1e-4,
+        memo = {}
+
+        def f(x):
+            memo["x"], memo["f"] = np.array(x), fun(x)
+            return memo["f"]
+
+        def jac(x):
+            # forward differences with absolute steps (a fraction of each parameter's
+            # scale): scipy's steps are relative to x, which at a start of 0 (every
+            # effect's "absent") probes at ~1e-8 and drowns the slope in rounding
+            f0 = memo["f"] if "x" in memo and np.array_equal(memo["x"], x) else fun(x)
+            J = np.empty((f0.size, x.size))
+            for i in range(x.size):
+                h = FD_STEP * scale[i] * (1.0 if x[i] + FD_STEP * scale[i] <= hi[i] else -1.0)
+                xi = np.array(x, dtype=float)
+                xi[i] += h
+                J[:, i] = (fun(xi) - f0) / h
+            return J
+
+        r = least_squares(f, np.clip(x, lo + pad, hi - pad), jac=jac, bounds=(lo, hi),
+                          x_scale=np.array(scale), method="trf",
                           max_nfev=nfev, ftol=1e-8, xtol=1e-8)
         return _Opt(r.x, float(r.cost), r.jac)
 

@@ -232,10 +232,11 @@ class ToneModel:
         mag = np.minimum(np.abs(x), 1.0)
         y = np.polynomial.polynomial.polyval(mag, cy)
         if k_det:
-            # calibration read u_meas = u (1 + k u), u = P/P_max: the true u solves it
+            # calibration read u_meas = u (1 + k u), u = P/P_max: the true u solves it,
+            # u_true / u = 2 / (1 + sqrt(1 + 4 k u)) (the rationalised root: no
+            # cancellation as k -> 0, where finite differences of the fit probe it)
             u = self.power_scale * y ** 2 / self.P_max
-            u_true = (np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0)) - 1) / (2 * k_det)
-            y = y * np.sqrt(np.where(u > 0, u_true / np.where(u > 0, u, 1.0), 1.0))
+            y = y * np.sqrt(2.0 / (1.0 + np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0))))
         if not self.has_phase:
             return y * np.exp(1j * np.angle(x))
         phi = np.polynomial.polynomial.polyval(mag, cp)
