@@ -197,6 +197,7 @@ class ToneModel:
         self.A_corr = float(self.tf.A_corr)
         self.power_scale = float(amp.power_scale)
         self.P_max = float(np.max(amp.power(np.linspace(0, 1, 201))))
+        self._A_pmax = np.linspace(0.0, 1.0, 201)
         self.has_phase = ph is not None
         # calibration uncertainty as nuisance modes: the coefficient errors
         # delta = L z (C = L L^T, z ~ N(0, I)) rotated so that the first modes
@@ -227,6 +228,10 @@ class ToneModel:
                 cp[1:1 + m.size] += float(p.get(f"cal_phase{i}", 0.0)) * m
         return cy, cp
 
+    def _y_max(self, cy) -> float:
+        """Largest field of the amplitude curve ``cy`` on 0 <= A <= 1 (P_max = its square)."""
+        return float(np.max(np.polynomial.polynomial.polyval(self._A_pmax, cy)))
+
     def _static(self, x, k_det, coef):
         cy, cp = coef
         mag = np.minimum(np.abs(x), 1.0)
@@ -234,8 +239,10 @@ class ToneModel:
         if k_det:
             # calibration read u_meas = u (1 + k u), u = P/P_max: the true u solves it,
             # u_true / u = 2 / (1 + sqrt(1 + 4 k u)) (the rationalised root: no
-            # cancellation as k -> 0, where finite differences of the fit probe it)
-            u = self.power_scale * y ** 2 / self.P_max
+            # cancellation as k -> 0, where finite differences of the fit probe it).
+            # P/P_max of *this* curve (calibration modes applied): a scale frozen at
+            # the fitted curve would move k_det with every mode that moves y(1)
+            u = (y / self._y_max(cy)) ** 2
             y = y * np.sqrt(2.0 / (1.0 + np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0))))
         if not self.has_phase:
             return y * np.exp(1j * np.angle(x))
@@ -261,7 +268,10 @@ class ToneModel:
         y = self._static(x, float(p.get("k_det", 0.0)), self._coefficients(p))
         dphi, k5 = float(p.get("dphi", 0.0)), float(p.get("k5", 0.0))
         if dphi or k5:
-            r2 = (np.abs(y) / (self.A_corr)) ** 2
+            # r = |y| / y(1) of the forward curve in use (calibration modes applied),
+            # not of the fitted one: the physical full-drive field sets the scale
+            cy = self._coefficients(p)[0]
+            r2 = (np.abs(y) / np.polynomial.polynomial.polyval(1.0, cy)) ** 2
             y = y * (1 + k5 * r2 ** 2) * np.exp(1j * dphi * r2)
         return y
 
