@@ -128,8 +128,15 @@ class Problem:
     def residuals(self, p: dict, with_prior: bool = True) -> np.ndarray:
         return np.concatenate([np.ravel(z) for _, z in self.blocks(p, with_prior)])
 
-    def blocks(self, p: dict, with_prior: bool = True):
-        """(label, z) blocks; labels are dicts of observable/sideband/dpd/x."""
+    def blocks(self, p: dict, with_prior: bool = True, whiten: bool = True):
+        """(label, z) blocks; labels are dicts of observable/sideband/dpd/x.
+
+        With ``whiten`` (the fits) the gate observables of one setting, which
+        share its random power errors, are decorrelated (:func:`_whiten_settings`:
+        ``F_pop`` standardised, ``imb`` given ``F_pop``, ``C`` given both), so
+        their chi2 counts the shared error once; without it (interval scan,
+        plots) each is standardised on its own.
+        """
         out = []
         model = self._tone_features(p)
         for name, (v, e) in self.meas.items():
@@ -144,10 +151,18 @@ class Problem:
             out.append(({"kind": "tones", "observable": name}, z))
         if self.gate is not None:
             pr = self.gate.predict(p)
-            for q in ("F_pop", "imb", "C"):
-                sig = np.sqrt(self.g_shot[q] ** 2 + pr["var_" + q])
-                out.append(({"kind": "gates", "observable": q},
-                            (self.g_meas[q] - pr[q]) / sig))
+            qs = ("F_pop", "imb", "C")
+            r = np.stack([self.g_meas[q] - pr[q] for q in qs], axis=1)
+            if whiten:
+                z = _whiten_settings(r, np.stack([self.g_shot[q] for q in qs], axis=1),
+                                     np.stack([pr["dlin_" + q] for q in qs], axis=1),
+                                     np.stack([pr["dquad_" + q] for q in qs], axis=1),
+                                     pr["v_lin"], pr["v_quad"])
+            else:
+                z = r / np.sqrt(np.stack([self.g_shot[q] ** 2 + pr["var_" + q] for q in qs],
+                                         axis=1))
+            for j, q in enumerate(qs):
+                out.append(({"kind": "gates", "observable": q}, z[:, j]))
             if self.ts is not None and "P00_t" in pr:
                 N = self.ts["shots"].to_numpy(dtype=float)
                 for q, col in (("P00_t", "n00"), ("P11_t", "n11")):
@@ -164,7 +179,7 @@ class Problem:
         """Series for the interval scan: list of (observable, sideband, dpd, x_name, x, z)."""
         out = []
         A = self.camp.A_tones
-        for lab, z in self.blocks(p, with_prior=False):
+        for lab, z in self.blocks(p, with_prior=False, whiten=False):
             kind, name = lab["kind"], lab["observable"]
             if kind == "tones":
                 for d in (0, 1):
@@ -194,6 +209,30 @@ class Problem:
             ph = self.camp.phase_residuals
             out.append(("calibration_phase", "none", -1, "A", ph.A.to_numpy(), ph.z.to_numpy()))
         return out
+
+
+def _whiten_settings(r, shot, g, h, v_lin, v_quad) -> np.ndarray:
+    """Whitened residuals of each setting's gate observables (shape (n, 3)).
+
+    ``r``: residuals, ``shot``: their shot-noise errors, ``g``, ``h``: the
+    settings' responses to the shared random power error (linear and
+    quadratic parts, :meth:`dpdfit.effects.GateModel.predict`), with variances
+    ``v_lin``, ``v_quad`` (arrays over settings).  The covariance of one
+    setting is ``diag(shot^2) + v_lin g g^T + v_quad h h^T``; its Cholesky
+    factor ``L`` gives ``z = L^-1 r`` (N(0, I) under the model), whose sum of
+    squares is the Mahalanobis chi2.  Settings with a missing value keep the
+    marginal standardisation.  Hand-written: a batched 3x3 Cholesky solve.
+    """
+    v_lin = np.broadcast_to(np.asarray(v_lin, float), r.shape[:1])
+    v_quad = np.broadcast_to(np.asarray(v_quad, float), r.shape[:1])
+    cov = (np.einsum("i,ij,ik->ijk", v_lin, g, g) + np.einsum("i,ij,ik->ijk", v_quad, h, h)
+           + np.einsum("ij,jk->ijk", shot ** 2, np.eye(r.shape[1])))
+    z = r / np.sqrt(np.einsum("ijj->ij", cov))
+    ok = np.all(np.isfinite(r), axis=1) & np.all(np.isfinite(cov), axis=(1, 2))
+    if ok.any():
+        L = np.linalg.cholesky(cov[ok])
+        z[ok] = np.linalg.solve(L, r[ok][..., None])[..., 0]
+    return z
 
 
 @dataclass(frozen=True)

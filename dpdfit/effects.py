@@ -514,7 +514,13 @@ class GateModel:
         """Predicted gate observables and their model-side variances.
 
         Returns dict with arrays over the settings (order of ``camp.gates``):
-        ``F_pop, imb, C`` and ``var_*`` (known random power errors), and over
+        ``F_pop, imb, C``, their model-side variances ``var_*`` (known random
+        power errors) and the two shared directions of those errors,
+        ``dlin_*`` (``lin + 2 quad eps``, per dB) and ``dquad_*`` (``quad``),
+        with weights ``v_lin`` (dB^2) and ``v_quad`` (dB^4): the three
+        observables of one setting see the *same* power errors, so their
+        model-side covariance is ``v_lin dlin dlin^T + v_quad dquad dquad^T``
+        (linearised around ``eps``); and over
         the time-scan points (``t > 0``, concatenated over scans): ``P00_t, P11_t``.
         Time scan ``k`` also takes ``eps_ts{k}``, its own gate-rate error (dB),
         on top of ``eps``.
@@ -523,6 +529,7 @@ class GateModel:
         eps = float(p.get("eps", 0.0))
         vj, vx, ns = tab["var"]
         v_mean = vj / ns + vx
+        v_quad = 2 * (vj ** 2 / ns + vx ** 2)
         res = {}
         for q in ("F_pop", "imb", "C"):
             base, resp, lin, quad = tab[q]
@@ -530,8 +537,12 @@ class GateModel:
             for k in _LINEAR:
                 val = val + resp[k] * float(p.get(k, 0.0))
             res[q] = val
-            res["var_" + q] = (lin ** 2 * v_mean + 2 * quad ** 2 * (vj ** 2 / ns + vx ** 2)
-                               + 4 * quad ** 2 * eps ** 2 * v_mean)
+            # random power error u of the setting (scan-mean jitter + rate error):
+            # val(eps + u) ~ val + (lin + 2 quad eps) u + quad (u^2 - <u^2>)
+            res["dlin_" + q] = lin + 2 * quad * eps
+            res["dquad_" + q] = quad
+            res["var_" + q] = res["dlin_" + q] ** 2 * v_mean + quad ** 2 * v_quad
+        res["v_lin"], res["v_quad"] = v_mean, v_quad
         for q, parts in tab["ts"].items():
             acc = []
             for k, (le, li, qu, base) in enumerate(parts):
