@@ -32,8 +32,8 @@ change the field the waveform produces:
   table was built from the distorted one.
 
 Gate-side effects change the gate observables through the engine's linear
-response (computed once per campaign at the time-scan settings and scaled by
-gate time where the effect is a rate): ``dephasing`` (extra rate, 1/s),
+response (computed once per campaign by engine finite differences at every
+gate setting and at the time-scan settings' scan times): ``dephasing`` (extra rate, 1/s),
 ``motional_heating`` (quanta/ms), ``spam_offset`` (extra preparation error per
 ion), ``gate_rate_miscalibration`` (optical power offset at gate time, dB;
 its response is quadratic and includes the lab's known per-scan jitter and
@@ -339,12 +339,12 @@ class GateModel:
     power error), with each setting's ``eta Omega0`` chosen so that the
     engine's gate rate equals the recorded ``xi0`` (the lab's calibration).
     Responses to the effect parameters are finite differences of the engine at
-    the time-scan settings (gate end and every scan time); for the other
-    settings, rate effects (dephasing, heating) are scaled by ``T/T_ref`` and
-    constant effects are taken as they are.  The power error's response is
-    quadratic (``lin eps + quad eps^2``); the known random power errors (per-scan
-    jitter, per-setting gate-rate error) add ``quad * var`` to the expected
-    values and ``lin^2 var`` to the imbalance's variance.
+    each setting (its own tones and rate) and, for the time scans, at every
+    scan time.  The power error's response is quadratic (``lin eps + quad
+    eps^2``); the known random power errors (per-scan jitter, per-setting
+    gate-rate error) add ``quad * var`` to the expected values and a shared,
+    linearised error to the variances and covariances of one setting's
+    observables (:meth:`predict`).
     """
 
     def __init__(self, camp: Campaign, tone: ToneModel):
@@ -358,6 +358,18 @@ class GateModel:
         self.ts = camp.time_scans
         base_p = {}
         self._tones, self.base = self._settings(tone, base_p)
+        # each setting's own responses to the effects (engine finite differences at
+        # its tones and rate): the power response of C differs in sign between
+        # A = 0.6 and 0.8, so responses scaled from the time-scan setting bias eps
+        self.set_ref = {}
+        for r in g.itertuples():
+            key = (r.A, r.dpd)
+            out = {"base": self.base[key],
+                   "eps+": self._run(key, r.xi0_hz, {"power_error_db": _STEPS["eps"]}, None),
+                   "eps-": self._run(key, r.xi0_hz, {"power_error_db": -_STEPS["eps"]}, None)}
+            for name in _LINEAR:
+                out[name] = self._run(key, r.xi0_hz, self._perturb(name, _STEPS[name]), None)
+            self.set_ref[key] = out
         # responses at the time-scan settings (or the first setting if none)
         ref = (list(self.ts.groupby(["A", "dpd"]).groups) if self.ts is not None
                else [(g.A.iloc[0], int(g.dpd.iloc[0]))])
@@ -413,6 +425,11 @@ class GateModel:
                     continue
                 r2[name] = {q: np.asarray(run[q]) + shift[q] for q in run}
             new.ref[key] = r2
+        new.set_ref = {}
+        for key, ref in self.set_ref.items():
+            shift = {q: new.base[key][q] - self.base[key][q] for q in self.base[key]}
+            new.set_ref[key] = {name: {q: run[q] + shift[q] for q in run}
+                                for name, run in ref.items()}
         new._tab = None
         return new
 
@@ -481,7 +498,6 @@ class GateModel:
             return self._tab
         g = self.gates
         tab = {}
-        T = 1.0 / g.xi0_hz.to_numpy()
         vj = self.sig_jit ** 2
         rel = g.xi0_rel_err.to_numpy(dtype=float)
         vx = np.where(np.isfinite(rel), (self.db_per_rel_xi * np.nan_to_num(rel)) ** 2, 0.0)
@@ -491,11 +507,9 @@ class GateModel:
             resp = {k: np.zeros(len(g)) for k in _LINEAR}
             lin, quad = np.zeros(len(g)), np.zeros(len(g))
             for i, r in enumerate(g.itertuples()):
-                ref = self._ref_for(r.A, r.dpd)
-                le, li, qu = self._resp(ref, q)
-                sT = T[i] / ref["T"]
+                le, li, qu = self._resp(self.set_ref[(r.A, r.dpd)], q)
                 for k in _LINEAR:
-                    resp[k][i] = le[k] * (sT if k in ("gamma", "ndot") else 1.0)
+                    resp[k][i] = le[k]
                 lin[i], quad[i] = li, qu
             tab[q] = (base, resp, lin, quad)
         tab["var"] = (vj, vx, ns)
