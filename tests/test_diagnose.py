@@ -333,3 +333,58 @@ def test_linear_profile_of_the_calibration_modes_is_the_exact_marginal_fit():
     np.testing.assert_allclose(r.x, sol[:kx], rtol=1e-6, atol=1e-8)
     err = np.sqrt(np.diag(np.linalg.inv(r.jac.T @ r.jac)))
     np.testing.assert_allclose(err, np.sqrt(np.diag(cov))[:kx], rtol=1e-5)
+
+
+def test_whitened_gate_residuals_are_standard_normal_and_give_the_mahalanobis_chi2():
+    """One setting's F_pop, imb, C share its random power error: the whitened
+    residuals of draws from the stated covariance are N(0, I) (checked on
+    20,000 draws), and their sum of squares is r^T Sigma^-1 r."""
+    from dpdfit.diagnose import _whiten_settings
+    rng = np.random.default_rng(11)
+    shot = np.array([0.002, 0.023, 0.003])
+    g = np.array([-0.0008, -0.35, 0.011])           # per dB, as the engine gives
+    h = np.array([-0.0002, -0.042, -0.060])         # per dB^2
+    v_lin, v_quad = 0.0207, 0.0012
+    cov = np.diag(shot ** 2) + v_lin * np.outer(g, g) + v_quad * np.outer(h, h)
+    n = 20000
+    r = rng.multivariate_normal(np.zeros(3), cov, size=n)
+    z = _whiten_settings(r, np.tile(shot, (n, 1)), np.tile(g, (n, 1)), np.tile(h, (n, 1)),
+                         np.full(n, v_lin), np.full(n, v_quad))
+    # sampling error of a covariance entry of unit-variance normals: ~1/sqrt(n) = 0.007
+    np.testing.assert_allclose(np.cov(z.T), np.eye(3), atol=0.035)
+    maha = np.einsum("ij,jk,ik->i", r, np.linalg.inv(cov), r)
+    np.testing.assert_allclose(np.sum(z ** 2, axis=1), maha, rtol=1e-9)
+    # the marginal standardisation would count the shared error three times
+    marg = np.sum(r ** 2 / np.diag(cov), axis=1)
+    assert abs(np.mean(marg) - 3) < 0.1 and abs(np.mean(maha) - 3) < 0.1
+    # a setting with a missing value keeps the marginal z
+    r2 = r[:2].copy()
+    r2[0, 2] = np.nan
+    z2 = _whiten_settings(r2, np.tile(shot, (2, 1)), np.tile(g, (2, 1)), np.tile(h, (2, 1)),
+                          np.full(2, v_lin), np.full(2, v_quad))
+    np.testing.assert_allclose(z2[0, :2], r2[0, :2] / np.sqrt(np.diag(cov)[:2]))
+    np.testing.assert_allclose(z2[1], z[1])
+
+
+def test_effect_scales_follow_the_calibration_modes():
+    """At full drive (A = 1) the extra AM-to-PM phase is dphi, the fifth-order factor
+    1 + k5 and the detector correction that of u = P/P_max = 1, whatever the
+    calibration modes do to y(1): the scales belong to the forward curve in use."""
+    from dpdfit.effects import ToneModel
+    from dpdfit.observables import load_campaign
+    tone = ToneModel(load_campaign(BUNDLED))
+    x = np.ones((1, 8))                                  # constant envelope at full drive
+    for modes in ({}, {"cal_amp0": 3.0, "cal_amp1": -2.0}, {"cal_amp2": 4.0}):
+        ref = tone._path(x, modes)
+        y1 = np.polynomial.polynomial.polyval(1.0, tone._coefficients(modes)[0])
+        assert np.allclose(np.abs(ref), y1, rtol=1e-12)
+        d = tone._path(x, {**modes, "dphi": 0.1})
+        np.testing.assert_allclose(np.angle(d / ref), 0.1, atol=1e-12)
+        k = tone._path(x, {**modes, "k5": 0.03})
+        np.testing.assert_allclose(np.abs(k / ref), 1.03, rtol=1e-12)
+        kd = tone._path(x, {**modes, "k_det": 0.1})
+        np.testing.assert_allclose(np.abs(kd / ref), np.sqrt(2 / (1 + np.sqrt(1.4))),
+                                   rtol=1e-12)
+    # the modes used here do move y(1), so a frozen scale would fail the checks above
+    assert abs(np.polynomial.polynomial.polyval(1.0, tone._coefficients(
+        {"cal_amp0": 3.0, "cal_amp1": -2.0})[0]) / tone.A_corr - 1) > 1e-4
