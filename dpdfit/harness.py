@@ -27,6 +27,7 @@ Runs are independent: :func:`run_harness` spreads them over local processes
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import shutil
 import tempfile
@@ -248,7 +249,15 @@ def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = Non
             for j in todo:
                 finished(run_one(j))
         else:
-            with ProcessPoolExecutor(max_workers=workers) as ex:
+            # one BLAS thread per worker: the runs are the parallelism.  The
+            # variables must be set before numpy loads in the worker, so the
+            # workers are spawned (a forked worker inherits the parent's
+            # already started BLAS thread pool; on 2 cores two forked workers
+            # ran 4 busy threads and each diagnosis took ~4x longer)
+            for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+                os.environ.setdefault(var, "1")
+            ctx = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
                 for f in as_completed([ex.submit(run_one, j) for j in todo]):
                     finished(f.result())
     # plan order, whatever order the runs finished in
