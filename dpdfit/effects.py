@@ -475,11 +475,6 @@ class GateModel:
             s["P11_t"] = res.scan_pop[:, 2]
         return s
 
-    def _ref_for(self, A, d):
-        keys = list(self.ref)
-        same = [k for k in keys if k[1] == d] or keys
-        return self.ref[min(same, key=lambda k: abs(k[0] - A))]
-
     def _resp(self, ref, q):
         """Linear responses per unit parameter at a reference: dict param -> d q."""
         out = {}
