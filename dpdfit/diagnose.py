@@ -44,7 +44,9 @@ import pandas as pd
 from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_dist
 
-from .effects import EFFECTS, NUISANCES, GateModel, ToneModel
+from .effects import EFFECTS, NUISANCES, ToneModel
+from .gate_model import DETECTION_PRIOR_SIGMA, GATE_NUISANCES, GateModel
+from .null_model import learn_tone_noise
 from .observables import Campaign, load_campaign, tone_features
 from .scan import scan_intervals
 
@@ -75,6 +77,11 @@ SCREEN_NFEV = 15
 #: a baseline nuisance further than this (prior sigmas) from its centre also gets a
 #: start from the centre in the effect fits
 FAR_NUISANCE = 5.0
+#: the gate-rate calibration's relative scatter (a nuisance): log-uniform prior on
+#: [RATE_SCATTER_MIN, RATE_SCATTER_MAX_FACTOR x the lab's stated rate error], profiled on a grid
+RATE_SCATTER_MIN = 1e-4
+RATE_SCATTER_MAX_FACTOR = 2.0
+RATE_SCATTER_POINTS = 9
 #: coarse grid seeding the AOM-memory fit: tau (ns) x f_off (MHz)
 MEMORY_GRID_TAU = (20.0, 45.0, 75.0, 110.0, 160.0)
 MEMORY_GRID_FOFF = (-4.5, -3.0, -2.0, -1.2, -0.6, 0.6, 1.2, 2.0, 3.0, 4.5)
@@ -88,19 +95,28 @@ class Problem:
     """All observables of a campaign and the residual function of a parameter set."""
 
     def __init__(self, camp: Campaign, with_gates: bool = True):
-        self.camp = camp
         self.tone = ToneModel(camp)
+        # the tone-side noise (floor, repeatability, trace power jitter) learnt from the
+        # recordings before any effect is considered (dpdfit.null_model)
+        P, sd, self.tone_noise = learn_tone_noise(camp, self.tone.features({}))
+        camp = dataclasses.replace(camp, P_dB=P, sd_dB=sd)
+        self.camp = camp
         self.meas = tone_features(camp.P_dB, camp.A_tones, camp.sd_dB)
-        self.gate = (GateModel(camp, self.tone) if with_gates and camp.gates is not None
-                     else None)
-        em = camp.error_model
-        self.sig_jit = float(em["power_jitter_db"])
-        # existing parameters: the calibration's error modes, N(0, 1) priors
+        self.sig_jit = self.tone_noise.s_trace_db
+        # nuisances: name -> prior sigma (inf: flat), centre, optional bounds
         self.prior = {k: 1.0 for k in self.tone.mode_names}
-        if self.gate is not None:
+        self.center = {k: 0.0 for k in self.tone.mode_names}
+        self.bounds = {}
+        if with_gates and camp.gates is not None:
+            em = camp.error_model
+            # per-scan laser jitter: the lab's own figure, else the one learnt on the spectra
+            jit = float(em["power_jitter_db"]) if camp.has_error_model else self.sig_jit
+            self.gate = GateModel(camp, self.tone, jit)
+            self.phase_sign_chi2 = None
             g = self.gate.gates
-            self.g_meas = {q: g[q].to_numpy() for q in ("F_pop", "imb", "C")}
-            self.g_shot = {q: g[q + "_shot"].to_numpy() for q in ("F_pop", "imb", "C")}
+            self.g_obs = tuple(q for q in ("F_pop", "imb", "C") if np.isfinite(g[q]).any())
+            self.g_meas = {q: g[q].to_numpy() for q in self.g_obs}
+            self.g_shot = {q: g[q + "_shot"].to_numpy() for q in self.g_obs}
             ts = camp.time_scans
             if ts is not None:
                 parts = []
@@ -109,12 +125,117 @@ class Problem:
                 self.ts = pd.concat(parts, ignore_index=True)
             else:
                 self.ts = None
-        self.center = {k: 0.0 for k in self.tone.mode_names}
-        if self.gate is not None:
+            self.prior["prep_split"], self.center["prep_split"] = np.inf, 0.5
+            self.bounds["prep_split"] = (0.0, 1.0)
+            for k in ("e01", "e10"):
+                self.prior[k], self.center[k] = DETECTION_PRIOR_SIGMA, self.gate.p_det
+                self.bounds[k] = (0.0, self.gate.p_det + 50 * DETECTION_PRIOR_SIGMA)
             for k in range(self.gate.n_time_scans):
                 self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
                 self.center[f"eps_ts{k}"] = 0.0
+            if camp.phase is not None:
+                self._choose_phase_sign()
+            self.rate_scatter = self._learn_rate_scatter()
+        else:
+            self.gate = None
         self._cache_key, self._cache_val = None, None
+
+    def _gate_chi2(self) -> float:
+        """Gate and time-scan chi2 of the baseline, the preparation split profiled on a grid."""
+        best = np.inf
+        for f in np.linspace(0.0, 1.0, 11):
+            z = [zz for lab, zz in self.blocks({"prep_split": f}, with_prior=False,
+                                                with_tones=False)]
+            z = np.concatenate([np.ravel(x) for x in z])
+            best = min(best, float(np.sum(z[np.isfinite(z)] ** 2)))
+        return best
+
+    def _choose_phase_sign(self):
+        """The sign convention of the recorded phase response, chosen by the gates.
+
+        The tone powers are the same for both signs (:meth:`ToneModel.with_phase_sign`);
+        the gates are not.  Both baselines are evaluated (engine base runs for the
+        other sign, the effect responses then recomputed for the chosen one) and
+        the one with the smaller gate chi2 is kept; both chi2 are reported.
+        """
+        plus = self._gate_chi2()
+        alt_tone = self.tone.with_phase_sign(-1)
+        keep = self.gate
+        self.gate = keep.rebased(alt_tone, {})
+        minus = self._gate_chi2()
+        self.phase_sign_chi2 = {"+1": plus, "-1": minus}
+        if minus < plus:
+            self.tone = alt_tone
+            self.gate.resp = self.gate._response_runs()
+            self.gate._tab = self.gate._stk = None
+            self._cache_key = None
+        else:
+            self.gate = keep
+
+    def _set_rate_scatter(self, rel: float) -> None:
+        self.gate.set_rate_scatter(rel)
+        for k in range(self.gate.n_time_scans):
+            self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
+
+    def _gate_nll(self, rel: float):
+        """-2 ln L of the gate recordings at relative rate scatter ``rel``, with the gate
+        nuisances and a common power offset ``eps`` fitted (so that the scatter is the
+        settings' deviations around any common offset, not the offset itself)."""
+        self._set_rate_scatter(rel)
+        names = ["prep_split", "e01", "e10", "eps"] + [
+            f"eps_ts{k}" for k in range(self.gate.n_time_scans)]
+        lo = [0.0, 0.0, 0.0, -3.0] + [-50 * self.prior[n] for n in names[4:]]
+        hi = [1.0, self.bounds["e01"][1], self.bounds["e10"][1], 3.0] + [
+            50 * self.prior[n] for n in names[4:]]
+        x0 = [0.5, self.gate.p_det, self.gate.p_det, 0.0] + [0.0] * (len(names) - 4)
+        priors = [(n, self.prior[n]) for n in names if n in self.prior
+                  and np.isfinite(self.prior[n])]
+
+        def fun(x):
+            p = dict(zip(names, x))
+            z = [np.ravel(zz) for _, zz in self.blocks(p, with_prior=False, with_tones=False)]
+            z = np.concatenate(z + [[(p[n] - self.center[n]) / s for n, s in priors]])
+            return np.where(np.isfinite(z), z, 0.0)
+
+        r = least_squares(fun, x0, bounds=(lo, hi), x_scale=[0.1, 1e-4, 1e-4, 0.1] + [
+            self.prior[n] for n in names[4:]], max_nfev=200)
+        p = dict(zip(names, r.x))
+        _, ld = self._gate_whitened(p, logdet=True)
+        ld += sum(2 * np.log(s) for n, s in priors if n.startswith("eps_ts"))
+        return float(2 * r.cost + ld), p
+
+    def _learn_rate_scatter(self) -> dict:
+        """Relative scatter of the gate-rate calibration, by profile likelihood (a nuisance).
+
+        Grid of ``RATE_SCATTER_POINTS`` log-spaced values on [``RATE_SCATTER_MIN``,
+        ``RATE_SCATTER_MAX_FACTOR`` x the lab's stated rate error] (log-uniform
+        prior), each with the gate nuisances and a common power offset refitted;
+        the maximum is refined by a parabola in log scatter.  Held fixed for every
+        hypothesis.
+        """
+        hi = max(RATE_SCATTER_MAX_FACTOR * self.gate.stated_rate_error, 2 * RATE_SCATTER_MIN)
+        grid = np.geomspace(RATE_SCATTER_MIN, hi, RATE_SCATTER_POINTS)
+        nll = np.array([self._gate_nll(v)[0] for v in grid])
+        i = int(np.argmin(nll))
+        best = grid[i]
+        if 0 < i < grid.size - 1:
+            x = np.log(grid[i - 1:i + 2])
+            c = np.polyfit(x, nll[i - 1:i + 2], 2)
+            if c[0] > 0:
+                best = float(np.exp(np.clip(-c[1] / (2 * c[0]), x[0], x[2])))
+        self._set_rate_scatter(best)
+        return {"rel": float(best), "db": self.gate.rate_error_db(),
+                "stated_rel": self.gate.stated_rate_error,
+                "profile": {f"{v:.3g}": float(n - nll.min()) for v, n in zip(grid, nll)}}
+
+    def _gate_whitened(self, p: dict, logdet: bool = False):
+        pr = self.gate.predict(p)
+        qs = self.g_obs
+        r = np.stack([self.g_meas[q] - pr[q] for q in qs], axis=1)
+        return _whiten_settings(r, np.stack([self.g_shot[q] for q in qs], axis=1),
+                                np.stack([pr["dlin_" + q] for q in qs], axis=1),
+                                np.stack([pr["dquad_" + q] for q in qs], axis=1),
+                                pr["v_lin"], pr["v_quad"], logdet=logdet)
 
     def _tone_features(self, p: dict) -> dict:
         keys = ("tau", "f_off", "dphi", "k5", "k_det") + tuple(
@@ -128,7 +249,8 @@ class Problem:
     def residuals(self, p: dict, with_prior: bool = True) -> np.ndarray:
         return np.concatenate([np.ravel(z) for _, z in self.blocks(p, with_prior)])
 
-    def blocks(self, p: dict, with_prior: bool = True, whiten: bool = True):
+    def blocks(self, p: dict, with_prior: bool = True, whiten: bool = True,
+               with_tones: bool = True):
         """(label, z) blocks; labels are dicts of observable/sideband/dpd/x.
 
         With ``whiten`` (the fits) the gate observables of one setting, which
@@ -138,8 +260,8 @@ class Problem:
         plots) each is standardised on its own.
         """
         out = []
-        model = self._tone_features(p)
-        for name, (v, e) in self.meas.items():
+        model = self._tone_features(p) if with_tones else {}
+        for name, (v, e) in (self.meas.items() if with_tones else ()):
             m = model[name]
             if name == "gate_power":
                 # absolute scale of the tone powers: profiled (weighted mean), 1 parameter
@@ -151,7 +273,7 @@ class Problem:
             out.append(({"kind": "tones", "observable": name}, z))
         if self.gate is not None:
             pr = self.gate.predict(p)
-            qs = ("F_pop", "imb", "C")
+            qs = self.g_obs
             r = np.stack([self.g_meas[q] - pr[q] for q in qs], axis=1)
             if whiten:
                 z = _whiten_settings(r, np.stack([self.g_shot[q] for q in qs], axis=1),
@@ -171,7 +293,7 @@ class Problem:
                     out.append(({"kind": "time_scan", "observable": q}, z))
         if with_prior:
             z = np.array([(p.get(k, self.center[k]) - self.center[k]) / s
-                          for k, s in self.prior.items()])
+                          for k, s in self.prior.items() if np.isfinite(s)])
             out.append(({"kind": "prior", "observable": "prior"}, z))
         return out
 
@@ -211,7 +333,7 @@ class Problem:
         return out
 
 
-def _whiten_settings(r, shot, g, h, v_lin, v_quad) -> np.ndarray:
+def _whiten_settings(r, shot, g, h, v_lin, v_quad, logdet: bool = False):
     """Whitened residuals of each setting's gate observables (shape (n, 3)).
 
     ``r``: residuals, ``shot``: their shot-noise errors, ``g``, ``h``: the
@@ -227,12 +349,15 @@ def _whiten_settings(r, shot, g, h, v_lin, v_quad) -> np.ndarray:
     v_quad = np.broadcast_to(np.asarray(v_quad, float), r.shape[:1])
     cov = (np.einsum("i,ij,ik->ijk", v_lin, g, g) + np.einsum("i,ij,ik->ijk", v_quad, h, h)
            + np.einsum("ij,jk->ijk", shot ** 2, np.eye(r.shape[1])))
-    z = r / np.sqrt(np.einsum("ijj->ij", cov))
+    diag = np.einsum("ijj->ij", cov)
+    z = r / np.sqrt(diag)
+    ld = np.where(np.isfinite(r), np.log(diag), 0.0).sum(axis=1)
     ok = np.all(np.isfinite(r), axis=1) & np.all(np.isfinite(cov), axis=(1, 2))
     if ok.any():
         L = np.linalg.cholesky(cov[ok])
         z[ok] = np.linalg.solve(L, r[ok][..., None])[..., 0]
-    return z
+        ld[ok] = 2 * np.log(np.einsum("ijj->ij", L)).sum(axis=1)
+    return (z, float(ld.sum())) if logdet else z
 
 
 @dataclass(frozen=True)
@@ -335,10 +460,11 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
             continue
         c = prob.center[k]
         names.append(k)
-        lo.append(c - 50 * s)
-        hi.append(c + 50 * s)
+        b = prob.bounds.get(k, (c - 50 * s, c + 50 * s))
+        lo.append(b[0])
+        hi.append(b[1])
         x0.append(c)
-        scale.append(s)
+        scale.append(s if np.isfinite(s) else 0.1 * (b[1] - b[0]))
     eff_params = []
     for e in effects:
         for par in EFFECTS[e].params:
@@ -367,7 +493,8 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
 
     def prior_z(p) -> np.ndarray:
         return np.array([(p.get(k, prob.center[k]) - prob.center[k]) / prob.prior[k]
-                         for k in list(prob.prior) if k not in prof])
+                         for k in list(prob.prior) if k not in prof
+                         and np.isfinite(prob.prior[k])])
 
     def linearise(x, d: dict) -> _Profile | None:
         return _Profile(data, {**params(x), **d}, prof) if prof else None
@@ -517,7 +644,8 @@ def _fit(prob: Problem, effects: tuple, starts=None, fixed: dict | None = None,
     return FitResult(effect="+".join(effects) if effects else "baseline",
                      params=params_, params_err=perr,
                      nuisances={k: float(p[k]) for k in p if k not in eff_params},
-                     chi2=float(np.sum(z_all ** 2)), n_obs=n_data + len(prob.prior),
+                     chi2=float(np.sum(z_all ** 2)),
+                     n_obs=n_data + sum(np.isfinite(v) for v in prob.prior.values()),
                      # every nuisance (fixed ones were fitted in the baseline) + tone offset
                      n_par=len(prob.prior) + 1 + len(eff_params),
                      chi2_by_observable=chi_obs, n_by_observable=n_obs)
@@ -729,7 +857,12 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                      seconds=time.perf_counter() - t0,
                      extra={"mismatch_evidence": evidence,
                             "nuisances": {k: NUISANCES[k][0] for k in NUISANCES},
-                            "warnings": list(camp.warnings)},
+                            "warnings": list(camp.warnings),
+                            "tone_noise": prob.tone_noise.to_dict(),
+                            "phase_sign": prob.tone.phase_sign,
+                            "rate_scatter": getattr(prob, "rate_scatter", None),
+                            "phase_sign_chi2": getattr(prob, "phase_sign_chi2", None),
+                            "left_out": list(camp.left_out)},
                      series_before=prob.series(pb), series_after=prob.series(pa))
 
 

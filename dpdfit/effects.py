@@ -209,6 +209,26 @@ class ToneModel:
         self.stale_modes = _modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:], 7)
         self.mode_names = ([f"cal_amp{i}" for i in range(len(self.amp_modes))]
                            + [f"cal_phase{i}" for i in range(len(self.phase_modes))])
+        #: sign with which the recorded phase response enters the field (+1: exp(+i phi))
+        self.phase_sign = 1
+
+    def with_phase_sign(self, sign: int) -> "ToneModel":
+        """A copy in which the recorded phase response enters as ``exp(sign i phi)``.
+
+        The sign convention of a lab's ``phase_rad`` relative to the field at
+        the ions (heterodyne reference above or below, engineering or physics
+        time convention) is not fixed by the recordings: the tone powers are
+        exactly the same for both signs (red and blue swap, and the
+        Cardioid's spectra are red/blue symmetric), only the gates tell.
+        """
+        import copy
+        new = copy.copy(self)
+        flip = int(sign) * self.phase_sign
+        new._cp = flip * self._cp
+        new.phase_modes = flip * self.phase_modes
+        new.phase_sign = int(sign)
+        new._off_key = None
+        return new
 
     def stale_dc(self, p: dict) -> np.ndarray:
         """Coefficient changes dc_k (k = 2..8) of the stale table's calibration."""
@@ -324,258 +344,4 @@ class ToneModel:
 
 # --------------------------------------------------------------------------- gates
 
-#: finite-difference steps of the gate-side responses
-_STEPS = {"gamma": 100.0, "ndot": 0.1, "p_prep": 0.01, "eps": 0.3, "dnbar": 0.2}
-#: engine tolerances for the diagnosis (probabilities to ~1e-6, far below shot noise)
-_TOL = {"rtol": 1e-7, "atol": 1e-9}
-_LINEAR = ("gamma", "ndot", "p_prep", "dnbar")
-_XI_STEP = 0.01
-
-
-class GateModel:
-    """Gate observables under the lab's error model and their response to gate-side effects.
-
-    Baseline values per setting come from the engine (nominal error model, no
-    power error), with each setting's ``eta Omega0`` chosen so that the
-    engine's gate rate equals the recorded ``xi0`` (the lab's calibration).
-    Responses to the effect parameters are finite differences of the engine at
-    each setting (its own tones and rate) and, for the time scans, at every
-    scan time.  The power error's response is quadratic (``lin eps + quad
-    eps^2``); the known random power errors (per-scan jitter, per-setting
-    gate-rate error) add ``quad * var`` to the expected values and a shared,
-    linearised error to the variances and covariances of one setting's
-    observables (:meth:`predict`).
-    """
-
-    def __init__(self, camp: Campaign, tone: ToneModel):
-        em = camp.error_model
-        self.em = em
-        self.nominal = dict(nbar=float(em["nbar"]), T2=float(em["T2_s"]),
-                            ndot=float(em["heating_quanta_per_s"]), p_prep=float(em["p_prep"]),
-                            p_det=float(em["p_det"]))
-        g = camp.gates
-        self.gates = g
-        self.ts = camp.time_scans
-        base_p = {}
-        self._tones, self.base = self._settings(tone, base_p)
-        # each setting's own responses to the effects (engine finite differences at
-        # its tones and rate): the power response of C differs in sign between
-        # A = 0.6 and 0.8, so responses scaled from the time-scan setting bias eps
-        self.set_ref = {}
-        for r in g.itertuples():
-            key = (r.A, r.dpd)
-            out = {"base": self.base[key],
-                   "eps+": self._run(key, r.xi0_hz, {"power_error_db": _STEPS["eps"]}, None),
-                   "eps-": self._run(key, r.xi0_hz, {"power_error_db": -_STEPS["eps"]}, None)}
-            for name in _LINEAR:
-                out[name] = self._run(key, r.xi0_hz, self._perturb(name, _STEPS[name]), None)
-            self.set_ref[key] = out
-        # responses at the time-scan settings (or the first setting if none)
-        ref = (list(self.ts.groupby(["A", "dpd"]).groups) if self.ts is not None
-               else [(g.A.iloc[0], int(g.dpd.iloc[0]))])
-        self.ref = {}
-        for (A, d) in ref:
-            key = (float(A), int(d))
-            if key not in self._tones:
-                n, b, c = tone.gate_tones(base_p, A, d)
-                xi = float(g.xi0_hz.iloc[0])
-                self._tones[key] = (n, b, c, xi / gate_sim.calibrate_xi0(b, c, n, 1.0))
-            n, b, c, eO = self._tones[key]
-            row = g[np.isclose(g.A, A) & (g.dpd == d)]
-            xi = float(row.xi0_hz.iloc[0]) if len(row) else eO * gate_sim.calibrate_xi0(
-                b, c, n, 1.0)
-            times = self._scan_times(key)
-            out = {"T": 1.0 / xi, "base": self._run(key, xi, {}, times)}
-            for name, step in _STEPS.items():
-                if name == "eps":
-                    out["eps+"] = self._run(key, xi, {"power_error_db": step}, times)
-                    out["eps-"] = self._run(key, xi, {"power_error_db": -step}, times)
-                else:
-                    out[name] = self._run(key, xi, self._perturb(name, step), times)
-            # a gate-rate calibration error: tones at xi (1 + e) with the power for xi
-            out["xi+"] = self._run(key, xi * (1 + _XI_STEP), {}, None)
-            self.ref[key] = out
-        self.sig_jit = float(em["power_jitter_db"])
-        # power error (dB) equivalent to a relative gate-rate error, from the imbalance
-        ks = []
-        for ref in self.ref.values():
-            lin = (ref["eps+"]["imb"] - ref["eps-"]["imb"]) / (2 * _STEPS["eps"])
-            ks.append((ref["xi+"]["imb"] - ref["base"]["imb"]) / _XI_STEP / lin)
-        self.db_per_rel_xi = float(np.mean(np.abs(ks)))
-
-    def rebased(self, tone: ToneModel, p: dict) -> "GateModel":
-        """A copy whose baseline values use the field of tone-side parameters ``p``.
-
-        The settings' spectra (and so the engine's baseline values, gate
-        ends and time scans) follow a tone-side effect such as AOM memory;
-        the linear responses to gate-side effects are kept.
-        """
-        import copy
-        new = copy.copy(self)
-        tones, new.base = self._settings(tone, p)
-        new._tones = {**self._tones, **tones}
-        new.ref = {}
-        for key, ref in self.ref.items():
-            r2 = dict(ref)
-            base = new._run(key, 1.0 / ref["T"], {}, self._scan_times(key))
-            shift = {q: np.asarray(base[q]) - np.asarray(ref["base"][q]) for q in base}
-            # shift every perturbed run by the same amount: responses unchanged
-            for name, run in ref.items():
-                if name == "T":
-                    continue
-                r2[name] = {q: np.asarray(run[q]) + shift[q] for q in run}
-            new.ref[key] = r2
-        new.set_ref = {}
-        for key, ref in self.set_ref.items():
-            shift = {q: new.base[key][q] - self.base[key][q] for q in self.base[key]}
-            new.set_ref[key] = {name: {q: run[q] + shift[q] for q in run}
-                                for name, run in ref.items()}
-        new._tab = None
-        return new
-
-    def _settings(self, tone: ToneModel, p: dict):
-        """Tones, ``eta Omega0`` (engine rate = recorded xi0) and baseline values per setting."""
-        tones, base = {}, {}
-        for r in self.gates.itertuples():
-            n, b, c = tone.gate_tones(p, r.A, r.dpd)
-            eO = r.xi0_hz / gate_sim.calibrate_xi0(b, c, n, 1.0)
-            tones[(r.A, r.dpd)] = (n, b, c, eO)
-            base[(r.A, r.dpd)] = _summary(gate_sim.simulate_setting(
-                b, c, n, eO, r.xi0_hz, **self.nominal, **_TOL))
-        return tones, base
-
-    def _scan_times(self, key):
-        """Scan times (s, > 0) of the time scan at setting ``key`` (None without scans)."""
-        if self.ts is None:
-            return None
-        sel = np.isclose(self.ts.A, key[0]) & (self.ts.dpd == key[1])
-        times = self.ts.loc[sel, "t_s"].to_numpy()
-        return times[times > 0]
-
-    def _perturb(self, name, step):
-        nm = self.nominal
-        if name == "gamma":
-            return {"T2": 1.0 / (1.0 / nm["T2"] + step)}
-        if name == "ndot":
-            return {"ndot": nm["ndot"] + step * 1e3}
-        if name == "p_prep":
-            return {"p_prep": nm["p_prep"] + step}
-        if name == "dnbar":
-            return {"nbar": nm["nbar"] + step}
-        raise KeyError(name)
-
-    def _run(self, key, xi, kw, times):
-        n, b, c, eO = self._tones[key]
-        args = dict(self.nominal)
-        args.update(kw)
-        res = gate_sim.simulate_setting(b, c, n, eO, xi, scan_times=times, **args, **_TOL)
-        s = _summary(res)
-        if times is not None:
-            s["P00_t"] = res.scan_pop[:, 0]
-            s["P11_t"] = res.scan_pop[:, 2]
-        return s
-
-    def _resp(self, ref, q):
-        """Linear responses per unit parameter at a reference: dict param -> d q."""
-        out = {}
-        for name, step in _STEPS.items():
-            if name == "eps":
-                continue
-            out[name] = (np.asarray(ref[name][q]) - np.asarray(ref["base"][q])) / step
-        lin = (np.asarray(ref["eps+"][q]) - np.asarray(ref["eps-"][q])) / (2 * _STEPS["eps"])
-        quad = (np.asarray(ref["eps+"][q]) + np.asarray(ref["eps-"][q])
-                - 2 * np.asarray(ref["base"][q])) / (2 * _STEPS["eps"] ** 2)
-        return out, lin, quad
-
-    def _tables(self):
-        """Per-setting arrays of baseline values and responses (computed once)."""
-        if getattr(self, "_tab", None) is not None:
-            return self._tab
-        g = self.gates
-        tab = {}
-        vj = self.sig_jit ** 2
-        rel = g.xi0_rel_err.to_numpy(dtype=float)
-        vx = np.where(np.isfinite(rel), (self.db_per_rel_xi * np.nan_to_num(rel)) ** 2, 0.0)
-        ns = g.n_scans.to_numpy(dtype=float)
-        for q in ("F_pop", "imb", "C"):
-            base = np.array([self.base[(r.A, r.dpd)][q] for r in g.itertuples()])
-            resp = {k: np.zeros(len(g)) for k in _LINEAR}
-            lin, quad = np.zeros(len(g)), np.zeros(len(g))
-            for i, r in enumerate(g.itertuples()):
-                le, li, qu = self._resp(self.set_ref[(r.A, r.dpd)], q)
-                for k in _LINEAR:
-                    resp[k][i] = le[k]
-                lin[i], quad[i] = li, qu
-            tab[q] = (base, resp, lin, quad)
-        tab["var"] = (vj, vx, ns)
-        ts = {}
-        if self.ts is not None:
-            for (A, d), _ in self.ts.groupby(["A", "dpd"], sort=False):
-                ref = self.ref[(float(A), int(d))]
-                for q in ("P00_t", "P11_t"):
-                    ts.setdefault(q, []).append(self._resp(ref, q) + (
-                        np.asarray(ref["base"][q], dtype=float),))
-        tab["ts"] = ts
-        self._tab = tab
-        return tab
-
-    def predict(self, p: dict) -> dict:
-        """Predicted gate observables and their model-side variances.
-
-        Returns dict with arrays over the settings (order of ``camp.gates``):
-        ``F_pop, imb, C``, their model-side variances ``var_*`` (known random
-        power errors) and the two shared directions of those errors,
-        ``dlin_*`` (``lin + 2 quad eps``, per dB) and ``dquad_*`` (``quad``),
-        with weights ``v_lin`` (dB^2) and ``v_quad`` (dB^4): the three
-        observables of one setting see the *same* power errors, so their
-        model-side covariance is ``v_lin dlin dlin^T + v_quad dquad dquad^T``
-        (linearised around ``eps``); and over
-        the time-scan points (``t > 0``, concatenated over scans): ``P00_t, P11_t``.
-        Time scan ``k`` also takes ``eps_ts{k}``, its own gate-rate error (dB),
-        on top of ``eps``.
-        """
-        tab = self._tables()
-        eps = float(p.get("eps", 0.0))
-        vj, vx, ns = tab["var"]
-        v_mean = vj / ns + vx
-        v_quad = 2 * (vj ** 2 / ns + vx ** 2)
-        res = {}
-        for q in ("F_pop", "imb", "C"):
-            base, resp, lin, quad = tab[q]
-            val = base + lin * eps + quad * (eps ** 2 + vj + vx)
-            for k in _LINEAR:
-                val = val + resp[k] * float(p.get(k, 0.0))
-            res[q] = val
-            # random power error u of the setting (scan-mean jitter + rate error):
-            # val(eps + u) ~ val + (lin + 2 quad eps) u + quad (u^2 - <u^2>)
-            res["dlin_" + q] = lin + 2 * quad * eps
-            res["dquad_" + q] = quad
-            res["var_" + q] = res["dlin_" + q] ** 2 * v_mean + quad ** 2 * v_quad
-        res["v_lin"], res["v_quad"] = v_mean, v_quad
-        for q, parts in tab["ts"].items():
-            acc = []
-            for k, (le, li, qu, base) in enumerate(parts):
-                e = eps + float(p.get(f"eps_ts{k}", 0.0))
-                v = base + li * e + qu * e ** 2
-                for name in _LINEAR:
-                    v = v + le[name] * float(p.get(name, 0.0))
-                acc.append(v)
-            res[q] = np.concatenate(acc)
-        return res
-
-    @property
-    def n_time_scans(self) -> int:
-        return 0 if self.ts is None else int(self.ts.groupby(["A", "dpd"]).ngroups)
-
-    def rate_error_db(self) -> float:
-        """1-sigma power-equivalent error (dB) of one setting's gate-rate calibration."""
-        rel = self.gates.xi0_rel_err.to_numpy(dtype=float)
-        rel = float(np.nanmedian(rel)) if np.isfinite(rel).any() else float(
-            self.em.get("xi0_rel_err", 0.01))
-        return float(self.db_per_rel_xi * rel)
-
-
-def _summary(res) -> dict:
-    pop = res.pop
-    return {"F_pop": float(pop[0] + pop[2]), "imb": float(pop[0] - pop[2]),
-            "C": float(res.parity_fit()[0])}
+from .gate_model import GateModel  # noqa: E402,F401  (moved; importable from here as before)

@@ -190,7 +190,8 @@ __all__ = [
     "displacement_bound", "fock_cutoff", "calibrate_xi0", "propagate", "propagate_lindblad",
     "analysis_rotation", "outcome_probabilities", "parity_outcomes", "confusion",
     "bell_fidelity", "bell_fidelity_max", "gate_target", "populations", "parity_even",
-    "SettingProbabilities", "SampledCounts", "simulate_setting",
+    "SettingProbabilities", "SampledCounts", "simulate_setting", "mix_branches",
+    "setting_branches",
 ]
 
 #: Lamb-Dicke parameter of the experiment (only ``eta * Omega0`` enters the engine).
@@ -455,7 +456,7 @@ def _check_times(times):
     return t
 
 
-def _schrodinger(drive, n_fock, p, tau_out, rtol, atol):
+def _schrodinger(drive, n_fock, p, tau_out, rtol, atol, init=0):
     d = drive.dim
     M = p.size
     sq = np.sqrt(np.arange(1, n_fock))[None, :, None]
@@ -472,7 +473,7 @@ def _schrodinger(drive, n_fock, p, tau_out, rtol, atol):
         return (-1j * out).ravel()
 
     psi0 = np.zeros(shape, dtype=complex)
-    psi0[0, np.arange(M), np.arange(M)] = 1.0        # |0...0> (x) |m>
+    psi0[init, np.arange(M), np.arange(M)] = 1.0     # |spin init> (x) |m>
     sp = np.sqrt(p)
 
     def reduce(y):
@@ -486,7 +487,7 @@ def _schrodinger(drive, n_fock, p, tau_out, rtol, atol):
     return _step_loop(rhs, psi0.ravel(), tau_out, rtol, atol, reduce, top_of)
 
 
-def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol):
+def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=0):
     """Master equation; ``gamma = 1/(T2 xi0)``, ``heat = ndot/xi0`` (per unit tau)."""
     d = drive.dim
     N = n_fock
@@ -540,7 +541,7 @@ def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol):
 
     rho0 = np.zeros((d, N, d, N), dtype=complex)
     m = np.arange(p.size)
-    rho0[0, m, 0, m] = p
+    rho0[init, m, init, m] = p
     sidx = np.arange(d)
 
     def reduce(y):
@@ -554,12 +555,14 @@ def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol):
 
 
 def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions,
-         gamma=0.0, heat=0.0):
+         gamma=0.0, heat=0.0, initial=0):
     b, c, n = _tones(b, c, n)
     eta_Omega0 = _positive("eta_Omega0", eta_Omega0, allow_zero=True)
     xi0 = _positive("xi0", xi0)
     if n_ions not in (1, 2):
         raise InputError(f"n_ions must be 1 or 2, got {n_ions}")
+    if int(initial) != initial or not 0 <= initial < 2 ** n_ions:
+        raise InputError(f"initial spin state must be 0..{2 ** n_ions - 1}, got {initial}")
     t = _check_times(times)
     scalar = t.ndim == 0
     t1 = np.atleast_1d(t)
@@ -574,9 +577,9 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
     tau = t1 * xi0
     for _ in range(6):
         if kind == "pure":
-            out, top, nfev = _schrodinger(drive, N, p, tau, rtol, atol)
+            out, top, nfev = _schrodinger(drive, N, p, tau, rtol, atol, int(initial))
         else:
-            out, top, nfev = _lindblad(drive, N, p, tau, gamma, heat, rtol, atol)
+            out, top, nfev = _lindblad(drive, N, p, tau, gamma, heat, rtol, atol, int(initial))
         if not auto or top < _MONITOR_TOL:
             break
         N = int(math.ceil(1.3 * N)) + 4
@@ -591,7 +594,7 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
 
 
 def propagate(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, atol=1e-11,
-              *, n_ions=2, return_info=False):
+              *, n_ions=2, initial=0, return_info=False):
     """Reduced spin density matrices by brute-force Schrodinger integration.
 
     Starts from ``|0...0> (x) rho_thermal(nbar)``; every thermal Fock state is
@@ -619,6 +622,9 @@ def propagate(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, ato
         DOP853 tolerances (amplitudes are O(1)).
     n_ions : {2, 1}
         Two ions (4x4 result) or one ion alone (2x2; the prep-error branch).
+    initial : int
+        Initial spin basis state (index into ``|00>, |01>, |10>, |11>``, or
+        ``|0>, |1>`` for one ion); default ``|0...0>``.
     return_info : bool
         Also return ``{"n_fock", "m_max", "B", "top_population", "nfev"}``.
 
@@ -627,12 +633,14 @@ def propagate(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, ato
     rho : ndarray of complex, shape (..., 4, 4)
         Basis ``|00>, |01>, |10>, |11>`` (``(..., 2, 2)`` for one ion), one per time.
     """
-    rho, info = _run("pure", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions)
+    rho, info = _run("pure", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions,
+                     initial=initial)
     return (rho, info) if return_info else rho
 
 
 def propagate_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.0,
-                       n_fock=None, rtol=1e-9, atol=1e-11, n_ions=2, return_info=False):
+                       n_fock=None, rtol=1e-9, atol=1e-11, n_ions=2, initial=0,
+                       return_info=False):
     """Reduced spin density matrices from the Lindblad master equation.
 
     Same model and arguments as :func:`propagate`, plus ::
@@ -652,7 +660,7 @@ def propagate_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot
     xi0f = _positive("xi0", xi0)
     gamma = 0.0 if np.isinf(T2) else 1.0 / (T2 * xi0f)
     rho, info = _run("lindblad", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol,
-                     n_ions, gamma=gamma, heat=ndot / xi0f)
+                     n_ions, gamma=gamma, heat=ndot / xi0f, initial=initial)
     return (rho, info) if return_info else rho
 
 
@@ -691,10 +699,16 @@ def parity_outcomes(rho, phases):
 
 
 def confusion(p4, p_det):
-    """Apply independent per-ion readout flips ``p_det`` to 4-outcome probabilities."""
+    """Apply independent per-ion readout errors to 4-outcome (or 2-outcome) probabilities.
+
+    ``p_det`` is one probability (symmetric) or a pair ``(e01, e10)``: ``e01``
+    the probability that a bright ``|0>`` ion reads dark (1), ``e10`` that a
+    dark ``|1>`` ion reads bright (0).
+    """
     p4 = np.asarray(p4, dtype=float)
-    C = np.array([[1 - p_det, p_det], [p_det, 1 - p_det]])
-    return p4 @ np.kron(C, C).T
+    e01, e10 = (p_det, p_det) if np.ndim(p_det) == 0 else (float(p_det[0]), float(p_det[1]))
+    C = np.array([[1 - e01, e10], [e01, 1 - e10]])           # C[read, true]
+    return p4 @ (np.kron(C, C).T if p4.shape[-1] == 4 else C.T)
 
 
 def _collapse(p4):
@@ -746,8 +760,16 @@ def gate_target(b, c, n, xi0, gate=(1, 2), n_fock=None, rtol=1e-10, atol=1e-12):
 # --------------------------------------------------------------------------- experiment
 
 
-def _branches(b, c, n, eta_Omega0, xi0, times, nbar, T2, ndot, p_prep, n_fock, rtol, atol):
-    """rho of the two-ion branch and (if p_prep > 0) of the single-ion branch at ``times``."""
+def _branches(b, c, n, eta_Omega0, xi0, times, nbar, T2, ndot, p_prep, n_fock, rtol, atol,
+              p_flip=0.0):
+    """Spin states of the preparation branches at ``times``.
+
+    Returns ``(rho2, rho1, info, flips)``: the two-ion branch from ``|00>``,
+    the single driven ion from ``|0>`` (if ``p_prep > 0``: the other ion is a
+    spectator) and, if ``p_flip > 0``, ``flips = (rho2 from |01>, rho2 from |11>,
+    rho1 from |1>)`` (ions prepared in the wrong qubit state; the last only if
+    ``p_prep > 0`` too), else None.
+    """
     lind = not (np.isinf(T2) and ndot == 0)
     kw = dict(n_fock=n_fock, rtol=rtol, atol=atol, return_info=True)
     if lind:
@@ -758,56 +780,161 @@ def _branches(b, c, n, eta_Omega0, xi0, times, nbar, T2, ndot, p_prep, n_fock, r
     rho1 = info1 = None
     if p_prep > 0:
         rho1, info1 = f(b, c, n, eta_Omega0, xi0, times, nbar, n_ions=1, **kw)
-    return rho2, rho1, {"two_ion": info2, "one_ion": info1, "master_equation": lind}
+    flips = None
+    if p_flip > 0:
+        r01, _ = f(b, c, n, eta_Omega0, xi0, times, nbar, n_ions=2, initial=1, **kw)
+        r11, _ = f(b, c, n, eta_Omega0, xi0, times, nbar, n_ions=2, initial=3, **kw)
+        r1f = None
+        if p_prep > 0:
+            r1f, _ = f(b, c, n, eta_Omega0, xi0, times, nbar, n_ions=1, initial=1, **kw)
+        flips = (r01, r11, r1f)
+    return rho2, rho1, {"two_ion": info2, "one_ion": info1, "master_equation": lind}, flips
 
 
-def _mix_branches(p2, p1, p_prep):
-    """Four-outcome probabilities from the prep branches (spectator reads 0 = bright).
+def _spectator(p1):
+    """Four outcomes of 'one ion a spectator (reads 0), the other driven' summed over
+    which ion is out: ``p1`` (..., 2) are the driven ion's outcomes."""
+    p1 = np.asarray(p1, dtype=float)
+    one = np.zeros(p1.shape[:-1] + (4,))
+    # ion 1 out (reads 0), ion 2 driven: outcomes 00, 01
+    one[..., 0] += p1[..., 0]
+    one[..., 1] += p1[..., 1]
+    # ion 2 out, ion 1 driven: outcomes 00, 10
+    one[..., 0] += p1[..., 0]
+    one[..., 2] += p1[..., 1]
+    return one
 
-    ``p2``: (..., 4) two-ion outcomes; ``p1``: (..., 2) single driven ion outcomes.
+
+def mix_branches(p2, p1, p_prep, p_flip=0.0, p2_01=None, p2_11=None, p1_1=None):
+    """Four-outcome probabilities from the preparation branches.
+
+    Each ion is independently a *spectator* with probability ``p_prep`` (pumped
+    into a level that takes no part in the gate; reads bright, 0), prepared in
+    the wrong qubit state ``|1>`` with probability ``p_flip`` (driven by the
+    gate), and right otherwise.  ``p2``: (..., 4) outcomes of the two-ion
+    branch from ``|00>``; ``p1``: (..., 2) of one driven ion from ``|0>``;
+    ``p2_01``: two ions from ``|01>`` (``|10>`` is its mirror: the ions are
+    driven alike); ``p2_11``: from ``|11>`` (None: ``p2`` with both bits flipped,
+    exact for the ideal interaction, which anticommutes with ``X X``, and of
+    weight ``p_flip^2`` anyway); ``p1_1``: one driven ion from ``|1>``.
     """
-    q = p_prep
-    out = (1 - q) ** 2 * np.asarray(p2, dtype=float)
+    q, f = p_prep, p_flip
+    g = 1.0 - q - f
+    out = g ** 2 * np.asarray(p2, dtype=float)
     if q > 0:
-        p1 = np.asarray(p1, dtype=float)
-        one = np.zeros_like(out)
-        # ion 1 out (reads 0), ion 2 driven: outcomes 00, 01
-        one[..., 0] += p1[..., 0]
-        one[..., 1] += p1[..., 1]
-        # ion 2 out, ion 1 driven: outcomes 00, 10
-        one[..., 0] += p1[..., 0]
-        one[..., 2] += p1[..., 1]
-        out = out + q * (1 - q) * one
+        out = out + q * g * _spectator(p1)
         out[..., 0] += q ** 2
+    if f > 0:
+        p01 = np.asarray(p2_01, dtype=float)
+        out = out + f * g * (p01 + p01[..., [0, 2, 1, 3]])
+        p11 = (np.asarray(p2, dtype=float)[..., ::-1] if p2_11 is None
+               else np.asarray(p2_11, dtype=float))
+        out = out + f * f * p11
+        if q > 0:
+            out = out + q * f * _spectator(p1_1)
     return out
 
 
+def _outcomes(rho2, rho1, flips, p_prep, p_flip, reduce):
+    """Mixed four-outcome probabilities of the branches, ``reduce`` = outcome map of a state."""
+    o1 = None if rho1 is None else reduce(rho1)
+    if flips is None:
+        return mix_branches(reduce(rho2), o1, p_prep)
+    r01, r11, r1f = flips
+    return mix_branches(reduce(rho2), o1, p_prep, p_flip, reduce(r01), reduce(r11),
+                        None if r1f is None else reduce(r1f))
+
+
+def _prep_probabilities(p_prep, p_flip):
+    p_prep = _probability("p_prep", p_prep)
+    p_flip = _probability("p_flip", p_flip)
+    if p_prep + p_flip > 1:
+        raise InputError(f"p_prep + p_flip must not exceed 1, got {p_prep + p_flip}")
+    return p_prep, p_flip
+
+
+def _detection(p_det):
+    if np.ndim(p_det) == 0:
+        return _probability("p_det", p_det)
+    if np.shape(p_det) != (2,):
+        raise InputError(f"p_det must be a probability or a pair (e01, e10), got {p_det!r}")
+    return (_probability("e01", p_det[0]), _probability("e10", p_det[1]))
+
+
 def populations(b, c, n, eta_Omega0, xi0, times=None, *, nbar=0.1, T2=50e-3, ndot=5.0,
-                p_prep=0.003, p_det=5e-5, n_fock=None, rtol=1e-9, atol=1e-11):
+                p_prep=0.003, p_det=5e-5, p_flip=0.0, n_fock=None, rtol=1e-9, atol=1e-11):
     """Measured populations ``(P00, P01+P10, P11)`` with all imperfections.
 
     ``times`` [s] defaults to the gate time ``1/xi0``; returns shape
     ``times.shape + (3,)``.  Other arguments as in :func:`simulate_setting`.
     """
+    p_prep, p_flip = _prep_probabilities(p_prep, p_flip)
+    p_det = _detection(p_det)
     times = 1.0 / xi0 if times is None else times
     t = np.asarray(times, dtype=float)
-    rho2, rho1, _ = _branches(b, c, n, eta_Omega0, xi0, t, nbar, T2, ndot, p_prep, n_fock,
-                              rtol, atol)
-    p4 = _mix_branches(outcome_probabilities(rho2),
-                       None if rho1 is None else outcome_probabilities(rho1), p_prep)
+    rho2, rho1, _, flips = _branches(b, c, n, eta_Omega0, xi0, t, nbar, T2, ndot, p_prep,
+                                     n_fock, rtol, atol, p_flip)
+    p4 = _outcomes(rho2, rho1, flips, p_prep, p_flip, outcome_probabilities)
     return _collapse(confusion(p4, p_det))
 
 
 def parity_even(b, c, n, eta_Omega0, xi0, phases=None, *, nbar=0.1, T2=50e-3, ndot=5.0,
-                p_prep=0.003, p_det=5e-5, n_fock=None, rtol=1e-9, atol=1e-11):
+                p_prep=0.003, p_det=5e-5, p_flip=0.0, n_fock=None, rtol=1e-9, atol=1e-11):
     """``P_even(phi)`` after gate (``T = 1/xi0``) + analysis pulse, all imperfections."""
+    p_prep, p_flip = _prep_probabilities(p_prep, p_flip)
+    p_det = _detection(p_det)
     phases = np.arange(16) * 2 * np.pi / 16 if phases is None else np.asarray(phases, float)
-    rho2, rho1, _ = _branches(b, c, n, eta_Omega0, xi0, 1.0 / xi0, nbar, T2, ndot, p_prep,
-                              n_fock, rtol, atol)
-    p4 = _mix_branches(parity_outcomes(rho2, phases),
-                       None if rho1 is None else parity_outcomes(rho1, phases), p_prep)
+    rho2, rho1, _, flips = _branches(b, c, n, eta_Omega0, xi0, 1.0 / xi0, nbar, T2, ndot,
+                                     p_prep, n_fock, rtol, atol, p_flip)
+    p4 = _outcomes(rho2, rho1, flips, p_prep, p_flip,
+                   functools.partial(_parity_of, phases=phases))
     p4 = confusion(p4, p_det)
     return p4[..., 0] + p4[..., 3]
+
+
+def _parity_of(rho, phases):
+    return parity_outcomes(rho, phases)
+
+
+def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
+                     phases=None, scan_times=None, power_error_db=0.0, spectator=True,
+                     flip=True, n_fock=None, rtol=1e-9, atol=1e-11) -> dict:
+    """Raw outcome probabilities of the preparation branches of one setting.
+
+    No preparation mixing and no detection error: what :func:`mix_branches`
+    and :func:`confusion` turn into measured probabilities for *any*
+    ``p_prep``, ``p_flip`` and detection errors, exactly and without another
+    integration (the diagnosis fits those as nuisances).
+
+    Returns
+    -------
+    dict
+        ``p2`` (1 + S, 4): two ions from ``|00>`` at the gate time then the scan
+        times; ``par2`` (K, 4): after the analysis pulse at ``phases``;
+        with ``spectator``: ``p1``, ``par1`` (one driven ion from ``|0>``);
+        with ``flip``: ``p2_01``, ``par2_01`` (two ions from ``|01>``); with
+        both: ``p1_1``, ``par1_1`` (one driven ion from ``|1>``); and
+        ``phases``, ``times``.
+    """
+    T2 = _positive("T2", T2, allow_inf=True)
+    ndot = _positive("ndot", ndot, allow_zero=True)
+    eO = _positive("eta_Omega0", eta_Omega0) * 10 ** (float(power_error_db) / 20)
+    phases = (np.arange(16) * 2 * np.pi / 16 if phases is None
+              else np.atleast_1d(np.asarray(phases, dtype=float)))
+    T = 1.0 / _positive("xi0", xi0)
+    scan = np.zeros(0) if scan_times is None else np.atleast_1d(_check_times(scan_times))
+    times = np.concatenate([[T], scan])
+    lind = not (np.isinf(T2) and ndot == 0)
+    f = functools.partial(propagate_lindblad, T2=T2, ndot=ndot) if lind else propagate
+    kw = dict(n_fock=n_fock, rtol=rtol, atol=atol)
+    out = {"phases": phases, "times": times}
+    runs = [("2", 2, 0)] + ([("1", 1, 0)] if spectator else []) + (
+        [("2_01", 2, 1)] if flip else []) + ([("1_1", 1, 1)] if spectator and flip else [])
+    for name, ions, init in runs:
+        rho = f(b, c, n, eO, xi0, times, nbar, n_ions=ions, initial=init, **kw)
+        out["p" + name] = outcome_probabilities(rho)
+        out["par" + name] = parity_outcomes(rho[0], phases)
+    return out
 
 
 @dataclass(frozen=True)
@@ -975,7 +1102,7 @@ class SettingProbabilities:
 def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
                      p_prep=0.003, p_det=5e-5, parity_phases=None, scan_times=None,
                      power_error_db=0.0, n_fock=None, rtol=1e-9, atol=1e-11,
-                     target=None, gate=(1, 2)) -> SettingProbabilities:
+                     target=None, gate=(1, 2), p_flip=0.0) -> SettingProbabilities:
     """Outcome probabilities of one gate setting.
 
     The gate runs for ``T = 1/xi0`` with tones at ``n xi0`` from the sidebands;
@@ -999,8 +1126,14 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
         Qubit coherence time [s] (``np.inf``: none).
     ndot : float
         Heating rate [quanta/s].
-    p_prep, p_det : float
-        Per-ion preparation and detection error probabilities.
+    p_prep : float
+        Per-ion probability of a spectator (pumped out of the qubit; not driven,
+        reads bright).
+    p_det : float or (float, float)
+        Per-ion detection error: one probability (symmetric) or ``(e01, e10)``
+        (bright read dark, dark read bright).
+    p_flip : float
+        Per-ion probability of starting in the wrong qubit state ``|1>`` (driven).
     parity_phases : array_like, optional
         Analysis phases [rad]; default ``2 pi k/16``, ``k = 0..15``.
     scan_times : array_like, optional
@@ -1020,8 +1153,8 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
     xi0 = _positive("xi0", xi0)
     T2 = _positive("T2", T2, allow_inf=True)
     ndot = _positive("ndot", ndot, allow_zero=True)
-    p_prep = _probability("p_prep", p_prep)
-    p_det = _probability("p_det", p_det)
+    p_prep, p_flip = _prep_probabilities(p_prep, p_flip)
+    p_det = _detection(p_det)
     if not np.isfinite(power_error_db):
         raise InputError(f"power_error_db must be finite, got {power_error_db}")
     eO = _positive("eta_Omega0", eta_Omega0) * 10 ** (float(power_error_db) / 20)
@@ -1030,12 +1163,13 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
     T = 1.0 / xi0
     scan = None if scan_times is None else np.atleast_1d(_check_times(scan_times))
     times = np.concatenate([[T], scan]) if scan is not None else np.array([T])
-    rho2, rho1, info = _branches(b, c, n, eO, xi0, times, nbar, T2, ndot, p_prep, n_fock,
-                                 rtol, atol)
-    o1 = None if rho1 is None else outcome_probabilities(rho1)
-    pops = _collapse(confusion(_mix_branches(outcome_probabilities(rho2), o1, p_prep), p_det))
-    par = _mix_branches(parity_outcomes(rho2[0], phases),
-                        None if rho1 is None else parity_outcomes(rho1[0], phases), p_prep)
+    rho2, rho1, info, flips = _branches(b, c, n, eO, xi0, times, nbar, T2, ndot, p_prep,
+                                        n_fock, rtol, atol, p_flip)
+    pops = _collapse(confusion(_outcomes(rho2, rho1, flips, p_prep, p_flip,
+                                         outcome_probabilities), p_det))
+    first = None if flips is None else tuple(None if r is None else r[0] for r in flips)
+    par = _outcomes(rho2[0], None if rho1 is None else rho1[0], first, p_prep, p_flip,
+                    functools.partial(parity_outcomes, phases=phases))
     par = _collapse(confusion(par, p_det))
     info["seconds"] = time.perf_counter() - t0
     return SettingProbabilities(
@@ -1045,6 +1179,6 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
         fidelity_gate=bell_fidelity(rho2[0], gate_target(b, c, n, xi0, gate)),
         scan_times=scan, scan_pop=None if scan is None else pops[1:],
         params={"nbar": float(nbar), "T2": T2, "ndot": ndot, "p_prep": p_prep, "p_det": p_det,
-                "power_error_db": float(power_error_db), "eta_Omega0_calibrated":
-                float(eta_Omega0)},
+                "p_flip": p_flip, "power_error_db": float(power_error_db),
+                "eta_Omega0_calibrated": float(eta_Omega0)},
         info=info)

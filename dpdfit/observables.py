@@ -27,7 +27,6 @@ Everything here is measured; predictions live in :mod:`dpdfit.effects`.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,11 +34,12 @@ import numpy as np
 import pandas as pd
 
 from .calibration import calibrate_amplitude, calibrate_phase
-from .counts import fit_parity, read_parity, read_populations
+from .campaign_folder import CampaignFolder
+from .counts import fit_parity
 from .errors import InputError
-from .tables import read_calibration, read_table
 
-__all__ = ["Campaign", "load_campaign", "tone_features", "TONE_FEATURES", "MIN_SNR_DB"]
+__all__ = ["Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
+           "MIN_SNR_DB"]
 
 #: tones weaker than this above the (median) floor are not used
 MIN_SNR_DB = 15.0
@@ -98,14 +98,28 @@ class Campaign:
     time_scans: pd.DataFrame | None
     error_model: dict = field(default_factory=dict)
     warnings: tuple = ()
+    #: recorded tone powers (dB, before debiasing), same shape as ``P_dB``
+    P_raw: np.ndarray | None = None
+    #: recorded SNR over the median noise power (NaN without ``snr_db``)
+    snr_raw: np.ndarray | None = None
+    #: spectra.csv carries snr_db (else the noise floor is estimated by the diagnosis)
+    has_snr: bool = True
+    #: campaign.json carries the lab's error_model
+    has_error_model: bool = True
+    #: what the folder lacks and what that leaves out of the analysis, one line each
+    left_out: tuple = ()
 
     @property
     def nu(self) -> float:
-        return float(self.meta.get("nu_hz", 1.84e6))
+        return float(self.meta["nu_hz"])
 
     @property
     def xi0_spectra(self) -> float:
-        return float(self.meta.get("xi0_spectra_hz", 20e3))
+        return float(self.meta["xi0_spectra_hz"])
+
+    @property
+    def has_imbalance(self) -> bool:
+        return self.gates is not None and bool(np.isfinite(self.gates["imb"]).any())
 
 
 def _residual_frame(cal, A, value, err) -> pd.DataFrame:
@@ -115,15 +129,13 @@ def _residual_frame(cal, A, value, err) -> pd.DataFrame:
     return pd.DataFrame({"A": A, "z": (value - pred) / err})
 
 
-def _calibrations(folder: Path, meta: dict):
-    amp_run = (meta.get("predistortion_table") or {}).get("amplitude_run") or "latest"
-    data = read_calibration(folder / "calibration_amplitude.csv", "amplitude", amp_run)
-    amp = calibrate_amplitude(data, int(meta.get("order", 8)))
+def _calibrations(cf: CampaignFolder):
+    data = cf.amplitude_model
+    amp = calibrate_amplitude(data, int(cf.meta["order"]))
     amp_res = _residual_frame(amp, data.A, data.value, data.error)
     ph, ph_res = None, None
-    path = folder / "calibration_phase.csv"
-    if path.exists():
-        pdata = read_calibration(path, "phase", meta.get("phase_run_for_model") or "latest")
+    pdata = cf.phase_model
+    if pdata is not None:
         ph = calibrate_phase(pdata)
         use = pdata.A >= 0.1
         ph_res = _residual_frame(ph, pdata.A[use], pdata.value[use],
@@ -131,38 +143,46 @@ def _calibrations(folder: Path, meta: dict):
     return amp, amp_res, ph, ph_res
 
 
-def _tones(path: Path):
-    df = read_table(path, ["A", "dpd", "sideband", "n", "P_dB"], ["valid", "snr_db"],
-                    numeric=["A", "dpd", "n", "P_dB"], ranges={"A": (0, 1), "dpd": (0, 1)})
-    if "snr_db" not in df.columns:
-        raise InputError("the diagnosis needs the snr_db column (noise floor of each tone)",
-                         file=str(path), column="snr_db")
-    bad = ~df["sideband"].isin(SIDEBANDS)
-    if bad.any():
-        i = int(np.flatnonzero(bad.to_numpy())[0])
-        raise InputError(f"sideband must be red or blue, got '{df['sideband'].iloc[i]}'",
-                         file=str(path), column="sideband", row=i + 1)
+def _tones(cf: CampaignFolder):
+    """Recorded tone powers and (if recorded) SNRs on the (A, dpd, sideband, harmonic) grid."""
+    df = cf.spectra
     A = np.unique(df["A"].to_numpy(dtype=float))
     P = np.full((A.size, 2, 2, len(HARMONICS)), np.nan)
-    sd = np.full_like(P, np.nan)
+    snr = np.full_like(P, np.nan)
     iA = np.searchsorted(A, df["A"].to_numpy(dtype=float))
     d = df["dpd"].to_numpy(dtype=int)
     s = (df["sideband"] == "blue").to_numpy(dtype=int)
     n = df["n"].to_numpy(dtype=int)
     keep = np.isin(n, HARMONICS)
     h = np.searchsorted(HARMONICS, n[keep])
-    p_db = df["P_dB"].to_numpy(dtype=float)[keep]
-    snr = pd.to_numeric(df["snr_db"], errors="coerce").to_numpy(dtype=float)[keep]
-    # mean noise power in the bin = median floor / ln 2
-    N0 = 10 ** ((p_db - snr) / 10) / np.log(2)
-    lin = 10 ** (p_db / 10) - N0
-    ok = (snr >= MIN_SNR_DB) & (lin > 0) & np.isfinite(snr)
-    val = np.where(ok, 10 * np.log10(np.where(ok, lin, 1.0)), np.nan)
-    err = np.where(ok, np.hypot(10 / np.log(10) * np.sqrt(2 * N0 / np.where(ok, lin, 1.0)),
-                                EXTRACTION_FLOOR_DB), np.nan)
-    P[iA[keep], d[keep], s[keep], h] = val
-    sd[iA[keep], d[keep], s[keep], h] = err
-    return A, P, sd
+    P[iA[keep], d[keep], s[keep], h] = df["P_dB"].to_numpy(dtype=float)[keep]
+    if "snr_db" in df.columns:
+        snr[iA[keep], d[keep], s[keep], h] = df["snr_db"].to_numpy(dtype=float)[keep]
+    return A, P, snr, "snr_db" in df.columns
+
+
+def debias_tones(P_raw: np.ndarray, N0: np.ndarray):
+    """Tone powers debiased for the noise in their bin, and the noise part of their error.
+
+    ``P_raw`` (dB) reads ``|c + n|^2`` with complex noise of mean power ``N0``
+    (linear, broadcastable), so ``E P = |c|^2 + N0``; the debiased power is
+    ``10 log10(P - N0)`` and its error ``(10/ln 10) sqrt(2 N0 / (P - N0))`` dB.
+    Tones below ``MIN_SNR_DB`` over the *median* noise power ``N0 ln 2`` are
+    not used (NaN: their reading is an upper limit).
+
+    Returns
+    -------
+    (P_dB, sd_noise_dB) : arrays of the shape of ``P_raw``
+    """
+    N0 = np.broadcast_to(np.asarray(N0, dtype=float), P_raw.shape)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        snr = P_raw - 10 * np.log10(N0 * np.log(2))
+        lin = 10 ** (P_raw / 10) - N0
+        ok = np.isfinite(P_raw) & (snr >= MIN_SNR_DB) & (lin > 0)
+        lin = np.where(ok, lin, 1.0)
+        val = np.where(ok, 10 * np.log10(lin), np.nan)
+        err = np.where(ok, 10 / np.log(10) * np.sqrt(2 * N0 / lin), np.nan)
+    return val, err
 
 
 def tone_features(P_dB: np.ndarray, A: np.ndarray, sd_dB: np.ndarray | None = None):
@@ -203,30 +223,28 @@ def tone_features(P_dB: np.ndarray, A: np.ndarray, sd_dB: np.ndarray | None = No
     return out
 
 
-def _gates(folder: Path, meta: dict):
-    pop_path, par_path = folder / "populations.csv", folder / "parity.csv"
-    rate_path = folder / "gate_rates.csv"
-    if not (pop_path.exists() and par_path.exists() and rate_path.exists()):
+def _gates(cf: CampaignFolder):
+    pop, par, rates = cf.populations, cf.parity, cf.gate_rates
+    if pop is None or par is None or rates is None:
         return None
-    pop = read_populations(pop_path)
-    par = read_parity(par_path)
-    rates = read_table(rate_path, ["A", "dpd", "xi0_khz"], ["xi0_err_khz"],
-                       numeric=["A", "dpd", "xi0_khz"], positive=["xi0_khz"])
-    if not {"n00", "n11"} <= set(pop.columns):
-        raise InputError("the diagnosis needs n00 and n11 (imbalance)", file=str(pop_path),
-                         column="n00")
+    rate_path = str(cf.file("gate_rates.csv"))
+    has_imb = {"n00", "n11"} <= set(pop.columns)
     rows = []
     for (A, d), g in pop.groupby(["A", "dpd"]):
         r = rates[(np.isclose(rates.A, A)) & (rates.dpd == d)]
         if r.empty:
-            raise InputError(f"no gate rate for A={A:g}, dpd={int(d)}", file=str(rate_path),
+            raise InputError(f"no gate rate for A={A:g}, dpd={int(d)}", file=rate_path,
                              column="xi0_khz")
+        sel = par[(np.isclose(par.A, A)) & (par.dpd == d)]
+        if sel.empty:
+            raise InputError(f"setting A={A:g}, dpd={int(d)} has populations but no parity "
+                             "scans", file=str(cf.file("parity.csv")), column="A")
         N = float(g["shots"].sum())
-        p00, p11 = g["n00"].sum() / N, g["n11"].sum() / N
+        F = float(g["n_even"].sum()) / N
         # contrast per scan, averaged: each scan's power error also moves its
         # fringe phase, so a count-level merge would wash the contrast out
         cs, es = [], []
-        for _, sc in par[(np.isclose(par.A, A)) & (par.dpd == d)].groupby("scan"):
+        for _, sc in sel.groupby("scan"):
             f = fit_parity(sc["phase_rad"].to_numpy(), sc["n_even"].to_numpy(),
                            sc["shots"].to_numpy())
             cs.append(f.A)
@@ -234,50 +252,65 @@ def _gates(folder: Path, meta: dict):
         xi = float(r["xi0_khz"].iloc[0]) * 1e3
         rel = (float(r["xi0_err_khz"].iloc[0]) * 1e3 / xi if "xi0_err_khz" in r.columns
                else np.nan)
-        pe = max(min(p00 + p11, 1 - 0.5 / N), 0.5 / N)
-        rows.append({"A": float(A), "dpd": int(d), "xi0_hz": xi, "xi0_rel_err": rel,
-                     "n_scans": int(g["scan"].nunique()), "shots": N,
-                     "F_pop": p00 + p11, "F_pop_shot": np.sqrt(pe * (1 - pe) / N),
-                     "imb": p00 - p11,
-                     "imb_shot": np.sqrt(max(p00 + p11 - (p00 - p11) ** 2, 1.0 / N) / N),
-                     "C": float(np.mean(cs)), "C_shot": float(np.sqrt(np.sum(np.square(es)))
-                                                               / len(es))})
+        pe = max(min(F, 1 - 0.5 / N), 0.5 / N)
+        row = {"A": float(A), "dpd": int(d), "xi0_hz": xi, "xi0_rel_err": rel,
+               "n_scans": int(g["scan"].nunique()), "shots": N,
+               "F_pop": F, "F_pop_shot": np.sqrt(pe * (1 - pe) / N),
+               "imb": np.nan, "imb_shot": np.nan,
+               "C": float(np.mean(cs)), "C_shot": float(np.sqrt(np.sum(np.square(es))) / len(es))}
+        if has_imb:
+            p00, p11 = g["n00"].sum() / N, g["n11"].sum() / N
+            row["imb"] = p00 - p11
+            row["imb_shot"] = np.sqrt(max(p00 + p11 - (p00 - p11) ** 2, 1.0 / N) / N)
+        rows.append(row)
     return pd.DataFrame(rows).sort_values(["dpd", "A"], ignore_index=True)
 
 
-def _time_scans(folder: Path):
-    path = folder / "time_scans.csv"
-    if not path.exists():
+def _time_scans(cf: CampaignFolder):
+    ts = cf.time_scans
+    if ts is None:
         return None
-    df = read_table(path, ["A", "dpd", "t_us", "n00", "n11", "shots"], [],
-                    numeric=["A", "dpd", "t_us", "n00", "n11", "shots"], positive=["shots"])
-    df = df.assign(t_s=df["t_us"] * 1e-6, dpd=df["dpd"].astype(int))
-    return df[["A", "dpd", "t_s", "n00", "n11", "shots"]].reset_index(drop=True)
+    return ts[["A", "dpd", "t_s", "n00", "n11", "shots"]].reset_index(drop=True)
 
 
 def load_campaign(folder) -> Campaign:
-    """Read and validate a campaign folder for the diagnosis."""
-    folder = Path(folder)
-    if not (folder / "campaign.json").exists():
-        raise InputError("not a campaign folder: campaign.json missing", file=str(folder))
-    try:
-        meta = json.loads((folder / "campaign.json").read_text())
-    except json.JSONDecodeError as exc:
-        raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
-                         file=str(folder / "campaign.json")) from None
-    amp, amp_res, ph, ph_res = _calibrations(folder, meta)
+    """Read and validate a campaign folder for the diagnosis.
+
+    ``folder`` is a path or a :class:`~dpdfit.campaign_folder.CampaignFolder`
+    (the reader ``dpdfit analyze`` shares).  Required: ``campaign.json``,
+    ``calibration_amplitude.csv``, ``spectra.csv``; everything else is
+    optional and what is absent is listed in :attr:`Campaign.left_out`.
+    """
+    cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
+    amp, amp_res, ph, ph_res = _calibrations(cf)
     warnings = []
     if not amp.monotone:
         iv = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in amp.nonmonotone_intervals)
-        warnings.append(f"{folder / 'calibration_amplitude.csv'}, run "
+        warnings.append(f"{cf.file('calibration_amplitude.csv')}, run "
                         f"{amp.source.get('run', '?')}: amplitude calibration decreases on "
                         f"A in {iv}; the predistortion table clamps there")
-    if not (folder / "spectra.csv").exists():
-        raise InputError("the diagnosis needs spectra.csv", file=str(folder))
-    A, P, sd = _tones(folder / "spectra.csv")
+    cf.require("spectra.csv", "the diagnosis")
+    A, P_raw, snr, has_snr = _tones(cf)
+    if has_snr:
+        # the recorded SNR is over the median noise power: mean power = floor / ln 2
+        N0 = 10 ** ((P_raw - snr) / 10) / np.log(2)
+        P, sd = debias_tones(P_raw, np.where(np.isfinite(N0), N0, np.inf))
+    else:
+        P, sd = np.full_like(P_raw, np.nan), np.full_like(P_raw, np.nan)
     em = dict(DEFAULT_ERROR_MODEL)
-    em.update(meta.get("error_model") or {})
-    return Campaign(folder=folder, meta=meta, amplitude=amp, phase=ph, amp_residuals=amp_res,
-                    phase_residuals=ph_res, A_tones=A, P_dB=P, sd_dB=sd,
-                    gates=_gates(folder, meta), time_scans=_time_scans(folder), error_model=em,
-                    warnings=tuple(warnings))
+    em.update(cf.raw_meta.get("error_model") or {})
+    gates = _gates(cf)
+    left = cf.left_out()
+    if not has_snr:
+        left.append("spectra.csv has no snr_db: the noise floor is estimated from the "
+                    "recordings (IM tones at low A)")
+    pop = cf.populations
+    if gates is not None and pop is not None and not {"n00", "n11"} <= set(pop.columns):
+        left.append("populations.csv has no n00/n11: the imbalance P00 - P11 is not used")
+    if ph is None:
+        left.append("no phase calibration: the model has no AM-to-PM")
+    return Campaign(folder=cf.path, meta=cf.meta, amplitude=amp, phase=ph,
+                    amp_residuals=amp_res, phase_residuals=ph_res, A_tones=A, P_dB=P,
+                    sd_dB=sd, gates=gates, time_scans=_time_scans(cf), error_model=em,
+                    warnings=tuple(warnings), P_raw=P_raw, snr_raw=snr, has_snr=has_snr,
+                    has_error_model="error_model" in cf.raw_meta, left_out=tuple(left))
