@@ -51,7 +51,8 @@ from .observables import HARMONICS, Campaign, tone_features
 from .transfer import TransferFunction, predistortion_table
 from .waveforms import cardioid, sample_grid, synthesize
 
-__all__ = ["Param", "Effect", "EFFECTS", "NUISANCES", "ToneModel", "GateModel"]
+__all__ = ["Param", "Effect", "EFFECTS", "VARIANTS", "STALE_AOM", "NUISANCES", "ToneModel",
+           "GateModel"]
 
 
 @dataclass(frozen=True)
@@ -94,14 +95,20 @@ EFFECTS = {e.name: e for e in (
            (Param("k5", "1", -0.5, 0.5, 0.0, 0.01),),
            "fifth-order field distortion beyond the calibrated transfer (IM5 and up)"),
     Effect("detector_nonlinearity", "tones",
-           (Param("k_det", "1/P_max", -0.5, 0.5, 0.0, 0.02),),
-           "calibration photodiode response P (1 + k P/P_max)"),
+           (Param("k_det", "1/P_max", -0.5, 0.5, 0.0, 0.02),
+            Param("q_det", "1", 0.5, 3.0, 1.0, 0.1)),
+           "calibration photodiode response P (1 + k (P/P_max)^q): saturation (q = 1) or "
+           "a nonlinearity of another order"),
     Effect("dephasing", "gates",
-           (Param("gamma", "1/s", 0.0, 2000.0, 10.0, 20.0),),
-           "extra qubit dephasing rate (loss grows with gate time)"),
+           (Param("gamma", "1/s", 0.0, 2000.0, 10.0, 20.0),
+            Param("gamma_c", "1/s", 0.0, 2000.0, 10.0, 20.0)),
+           "extra qubit dephasing (loss grows with gate time): independent on each ion "
+           "(rate gamma) and common to both, e.g. magnetic-field noise (rate gamma_c)"),
     Effect("motional_heating", "gates",
-           (Param("ndot", "quanta/ms", 0.0, 5.0, 0.01, 0.05),),
-           "extra heating of the gate mode"),
+           (Param("ndot", "quanta/ms", 0.0, 5.0, 0.01, 0.05),
+            Param("dnbar", "quanta", 0.0, 5.0, 0.01, 0.1)),
+           "gate mode hotter than the lab's model: extra heating during the gate (ndot) "
+           "and/or extra initial phonons (dnbar; e.g. a hot tail of the distribution)"),
     Effect("spam_offset", "gates",
            (Param("p_prep", "probability", 0.0, 0.2, 0.001, 0.005),),
            "extra state-preparation error per ion (constant offset)"),
@@ -112,6 +119,36 @@ EFFECTS = {e.name: e for e in (
            (Param("dnbar", "quanta", 0.0, 5.0, 0.05, 0.1),),
            "higher initial mean phonon number"),
 )}
+
+#: second forms of catalog effects, fitted beside them; the diagnosis names the better of
+#: the two forms by the catalog name (``variant`` in its ranking entry):
+#: * stale_calibration "aom": the AOM drifted since the named run, which made the table and
+#:   describes the model's forward transfer; today's transfer is free along the run-to-run
+#:   drift modes of the amplitude runs (sa_i, in units of their sd);
+#: * aom_memory "thermal": a slow memory (microseconds: heating of the crystal by the RF),
+#:   the drive power's recent history changing the modulator's complex gain; the catalog
+#:   form ("fast") is the acoustic response of nanoseconds to the drive envelope itself;
+#: * am_pm_omitted "aom": the AM-to-PM of the modulator itself, a phase dphi_x |x|^2 of the
+#:   RF drive amplitude (the form of a phase calibration, Eq. aom-forward), rather than a
+#:   phase ~ |y|^2 of the optical field added after it ("post")
+VARIANTS = {
+    "stale_calibration@aom": Effect(
+        "stale_calibration", "tones",
+        tuple(Param(f"sa{i}", "sd", -20.0, 20.0, 0.0, 1.0) for i in range(3)),
+        "the AOM drifted since the calibration run that made the table: today's transfer is "
+        "the run's plus its run-to-run drift modes"),
+    "am_pm_omitted@aom": Effect(
+        "am_pm_omitted", "tones", (Param("dphi_x", "rad", -1.0, 1.0, 0.0, 0.05),),
+        "AM-to-PM of the modulator left out of the model: phase dphi_x |x|^2 of the RF drive"),
+    "aom_memory@thermal": Effect(
+        "aom_memory", "tones",
+        (Param("th_a", "1", -0.5, 0.5, 0.0, 0.01), Param("th_p", "rad", -1.0, 1.0, 0.01, 0.01),
+         Param("th_tau", "us", 0.0, 20.0, 1.0, 0.3)),
+        "slow memory of the modulator (e.g. thermal): its complex gain changes by "
+        "(th_a + i th_p) s(t), s = the drive power |x|^2 through a single pole of time "
+        "constant th_tau"),
+}
+STALE_AOM = VARIANTS["stale_calibration@aom"]
 
 #: existing parameters of the model, refitted first: name -> (unit, meaning)
 NUISANCES = {"cal_amp0..3": ("sigma", "largest error modes of the amplitude calibration "
@@ -137,6 +174,11 @@ def _uniform_interp(x, table):
     return table[i] + f * (table[i + 1] - table[i])
 
 
+#: Newton steps of the detector model's inversion for exponents q != 1
+NEWTON_DET = 5
+#: parameters of the tone side (effects), which the tone model's cache is keyed on
+TONE_PARAMS = tuple(dict.fromkeys(par.name for e in (*EFFECTS.values(), *VARIANTS.values())
+                                  if e.side == "tones" for par in e.params))
 #: oversampling of the tone model's grid beyond the single-nonlinearity no-alias rate
 OVERSAMPLE = 4
 #: calibration-uncertainty modes refitted as nuisances (amplitude, phase): all of them
@@ -207,6 +249,8 @@ class ToneModel:
         self.phase_modes = (_modes(np.asarray(ph.covariance), ph.powers, N_PHASE_MODES)
                             if ph is not None else np.zeros((0, 1)))
         self.stale_modes = _modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:], 7)
+        self.drift_modes = (np.zeros((0, len(amp.powers) - 1)) if camp.drift_modes is None
+                            else np.asarray(camp.drift_modes))
         self.mode_names = ([f"cal_amp{i}" for i in range(len(self.amp_modes))]
                            + [f"cal_phase{i}" for i in range(len(self.phase_modes))])
         #: sign with which the recorded phase response enters the field (+1: exp(+i phi))
@@ -242,17 +286,24 @@ class ToneModel:
             cy = cy.copy()
             for i, m in enumerate(self.amp_modes):
                 cy[2:2 + m.size] += float(p.get(f"cal_amp{i}", 0.0)) * m
+        if any(p.get(f"sa{i}", 0.0) for i in range(len(self.drift_modes))):
+            cy = cy.copy()
+            for i, m in enumerate(self.drift_modes):
+                cy[2:2 + m.size] += float(p.get(f"sa{i}", 0.0)) * m
         if any(p.get(f"cal_phase{i}", 0.0) for i in range(len(self.phase_modes))):
             cp = cp.copy()
             for i, m in enumerate(self.phase_modes):
                 cp[1:1 + m.size] += float(p.get(f"cal_phase{i}", 0.0)) * m
+        if p.get("dphi_x", 0.0):
+            cp = np.concatenate([cp, np.zeros(max(3 - cp.size, 0))])
+            cp[2] += float(p["dphi_x"])
         return cy, cp
 
     def _y_max(self, cy) -> float:
         """Largest field of the amplitude curve ``cy`` on 0 <= A <= 1 (P_max = its square)."""
         return float(np.max(np.polynomial.polynomial.polyval(self._A_pmax, cy)))
 
-    def _static(self, x, k_det, coef):
+    def _static(self, x, k_det, coef, q_det=1.0):
         cy, cp = coef
         mag = np.minimum(np.abs(x), 1.0)
         y = np.polynomial.polynomial.polyval(mag, cy)
@@ -263,8 +314,18 @@ class ToneModel:
             # P/P_max of *this* curve (calibration modes applied): a scale frozen at
             # the fitted curve would move k_det with every mode that moves y(1)
             u = (y / self._y_max(cy)) ** 2
-            y = y * np.sqrt(2.0 / (1.0 + np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0))))
-        if not self.has_phase:
+            ratio = 2.0 / (1.0 + np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0)))
+            if q_det != 1.0:
+                # u_meas = u_t (1 + k u_t^q): Newton from the q = 1 root (a fixed number of
+                # steps keeps the model smooth in k and q for the fits' differences)
+                um = np.maximum(u, 1e-300)
+                ut = ratio * um
+                for _ in range(NEWTON_DET):
+                    ut = np.maximum(ut - (ut + k_det * ut ** (q_det + 1) - um)
+                                    / (1 + k_det * (q_det + 1) * ut ** q_det), 0.0)
+                ratio = ut / um
+            y = y * np.sqrt(ratio)
+        if not np.any(cp):
             return y * np.exp(1j * np.angle(x))
         phi = np.polynomial.polynomial.polyval(mag, cp)
         return y * np.exp(1j * (np.angle(x) + phi))
@@ -285,7 +346,8 @@ class ToneModel:
         if tau > 0:
             H = 1.0 / (1.0 + 2j * np.pi * (self.freq - float(p.get("f_off", 0.0)) * 1e6) * tau)
             x = np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
-        y = self._static(x, float(p.get("k_det", 0.0)), self._coefficients(p))
+        y = self._static(x, float(p.get("k_det", 0.0)), self._coefficients(p),
+                         float(p.get("q_det", 1.0)))
         dphi, k5 = float(p.get("dphi", 0.0)), float(p.get("k5", 0.0))
         if dphi or k5:
             # r = |y| / y(1) of the forward curve in use (calibration modes applied),
@@ -293,6 +355,16 @@ class ToneModel:
             cy = self._coefficients(p)[0]
             r2 = (np.abs(y) / np.polynomial.polynomial.polyval(1.0, cy)) ** 2
             y = y * (1 + k5 * r2 ** 2) * np.exp(1j * dphi * r2)
+        th_a, th_p = float(p.get("th_a", 0.0)), float(p.get("th_p", 0.0))
+        if th_a or th_p:
+            # slow (thermal) memory: a complex gain change driven by the drive power
+            # |x|^2 through a single-pole response of time constant th_tau (us)
+            t = max(float(p.get("th_tau", 0.0)), 0.0) * 1e-6
+            u = np.abs(x) ** 2
+            if t > 0:
+                u = np.fft.ifft(np.fft.fft(u, axis=-1) / (1.0 + 2j * np.pi * self.freq * t),
+                                axis=-1)
+            y = y * (1 + (th_a + 1j * th_p) * u)
         return y
 
     def _stale_table(self, p: dict) -> np.ndarray:

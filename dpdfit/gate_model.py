@@ -46,8 +46,8 @@ from . import gate_sim
 __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES"]
 
 #: finite-difference steps of the gate-side responses
-_STEPS = {"gamma": 100.0, "ndot": 0.1, "eps": 0.3, "dnbar": 0.2}
-_LINEAR = ("gamma", "ndot", "dnbar")
+_STEPS = {"gamma": 100.0, "gamma_c": 100.0, "ndot": 0.1, "eps": 0.3, "dnbar": 0.2}
+_LINEAR = ("gamma", "gamma_c", "ndot", "dnbar")
 #: engine tolerances for the diagnosis (probabilities to ~1e-6, far below shot noise)
 _TOL = {"rtol": 1e-7, "atol": 1e-9}
 _XI_STEP = 0.01
@@ -92,7 +92,7 @@ class GateModel:
         Per-scan laser-power jitter (dB).
     """
 
-    def __init__(self, camp, tone, sig_jit: float):
+    def __init__(self, camp, tone, sig_jit: float, responses: bool = True):
         em = camp.error_model
         self.em = em
         self.nominal = dict(nbar=float(em["nbar"]), T2=float(em["T2_s"]),
@@ -116,6 +116,18 @@ class GateModel:
                     self.xi[key] = None
         self.tone = tone
         self.base = self._base_runs(tone, {})
+        self.resp = None
+        self.db_per_rel_xi = 10 / np.log(10)        # rate ~ power, until measured
+        self._tab = self._stk = None
+        if responses:
+            self.compute_responses()
+
+    def compute_responses(self) -> None:
+        """Engine runs of every gate-side effect at every setting (the expensive part).
+
+        Until they are computed the model predicts the baseline means only (no effects,
+        no power-error variance): enough to choose among baselines.
+        """
         self.resp = self._response_runs()
         # power error (dB) equivalent to a relative gate-rate error, from the imbalance
         # of the (first) time-scan setting
@@ -128,7 +140,7 @@ class GateModel:
         lin = (_collapse(self.resp[key]["eps+"]["p2"][0])[1]
                - _collapse(self.resp[key]["eps-"]["p2"][0])[1]) / (2 * _STEPS["eps"])
         self.db_per_rel_xi = float(abs(d_xi / lin))
-        self._tab = None
+        self._tab = self._stk = None
 
     # ------------------------------------------------------------------ engine
     def _scan_times(self, key):
@@ -159,6 +171,8 @@ class GateModel:
         nm = dict(self.nominal)
         if name == "gamma":
             nm["T2"] = 1.0 / (1.0 / nm["T2"] + step)
+        elif name == "gamma_c":
+            nm["T2_corr"] = 1.0 / step
         elif name == "ndot":
             nm["ndot"] = nm["ndot"] + step * 1e3
         elif name == "dnbar":
@@ -202,6 +216,10 @@ class GateModel:
         if part == "gate":
             for name in ("par2", "par1", "par2_01", "par1_1"):
                 base[name] = np.stack([self.base[key][name] for key in keys])
+        if self.resp is None:
+            zero = {q: np.zeros_like(base[q]) for q in (("p2", "par2") if part == "gate"
+                                                        else ("p2",))}
+            return base, {name: zero for name in _LINEAR}, zero, zero
         d = {}
         for name in _LINEAR:
             d[name] = {q: np.stack([(sel(self.resp[key][name][q]) if q == "p2"
@@ -245,7 +263,7 @@ class GateModel:
         return tab
 
     def _stacks(self):
-        if getattr(self, "_stk", None) is None or self._stk[0] is not self.base:
+        if self._stk is None or self._stk[0] is not self.base:
             self._stk = (self.base, {"gate": self._stack(self.keys, "gate"),
                                      "ts": [self._stack([key], "scan") for key in self.ts_keys]})
         return self._stk[1]

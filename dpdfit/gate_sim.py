@@ -487,8 +487,9 @@ def _schrodinger(drive, n_fock, p, tau_out, rtol, atol, init=0):
     return _step_loop(rhs, psi0.ravel(), tau_out, rtol, atol, reduce, top_of)
 
 
-def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=0):
-    """Master equation; ``gamma = 1/(T2 xi0)``, ``heat = ndot/xi0`` (per unit tau)."""
+def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=0, gamma_c=0.0):
+    """Master equation; ``gamma = 1/(T2 xi0)``, ``heat = ndot/xi0``, ``gamma_c = 1/(T2c xi0)``
+    (correlated dephasing) per unit tau."""
     d = drive.dim
     N = n_fock
     DN = d * N
@@ -497,14 +498,18 @@ def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=0):
     # Hamming distance between spin labels: (gamma/2) sum_j (z_j z_j' - 1) = -gamma * dist
     lab = np.arange(d)
     dist = np.zeros((d, d))
+    zsum = np.zeros(d)
     for j in range(drive.n_ions):
         bit = (lab >> j) & 1
         dist += bit[:, None] != bit[None, :]
+        zsum += 1 - 2 * bit
+    # correlated dephasing L = sqrt(gamma_c/2) sum_j Z_j: -(gamma_c/4) (S_i - S_j)^2 on rho_ij
+    corr = 0.25 * (zsum[:, None] - zsum[None, :]) ** 2
     k = np.arange(N, dtype=float)
     v = k + np.where(k < N - 1, k + 1, 0.0)          # diag(a^dag a + a a^dag), truncated
     # diagonal part of the dissipator (dephasing + heating anticommutator), real,
     # applied to the float view of rho (re/im interleaved on the last axis)
-    diag = ((-gamma * dist)[:, None, :, None]
+    diag = ((-gamma * dist - gamma_c * corr)[:, None, :, None]
             - 0.5 * heat * (v[:, None] + v[None, :])[None, :, None, :])
     diag2 = np.repeat(np.broadcast_to(diag, (d, N, d, N)), 2, axis=-1)
     sqsq2 = np.repeat(heat * np.outer(sq, sq)[None, :, None, :], 2, axis=-1)
@@ -512,7 +517,7 @@ def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=0):
     tmp = np.empty((d, N - 1, DN), dtype=complex)
     up = np.empty((d, N - 1, DN), dtype=complex)
     dn = np.empty((d, N - 1, DN), dtype=complex)
-    dissipative = bool(gamma or heat)
+    dissipative = bool(gamma or heat or gamma_c)
 
     def rhs(tau, y):
         R = y.reshape(d, N, DN)
@@ -555,7 +560,7 @@ def _lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=0):
 
 
 def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions,
-         gamma=0.0, heat=0.0, initial=0):
+         gamma=0.0, heat=0.0, initial=0, gamma_c=0.0):
     b, c, n = _tones(b, c, n)
     eta_Omega0 = _positive("eta_Omega0", eta_Omega0, allow_zero=True)
     xi0 = _positive("xi0", xi0)
@@ -579,7 +584,8 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
         if kind == "pure":
             out, top, nfev = _schrodinger(drive, N, p, tau, rtol, atol, int(initial))
         else:
-            out, top, nfev = _lindblad(drive, N, p, tau, gamma, heat, rtol, atol, int(initial))
+            out, top, nfev = _lindblad(drive, N, p, tau, gamma, heat, rtol, atol, int(initial),
+                                       gamma_c)
         if not auto or top < _MONITOR_TOL:
             break
         N = int(math.ceil(1.3 * N)) + 4
@@ -640,7 +646,7 @@ def propagate(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, ato
 
 def propagate_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.0,
                        n_fock=None, rtol=1e-9, atol=1e-11, n_ions=2, initial=0,
-                       return_info=False):
+                       T2_corr=np.inf, return_info=False):
     """Reduced spin density matrices from the Lindblad master equation.
 
     Same model and arguments as :func:`propagate`, plus ::
@@ -654,13 +660,20 @@ def propagate_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot
         Qubit coherence time [s] (``inf``: no dephasing).
     ndot : float
         Heating rate [quanta/s].
+    T2_corr : float
+        Coherence time [s] of *correlated* (common-mode) dephasing, Lindblad
+        operator ``sqrt(1/(2 T2_corr)) (Z_1 + Z_2)``: each single-ion coherence
+        decays as ``exp(-t/T2_corr)`` as for ``T2``, but ``|00><11|`` four times as
+        fast (twice as fast as with independent noise), ``|01><10|`` not at all.
     """
     T2 = _positive("T2", T2, allow_inf=True)
+    T2_corr = _positive("T2_corr", T2_corr, allow_inf=True)
     ndot = _positive("ndot", ndot, allow_zero=True)
     xi0f = _positive("xi0", xi0)
     gamma = 0.0 if np.isinf(T2) else 1.0 / (T2 * xi0f)
+    gamma_c = 0.0 if np.isinf(T2_corr) else 1.0 / (T2_corr * xi0f)
     rho, info = _run("lindblad", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol,
-                     n_ions, gamma=gamma, heat=ndot / xi0f, initial=initial)
+                     n_ions, gamma=gamma, heat=ndot / xi0f, initial=initial, gamma_c=gamma_c)
     return (rho, info) if return_info else rho
 
 
@@ -898,7 +911,7 @@ def _parity_of(rho, phases):
 
 def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
                      phases=None, scan_times=None, power_error_db=0.0, spectator=True,
-                     flip=True, n_fock=None, rtol=1e-9, atol=1e-11) -> dict:
+                     flip=True, n_fock=None, rtol=1e-9, atol=1e-11, T2_corr=np.inf) -> dict:
     """Raw outcome probabilities of the preparation branches of one setting.
 
     No preparation mixing and no detection error: what :func:`mix_branches`
@@ -924,8 +937,9 @@ def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=0.1, T2=50e-3, ndot=5.0,
     T = 1.0 / _positive("xi0", xi0)
     scan = np.zeros(0) if scan_times is None else np.atleast_1d(_check_times(scan_times))
     times = np.concatenate([[T], scan])
-    lind = not (np.isinf(T2) and ndot == 0)
-    f = functools.partial(propagate_lindblad, T2=T2, ndot=ndot) if lind else propagate
+    lind = not (np.isinf(T2) and ndot == 0 and np.isinf(T2_corr))
+    f = (functools.partial(propagate_lindblad, T2=T2, ndot=ndot, T2_corr=T2_corr) if lind
+         else propagate)
     kw = dict(n_fock=n_fock, rtol=rtol, atol=atol)
     out = {"phases": phases, "times": times}
     runs = [("2", 2, 0)] + ([("1", 1, 0)] if spectator else []) + (

@@ -33,10 +33,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .calibration import calibrate_amplitude, calibrate_phase
+from .calibration import calibrate_amplitude, calibrate_phase, fit_amplitude
 from .campaign_folder import CampaignFolder
 from .counts import fit_parity
-from .errors import InputError
+from .errors import DpdfitError, InputError
+from .photodiode import model_run_with_noise, phase_run_with_noise
+from .tables import list_runs
 
 __all__ = ["Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
            "MIN_SNR_DB"]
@@ -108,6 +110,12 @@ class Campaign:
     has_error_model: bool = True
     #: what the folder lacks and what that leaves out of the analysis, one line each
     left_out: tuple = ()
+    #: run-to-run drift of the amplitude calibration: coefficient directions (k = 2..K) of
+    #: its significant principal components, each scaled to its run-to-run sd (m x (K-1))
+    drift_modes: np.ndarray | None = None
+    #: noise models learnt from the calibration runs when the files give no errors
+    #: (``photodiode``: sigma(P) = sqrt(a^2 + (b P)^2); ``phase``: sqrt(c^2 + (d/A)^2))
+    calibration_noise: dict = field(default_factory=dict)
 
     @property
     def nu(self) -> float:
@@ -129,18 +137,57 @@ def _residual_frame(cal, A, value, err) -> pd.DataFrame:
     return pd.DataFrame({"A": A, "z": (value - pred) / err})
 
 
-def _calibrations(cf: CampaignFolder):
-    data = cf.amplitude_model
+def _calibrations(cf: CampaignFolder, noise: dict):
+    data, noise["photodiode"] = model_run_with_noise(cf)
     amp = calibrate_amplitude(data, int(cf.meta["order"]))
     amp_res = _residual_frame(amp, data.A, data.value, data.error)
     ph, ph_res = None, None
-    pdata = cf.phase_model
+    pdata, noise["phase"] = phase_run_with_noise(cf)
     if pdata is not None:
         ph = calibrate_phase(pdata)
         use = pdata.A >= 0.1
         ph_res = _residual_frame(ph, pdata.A[use], pdata.value[use],
                                  None if pdata.error is None else pdata.error[use])
     return amp, amp_res, ph, ph_res
+
+
+#: at most this many run-to-run drift modes; a mode counts if its run-to-run sd exceeds
+#: DRIFT_MODE_SIGNIFICANCE times the runs' median fit error (both rms over 0 <= A <= 1)
+MAX_DRIFT_MODES = 3
+DRIFT_MODE_SIGNIFICANCE = 2.0
+
+
+def _drift_modes(cf: CampaignFolder, order: int) -> np.ndarray | None:
+    """Principal components of the amplitude runs' normalised curves (see Campaign)."""
+    df = cf.amplitude_runs
+    runs = list_runs(df)
+    if len(runs) < 3:
+        return None
+    C, err = [], []
+    A = np.linspace(0.0, 1.0, 101)
+    for r in runs:
+        sub = df[df["run"] == r]
+        try:
+            f = fit_amplitude(sub["A"].to_numpy(), sub["power"].to_numpy(),
+                              sub["power_err"].to_numpy() if "power_err" in sub.columns else None,
+                              order)
+        except DpdfitError:
+            continue
+        C.append(np.asarray(f.coefficients)[1:])
+        err.append(np.sqrt(np.mean(f.y_stderr(A) ** 2)))
+    if len(C) < 3:
+        return None
+    C = np.array(C)
+    V = A[:, None] ** np.arange(2, order + 1)[None, :]
+    _, sv, Vt = np.linalg.svd((C - C.mean(0)) @ V.T, full_matrices=False)
+    sd = sv / np.sqrt((len(C) - 1) * A.size)                  # rms over A of each mode
+    keep = [i for i in range(min(MAX_DRIFT_MODES, sd.size))
+            if sd[i] > DRIFT_MODE_SIGNIFICANCE * np.median(err)]
+    if not keep:
+        keep = [0]
+    # function-space direction -> coefficients (least squares on the grid), scaled to 1 sd
+    coef = np.linalg.lstsq(V, Vt[keep].T * sd[keep] * np.sqrt(A.size), rcond=None)[0]
+    return coef.T
 
 
 def _tones(cf: CampaignFolder):
@@ -282,7 +329,8 @@ def load_campaign(folder) -> Campaign:
     optional and what is absent is listed in :attr:`Campaign.left_out`.
     """
     cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
-    amp, amp_res, ph, ph_res = _calibrations(cf)
+    cal_noise = {}
+    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise)
     warnings = []
     if not amp.monotone:
         iv = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in amp.nonmonotone_intervals)
@@ -313,4 +361,7 @@ def load_campaign(folder) -> Campaign:
                     amp_residuals=amp_res, phase_residuals=ph_res, A_tones=A, P_dB=P,
                     sd_dB=sd, gates=gates, time_scans=_time_scans(cf), error_model=em,
                     warnings=tuple(warnings), P_raw=P_raw, snr_raw=snr, has_snr=has_snr,
-                    has_error_model="error_model" in cf.raw_meta, left_out=tuple(left))
+                    has_error_model="error_model" in cf.raw_meta, left_out=tuple(left),
+                    drift_modes=_drift_modes(cf, int(cf.meta["order"])),
+                    calibration_noise={k: None if v is None else v.to_dict()
+                                       for k, v in cal_noise.items()})
