@@ -7,8 +7,11 @@ electronic floor plus a part proportional to the signal: laser intensity noise,
 shot noise).  With several runs of the same AOM the noise model can be learnt:
 each run is fitted (K = 8, unweighted: unbiased whatever the noise), and
 ``sigma(P)^2 = a^2 + (b P)^2`` is fitted by maximum likelihood to all runs'
-residuals at once (each residual's variance corrected for the fit's degrees of
-freedom, ``n/(n - K)``).  The model run is then fitted with those errors, so
+residuals at once.  An unweighted fit absorbs part of the noise, unevenly when
+the noise is not the same everywhere, so each residual's expected variance is
+the exact ``diag((I - H) Sigma (I - H))`` of the fit's hat matrix ``H``: it is
+linear in ``a^2`` and ``b^2`` (a global ``n/(n - K)`` correction instead put
+``a`` 15 % high).  The model run is then fitted with those errors, so
 its covariance -- and the calibration modes the diagnosis profiles -- follow
 the photodiode's real noise.
 """
@@ -53,7 +56,7 @@ def fit_power_noise(A, power, runs, order: int = 8) -> PowerNoise | None:
     Returns None with fewer than :data:`MIN_RUNS` runs that can be fitted.
     """
     A, power, runs = np.asarray(A, float), np.asarray(power, float), np.asarray(runs)
-    res, pred, corr = [], [], []
+    res, u, w = [], [], []
     n_runs = 0
     for r in dict.fromkeys(runs.tolist()):
         sel = runs == r
@@ -65,25 +68,37 @@ def fit_power_noise(A, power, runs, order: int = 8) -> PowerNoise | None:
             continue
         p = f.power(A[sel])
         res.append(power[sel] - p)
-        pred.append(p)
-        corr.append(np.full(sel.sum(), sel.sum() / (sel.sum() - order)))
+        uu, ww = _residual_weights(A[sel], p, order)
+        u.append(uu)
+        w.append(ww)
         n_runs += 1
     if n_runs < MIN_RUNS:
         return None
-    r2 = np.concatenate(res) ** 2 * np.concatenate(corr)
-    a, b = _two_term_variance(r2, np.abs(np.concatenate(pred)))
+    r2 = np.concatenate(res) ** 2
+    a, b = _two_term_variance(r2, np.concatenate(u), np.concatenate(w))
     return PowerNoise(a, b, n_runs, int(r2.size))
 
 
-def _two_term_variance(r2, x):
-    """ML fit of ``var = a^2 + (b x)^2`` to squared residuals ``r2`` (Gaussian)."""
+def _residual_weights(A, x, order):
+    """Expected squared residual of an unweighted fit in powers ``1..order`` of ``A`` is
+    ``alpha^2 u + beta^2 w`` when the noise variance is ``alpha^2 + (beta x)^2``:
+    ``u = diag(M)``, ``w = (M * M) @ x^2`` with ``M = I - H`` (symmetric, idempotent)."""
+    X = np.asarray(A, float)[:, None] ** np.arange(1, order + 1)
+    Q, _ = np.linalg.qr(X)
+    M = np.eye(A.size) - Q @ Q.T
+    return np.diag(M).copy(), (M * M) @ (np.asarray(x, float) ** 2)
+
+
+def _two_term_variance(r2, u, w):
+    """ML fit of ``E[r^2] = a^2 u + b^2 w`` to squared residuals ``r2`` (Gaussian)."""
     s0 = np.sqrt(np.mean(r2))
+    xmax = np.sqrt(max(w.max(), 1e-300))
 
     def nll(t):
-        v = np.exp(2 * t[0]) + (np.exp(t[1]) * x) ** 2
+        v = np.exp(2 * t[0]) * u + np.exp(2 * t[1]) * w
         return 0.5 * np.sum(np.log(v) + r2 / v)
 
-    best = min((minimize(nll, [np.log(s0 * f0), np.log(s0 * f1 / max(x.max(), 1e-300))],
+    best = min((minimize(nll, [np.log(s0 * f0), np.log(s0 * f1 / xmax)],
                          method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-8})
                 for f0, f1 in ((1.0, 0.1), (0.1, 1.0), (0.5, 0.5))), key=lambda o: o.fun)
     return float(np.exp(best.x[0])), float(np.exp(best.x[1]))
@@ -109,7 +124,7 @@ class PhaseNoise:
 def fit_phase_noise(A, phase, runs, order: int = 5, A_min: float = 0.1) -> PhaseNoise | None:
     """Noise model of the recorded phases from every run's residuals on ``A >= A_min``."""
     A, phase, runs = np.asarray(A, float), np.asarray(phase, float), np.asarray(runs)
-    res, xs, corr = [], [], []
+    res, u, w = [], [], []
     n_runs = 0
     for r in dict.fromkeys(runs.tolist()):
         sel = (runs == r) & (A >= A_min)
@@ -120,13 +135,14 @@ def fit_phase_noise(A, phase, runs, order: int = 5, A_min: float = 0.1) -> Phase
         except DpdfitError:
             continue
         res.append(phase[sel] - f.phi(A[sel]))
-        xs.append(1.0 / A[sel])
-        corr.append(np.full(sel.sum(), sel.sum() / (sel.sum() - order)))
+        uu, ww = _residual_weights(A[sel], 1.0 / A[sel], order)
+        u.append(uu)
+        w.append(ww)
         n_runs += 1
     if n_runs < MIN_RUNS:
         return None
-    r2 = np.concatenate(res) ** 2 * np.concatenate(corr)
-    c, d = _two_term_variance(r2, np.concatenate(xs))
+    r2 = np.concatenate(res) ** 2
+    c, d = _two_term_variance(r2, np.concatenate(u), np.concatenate(w))
     return PhaseNoise(c, d, n_runs, int(r2.size))
 
 

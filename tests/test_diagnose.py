@@ -216,7 +216,7 @@ def _edit_cell(path, row, col, value):
     ("nan", "spectra.csv, column 'P_dB', row 7: value is NaN"),
     ("over_shots", "populations.csv, column 'n00', row 3: count 900 exceeds shots"),
     ("empty", "spectra.csv: file is empty"),
-    ("no_snr", "spectra.csv, column 'snr_db'"),
+    ("no_power", "spectra.csv, column 'P_dB'"),
 ])
 def test_bad_input_one_line_nonzero_exit_input_untouched(tmp_path, capsys, case, expect):
     camp = _copy_campaign(tmp_path, case)
@@ -229,7 +229,8 @@ def test_bad_input_one_line_nonzero_exit_input_untouched(tmp_path, capsys, case,
     else:
         import pandas as pd
         p = camp / "spectra.csv"
-        pd.read_csv(p).drop(columns=["snr_db"]).to_csv(p, index=False)
+        # snr_db is optional now (the noise floor is learnt); P_dB never is
+        pd.read_csv(p).drop(columns=["P_dB"]).to_csv(p, index=False)
     before = {p.name: p.read_bytes() for p in camp.iterdir() if p.is_file()}
     assert main(["diagnose", str(camp), "--plot", str(tmp_path / "plots")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
