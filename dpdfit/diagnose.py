@@ -261,20 +261,20 @@ class Problem:
 
         Grid of ``RATE_SCATTER_POINTS`` log-spaced values on [``RATE_SCATTER_MIN``,
         ``RATE_SCATTER_MAX_FACTOR`` x the lab's stated rate error] (log-uniform
-        prior), each with the gate nuisances and a common power offset refitted;
-        the maximum is refined by a parabola in log scatter.  Held fixed for every
-        hypothesis.
+        prior), each with the gate nuisances and the gate-side effects refitted;
+        the scatter is the root of the posterior mean variance.  Held fixed for
+        every hypothesis.
         """
         hi = max(RATE_SCATTER_MAX_FACTOR * self.gate.stated_rate_error, 2 * RATE_SCATTER_MIN)
         grid = np.geomspace(RATE_SCATTER_MIN, hi, RATE_SCATTER_POINTS)
         nll = np.array([self._gate_nll(v)[0] for v in grid])
-        i = int(np.argmin(nll))
-        best = grid[i]
-        if 0 < i < grid.size - 1:
-            x = np.log(grid[i - 1:i + 2])
-            c = np.polyfit(x, nll[i - 1:i + 2], 2)
-            if c[0] > 0:
-                best = float(np.exp(np.clip(-c[1] / (2 * c[0]), x[0], x[2])))
+        # marginalised, not maximised: with ten-odd settings the profile is often flat
+        # or two-humped (a common offset against a scatter), and its maximum then jumps
+        # between the grid's ends.  The rate error enters the likelihood as a Gaussian
+        # variance, so the posterior (log-uniform prior = uniform weights on the log
+        # grid) is summarised by its mean *variance* (moment-matched predictive).
+        w = np.exp(-0.5 * (nll - nll.min()))
+        best = float(np.sqrt(np.sum(w * grid ** 2) / np.sum(w)))
         self._set_rate_scatter(best)
         return {"rel": float(best), "db": self.gate.rate_error_db(),
                 "stated_rel": self.gate.stated_rate_error,
@@ -888,13 +888,20 @@ def _impact(prob: Problem, f: FitResult) -> float:
     return out
 
 
+def _explained(base: FitResult, f: FitResult) -> float | None:
+    """Fraction of the baseline's excess chi2 (over its dof) that ``f`` removes;
+    None when the baseline has no excess."""
+    excess = base.chi2 - base.dof
+    return float((base.chi2 - f.chi2) / excess) if excess > 0 else None
+
+
 def _rank_entry(base: FitResult, f: FitResult, impact: float | None = None) -> dict:
     dchi = base.chi2 - f.chi2
     k = f.n_par - base.n_par
     return {"effect": f.effect, **({"variant": f.variant} if f.variant else {}),
             "side": "+".join(sorted({EFFECTS[e].side for e in f.effect.split("+")})),
             **({"impact": impact} if impact is not None else {}),
-            "explained_fraction": float(dchi / max(base.chi2 - base.dof, 1e-300)),
+            "explained_fraction": _explained(base, f),
             "delta_bic": float(f.bic - base.bic),
             "p_value": float(chi2_dist.sf(max(dchi, 0.0), k)), "delta_chi2": float(dchi),
             "params": f.params, "params_err": f.params_err, "chi2": f.chi2, "dof": f.dof,
@@ -1022,7 +1029,7 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                         and prs[0]["delta_chi2"] - best["delta_chi2"]
                         < DOMINANT_FRACTION * best["delta_chi2"]):
                     verdict = best["effect"]
-            elif ok and best["explained_fraction"] >= EXPLAINED_FRACTION:
+            elif ok and (best["explained_fraction"] or 0.0) >= EXPLAINED_FRACTION:
                 # no acceptable fit, but one effect explains nearly all of the mismatch:
                 # it is named; its catalog form does not describe the rest (reported)
                 verdict, chosen = best["effect"], fits[best["effect"]]
@@ -1037,8 +1044,8 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool =
                      extra={"mismatch_evidence": evidence,
                             "verdict_fit": ("none" if chosen is None else "approximate"
                                             if approximate else "acceptable"),
-                            "explained_fraction": None if chosen is None else float(
-                                (base.chi2 - chosen.chi2) / max(base.chi2 - base.dof, 1e-300)),
+                            "explained_fraction": (None if chosen is None
+                                                   else _explained(base, chosen)),
                             "nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
                                           **{k: v[0] for k, v in GATE_NUISANCES.items()}},
                             "null_model": prob.null_model(base),
