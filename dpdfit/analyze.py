@@ -48,8 +48,10 @@ import pandas as pd
 from . import __version__
 from ._io import staged_outputs, to_jsonable
 from .calibration import Calibration, calibrate_amplitude, calibrate_phase
+from .campaign_folder import CampaignFolder
 from .errors import DpdfitError, InputError
 from .fidelity import estimate
+from .photodiode import model_run_with_noise, phase_run_with_noise
 from .sweep import SweepConfig, _first_crossing, efficiency_spline, run_sweep, thresholds
 from .tables import list_runs, read_calibration, read_table
 from .transfer import TransferFunction
@@ -93,47 +95,31 @@ def _done(t0):
     print(f"[analyze]   done in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
 
 
-def _campaign_json(folder: Path) -> dict:
-    p = folder / "campaign.json"
-    if not p.exists():
-        return {}
-    try:
-        return json.loads(p.read_text())
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=str(p)) from None
-
-
 # --------------------------------------------------------------------------- analyses
 
 
-def _calibration(folder, camp, res, figdir, plots):
-    amp_path = folder / "calibration_amplitude.csv"
+def _calibration(cf: CampaignFolder, camp, res, figdir, plots):
+    amp_path = cf.file("calibration_amplitude.csv")
     if not amp_path.exists():
         res.status("calibration", "skipped", "calibration_amplitude.csv not found")
         return None
-    run = camp.get("predistortion_table", {}).get("amplitude_run")
-    df = read_table(amp_path, ["A", "power"], ["power_err", "run", "timestamp"],
-                    ranges={"A": (0, 1)}, positive=["power_err"])
-    runs = list_runs(df)
-    if run is None and runs:
-        run = "latest"
-    amp_data = read_calibration(amp_path, "amplitude", run)
-    amp = calibrate_amplitude(amp_data, camp.get("order", 8), order_scan=range(4, 13))
+    runs = list_runs(cf.amplitude_runs)
+    # the table run, with the photodiode's noise learnt from all runs when the file
+    # has no power_err (the same rule as the diagnosis: dpdfit.photodiode)
+    amp_data, noise = model_run_with_noise(cf)
+    amp = calibrate_amplitude(amp_data, camp["order"], order_scan=range(4, 13))
     ph = ph_data = None
-    ph_path = folder / "calibration_phase.csv"
+    ph_path = cf.file("calibration_phase.csv")
     rows = []
     for r in runs or [None]:
-        c = calibrate_amplitude(read_calibration(amp_path, "amplitude", r), camp.get("order", 8))
+        c = calibrate_amplitude(read_calibration(amp_path, "amplitude", r), camp["order"])
         rows.append({"kind": "amplitude", "run": r, "timestamp": c.source.get("timestamp"),
                      "value": c.A_corr, "stderr": c.A_corr_stderr, "quantity": "A_corr",
                      "monotone": int(c.monotone), "reduced_chi2": c.reduced_chi2})
     if ph_path.exists():
-        pdf = read_table(ph_path, ["A", "phase_rad"], ["phase_err", "run", "timestamp"],
-                         ranges={"A": (0, 1)}, positive=["phase_err"])
-        prun = camp.get("phase_run_for_model") or ("latest" if list_runs(pdf) else None)
-        ph_data = read_calibration(ph_path, "phase", prun)
+        ph_data, ph_noise = phase_run_with_noise(cf)
         ph = calibrate_phase(ph_data)
-        for r in list_runs(pdf) or [None]:
+        for r in list_runs(cf.phase_runs) or [None]:
             c = calibrate_phase(read_calibration(ph_path, "phase", r))
             rows.append({"kind": "phase", "run": r, "timestamp": c.source.get("timestamp"),
                          "value": c.phi_at_1, "stderr": c.phi_at_1_stderr,
@@ -156,6 +142,10 @@ def _calibration(folder, camp, res, figdir, plots):
         "phi_at_1_runs_mean": float(p.mean()) if p.size else None,
         "phi_at_1_runs_std": float(p.std(ddof=1)) if p.size > 1 else None,
     }
+    if noise is not None or (ph_path.exists() and ph_noise is not None):
+        res.summary["calibration"]["noise_model"] = {
+            "power": None if noise is None else noise.to_dict(),
+            "phase": None if not ph_path.exists() or ph_noise is None else ph_noise.to_dict()}
     if plots is not None:
         from .plots import plot_calibration
         plots.append(lambda stage: plot_calibration(cal, figdir, amp_data, ph_data))
@@ -178,24 +168,12 @@ def _sweep(cal, camp, res, formula):
     return df
 
 
-def _spectra(folder, sweep, camp, res, formula):
-    path = folder / "spectra.csv"
+def _spectra(cf: CampaignFolder, sweep, camp, res, formula):
+    path = cf.file("spectra.csv")
     if not path.exists():
         res.status("spectra", "skipped", "spectra.csv not found")
         return None
-    cols = ["A", "dpd", "sideband", "n", "P_dB"]
-    df = read_table(path, cols, ["valid", "snr_db"], numeric=["A", "dpd", "n", "P_dB"],
-                    ranges={"A": (0, 1), "dpd": (0, 1)})
-    bad = ~df["sideband"].isin(["red", "blue"])
-    if bad.any():
-        i = int(np.flatnonzero(bad.to_numpy())[0])
-        raise InputError(f"sideband must be red or blue, got '{df['sideband'].iloc[i]}'",
-                         file=str(path), column="sideband", row=i + 1)
-    df["dpd"] = df["dpd"].astype(int)
-    df["n"] = df["n"].astype(int)
-    if "valid" not in df.columns:
-        df["valid"] = 1
-    df["valid"] = pd.to_numeric(df["valid"], errors="coerce").fillna(0).astype(int)
+    df = cf.spectra.copy()
     key = ["A", "dpd", "sideband"]
     P = df.pivot_table(index=key, columns="n", values="P_dB").reset_index()
     V = df.pivot_table(index=key, columns="n", values="valid", aggfunc="min").reset_index()
@@ -336,26 +314,6 @@ def _stability(folder, res, figdir, plots):
     return True
 
 
-def _read_time_scans(path):
-    cols = ["A", "dpd", "t_us", "n00", "n01_10", "n11", "shots"]
-    ts = read_table(path, cols, ranges={"A": (0, 1), "dpd": (0, 1)})
-    for c in ("n00", "n01_10", "n11", "shots"):
-        v = ts[c].to_numpy()
-        bad = (v < 0) | (v != np.round(v))
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise InputError(f"count {v[i]:g} must be a non-negative integer", file=str(path),
-                             column=c, row=i + 1)
-    tot = ts["n00"] + ts["n01_10"] + ts["n11"]
-    bad = (tot != ts["shots"]).to_numpy() | (ts["shots"] <= 0).to_numpy()
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise InputError(f"n00 + n01_10 + n11 = {tot.iloc[i]:g} does not equal shots = "
-                         f"{ts['shots'].iloc[i]:g} (> 0)", file=str(path), column="shots", row=i + 1)
-    ts["dpd"] = ts["dpd"].astype(int)
-    return ts
-
-
 def _closest_pair(gate):
     """(DPD point, no-DPD point) with the most similar gate rates (Fig. 3 highlight)."""
     if "xi0_khz" not in gate.columns:
@@ -373,20 +331,17 @@ def _closest_pair(gate):
     return best[1:]
 
 
-def _gates(folder, camp, res, sweep, figdir, plots, nbar):
-    from .counts import gate_fidelities, merge_parity, read_parity, read_populations
-    pp, pr = folder / "populations.csv", folder / "parity.csv"
-    if not (pp.exists() and pr.exists()):
+def _gates(cf: CampaignFolder, camp, res, sweep, figdir, plots, nbar):
+    from .counts import gate_fidelities, merge_parity
+    if not (cf.has("populations.csv") and cf.has("parity.csv")):
         res.status("gates", "skipped", "populations.csv and parity.csv are both needed")
         return None
-    par = read_parity(pr)
-    tab = gate_fidelities(read_populations(pp), par)
-    rates_path = folder / "gate_rates.csv"
-    if rates_path.exists():
-        rates = read_table(rates_path, ["A", "dpd", "xi0_khz", "xi0_err_khz"],
-                           ranges={"A": (0, 1), "dpd": (0, 1)})
-        rates["dpd"] = rates["dpd"].astype(int)
-        tab = tab.merge(rates[["A", "dpd", "xi0_khz", "xi0_err_khz"]], on=["A", "dpd"], how="left")
+    par = cf.parity
+    tab = gate_fidelities(cf.populations, par)
+    rates = cf.gate_rates
+    if rates is not None:
+        cols = ["A", "dpd", "xi0_khz"] + (["xi0_err_khz"] if "xi0_err_khz" in rates else [])
+        tab = tab.merge(rates[cols], on=["A", "dpd"], how="left")
     res.table("gate.csv", tab)
     rec = {f"A={r['A']:g},dpd={int(r['dpd'])}": {"F": r["F"], "F_err": r["F_err"],
                                                   "F_pop": r["F_pop"], "F_par": r["F_par"]}
@@ -401,9 +356,7 @@ def _gates(folder, camp, res, sweep, figdir, plots, nbar):
         res.table("alignment_points.csv", fit.points)
         detail += f"; alignment alpha = {fit.alpha_khz:.3f} +/- {fit.alpha_khz_err:.3f} kHz, " \
                   f"delta = {fit.delta:+.4f} +/- {fit.delta_err:.4f}"
-    ts = None
-    if (folder / "time_scans.csv").exists():
-        ts = _read_time_scans(folder / "time_scans.csv")
+    ts = cf.time_scans
     if plots is not None and sweep is not None and "xi0_khz" in tab.columns:
         from .plots import plot_gate_figures
         merged = merge_parity(par)
@@ -424,8 +377,7 @@ def _propagation(folder, camp, res, cal, figdir=None, plots=None, A=0.5,
     if cal is None or not amp_path.exists():
         res.status("propagation", "skipped", "needs the calibration runs")
         return None
-    df = read_table(amp_path, ["A", "power"], ["power_err", "run", "timestamp"],
-                    ranges={"A": (0, 1)}, positive=["power_err"])
+    df = CampaignFolder(folder).amplitude_runs
     if len(list_runs(df)) < 2:
         res.status("propagation", "skipped", "drift needs >= 2 calibration runs")
         return None
@@ -695,20 +647,17 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
         finally:
             _done(t0)
 
-    camp = {}
-    try:
-        camp = _campaign_json(folder)
-        res.summary["campaign"] = camp.get("name", folder.name)
-    except DpdfitError as exc:
-        failures.append(str(exc))
-        print(f"dpdfit: error: {exc}", file=sys.stderr)
-    cal = guarded("calibration", _calibration, folder, camp, res, figdir, plot_jobs)
+    # one reader for every analysis, with the diagnosis's rules (dpdfit.campaign_folder)
+    cf = CampaignFolder(folder)
+    camp = cf.meta
+    res.summary["campaign"] = camp.get("name", folder.name)
+    res.summary["left_out"] = cf.left_out()
+    cal = guarded("calibration", _calibration, cf, camp, res, figdir, plot_jobs)
     guarded("stability", _stability, folder, res, figdir, plot_jobs)
     sweep = guarded("sweep", _sweep, cal, camp, res, formula)
-    meas = guarded("spectra", _spectra, folder, sweep, camp, res, formula)
+    meas = guarded("spectra", _spectra, cf, sweep, camp, res, formula)
     guarded("traces", _traces, folder, camp, res, meas)
-    guarded("gates", _gates, folder, camp, res, sweep, figdir, plot_jobs,
-            camp.get("nbar_assumed", 0.1))
+    guarded("gates", _gates, cf, camp, res, sweep, figdir, plot_jobs, camp["nbar_assumed"])
     guarded("propagation", _propagation, folder, camp, res, cal, figdir, plot_jobs)
     guarded("budget", _budget, folder, res)
     if diagnosis:
