@@ -42,6 +42,7 @@ import copy
 import numpy as np
 
 from . import gate_sim
+from ._parallel import pmap
 
 __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES"]
 
@@ -153,19 +154,19 @@ class GateModel:
     def _base_runs(self, tone, p: dict) -> dict:
         """Raw branch outcomes at every setting for the field of tone parameters ``p``."""
         self._tones = getattr(self, "_tones", {})
-        out = {}
         ref = self.keys[0]
-        for key in dict.fromkeys(self.keys + self.ts_keys):
+        keys = list(dict.fromkeys(self.keys + self.ts_keys))
+        calls = []
+        for key in keys:
             n, b, c = tone.gate_tones(p, *key)
             unit = gate_sim.calibrate_xi0(b, c, n, 1.0)
             xi = self.xi[key]
             if xi is None:                          # same eta Omega0 as the first setting
                 xi = self._tones[ref][3] * unit
             self._tones[key] = (n, b, c, xi / unit, xi)
-            out[key] = gate_sim.setting_branches(b, c, n, xi / unit, xi, **self.nominal,
-                                                 phases=PHASES, scan_times=self._scan_times(key),
-                                                 **_TOL)
-        return out
+            calls.append(((b, c, n, xi / unit, xi), dict(
+                **self.nominal, phases=PHASES, scan_times=self._scan_times(key), **_TOL)))
+        return dict(zip(keys, pmap(gate_sim.setting_branches, calls)))
 
     def _perturbed(self, name, step):
         nm = dict(self.nominal)
@@ -181,20 +182,22 @@ class GateModel:
 
     def _response_runs(self) -> dict:
         """Two-ion branch at every setting with each gate-side effect stepped."""
-        out = {}
+        calls, where = [], []
         for key in dict.fromkeys(self.keys + self.ts_keys):
             n, b, c, eO, xi = self._tones[key]
             kw = dict(phases=PHASES, scan_times=self._scan_times(key), spectator=False,
                       flip=False, **_TOL)
-            runs = {"eps+": gate_sim.setting_branches(b, c, n, eO, xi, **self.nominal,
-                                                      power_error_db=_STEPS["eps"], **kw),
-                    "eps-": gate_sim.setting_branches(b, c, n, eO, xi, **self.nominal,
-                                                      power_error_db=-_STEPS["eps"], **kw)}
+            for name, sign in (("eps+", 1), ("eps-", -1)):
+                calls.append(((b, c, n, eO, xi), dict(**self.nominal, **kw,
+                                                      power_error_db=sign * _STEPS["eps"])))
+                where.append((key, name))
             for name in _LINEAR:
-                runs[name] = gate_sim.setting_branches(b, c, n, eO, xi,
-                                                       **self._perturbed(name, _STEPS[name]),
-                                                       **kw)
-            out[key] = runs
+                calls.append(((b, c, n, eO, xi),
+                              dict(**self._perturbed(name, _STEPS[name]), **kw)))
+                where.append((key, name))
+        out = {}
+        for (key, name), run in zip(where, pmap(gate_sim.setting_branches, calls)):
+            out.setdefault(key, {})[name] = run
         return out
 
     def rebased(self, tone, p: dict) -> "GateModel":
