@@ -945,6 +945,34 @@ def _repredict_gates(prob: Problem, f: FitResult) -> FitResult:
         n_par=f.n_par)
 
 
+def _other_sign(prob: Problem, name: str, f: FitResult, gate_nuis: dict, init: dict
+                ) -> FitResult:
+    """An asymmetric (memory) effect refitted under the other phase-sign convention.
+
+    The sign was chosen by the gates *before* any effect (:meth:`Problem._choose_phase_sign`);
+    an effect that also spoils the gates can mislead that choice.  For most effects the
+    tone powers do not depend on the sign and :func:`_repredict_gates` re-chooses it; a
+    memory kernel's spectra do, so here the effect is refitted to the tones under the
+    other sign, its gates re-predicted, and the better total chi2 kept (the sign is a
+    discrete nuisance of every hypothesis).
+    """
+    key = f"{name}@{f.variant}" if f.variant and f.variant != _BASE_FORM.get(name) else name
+    saved_tone, saved_gate, saved_prior = prob.tone, prob.gate, dict(prob.prior)
+    alt = prob.tone.with_phase_sign(-prob.tone.phase_sign)
+    try:
+        prob.tone, prob._cache_key = alt, None
+        # the gate engine's baseline *and* responses for this sign (responses of the
+        # other sign's field put the contrast off by tens of sigma)
+        prob.gate = GateModel(prob.camp, alt, saved_gate.sig_jit, responses=True)
+        prob._set_rate_scatter(saved_gate.rate_rel)
+        g = _fit(prob, (key,), starts=[f.params], fixed=gate_nuis, init=init)
+        g = _repredict_gates(prob, dataclasses.replace(g, variant=f.variant))
+    finally:
+        prob.tone, prob.gate, prob._cache_key = saved_tone, saved_gate, None
+        prob.prior = saved_prior
+    return g if g.chi2 < f.chi2 else f
+
+
 #: the problem the parallel fits share (set before forking: children inherit it)
 _SHARED: dict = {}
 
@@ -1027,6 +1055,9 @@ def _diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = 3, with_gates: bool 
                          None)
         if tone_best is not None and fits[tone_best].bic < base.bic - BIC_DECISIVE:
             fits[tone_best] = _repredict_gates(prob, fits[tone_best])
+            if prob.camp.phase is not None and "f_off" in fits[tone_best].params:
+                fits[tone_best] = _other_sign(prob, tone_best, fits[tone_best], gate_nuis,
+                                              base.nuisances)
             ranking = rank_singles()
     evidence = mismatch_evidence(p_base, mismatches, ranking)
     mismatch = bool(evidence)
