@@ -115,6 +115,7 @@ from them.  Phases are compared as given (no wrapping modulo pi or 2 pi).
 from __future__ import annotations
 
 import functools
+import logging
 import math
 import os
 from dataclasses import dataclass, field, fields
@@ -139,8 +140,13 @@ LEVEL_1SIGMA = math.erf(1 / math.sqrt(2))      # 0.6826894921370859
 FD_STEP = 1e-5
 #: Hessian intervals are used only when A is more than this many sigma inside (0, 1).
 BOUNDARY_SIGMAS = 3.0
-#: Phases of different scans closer than this (rad) must round to the same grid point.
+#: Former grid-consistency threshold of :func:`merge_parity` (rad); kept for
+#: compatibility, no longer used (scans are never refused for jittered phases).
 NEAR_MISS = 0.05
+#: A setting's scans failing the one-fringe likelihood-ratio test at this p get a warning.
+SCAN_CONSISTENCY_ALPHA = 1e-3
+
+log = logging.getLogger(__name__)
 #: Columns of :func:`gate_fidelities`, in this order (extras follow).
 GATE_COLUMNS = ["A", "dpd", "F_pop", "F_pop_err", "F_par", "F_par_err", "F", "F_err",
                 "contrast", "phi0", "n_scans", "shots", "interval_method"]
@@ -1182,38 +1188,17 @@ def _grid_keys(phases, grid):
     return np.floor(np.asarray(phases, dtype=float) / grid + 0.5).astype(np.int64)
 
 
-def _check_grid(phase, key, scan, rows, *, grid, near_miss, file, setting):
-    """InputError for two phases of different scans that nearly coincide off-grid."""
-    order = np.argsort(phase, kind="stable")
-    ph, ky, sc, rw = phase[order], key[order], scan[order], rows[order]
-    n = ph.size
-    for i in range(n):
-        j = i + 1
-        while j < n and ph[j] - ph[i] < near_miss:
-            if sc[j] != sc[i] and ky[j] != ky[i]:
-                a, b = (i, j) if rw[i] < rw[j] else (j, i)
-                raise InputError(
-                    f"setting {setting}: phase {ph[b]:.6g} rad of scan {sc[b]} is "
-                    f"{abs(ph[b] - ph[a]):.3g} rad from phase {ph[a]:.6g} rad of scan {sc[a]} "
-                    f"(row {rw[a]}) but they round to different {grid:g}-rad grid points "
-                    f"({ky[b] * grid:.6g}, {ky[a] * grid:.6g}): the scans do not share a common "
-                    f"phase grid (phases of different scans must round to the same grid point "
-                    f"or be >= {near_miss:g} rad apart)", file=file, column="phase_rad",
-                    row=int(rw[b]))
-            j += 1
-
-
 def merge_parity(df: pd.DataFrame, grid: float = 0.01, near_miss: float = NEAR_MISS
                  ) -> pd.DataFrame:
     """Merge repeated parity scans at the count level (S7.4).
 
     Phases are rounded to a common grid (``round(phi / grid)``, default
     0.01 rad) and counts at the same grid point of the same setting
-    ``(A, dpd)`` are summed.  Refuses (InputError, naming file, column and
-    row) scans that do not share the grid: two phases of different scans
-    that round to different grid points but are closer than ``near_miss``
-    (0.05 rad) -- e.g. a scan offset by 0.013 rad.  Rows are numbered from
-    the DataFrame index + 1 (as :func:`read_parity` keeps it).
+    ``(A, dpd)`` are summed.  This merged table is for tables and plots:
+    :func:`gate_fidelities` fits the exact likelihood of every recorded phase
+    instead, so scans whose phases jitter around a common set (each scan's
+    own analysis-phase offset, recorded as is) are never refused.
+    ``near_miss`` is accepted for compatibility and unused.
 
     Returns
     -------
@@ -1239,11 +1224,7 @@ def merge_parity(df: pd.DataFrame, grid: float = 0.01, near_miss: float = NEAR_M
         "n_even": df["n_even"].to_numpy(dtype=float), "shots": df["shots"].to_numpy(dtype=float),
         "row": np.asarray(df.index, dtype=np.int64) + 1})
     work["key"] = _grid_keys(work["phase_rad"], grid)
-    for (A, dpd), g in work.groupby(["A", "dpd"], sort=False):
-        if g["scan"].nunique() > 1:
-            _check_grid(g["phase_rad"].to_numpy(), g["key"].to_numpy(), g["scan"].to_numpy(),
-                        g["row"].to_numpy(), grid=grid, near_miss=near_miss, file=file,
-                        setting=_setting_label(A, dpd))
+    del file, near_miss
     work["wphase"] = work["phase_rad"] * work["shots"]
     out = work.groupby(["A", "dpd", "key"], sort=True).agg(
         wphase=("wphase", "sum"), n_even=("n_even", "sum"), shots=("shots", "sum"),
@@ -1261,20 +1242,32 @@ def merge_parity(df: pd.DataFrame, grid: float = 0.01, near_miss: float = NEAR_M
 # gate fidelities per setting
 # ==========================================================================
 def _scan_consistency(parity_df) -> dict:
-    """Per setting, ``[(A_scan, A_err_scan), ...]`` from fitting each parity scan alone.
-
-    Scans that cannot be fitted alone (too few phases) are left out.
-    """
+    """Per setting, ``[(A_scan, A_err_scan, nll_scan, label), ...]`` from fitting each parity
+    scan alone.  Scans that cannot be fitted alone (too few phases) are left out."""
     out = {}
     groups = parity_df.assign(_s=parity_df["scan"].astype(str)).groupby(["A", "dpd", "_s"])
-    for (A, dpd, _), g in groups:
+    for (A, dpd, label), g in groups:
         try:
             r = fit_parity(g["phase_rad"].to_numpy(), g["n_even"].to_numpy(),
                            g["shots"].to_numpy())
         except (FitError, InputError):
             continue
-        out.setdefault((float(A), int(dpd)), []).append((r.A, r.A_err))
+        out.setdefault((float(A), int(dpd)), []).append((r.A, r.A_err, r.nll, label))
     return out
+
+
+def _scan_lrt(raw, scan_fits, pooled_nll):
+    """Likelihood-ratio test of one fringe (A, phi0) for all of a setting's scans
+    against one per scan: ``(LR, dof, p)``; NaN with fewer than two fittable scans.
+
+    Only the scans that could be fitted alone enter both sides (the pooled fit is
+    repeated on them when some were left out)."""
+    if len(scan_fits) < 2:
+        return math.nan, 0, math.nan
+    nll_sep = sum(f[2] for f in scan_fits)
+    lr = max(2.0 * (pooled_nll - nll_sep), 0.0)
+    dof = 2 * (len(scan_fits) - 1)
+    return float(lr), dof, float(stats.chi2.sf(lr, dof))
 
 
 def gate_fidelities(populations_df: pd.DataFrame, parity_df: pd.DataFrame,
@@ -1346,29 +1339,54 @@ def gate_fidelities(populations_df: pd.DataFrame, parity_df: pd.DataFrame,
     pop_scans, par_scans = scans(populations_df), scans(parity_df)
     per_scan = _scan_consistency(parity_df) if "scan" in parity_df.columns else {}
     par_groups = {(float(a), int(d)): g for (a, d), g in par.groupby(["A", "dpd"])}
+    # the fit uses every recorded phase of every scan (exact likelihood), not the
+    # merged grid: scans whose phases jitter around a common set are pooled exactly
+    raw = pd.DataFrame({"A": parity_df["A"].to_numpy(dtype=float),
+                        "dpd": parity_df["dpd"].to_numpy().astype(np.int64),
+                        "phase_rad": parity_df["phase_rad"].to_numpy(dtype=float),
+                        "n_even": parity_df["n_even"].to_numpy(dtype=float),
+                        "shots": parity_df["shots"].to_numpy(dtype=float),
+                        "_s": (parity_df["scan"].astype(str).to_numpy()
+                               if "scan" in parity_df.columns else "1")})
+    raw_groups = {(float(a), int(d)): g for (a, d), g in raw.groupby(["A", "dpd"])}
     rows = []
     for rec in pop.itertuples(index=False):
         key = (float(rec.A), int(rec.dpd))
         pf = population_fidelity(rec.n_even, rec.shots, interval=method)
         g = par_groups[key]
-        if _fringe_points(g["phase_rad"].to_numpy(), tol=grid / 2) < 3:
+        r = raw_groups[key]
+        if _fringe_points(r["phase_rad"].to_numpy(), tol=grid / 2) < 3:
             raise InputError(f"setting {_setting_label(*key)} has fewer than 3 distinct "
                              "analysis phases (modulo pi); a fringe fit needs at least 3",
                              file=_source(parity_df), column="phase_rad")
         try:
-            fit = fit_parity(g["phase_rad"].to_numpy(), g["n_even"].to_numpy(),
-                             g["shots"].to_numpy())
+            fit = fit_parity(r["phase_rad"].to_numpy(), r["n_even"].to_numpy(),
+                             r["shots"].to_numpy())
         except FitError as exc:
             raise FitError(f"setting {_setting_label(*key)}: {exc}") from None
         F, F_err = combined_fidelity(pf, fit)
         sp, sq = pop_scans.get(key, set()), par_scans.get(key, set())
         scan_A = per_scan.get(key, [])
         if len(scan_A) >= 2:
-            chi2 = float(sum((a - fit.A) ** 2 / e ** 2 for a, e in scan_A))
+            chi2 = float(sum((f[0] - fit.A) ** 2 / f[1] ** 2 for f in scan_A))
             dof = len(scan_A) - 1
             p_scan = float(stats.chi2.sf(chi2, dof))
         else:
             chi2, dof, p_scan = math.nan, 0, math.nan
+        pooled_nll = fit.nll
+        fitted_alone = len(scan_A)
+        if 2 <= fitted_alone < r["_s"].nunique():
+            # some scans could not be fitted alone: pool only the others for the test
+            keep = r[r["_s"].isin([f[3] for f in scan_A])]
+            pooled_nll = fit_parity(keep["phase_rad"].to_numpy(), keep["n_even"].to_numpy(),
+                                    keep["shots"].to_numpy()).nll
+        lr, lr_dof, lr_p = _scan_lrt(r, scan_A, pooled_nll)
+        if lr_p < SCAN_CONSISTENCY_ALPHA:
+            src = _source(parity_df)
+            log.warning("%ssetting %s: its %d parity scans do not share one fringe "
+                        "(likelihood ratio %.1f for %d dof, p = %.2g): pooled F_par_err "
+                        "understates the scatter", f"{src}: " if src else "",
+                        _setting_label(*key), fitted_alone, lr, lr_dof, lr_p)
         rows.append({
             "A": key[0], "dpd": key[1], "F_pop": pf.F_pop, "F_pop_err": pf.F_pop_err,
             "F_par": fit.F_par, "F_par_err": fit.A_err, "F": F, "F_err": F_err,
@@ -1383,6 +1401,7 @@ def gate_fidelities(populations_df: pd.DataFrame, parity_df: pd.DataFrame,
             "n_scans_par": len(sq) if sq else int(g["n_scans"].max()),
             "parity_converged": fit.converged,
             "parity_scan_chi2": chi2, "parity_scan_dof": dof, "parity_scan_p": p_scan,
+            "parity_scan_lr": lr, "parity_scan_lr_dof": lr_dof, "parity_scan_lr_p": lr_p,
         })
     out = pd.DataFrame(rows)
     return out.sort_values(["dpd", "A"], kind="stable").reset_index(drop=True)
