@@ -361,6 +361,8 @@ def cmd_harness(args) -> int:
         if args.progress:
             print(f"\r[harness] {k}/{n}", end="", file=sys.stderr, flush=True)
 
+    if args.campaigns or args.truth:
+        return _cmd_external(args, prog)
     effects = tuple(args.effects.split(",")) if args.effects else CONCEALED
     s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
                     effects, progress=prog, log=args.log)
@@ -372,6 +374,25 @@ def cmd_harness(args) -> int:
         print(json.dumps(to_jsonable({k: v for k, v in s.items() if k != "runs"}), indent=2))
     else:
         print(report(s))
+    return 0
+
+
+def _cmd_external(args, prog) -> int:
+    """``dpdfit harness --campaigns DIR --truth FILE``: see :mod:`dpdfit.harness_external`."""
+    import sys
+    from ._io import to_jsonable
+    from .harness_external import report_external, run_external
+    if not (args.campaigns and args.truth):
+        raise InputError("--campaigns DIR and --truth FILE go together")
+    s = run_external(args.campaigns, args.truth, args.workers, args.scheduler, progress=prog)
+    if args.progress:
+        print(file=sys.stderr)
+    if args.output:
+        write_report(s, args.output)
+    if args.json:
+        print(json.dumps(to_jsonable(s), indent=2))
+    else:
+        print(report_external(s))
     return 0
 
 
@@ -414,6 +435,10 @@ def add_harness_command(subparsers):
     s.add_argument("--log", metavar="FILE.jsonl",
                    help="append every finished run to this log at once; runs already in it "
                         "are not run again (re-running the command resumes)")
+    s.add_argument("--campaigns", metavar="DIR",
+                   help="external mode: diagnose every campaign folder in DIR (with --truth)")
+    s.add_argument("--truth", metavar="FILE",
+                   help="external mode: JSON, campaign id -> {\"effect\": ...}")
     s.add_argument("--progress", action="store_true", help="progress on stderr")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
     s.set_defaults(func=cmd_harness)

@@ -120,7 +120,7 @@ def test_a_shifted_scan_is_reported_with_a_warning_not_refused(caplog):
 
 @pytest.mark.parametrize("camp", ["v01", "v02"])
 def test_validation_campaign_scans_are_accepted_by_the_cli(camp, capsys):
-    d = HERE / "data" / "validation_pooling" / camp
+    d = HERE / "data" / "validation" / camp
     code = main(["fidelity", "--populations", str(d / "populations.csv"),
                  "--parity", str(d / "parity.csv"), "--json"])
     assert code == 0
