@@ -804,6 +804,33 @@ class Diagnosis:
         for k in self.redchi_before:
             lines.append(f"    {k:>28s} {self.redchi_before[k]:8.2f} -> "
                          f"{self.redchi_after.get(k, float('nan')):8.2f}")
+        ex = self.extra or {}
+        if ex.get("verdict_fit") == "approximate":
+            lines += ["", f"  the named effect's catalog form is approximate: it removes "
+                          f"{ex['explained_fraction']:.1%} of the baseline's excess chi2 but "
+                          "leaves an unacceptable fit"]
+        nm = ex.get("null_model")
+        if nm:
+            lines += ["", "  null model (learnt from the campaign before any effect):"]
+            tn = nm["tone_noise"]
+            fl = tn["noise_floor"]
+            err = "" if not np.isfinite(fl["floor_err_db"]) else f" +/- {fl['floor_err_db']:.2f}"
+            lines.append(f"    noise floor {fl['floor_db']:.2f}{err} dB ({fl['method']})")
+            lines.append(f"    tone repeatability {tn['tone_repeatability_db']:.4f} dB, "
+                         f"trace power jitter {tn['trace_power_jitter_db']:.4f} dB")
+            if nm.get("rate_scatter"):
+                rs = nm["rate_scatter"]
+                lines.append(f"    gate-rate calibration scatter {rs['rel']:.3%} "
+                             f"(stated {rs['stated_rel']:.3%})")
+            if nm.get("phase_sign") is not None:
+                lines.append(f"    phase-sign convention {nm['phase_sign']:+d}")
+            fitted = nm.get("fitted") or {}
+            if fitted:
+                lines.append("    fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in
+                                                       fitted.items()))
+        if ex.get("left_out"):
+            lines += ["", "  left out (absent from the folder):"]
+            lines += [f"    {x}" for x in ex["left_out"]]
         return "\n".join(lines)
 
 
