@@ -75,12 +75,16 @@ def _nll_series(theta, x, A6, idx, T):
     *selected* by that cut, so each one's density is renormalised by
     ``P(x < T)``)."""
     lN, lk = theta[0], theta[1:]
-    N0 = np.exp(lN)
-    s = np.exp(lk)[idx] * A6
-    z = 2 * np.sqrt(x * s) / N0
-    # 2x/N0 is non-central chi2 with 2 degrees of freedom and non-centrality 2s/N0
-    norm = np.log(chndtr(2 * T / N0, 2, np.maximum(2 * s / N0, 1e-12)))
-    ll = -lN - (x + s) / N0 + np.log(i0e(z)) + z - norm
+    # the optimiser's trial steps may leave the representable range (a series'
+    # amplitude far above its readings): the -lnL is then inf/nan there, which
+    # the optimiser rejects; the warnings would only be noise
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        N0 = np.exp(lN)
+        s = np.exp(lk)[idx] * A6
+        z = 2 * np.sqrt(x * s) / N0
+        # 2x/N0 is non-central chi2 with 2 degrees of freedom and non-centrality 2s/N0
+        norm = np.log(chndtr(2 * T / N0, 2, np.maximum(2 * s / N0, 1e-12)))
+        ll = -lN - (x + s) / N0 + np.log(i0e(z)) + z - norm
     return -np.bincount(idx, ll, minlength=lk.size)
 
 
@@ -92,9 +96,10 @@ def _nll_adjusted(theta, x, A6, idx, T, h=1e-3):
     series only) removes that bias (tests/test_null_model.py)."""
     g0 = _nll_series(theta, x, A6, idx, T)
     dk = np.r_[0.0, np.full(theta.size - 1, h)]
-    d2 = (_nll_series(theta + dk, x, A6, idx, T) - 2 * g0
-          + _nll_series(theta - dk, x, A6, idx, T)) / h ** 2
-    return float(g0.sum() + 0.5 * np.sum(np.log(np.maximum(d2, 1e-12))))
+    with np.errstate(invalid="ignore"):       # inf - inf at rejected trial steps
+        d2 = (_nll_series(theta + dk, x, A6, idx, T) - 2 * g0
+              + _nll_series(theta - dk, x, A6, idx, T)) / h ** 2
+        return float(g0.sum() + 0.5 * np.sum(np.log(np.maximum(d2, 1e-12))))
 
 
 def _nll(theta, x, A6, idx, T):
