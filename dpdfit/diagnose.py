@@ -82,11 +82,14 @@ SCREEN_NFEV = 15
 #: a baseline nuisance further than this (prior sigmas) from its centre also gets a
 #: start from the centre in the effect fits
 FAR_NUISANCE = 5.0
-#: the gate-rate calibration's relative scatter (a nuisance): log-uniform prior on
-#: [RATE_SCATTER_MIN, RATE_SCATTER_MAX_FACTOR x the lab's stated rate error], profiled on a grid
+#: the gate-rate calibration's relative scatter (a nuisance).  When the lab states each
+#: setting's rate error (``xi0_err_khz``): log-normal prior centred on the stated error,
+#: RATE_SCATTER_PRIOR_FACTOR wide (1 sigma), on a grid spanning +/- 3 sigma; else
+#: log-uniform on [RATE_SCATTER_MIN, RATE_SCATTER_MAX_FACTOR x the default error]
 RATE_SCATTER_MIN = 1e-4
 RATE_SCATTER_MAX_FACTOR = 2.0
 RATE_SCATTER_POINTS = 9
+RATE_SCATTER_PRIOR_FACTOR = 2.0
 #: gate-side effects whose parameters are free while the rate scatter is estimated
 GATE_SIDE_FREE = ("gate_rate_miscalibration", "dephasing", "motional_heating", "spam_offset")
 #: coarse grid seeding the AOM-memory fit: tau (ns) x f_off (MHz)
@@ -233,7 +236,11 @@ class Problem:
         gate-side effect explains, so it cannot absorb one.
         """
         self._set_rate_scatter(rel)
-        eff = [par for e in GATE_SIDE_FREE for par in EFFECTS[e].params]
+        # the widest form of each (catalog form plus its variants' extra parameters)
+        eff = list({par.name: par for e in GATE_SIDE_FREE
+                    for form in [EFFECTS[e]] + [v for k, v in VARIANTS.items()
+                                                if k.split("@")[0] == e]
+                    for par in form.params}.values())
         ts = [f"eps_ts{k}" for k in range(self.gate.n_time_scans)]
         names = ["prep_split", "e01", "e10"] + [par.name for par in eff] + ts
         lo = [0.0, 0.0, 0.0] + [par.lo for par in eff] + [-50 * self.prior[n] for n in ts]
@@ -262,21 +269,34 @@ class Problem:
     def _learn_rate_scatter(self) -> dict:
         """Relative scatter of the gate-rate calibration, by profile likelihood (a nuisance).
 
-        Grid of ``RATE_SCATTER_POINTS`` log-spaced values on [``RATE_SCATTER_MIN``,
-        ``RATE_SCATTER_MAX_FACTOR`` x the lab's stated rate error] (log-uniform
-        prior), each with the gate nuisances and the gate-side effects refitted;
-        the scatter is the root of the posterior mean variance.  Held fixed for
-        every hypothesis.
+        Prior: log-normal centred on the lab's stated rate error, a factor
+        ``RATE_SCATTER_PRIOR_FACTOR`` wide, when the lab states it per setting;
+        else log-uniform on [``RATE_SCATTER_MIN``, ``RATE_SCATTER_MAX_FACTOR`` x
+        the default error].  On a log grid, each point with the gate nuisances and
+        the gate-side effects refitted; the scatter is the root of the posterior
+        mean variance.  Held fixed for every hypothesis.
         """
-        hi = max(RATE_SCATTER_MAX_FACTOR * self.gate.stated_rate_error, 2 * RATE_SCATTER_MIN)
-        grid = np.geomspace(RATE_SCATTER_MIN, hi, RATE_SCATTER_POINTS)
+        stated = self.gate.stated_rate_error
+        if self.gate.rate_error_stated:
+            # the lab's stated error is information: it is known to a factor of
+            # about two, not to two decades (a log-uniform prior down to 1e-4 lets a
+            # handful of settings pull the scatter far below it, and the gate-side
+            # effects then fit the calibration's own scatter)
+            k = RATE_SCATTER_PRIOR_FACTOR ** 3
+            grid = np.geomspace(stated / k, stated * k, 2 * RATE_SCATTER_POINTS - 1)
+            log_prior = -0.5 * (np.log(grid / stated) / np.log(RATE_SCATTER_PRIOR_FACTOR)) ** 2
+        else:
+            hi = max(RATE_SCATTER_MAX_FACTOR * stated, 2 * RATE_SCATTER_MIN)
+            grid = np.geomspace(RATE_SCATTER_MIN, hi, RATE_SCATTER_POINTS)
+            log_prior = np.zeros(grid.size)
         nll = np.array([self._gate_nll(v)[0] for v in grid])
         # marginalised, not maximised: with ten-odd settings the profile is often flat
         # or two-humped (a common offset against a scatter), and its maximum then jumps
         # between the grid's ends.  The rate error enters the likelihood as a Gaussian
-        # variance, so the posterior (log-uniform prior = uniform weights on the log
-        # grid) is summarised by its mean *variance* (moment-matched predictive).
-        w = np.exp(-0.5 * (nll - nll.min()))
+        # variance, so the posterior (prior weights on the log grid) is summarised by
+        # its mean *variance* (moment-matched predictive).
+        lpost = log_prior - 0.5 * nll
+        w = np.exp(lpost - lpost.max())
         best = float(np.sqrt(np.sum(w * grid ** 2) / np.sum(w)))
         self._set_rate_scatter(best)
         return {"rel": float(best), "db": self.gate.rate_error_db(),
@@ -507,7 +527,8 @@ def _effect(prob: Problem, name: str):
 
 
 #: name of each catalog effect's own form when it has a variant
-_BASE_FORM = {"stale_calibration": "table", "am_pm_omitted": "post", "aom_memory": "fast"}
+_BASE_FORM = {"stale_calibration": "table", "am_pm_omitted": "post", "aom_memory": "fast",
+              "dephasing": "independent", "motional_heating": "during"}
 
 
 def _variant_name(key: str) -> str | None:

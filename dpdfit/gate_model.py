@@ -249,6 +249,11 @@ class GateModel:
         return (float(np.nanmedian(rel)) if np.isfinite(rel).any()
                 else float(self.em.get("xi0_rel_err", 0.01)))
 
+    @property
+    def rate_error_stated(self) -> bool:
+        """Whether the lab states each setting's gate-rate error (``xi0_err_khz``)."""
+        return bool(np.isfinite(self.gates.xi0_rel_err.to_numpy(dtype=float)).any())
+
     def set_rate_scatter(self, rel: float) -> None:
         """Relative scatter of the settings' gate-rate calibrations (a nuisance)."""
         self.rate_rel = float(rel)
