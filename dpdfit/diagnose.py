@@ -90,6 +90,9 @@ RATE_SCATTER_MIN = 1e-4
 RATE_SCATTER_MAX_FACTOR = 2.0
 RATE_SCATTER_POINTS = 9
 RATE_SCATTER_PRIOR_FACTOR = 2.0
+#: outward continuation sweeps of the rate-scatter profile, at most (another only when the
+#: best point moved)
+PROFILE_SWEEPS = 3
 #: gate-side effects whose parameters are free while the rate scatter is estimated
 GATE_SIDE_FREE = ("gate_rate_miscalibration", "dephasing", "motional_heating", "spam_offset")
 #: coarse grid seeding the AOM-memory fit: tau (ns) x f_off (MHz)
@@ -227,13 +230,15 @@ class Problem:
         for k in range(self.gate.n_time_scans):
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
 
-    def _gate_nll(self, rel: float):
+    def _gate_nll(self, rel: float, start: dict | None = None):
         """-2 ln L of the gate recordings at relative rate scatter ``rel``.
 
         The gate nuisances *and every gate-side effect's parameters* (a common power
         offset, extra dephasing, heating and preparation error) are fitted with it,
         as in restricted maximum likelihood: the scatter is then what no smooth
-        gate-side effect explains, so it cannot absorb one.
+        gate-side effect explains, so it cannot absorb one.  ``start``: the fit's
+        starting point (a previous result's parameters), else the nuisances' centres
+        with every effect absent.
         """
         self._set_rate_scatter(rel)
         # the widest form of each (catalog form plus its variants' extra parameters)
@@ -248,6 +253,8 @@ class Problem:
               + [50 * self.prior[n] for n in ts])
         x0 = ([0.5, self.gate.p_det, self.gate.p_det]
               + [float(np.clip(0.0, par.lo, par.hi)) for par in eff] + [0.0] * len(ts))
+        if start is not None:
+            x0 = [start[n] for n in names]
         scale = [0.1, 1e-4, 1e-4] + [par.scale for par in eff] + [self.prior[n] for n in ts]
         priors = [(n, self.prior[n]) for n in names if n in self.prior
                   and np.isfinite(self.prior[n])]
@@ -265,6 +272,30 @@ class Problem:
         _, ld = self._gate_whitened(p, logdet=True)
         ld += sum(2 * np.log(s) for n, s in priors if n.startswith("eps_ts"))
         return float(2 * r.cost + ld), p
+
+    def _profile_rate_scatter(self, grid: np.ndarray) -> np.ndarray:
+        """-2 ln L profiled over the gate nuisances and effects at each scatter of ``grid``.
+
+        A profile is a minimum: each point is fitted from the nuisances' centres
+        (cold) and then again from its neighbour's optimum, sweeping outwards from
+        the best point (continuation), keeping the lower.  The cold fits alone stop
+        in local minima of the 10-odd-parameter fit at some grid points (seen as
+        jumps of 5-10 units between neighbours on another simulator's campaigns),
+        and the posterior then piles up on whichever point happened to converge.
+        """
+        fits = [self._gate_nll(v) for v in grid]
+        i0 = None
+        for _ in range(PROFILE_SWEEPS):
+            i1 = int(np.argmin([f[0] for f in fits]))
+            if i1 == i0:
+                break               # the same sweep again would repeat the same starts
+            i0 = i1
+            for order, step in ((range(i0 + 1, grid.size), -1), (range(i0 - 1, -1, -1), 1)):
+                for i in order:
+                    f = self._gate_nll(grid[i], start=fits[i + step][1])
+                    if f[0] < fits[i][0] - 1e-6:
+                        fits[i] = f
+        return np.array([f[0] for f in fits])
 
     def _learn_rate_scatter(self) -> dict:
         """Relative scatter of the gate-rate calibration, by profile likelihood (a nuisance).
@@ -289,7 +320,7 @@ class Problem:
             hi = max(RATE_SCATTER_MAX_FACTOR * stated, 2 * RATE_SCATTER_MIN)
             grid = np.geomspace(RATE_SCATTER_MIN, hi, RATE_SCATTER_POINTS)
             log_prior = np.zeros(grid.size)
-        nll = np.array([self._gate_nll(v)[0] for v in grid])
+        nll = self._profile_rate_scatter(grid)
         # marginalised, not maximised: with ten-odd settings the profile is often flat
         # or two-humped (a common offset against a scatter), and its maximum then jumps
         # between the grid's ends.  The rate error enters the likelihood as a Gaussian
