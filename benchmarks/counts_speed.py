@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Speed of the raw-count inference (dpdfit.counts, Supplement S7).
+"""Speed of the raw-count inference (dpdfit.fits.counts, Supplement S7).
 
     python benchmarks/counts_speed.py
 
@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 from scipy.optimize import minimize  # noqa: E402
 from scipy.special import xlogy  # noqa: E402
 
-from dpdfit.counts import (FD_STEP, fit_parity, gate_fidelities, read_parity,  # noqa: E402
+from dpdfit.fits.counts import (FD_STEP, fit_parity, gate_fidelities, read_parity,  # noqa: E402
                            read_populations)
 
 ROOT = Path(__file__).resolve().parents[1]

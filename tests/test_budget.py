@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from dpdfit import budget as bd
-from dpdfit import gate_sim as gs
+from dpdfit.analyses import budget as bd
+from dpdfit.models import gate_sim as gs
 from dpdfit.errors import InputError
 
 S = 1 / np.sqrt(1.5)

@@ -1,7 +1,7 @@
-"""Tests of the gate-experiment physics engine (dpdfit.gate_sim).
+"""Tests of the gate-experiment physics engine (dpdfit.models.gate_sim).
 
 Reference values are independent of the engine: the brute-force oracle
-tests/exact_ms.py, the closed-form exact Bell formula of dpdfit.fidelity
+tests/exact_ms.py, the closed-form exact Bell formula of dpdfit.models.fidelity
 (itself validated against exact_ms), first-order (Dyson) perturbation theory
 in the dissipators built from the analytic displacement alpha(t) and
 geometric phase theta(t) of the ideal gate, and hand-computed SPAM branches.
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 import exact_ms
-from dpdfit import gate_sim as gs
+from dpdfit.models import gate_sim as gs
 from dpdfit.errors import InputError
-from dpdfit.fidelity import bell_fidelity as formula_fidelity
-from dpdfit.fidelity import calibrate_g, phase_space
+from dpdfit.models.fidelity import bell_fidelity as formula_fidelity
+from dpdfit.models.fidelity import calibrate_g, phase_space
 
 XI0 = 3.4e3
 T_GATE = 1 / XI0

@@ -1,4 +1,4 @@
-"""Heterodyne trace -> tone powers (Supplement S4): dpdfit.heterodyne."""
+"""Heterodyne trace -> tone powers (Supplement S4): dpdfit.fits.heterodyne."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from dpdfit._io import to_jsonable
+from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.errors import DpdfitError, InputError
-from dpdfit.heterodyne import (AT_NOISE_FLOOR, FLATTOP_COEFFICIENTS, add_spectrum_command,
+from dpdfit.fits.heterodyne import (AT_NOISE_FLOOR, FLATTOP_COEFFICIENTS, add_spectrum_command,
                                flattop_periodogram, load_trace, simulate_beat_trace,
                                trace_tone_powers)
 

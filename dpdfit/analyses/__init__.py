@@ -1,0 +1,2 @@
+"""Analyses built from fits and models: amplitude sweep, stability, propagation of calibration
+drift, error budget and the discrepancy diagnosis."""

@@ -1,0 +1,1 @@
+"""The ``dpdfit`` command line: a thin layer over the API."""

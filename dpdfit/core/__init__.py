@@ -1,0 +1,1 @@
+"""Shared helpers every layer may use: version, defaults, parallel map, progress."""

@@ -1,0 +1,1 @@
+"""The main job: every analysis on a campaign folder, each calibration fitted once."""

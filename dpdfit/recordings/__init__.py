@@ -1,0 +1,1 @@
+"""Recordings -> validated tables: CSV readers, the campaign folder, trace files, atomic outputs."""

@@ -1,0 +1,1 @@
+"""Figures and written summaries (matplotlib is imported here only)."""

@@ -1,0 +1,1 @@
+"""Synthetic recordings: a physical AOM, the campaign simulator and the injection-recovery harness."""
