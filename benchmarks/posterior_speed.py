@@ -27,7 +27,8 @@ import pandas as pd
 
 from dpdfit.simulation.aom_truth import BraggAOM, PhotodiodeNoise, simulate_amplitude_run
 from dpdfit.fits.calibration import fit_amplitude
-from dpdfit.fits.posterior import propagate, sample_amplitude_posterior
+from dpdfit.analyses.propagation import propagate
+from dpdfit.fits.posterior import sample_amplitude_posterior
 
 
 def ess(chain):

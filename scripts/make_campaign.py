@@ -19,7 +19,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from dpdfit.pipeline.analyze import _fmt as fmt
+from dpdfit.report.summary import format_value as fmt
 from dpdfit.pipeline.analyze import analyze
 from dpdfit.simulation.campaign import simulate_campaign
 

@@ -18,9 +18,10 @@ from scipy.optimize import minimize
 from scipy.special import xlogy
 
 from dpdfit.fits.counts import (BOUNDARY_SIGMAS, GATE_COLUMNS, LEVEL_1SIGMA, ParityFit,
-                           PopulationFidelity, combined_fidelity, fit_parity, gate_fidelities,
-                           merge_parity, parity_information, pool_populations,
-                           population_fidelity, read_parity, read_populations)
+                                PopulationFidelity, combined_fidelity, fit_parity, gate_fidelities,
+                                merge_parity, parity_information, pool_populations,
+                                population_fidelity)
+from dpdfit.recordings.counts import read_parity, read_populations
 from dpdfit.errors import FitError, InputError
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -285,7 +285,8 @@ def test_strong_tone_effect_fit_escapes_a_baseline_pushed_to_its_bounds(tmp_path
     of a strong detector nonlinearity up to their +/-50 sigma bounds; started there, the
     effect fit could not move and the campaign was called unexplained."""
     from dpdfit.simulation.campaign import simulate_campaign
-    from dpdfit.analyses.diagnosis.diagnose import FAR_NUISANCE, Problem, _fit
+    from dpdfit.analyses.diagnosis.fitting import FAR_NUISANCE, fit_hypothesis as _fit
+    from dpdfit.analyses.diagnosis.problem import Problem
     from dpdfit.simulation.harness import _silent, harness_config
     from dpdfit.analyses.diagnosis.observables import load_campaign
     seed = 122199430
@@ -306,7 +307,7 @@ def test_linear_profile_of_the_calibration_modes_is_the_exact_marginal_fit():
     r0^T (I + J J^T)^-1 r0, and a fit through it gives the joint fit's parameters and
     the marginal (Schur-complement) errors of the effect parameters."""
     from scipy.optimize import least_squares
-    from dpdfit.analyses.diagnosis.diagnose import _Profile
+    from dpdfit.analyses.diagnosis.mode_profile import ModeProfile as _Profile
     rng = np.random.default_rng(3)
     n, kx, kd = 60, 2, 5
     X, D = rng.normal(size=(n, kx)), rng.normal(size=(n, kd))
@@ -342,7 +343,7 @@ def test_whitened_gate_residuals_are_standard_normal_and_give_the_mahalanobis_ch
     """One setting's F_pop, imb, C share its random power error: the whitened
     residuals of draws from the stated covariance are N(0, I) (checked on
     20,000 draws), and their sum of squares is r^T Sigma^-1 r."""
-    from dpdfit.analyses.diagnosis.diagnose import _whiten_settings
+    from dpdfit.analyses.diagnosis.problem import _whiten_settings
     rng = np.random.default_rng(11)
     shot = np.array([0.002, 0.023, 0.003])
     g = np.array([-0.0008, -0.35, 0.011])           # per dB, as the engine gives
@@ -373,7 +374,7 @@ def test_effect_scales_follow_the_calibration_modes():
     """At full drive (A = 1) the extra AM-to-PM phase is dphi, the fifth-order factor
     1 + k5 and the detector correction that of u = P/P_max = 1, whatever the
     calibration modes do to y(1): the scales belong to the forward curve in use."""
-    from dpdfit.analyses.diagnosis.effects import ToneModel
+    from dpdfit.analyses.diagnosis.tone_model import ToneModel
     from dpdfit.analyses.diagnosis.observables import load_campaign
     tone = ToneModel(load_campaign(BUNDLED))
     x = np.ones((1, 8))                                  # constant envelope at full drive
@@ -395,7 +396,7 @@ def test_effect_scales_follow_the_calibration_modes():
 
 def test_report_shows_the_null_model_the_verdict_fit_and_what_was_left_out():
     from types import SimpleNamespace as NS
-    from dpdfit.analyses.diagnosis.diagnose import Diagnosis
+    from dpdfit.analyses.diagnosis.result import Diagnosis
     d = NS(campaign="c", baseline=NS(chi2=10.0, dof=9), baseline_p_value=0.3,
            verdict="aom_memory", mismatches=[], ranking=[], redchi_before={"a": 3.0},
            redchi_after={"a": 1.4},

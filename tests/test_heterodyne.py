@@ -13,9 +13,11 @@ from scipy import signal
 
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.errors import DpdfitError, InputError
-from dpdfit.fits.heterodyne import (AT_NOISE_FLOOR, FLATTOP_COEFFICIENTS, add_spectrum_command,
-                               flattop_periodogram, load_trace, simulate_beat_trace,
+from dpdfit.cli.spectrum import add_spectrum_command
+from dpdfit.fits.tones import (AT_NOISE_FLOOR, FLATTOP_COEFFICIENTS, flattop_periodogram,
                                trace_tone_powers)
+from dpdfit.recordings.traces import load_trace
+from dpdfit.simulation.beat_trace import simulate_beat_trace
 
 # Scaled-down recording (fast tests): 100 MS/s for 1.3 ms -> bins of 763 Hz,
 # main lobe +/-3.8 kHz, well inside xi0/2 = 10 kHz.

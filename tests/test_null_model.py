@@ -163,12 +163,12 @@ def test_correlated_dephasing_costs_the_bell_contrast_more_than_independent():
     xi = 4000.0
     T = 1 / xi
     kw = dict(nbar=0.1, ndot=0.0, rtol=1e-9, atol=1e-11)
-    one_i = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2=0.01, **kw)
-    one_c = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2_corr=0.01, **kw)
+    one_i = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2=0.01, **kw)
+    one_c = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2_corr=0.01, **kw)
     np.testing.assert_allclose(one_i, one_c, atol=1e-10)
-    ind = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, T2=0.01, **kw)
-    cor = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, T2_corr=0.01, **kw)
-    ideal = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, **kw)
+    ind = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, T2=0.01, **kw)
+    cor = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, T2_corr=0.01, **kw)
+    ideal = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, **kw)
     loss = {k: 2 * abs(ideal[0, 3]) - 2 * abs(r[0, 3]) for k, r in
             (("ind", ind), ("cor", cor))}
     assert loss["cor"] > 1.3 * loss["ind"] > 0

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from dpdfit.fits import _dd
+from dpdfit.fits.polyfit import double_double as _dd
 from dpdfit.errors import FitError, InputError
 from dpdfit.fits.polyfit import PolyFitResult, parse_powers, polyfit
 
@@ -365,7 +365,7 @@ def test_bad_input_raises(kwargs, error, match):
 
 
 def test_refinement_status_is_reported(monkeypatch):
-    module = importlib.import_module("dpdfit.fits.polyfit")
+    module = importlib.import_module("dpdfit.fits.polyfit.refine")
     x, y, powers, sigma = hard_case(True)
     full = polyfit(x, y, powers, sigma=sigma)
     assert full.converged and 3 <= full.refinement_iterations <= 6

@@ -10,9 +10,11 @@ import pytest
 from dpdfit.simulation.aom_truth import BraggAOM, PhotodiodeNoise, simulate_amplitude_run
 from dpdfit.fits.calibration import Calibration, fit_amplitude, fit_phase
 from dpdfit.errors import DpdfitError
-from dpdfit.fits.posterior import (ConvergenceError, PosteriorResult, add_propagate_command,
-                              drift_model, plot_corner, propagate, recalibration,
-                              sample_amplitude_posterior)
+from dpdfit.fits.posterior import ConvergenceError, PosteriorResult, sample_amplitude_posterior
+from dpdfit.fits.drift import drift_model
+from dpdfit.analyses.propagation import propagate, recalibration
+from dpdfit.report.posterior_plots import plot_corner
+from dpdfit.cli.propagate import add_propagate_command
 from dpdfit.analyses.sweep import SweepConfig, run_sweep
 from dpdfit.models.transfer import TransferFunction
 
@@ -244,8 +246,8 @@ def test_cli(tmp_path, capsys):
 
 
 def test_threshold_rows_match_scalar_first_crossing():
-    from dpdfit.fits.posterior import _first_crossing_rows
-    from dpdfit.analyses.sweep import _first_crossing
+    from dpdfit.analyses.sweep import first_crossing_rows as _first_crossing_rows
+    from dpdfit.analyses.sweep import first_crossing as _first_crossing
     rng = np.random.default_rng(3)
     x = np.sort(rng.uniform(0.01, 0.5, (50, 30)), axis=1)
     y = 1e-5 * (x / 0.01) ** rng.uniform(1.5, 3.5, (50, 1)) * rng.uniform(0.5, 2, (50, 30))
@@ -259,7 +261,7 @@ def test_threshold_rows_match_scalar_first_crossing():
 def test_threshold_distribution_brackets_the_point_estimate():
     """With a fresh table the draws' thresholds scatter around the sweep of the fit itself."""
     from dpdfit.simulation.aom_truth import BraggAOM, simulate_amplitude_run
-    from dpdfit.fits.posterior import threshold_distribution
+    from dpdfit.analyses.propagation import threshold_distribution
     from dpdfit.fits.calibration import fit_amplitude
     from dpdfit.analyses.sweep import SweepConfig, run_sweep, thresholds
     from dpdfit.models.transfer import TransferFunction
@@ -289,7 +291,7 @@ def test_phase_perturbation_first_order_matches_exact_forward():
     import dataclasses
     from dpdfit.simulation.aom_truth import BraggAOM, simulate_amplitude_run, simulate_phase_run
     from dpdfit.fits.calibration import fit_amplitude, fit_phase
-    from dpdfit.fits.posterior import _Forward
+    from dpdfit.analyses.propagation import BatchedForwardModel as _Forward
     rng = np.random.default_rng(4)
     aom = BraggAOM()
     grid = np.linspace(0, 1, 201)

@@ -13,8 +13,9 @@ import pytest
 
 from dpdfit.simulation.aom_truth import ou_series
 from dpdfit.errors import DpdfitError, FitError, InputError
-from dpdfit.analyses.stability import (add_stability_command, allan_deviation, drift_test,
-                              plot_stability, stability)
+from dpdfit.analyses.stability import allan_deviation, drift_test, stability
+from dpdfit.report.stability_plots import plot_stability
+from dpdfit.cli.stability import add_stability_command
 
 ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"

@@ -25,19 +25,22 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import CubicSpline
 
+from dpdfit.core.defaults import ETA_REF, FORMULA, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.errors import InputError
 from dpdfit.models.fidelity import FORMULAS, estimate
 from dpdfit.models.spectrum import field_tone_powers, simulate_field
 from dpdfit.models.transfer import TransferFunction
 from dpdfit.models.waveforms import ToneSet, cardioid, sample_grid
 
-__all__ = ["SweepConfig", "run_sweep", "eta_bar", "efficiency_spline", "thresholds",
-           "parse_amplitudes", "COLUMNS", "THRESHOLD_LEVELS"]
+__all__ = ["SweepConfig", "run_sweep", "eta_bar", "efficiency_spline", "eta_corr", "thresholds",
+           "first_crossing", "first_crossing_rows", "parse_amplitudes", "COLUMNS",
+           "THRESHOLD_LEVELS", "SWEEP_HARMONICS"]
 
 COLUMNS = ["A", "dpd", "sideband", "P0_dB", "P1_dB", "P2_dB", "P3_dB", "R10_dB", "R23_dB",
            "dP1_dB", "dP2_dB", "eta_bar", "F_est", "eps_est", "r_rel"]
 THRESHOLD_LEVELS = {"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}
-HARMONICS = (0, 1, 2, 3)
+#: Harmonics n of the tones whose powers P0..P3 the sweep reads (carrier n = 0 first).
+SWEEP_HARMONICS = (0, 1, 2, 3)
 
 
 def parse_amplitudes(spec: str) -> np.ndarray:
@@ -80,12 +83,12 @@ class SweepConfig:
     """
 
     amplitudes: np.ndarray = field(default_factory=lambda: np.linspace(0.05, 1.0, 100))
-    nu: float = 1.84e6
-    xi0: float = 20e3
-    nbar: float = 0.1
+    nu: float = NU_HZ
+    xi0: float = XI0_SPECTRA_HZ
+    nbar: float = NBAR
     am_only: bool = False
-    formula: str = "exact"
-    eta_ref: float = 0.80
+    formula: str = FORMULA
+    eta_ref: float = ETA_REF
     anchor: tuple = (0.4, 0)
     tones: ToneSet = field(default_factory=cardioid)
 
@@ -104,7 +107,7 @@ class SweepConfig:
         object.__setattr__(self, "amplitudes", A)
 
 
-def eta_bar(rf, transfer: TransferFunction, eta_ref: float = 0.80):
+def eta_bar(rf, transfer: TransferFunction, eta_ref: float = ETA_REF):
     """Time-averaged diffraction efficiency (Eq. eta-bar).
 
     ``eta_bar = eta_ref * mean_i |f_AM(w_i)|^2 / |f_AM(1)|^2`` over the RF
@@ -117,7 +120,7 @@ def eta_bar(rf, transfer: TransferFunction, eta_ref: float = 0.80):
 
 def _spectra(transfer, cfg, grid, A, dpd):
     rf, fld = simulate_field(transfer, cfg.tones, grid, A, dpd, cfg.am_only)
-    spec = field_tone_powers(fld, grid, HARMONICS)
+    spec = field_tone_powers(fld, grid, SWEEP_HARMONICS)
     return spec.P_dB("red"), spec.P_dB("blue"), eta_bar(rf, transfer, cfg.eta_ref)
 
 
@@ -143,7 +146,7 @@ def run_sweep(transfer: TransferFunction, cfg: SweepConfig = SweepConfig()) -> p
         P = {"red": Pr, "blue": Pb, "mean": 0.5 * (Pr + Pb)}
         dP = {"red": res[1][0] - res[0][0], "blue": res[1][1] - res[0][1]}
         dP["mean"] = 0.5 * (dP["red"] + dP["blue"])
-        F = {sb: estimate(P[sb], HARMONICS, gate_signs=gate_signs, nbar=cfg.nbar,
+        F = {sb: estimate(P[sb], SWEEP_HARMONICS, gate_signs=gate_signs, nbar=cfg.nbar,
                           formula=cfg.formula).F_est for sb in ("red", "blue")}
         F["mean"] = 0.5 * (F["red"] + F["blue"])
         for sb in ("red", "blue", "mean"):
@@ -187,8 +190,12 @@ def eta_corr(df: pd.DataFrame, A_corr: float | None = None) -> dict:
     return out
 
 
-def _first_crossing(x, y, level):
-    """First x (increasing) where y rises through ``level``; log-log interpolation."""
+def first_crossing(x, y, level):
+    """First x (increasing) where y rises through ``level``; log-log interpolation.
+
+    Only points with ``x, y > 0`` are used; ``None`` when the curve never
+    reaches ``level`` or already starts at or above it.
+    """
     order = np.argsort(x)
     x, y = np.asarray(x)[order], np.asarray(y)[order]
     ok = (x > 0) & (y > 0)
@@ -202,6 +209,28 @@ def _first_crossing(x, y, level):
     lx0, lx1 = np.log(x[i - 1]), np.log(x[i])
     ly0, ly1 = np.log(y[i - 1]), np.log(y[i])
     return float(np.exp(lx0 + (np.log(level) - ly0) * (lx1 - lx0) / (ly1 - ly0)))
+
+
+def first_crossing_rows(x, y, level):
+    """Row-wise first rise of ``y`` through ``level`` along increasing ``x``, log-log interpolated.
+
+    Vectorised form of :func:`first_crossing` for a batch of curves (rows); NaN
+    where the curve never reaches ``level`` or starts above it.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    order = np.argsort(x, axis=1)
+    x = np.take_along_axis(x, order, axis=1)
+    y = np.take_along_axis(y, order, axis=1)
+    above = y >= level
+    has = above.any(axis=1) & ~above[:, 0]
+    i = np.where(has, np.argmax(above, axis=1), 1)
+    r = np.arange(x.shape[0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lx0, lx1 = np.log(x[r, i - 1]), np.log(x[r, i])
+        ly0, ly1 = np.log(np.maximum(y[r, i - 1], 1e-300)), np.log(np.maximum(y[r, i], 1e-300))
+        out = np.exp(lx0 + (np.log(level) - ly0) * (lx1 - lx0) / (ly1 - ly0))
+    return np.where(has, out, np.nan)
 
 
 def thresholds(df: pd.DataFrame) -> dict:
@@ -219,6 +248,6 @@ def thresholds(df: pd.DataFrame) -> dict:
     out = {"eta_corr": df.attrs.get("eta_corr") or eta_corr(df), "eta_th": {}}
     for d, key in ((1, "dpd"), (0, "no_dpd")):
         sub = df[(df["dpd"] == d) & (df["sideband"] == "mean")]
-        out["eta_th"][key] = {name: _first_crossing(sub["eta_bar"], sub["eps_est"], lev)
+        out["eta_th"][key] = {name: first_crossing(sub["eta_bar"], sub["eps_est"], lev)
                               for name, lev in THRESHOLD_LEVELS.items()}
     return out

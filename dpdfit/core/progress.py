@@ -10,6 +10,8 @@ from __future__ import annotations
 import sys
 import time
 
+__all__ = ["Progress"]
+
 
 class Progress:
     """``with Progress(label, total) as p: ... p.update()``."""

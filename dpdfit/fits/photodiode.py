@@ -18,11 +18,13 @@ the photodiode's real noise.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import asdict, dataclass
 
 import numpy as np
 from scipy.optimize import minimize
 
+from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
 from dpdfit.errors import DpdfitError
 
@@ -50,7 +52,7 @@ class PowerNoise:
         return asdict(self)
 
 
-def fit_power_noise(A, power, runs, order: int = 8) -> PowerNoise | None:
+def fit_power_noise(A, power, runs, order: int = AMPLITUDE_ORDER) -> PowerNoise | None:
     """Noise model of the recorded powers from every run's residuals (module doc).
 
     Returns None with fewer than :data:`MIN_RUNS` runs that can be fitted.
@@ -121,7 +123,8 @@ class PhaseNoise:
         return asdict(self)
 
 
-def fit_phase_noise(A, phase, runs, order: int = 5, A_min: float = 0.1) -> PhaseNoise | None:
+def fit_phase_noise(A, phase, runs, order: int = PHASE_ORDER,
+                    A_min: float = PHASE_MIN_A) -> PhaseNoise | None:
     """Noise model of the recorded phases from every run's residuals on ``A >= A_min``."""
     A, phase, runs = np.asarray(A, float), np.asarray(phase, float), np.asarray(runs)
     res, u, w = [], [], []
@@ -154,7 +157,6 @@ def model_run_with_noise(cf):
     at each point's fitted power (:func:`fit_power_noise`); otherwise the data as
     recorded.  ``dpdfit analyze`` and ``dpdfit diagnose`` both fit the model run so.
     """
-    import dataclasses
     data = cf.amplitude_model
     df = cf.amplitude_runs
     if data.error is not None or "run" not in df.columns:
@@ -170,7 +172,6 @@ def model_run_with_noise(cf):
 def phase_run_with_noise(cf):
     """The model phase run with its errors (learnt noise model when ``phase_err`` is absent,
     as :func:`model_run_with_noise`); ``(None, None)`` without a phase file."""
-    import dataclasses
     data = cf.phase_model
     if data is None:
         return None, None

@@ -35,7 +35,7 @@ from scipy.optimize import brentq, minimize
 from scipy.special import chndtr, i0e
 from scipy.stats import chi2
 
-__all__ = ["NoiseFloor", "estimate_noise_floor", "floor_from_snr", "robust_scale",
+__all__ = ["MAX_FLOOR_ERR_DB", "MIN_FLOOR_READINGS", "NoiseFloor", "estimate_noise_floor", "floor_from_snr", "robust_scale",
            "FLOOR_FIT_DB", "MEDIAN_CHI2_1"]
 
 #: IM readings used for the floor: below this many dB above the first guess of the floor

@@ -41,6 +41,9 @@ for small errors the printed expression gives twice the infidelity of the
 exact one (see README, "Fidelity formula").  The exact expression is checked
 against a brute-force propagation of the two-ion spin-motion dynamics in the
 tests.
+
+The IM-tone requirements of Table S2, built on these expressions, are in
+:mod:`dpdfit.models.im_requirements`.
 """
 
 from __future__ import annotations
@@ -49,10 +52,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dpdfit.core.defaults import FORMULA, NBAR
 from dpdfit.errors import InputError
 
 __all__ = ["phase_space", "gate_phase_space", "calibrate_g", "bell_fidelity",
-           "im_signs", "amplitudes_from_powers", "estimate", "Estimate", "FORMULAS"]
+           "im_signs", "amplitudes_from_powers", "estimate", "Estimate", "FORMULAS",
+           "cardioid_populations"]
 
 FORMULAS = ("exact", "paper")
 _TWO_PI = 2 * np.pi
@@ -182,7 +187,7 @@ def calibrate_g(n, r, gate=(1, 2)):
     return 0.5 / np.sqrt(s)
 
 
-def bell_fidelity(F, G, Phi, nbar=0.1, formula: str = "exact"):
+def bell_fidelity(F, G, Phi, nbar=NBAR, formula: str = FORMULA):
     """Bell-state fidelity from the end point of the phase-space trajectory.
 
     Parameters
@@ -288,7 +293,7 @@ class Estimate:
 
 
 def estimate(P_dB, harmonics=(0, 1, 2, 3), *, gate=(1, 2), gate_signs=(1.0, -1.0),
-             nbar: float = 0.1, formula: str = "exact") -> Estimate:
+             nbar: float = NBAR, formula: str = FORMULA) -> Estimate:
     """Estimated Bell fidelity from tone powers of one sideband group (S5.4).
 
     Parameters
@@ -318,96 +323,10 @@ def estimate(P_dB, harmonics=(0, 1, 2, 3), *, gate=(1, 2), gate_signs=(1.0, -1.0
                     formula=formula, nbar=float(nbar))
 
 
-# --------------------------------------------------------------------------- Table S2
-
-
-def _endpoint_as_printed(n, r, phi, g):
-    """End point with the paper's expressions taken literally.
-
-    The printed F(t), G(t) (Eqs. F, G) lack the constants that make the
-    trajectory start at the origin; with a phase phi_n that is not 0 the
-    literal expressions evaluated at T_g give a spurious non-closure
-    ``F(T) = -sqrt(2) g sum (r/n) sin(phi)``, ``G(T) = sqrt(2) g sum (r/n)(1 - cos phi)``.
-    Used only to reproduce the printed Table S2 (see :func:`im_requirements`).
-    """
-    n = np.asarray(n, dtype=float)
-    r = np.asarray(r, dtype=float)
-    phi = np.asarray(phi, dtype=float)
-    F, G, Phi = gate_phase_space(n, r, phi, g)
-    k = np.sqrt(2) * g
-    nz = n != 0
-    cF = -k * np.sum(r[nz] / n[nz] * np.sin(phi[nz]))
-    cG = k * np.sum(r[nz] / n[nz] * (1 - np.cos(phi[nz])))
-    return F + cF, G + cG, Phi - cF * G
-
-
-def im_infidelity(n_im: int, ratio_db, nbar: float = 0.1, formula: str = "exact",
-                  as_printed: bool = False):
-    """Infidelity of ideal Cardioid(1,2) plus one IM tone at ``P_gate/P_IM = ratio_db``.
-
-    ``as_printed=True`` uses the assumptions that reproduce the printed
-    Table S2 (see :func:`im_requirements`); ``nbar`` and ``formula`` are then
-    ignored.
-    """
-    amp = 10 ** (-np.asarray(ratio_db, dtype=float) / 20)
-    if as_printed:
-        # gate tones in the unit normalisation sum r^2/n = 1, IM amplitude
-        # quoted against 1 (not against |r_1| = 1/sqrt(1.5)), IM phase pi
-        # in the literal expressions, paper formula, nbar = 0
-        s = 1 / np.sqrt(1.5)
-        n = np.array([1, 2, n_im])
-        out = []
-        for a in np.atleast_1d(amp):
-            F, G, Phi = _endpoint_as_printed(n, [s, -s, a], [0.0, 0.0, np.pi], 0.5)
-            out.append(1 - bell_fidelity(F, G, Phi, 0.0, "paper"))
-        return np.array(out).reshape(np.shape(amp))
-    n = np.array([1, 2, n_im])
-    sign = im_signs([1, 2], [1.0, -1.0], [n_im])[0]
-    r = np.stack(np.broadcast_arrays(np.ones_like(amp), -np.ones_like(amp), sign * amp), axis=-1)
-    g = calibrate_g(n, r, (1, 2))
-    F, G, Phi = gate_phase_space(n, r, 0.0, g)
-    return 1 - bell_fidelity(F, G, Phi, nbar, formula)
-
-
-def im_requirements(nbar: float = 0.1, formula: str = "exact", levels=(1e-2, 1e-3, 1e-4),
-                    harmonics=(0, 3), as_printed: bool = False) -> dict:
-    """Required gate-to-IM power ratio (dB) per infidelity level (Table S2).
-
-    For each IM harmonic, the ``P_gate/P_IM = P_1/P_IM`` (dB) at which a
-    single IM tone added to the ideal Cardioid(1,2) spectrum (sign from the
-    cubic model, Omega calibrated on the gate tones) makes ``1 - F`` equal
-    each level; found by a bracketed root solve.
-
-    ``as_printed=True`` reproduces the numbers printed in Table S2 (to
-    <= 0.05 dB) with the assumptions identified in the README: the printed
-    fidelity expression, ``nbar = 0``, the IM amplitude quoted relative to the
-    unit-normalised gate amplitude (so the quoted ratio is 1.76 dB above
-    ``P_1/P_IM``), and the IM sign entered as a phase pi into the literal
-    ``F``, ``G`` expressions (which for ``n = 3`` makes the trajectory fail to
-    close, ``G(T) ~ r_3``, hence the 10 dB-per-decade slope of the printed
-    ``n = 3`` column).
-
-    Returns ``{"0": {"1e-2": dB, ...}, "3": {...}}``.
-    """
-    from scipy.optimize import brentq
-    out = {}
-    for n_im in harmonics:
-        row = {}
-        for lev in levels:
-            f = lambda db: float(im_infidelity(n_im, db, nbar, formula, as_printed)) - lev  # noqa: E731
-            lo, hi = -30.0, 200.0
-            if f(lo) < 0 or f(hi) > 0:
-                row[f"{lev:.0e}".replace("e-0", "e-")] = None
-                continue
-            row[f"{lev:.0e}".replace("e-0", "e-")] = brentq(f, lo, hi, xtol=1e-9)
-        out[str(n_im)] = row
-    return out
-
-
 # --------------------------------------------------------------------------- time scans
 
 
-def cardioid_populations(t, xi0: float, nbar: float = 0.1, n=(1, 2), r=None):
+def cardioid_populations(t, xi0: float, nbar: float = NBAR, n=(1, 2), r=None):
     """Ideal two-ion populations ``P00, P01+P10, P11`` versus time (Fig. S7).
 
     The ideal gate (tones ``n`` with signed amplitudes ``r``, default the

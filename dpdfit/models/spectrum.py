@@ -9,7 +9,7 @@ normalised field amplitude: a component ``c exp(i 2 pi f t)`` of ``y(t)`` reads
 calibration (``y = A`` for an ideal modulator), so a tone of the Cardioid(1,2)
 waveform driven with peak amplitude ``A`` through an ideal modulator reads
 ``20 log10(A / peak)`` with ``peak = max|sum_j r_j e^{...}|``.  Recorded
-heterodyne traces (:mod:`dpdfit.fits.heterodyne`) use the analogous reference in
+heterodyne traces (:mod:`dpdfit.fits.tones`) use the analogous reference in
 the trace's own units; ratios (``R10``, ``R23``, ``dP_n``) do not depend on it.
 
 Figures of merit (main text; Supplement S4, S9)::

@@ -22,9 +22,9 @@ Required and optional (everything else in the layout is optional):
   ``valid`` (default 1) and ``snr_db`` (without it the diagnosis estimates the
   noise floor from the recordings).
 * ``populations.csv`` -- ``A, dpd, scan, shots`` and ``n_even`` or
-  ``n00, n01_10, n11`` (:func:`dpdfit.fits.counts.read_populations`); without
+  ``n00, n01_10, n11`` (:func:`dpdfit.recordings.counts.read_populations`); without
   ``n00``/``n11`` the imbalance ``P00 - P11`` is not available.
-* ``parity.csv`` -- :func:`dpdfit.fits.counts.read_parity`.
+* ``parity.csv`` -- :func:`dpdfit.recordings.counts.read_parity`.
 * ``gate_rates.csv`` -- ``A, dpd, xi0_khz`` (+ ``xi0_err_khz``).
 * ``time_scans.csv`` -- ``A, dpd, t_us, n00, n11, shots`` (+ ``n01_10``: then
   ``n00 + n01_10 + n11 = shots`` is checked, else ``n00 + n11 <= shots``).
@@ -43,14 +43,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.errors import InputError
-from dpdfit.recordings.tables import CalibrationData, list_runs, read_calibration, read_table
+
+from .counts import read_parity, read_populations
+from .tables import CalibrationData, list_runs, read_calibration, read_table
 
 __all__ = ["CampaignFolder", "META_DEFAULTS", "FILES"]
 
 #: campaign.json constants and their defaults (the paper's values) when absent
-META_DEFAULTS = {"nu_hz": 1.84e6, "xi0_spectra_hz": 20e3, "nbar_assumed": 0.1,
-                 "eta_ref": 0.8, "eta_ld": 0.026, "order": 8}
+META_DEFAULTS = {"nu_hz": NU_HZ, "xi0_spectra_hz": XI0_SPECTRA_HZ, "nbar_assumed": NBAR,
+                 "eta_ref": ETA_REF, "eta_ld": ETA_LD, "order": AMPLITUDE_ORDER}
 #: file -> (required by, what it holds)
 FILES = {
     "campaign.json": "campaign constants",
@@ -200,13 +203,11 @@ class CampaignFolder:
     # -------------------------------------------------------------------- gates
     @functools.cached_property
     def populations(self) -> pd.DataFrame | None:
-        from dpdfit.fits.counts import read_populations
         return read_populations(self.file("populations.csv")) if self.has(
             "populations.csv") else None
 
     @functools.cached_property
     def parity(self) -> pd.DataFrame | None:
-        from dpdfit.fits.counts import read_parity
         return read_parity(self.file("parity.csv")) if self.has("parity.csv") else None
 
     @functools.cached_property

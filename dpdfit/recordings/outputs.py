@@ -23,7 +23,7 @@ import numpy as np
 
 from dpdfit.errors import InputError
 
-__all__ = ["sha256_file", "refuse_overwriting_inputs", "staged_outputs",
+__all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "refuse_overwriting_inputs", "staged_outputs",
            "atomic_write_text", "atomic_write_json", "to_jsonable"]
 
 

@@ -70,6 +70,32 @@ def read_table(path: str | os.PathLike, required: list[str],
         parsed to timezone-aware UTC datetimes and ``run`` as strings.
     """
     name = str(path)
+    df = _read_csv(path, name)
+    _check_columns(df, required, name)
+    present_opt = [c for c in optional if c in df.columns]
+    if numeric is None:
+        numeric = [c for c in list(required) + present_opt if c not in ("run", "timestamp")]
+    out = pd.DataFrame(index=df.index)
+    for col in df.columns:
+        out[col] = df[col].str.strip() if df[col].dtype == object else df[col]
+    for col in numeric:
+        out[col] = _numeric_column(out[col], name, col)
+    for col, (lo, hi) in (ranges or {}).items():
+        if col in out.columns:
+            _check_bounds(out[col], name, col, lo, hi)
+    for col in positive:
+        if col in out.columns:
+            _check_positive(out[col], name, col)
+    if "run" in out.columns:
+        out["run"] = _run_labels(out["run"], name)
+    if "timestamp" in out.columns:
+        out["timestamp"] = _timestamps(out["timestamp"], name)
+    out.attrs["source"] = name
+    return out
+
+
+def _read_csv(path, name: str) -> pd.DataFrame:
+    """The file as a table of strings (InputError when absent, empty or not a CSV)."""
     if not os.path.exists(path):
         raise InputError("file not found", file=name)
     try:
@@ -81,6 +107,11 @@ def read_table(path: str | os.PathLike, required: list[str],
         msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
         raise InputError(f"not a readable CSV file ({msg})", file=name) from None
     df.columns = [str(c).strip() for c in df.columns]
+    return df
+
+
+def _check_columns(df: pd.DataFrame, required, name: str) -> None:
+    """Unique column names, every required column (a close misspelling suggested), data rows."""
     dupes = {c for c in df.columns if list(df.columns).count(c) > 1}
     if dupes:
         raise InputError(f"column name(s) appear more than once: {sorted(dupes)}", file=name)
@@ -93,66 +124,65 @@ def read_table(path: str | os.PathLike, required: list[str],
     if len(df) == 0:
         raise InputError("file has a header but no data rows", file=name)
 
-    present_opt = [c for c in optional if c in df.columns]
-    if numeric is None:
-        numeric = [c for c in list(required) + present_opt if c not in ("run", "timestamp")]
-    out = pd.DataFrame(index=df.index)
-    for col in df.columns:
-        out[col] = df[col].str.strip() if df[col].dtype == object else df[col]
-    for col in numeric:
-        raw = out[col]
-        vals = pd.to_numeric(raw, errors="coerce")
-        bad = vals.isna()
-        if bad.any():
-            i = int(np.flatnonzero(bad.to_numpy())[0])
-            text = raw.iloc[i]
-            what = "value is empty" if text == "" else (
-                "value is NaN" if text.lower() in ("nan", "na", "n/a", "null", "none")
-                else f"'{text}' is not a number")
-            raise InputError(what, file=name, column=col, row=_row(i))
-        arr = vals.to_numpy(dtype=float)
-        nonfinite = ~np.isfinite(arr)
-        if nonfinite.any():
-            i = int(np.flatnonzero(nonfinite)[0])
-            raise InputError(f"value is {arr[i]} (must be finite)", file=name, column=col,
-                             row=_row(i))
-        out[col] = arr
-    for col, (lo, hi) in (ranges or {}).items():
-        if col not in out.columns:
-            continue
-        arr = out[col].to_numpy(dtype=float)
-        bad = (arr < lo) | (arr > hi)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise InputError(f"value {arr[i]:g} is outside [{lo:g}, {hi:g}]", file=name,
-                             column=col, row=_row(i))
-    for col in positive:
-        if col not in out.columns:
-            continue
-        arr = out[col].to_numpy(dtype=float)
-        bad = arr <= 0
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise InputError(f"uncertainty {arr[i]:g} must be > 0", file=name, column=col,
-                             row=_row(i))
-    if "run" in out.columns:
-        runs = out["run"].astype(str)
-        empty = runs == ""
-        if empty.any():
-            i = int(np.flatnonzero(empty.to_numpy())[0])
-            raise InputError("run label is empty", file=name, column="run", row=_row(i))
-        out["run"] = runs
-    if "timestamp" in out.columns:
-        ts = pd.to_datetime(out["timestamp"], errors="coerce", utc=True, format="mixed")
-        bad = ts.isna()
-        if bad.any():
-            i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise InputError(f"'{out['timestamp'].iloc[i]}' is not a date/time (use ISO 8601, "
-                             "e.g. 2026-03-01T09:30:00)", file=name, column="timestamp",
-                             row=_row(i))
-        out["timestamp"] = ts
-    out.attrs["source"] = name
-    return out
+
+def _numeric_column(raw: pd.Series, name: str, col: str) -> np.ndarray:
+    """The column as finite float64 values (InputError at the first that is not)."""
+    vals = pd.to_numeric(raw, errors="coerce")
+    bad = vals.isna()
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        text = raw.iloc[i]
+        what = "value is empty" if text == "" else (
+            "value is NaN" if text.lower() in ("nan", "na", "n/a", "null", "none")
+            else f"'{text}' is not a number")
+        raise InputError(what, file=name, column=col, row=_row(i))
+    arr = vals.to_numpy(dtype=float)
+    nonfinite = ~np.isfinite(arr)
+    if nonfinite.any():
+        i = int(np.flatnonzero(nonfinite)[0])
+        raise InputError(f"value is {arr[i]} (must be finite)", file=name, column=col,
+                         row=_row(i))
+    return arr
+
+
+def _check_bounds(column: pd.Series, name: str, col: str, lo: float, hi: float) -> None:
+    arr = column.to_numpy(dtype=float)
+    bad = (arr < lo) | (arr > hi)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"value {arr[i]:g} is outside [{lo:g}, {hi:g}]", file=name,
+                         column=col, row=_row(i))
+
+
+def _check_positive(column: pd.Series, name: str, col: str) -> None:
+    arr = column.to_numpy(dtype=float)
+    bad = arr <= 0
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"uncertainty {arr[i]:g} must be > 0", file=name, column=col,
+                         row=_row(i))
+
+
+def _run_labels(column: pd.Series, name: str) -> pd.Series:
+    """Run labels as non-empty strings."""
+    runs = column.astype(str)
+    empty = runs == ""
+    if empty.any():
+        i = int(np.flatnonzero(empty.to_numpy())[0])
+        raise InputError("run label is empty", file=name, column="run", row=_row(i))
+    return runs
+
+
+def _timestamps(column: pd.Series, name: str) -> pd.Series:
+    """ISO 8601 date/times parsed to timezone-aware UTC."""
+    ts = pd.to_datetime(column, errors="coerce", utc=True, format="mixed")
+    bad = ts.isna()
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise InputError(f"'{column.iloc[i]}' is not a date/time (use ISO 8601, "
+                         "e.g. 2026-03-01T09:30:00)", file=name, column="timestamp",
+                         row=_row(i))
+    return ts
 
 
 @dataclass(frozen=True)

@@ -39,8 +39,15 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import brentq
 
-__all__ = ["BraggAOM", "PhotodiodeNoise", "HeterodyneNoise",
+from dpdfit.core.defaults import ETA_REF
+
+__all__ = ["A_CORR", "PHI_1", "BraggAOM", "PhotodiodeNoise", "HeterodyneNoise",
            "simulate_amplitude_run", "simulate_phase_run", "ou_series"]
+
+#: Maximum correctable amplitude ``y(1)`` of the paper's AOM (Supplement S2).
+A_CORR = 0.5655
+#: Optical phase shift at full drive [rad] of the paper's AOM (Supplement S1).
+PHI_1 = 0.2776
 
 
 @dataclass(frozen=True)
@@ -67,9 +74,9 @@ class BraggAOM:
         Offset of the AOM response centre from the RF carrier, Hz.
     """
 
-    A_corr: float = 0.5655
-    phi_1: float = 0.2776
-    eta_ref: float = 0.80
+    A_corr: float = A_CORR
+    phi_1: float = PHI_1
+    eta_ref: float = ETA_REF
     memory_tau: float = 0.0
     memory_offset_hz: float = 0.0
     g: float = field(init=False)

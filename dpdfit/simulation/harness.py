@@ -21,27 +21,35 @@ degraded to 6-20 ms), 0.05-0.2 quanta/ms heating.
 
 Runs are independent: :func:`run_harness` spreads them over local processes
 (``concurrent.futures``) or over a Dask cluster (``scheduler="tcp://..."``,
-``pip install dpdfit[dask]``).
+``pip install dpdfit[dask]``; :mod:`dpdfit.simulation.dispatch`).  The
+command line is :mod:`dpdfit.cli.harness`.
 """
 
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
 import shutil
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
-from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.errors import InputError
+from dpdfit.recordings.outputs import to_jsonable
+from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
+from dpdfit.simulation.dispatch import run_jobs
 
-__all__ = ["harness_config", "STRENGTHS", "CONCEALED", "plan", "run_one", "run_harness",
-           "summarise"]
+__all__ = ["harness_config", "STRENGTHS", "CONCEALED", "PER_EFFECT", "NULLS", "PLAN_SEED",
+           "truth_params", "plan", "run_one", "run_harness", "summarise", "write_report",
+           "report"]
+
+#: Default size of the plan: campaigns per concealed effect, null campaigns.
+PER_EFFECT = 20
+NULLS = 20
+#: Default seed of the injection plan.
+PLAN_SEED = 7
 
 #: concealed effect -> (campaign effects to set, |strength| range, signed?)
 STRENGTHS = {
@@ -90,7 +98,8 @@ def truth_params(effect: str, strengths: dict, truth: dict) -> dict:
     return {}
 
 
-def plan(per_effect: int = 20, nulls: int = 20, seed: int = 7, effects=CONCEALED) -> list:
+def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED,
+         effects=CONCEALED) -> list:
     """The list of injections: dicts with ``concealed``, ``seed``, ``effects``."""
     if per_effect < 0 or nulls < 0 or per_effect + nulls == 0:
         raise InputError(f"need --per-effect >= 0 and --nulls >= 0, not both 0 "
@@ -151,6 +160,8 @@ def _total_redchi(f) -> float:
 
 
 class _silent:
+    """A progress bar that shows nothing (the ``progress`` factory of harness campaigns)."""
+
     def __init__(self, *a, **k):
         pass
 
@@ -188,8 +199,43 @@ def _read_log(path: Path) -> dict:
     return done
 
 
-def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = None,
-                scheduler: str | None = None, seed: int = 7, effects=CONCEALED,
+def _open_log(log) -> tuple[Path | None, dict]:
+    """The run log's path and its finished runs; a cut last line is ended so that the
+    next record starts afresh."""
+    log = None if log is None else Path(log)
+    if log is not None and not log.parent.is_dir():
+        raise InputError(f"--log {log}: folder {log.parent} does not exist")
+    done = {} if log is None else _read_log(log)
+    if log is not None and log.exists() and log.stat().st_size:
+        with open(log, "rb+") as fh:             # a cut last line: start the next one afresh
+            fh.seek(-1, os.SEEK_END)
+            if fh.read(1) != b"\n":
+                fh.write(b"\n")
+    return log, done
+
+
+def _round_robin(jobs: list, skip: set) -> list:
+    """The jobs not in ``skip``, round-robin over the concealed effects (and nulls): any
+    prefix of the log, e.g. of a stopped harness, is then a balanced sample."""
+    rank, seen = {}, {}
+    for j in jobs:
+        seen[j["concealed"]] = seen.get(j["concealed"], -1) + 1
+        rank[_job_key(j)] = seen[j["concealed"]]
+    todo = [j for j in jobs if _job_key(j) not in skip]
+    todo.sort(key=lambda j: rank[_job_key(j)])
+    return todo
+
+
+def _append_log(log: Path, record: dict) -> None:
+    """Append one finished run to the log at once (flushed to disk)."""
+    with open(log, "a") as fh:
+        fh.write(json.dumps(to_jsonable(record), sort_keys=True) + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int | None = None,
+                scheduler: str | None = None, seed: int = PLAN_SEED, effects=CONCEALED,
                 progress=None, log=None) -> dict:
     """Run the harness; returns the summary (see :func:`summarise`) with all runs.
 
@@ -201,71 +247,26 @@ def run_harness(per_effect: int = 20, nulls: int = 20, workers: int | None = Non
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
     t0 = time.perf_counter()
-    log = None if log is None else Path(log)
-    if log is not None and not log.parent.is_dir():
-        raise InputError(f"--log {log}: folder {log.parent} does not exist")
-    done = {} if log is None else _read_log(log)
-    if log is not None and log.exists() and log.stat().st_size:
-        with open(log, "rb+") as fh:             # a cut last line: start the next one afresh
-            fh.seek(-1, os.SEEK_END)
-            if fh.read(1) != b"\n":
-                fh.write(b"\n")
+    log, done = _open_log(log)
     by_key = {_job_key(j): done[_job_key(j)] for j in jobs if _job_key(j) in done}
-    todo = [j for j in jobs if _job_key(j) not in by_key]
-    # run round-robin over the concealed effects (and nulls): any prefix of the
-    # log, e.g. of a stopped harness, is then a balanced sample
-    rank, seen = {}, {}
-    for j in jobs:
-        seen[j["concealed"]] = seen.get(j["concealed"], -1) + 1
-        rank[_job_key(j)] = seen[j["concealed"]]
-    todo.sort(key=lambda j: rank[_job_key(j)])
+    todo = _round_robin(jobs, set(by_key))
     results = list(by_key.values())
 
     def finished(r):
-        from dpdfit.recordings.outputs import to_jsonable
         results.append(r)
         if log is not None:
-            with open(log, "a") as fh:
-                fh.write(json.dumps(to_jsonable(r), sort_keys=True) + "\n")
-                fh.flush()
-                os.fsync(fh.fileno())
+            _append_log(log, r)
         if progress:
             progress(len(results), len(jobs))
 
-    if scheduler:
-        try:
-            from dask.distributed import Client
-        except ImportError:
-            raise InputError("--scheduler needs dask.distributed: pip install 'dpdfit[dask]'"
-                             ) from None
-        from dask.distributed import as_completed as dask_completed
-        client = Client(scheduler)
-        for f in dask_completed(client.map(run_one, todo, pure=False)):
-            finished(f.result())
-        client.close()
-    else:
-        workers = workers or os.cpu_count() or 1
-        if workers == 1:
-            for j in todo:
-                finished(run_one(j))
-        else:
-            # one BLAS thread per worker: the runs are the parallelism.  The
-            # variables must be set before numpy loads in the worker, so the
-            # workers are spawned (a forked worker inherits the parent's
-            # already started BLAS thread pool; on 2 cores two forked workers
-            # ran 4 busy threads and each diagnosis took ~4x longer)
-            for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-                os.environ.setdefault(var, "1")
-            ctx = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
-                for f in as_completed([ex.submit(run_one, j) for j in todo]):
-                    finished(f.result())
+    n_workers = None if scheduler else (workers or os.cpu_count() or 1)
+    run_jobs(run_one, todo, n_workers, scheduler, finished)
     # plan order, whatever order the runs finished in
     order = {_job_key(j): i for i, j in enumerate(jobs)}
     results.sort(key=lambda r: order[_job_key(r)])
     out = summarise(results)
     out["seconds"] = time.perf_counter() - t0
-    out["workers"] = None if scheduler else (workers or os.cpu_count())
+    out["workers"] = n_workers
     out["scheduler"] = scheduler
     out["seed"] = seed
     out["strengths"] = {k: {n: list(r) for n, r in v[0].items()} for k, v in STRENGTHS.items()}
@@ -345,55 +346,10 @@ def summarise(results: list) -> dict:
 
 def write_report(summary: dict, path) -> None:
     """Write the harness summary as JSON (atomically)."""
-    from dpdfit.recordings.outputs import to_jsonable
     path = Path(path)
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(json.dumps(to_jsonable(summary), indent=1, sort_keys=True) + "\n")
     os.replace(tmp, path)
-
-
-
-def cmd_harness(args) -> int:
-    import sys
-    from dpdfit.recordings.outputs import to_jsonable
-
-    def prog(k, n):
-        if args.progress:
-            print(f"\r[harness] {k}/{n}", end="", file=sys.stderr, flush=True)
-
-    if args.campaigns or args.truth:
-        return _cmd_external(args, prog)
-    effects = tuple(args.effects.split(",")) if args.effects else CONCEALED
-    s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
-                    effects, progress=prog, log=args.log)
-    if args.progress:
-        print(file=sys.stderr)
-    if args.output:
-        write_report(s, args.output)
-    if args.json:
-        print(json.dumps(to_jsonable({k: v for k, v in s.items() if k != "runs"}), indent=2))
-    else:
-        print(report(s))
-    return 0
-
-
-def _cmd_external(args, prog) -> int:
-    """``dpdfit harness --campaigns DIR --truth FILE``: see :mod:`dpdfit.simulation.harness_external`."""
-    import sys
-    from dpdfit.recordings.outputs import to_jsonable
-    from dpdfit.simulation.harness_external import report_external, run_external
-    if not (args.campaigns and args.truth):
-        raise InputError("--campaigns DIR and --truth FILE go together")
-    s = run_external(args.campaigns, args.truth, args.workers, args.scheduler, progress=prog)
-    if args.progress:
-        print(file=sys.stderr)
-    if args.output:
-        write_report(s, args.output)
-    if args.json:
-        print(json.dumps(to_jsonable(s), indent=2))
-    else:
-        print(report_external(s))
-    return 0
 
 
 def report(s: dict) -> str:
@@ -416,30 +372,3 @@ def report(s: dict) -> str:
         lines.append(f"    {c:>26s} all params within 2 sigma: "
                      f"{num(r['all_params_within_2sigma'])}")
     return "\n".join(lines)
-
-
-def add_harness_command(subparsers):
-    """Register ``dpdfit harness [--per-effect 20] [--nulls 20] [--workers N] [--scheduler ADDR] [--json]``."""
-    s = subparsers.add_parser(
-        "harness", help="injection-recovery harness of the diagnosis (parallel)",
-        description="Simulate campaigns with each catalog effect concealed at realistic "
-                    "strengths plus null campaigns, diagnose each, and report the confusion "
-                    "matrix, false-alarm rate, parameter recovery and fit improvement.")
-    s.add_argument("--per-effect", type=int, default=20, help="campaigns per effect (20)")
-    s.add_argument("--nulls", type=int, default=20, help="campaigns with nothing concealed (20)")
-    s.add_argument("--workers", type=int, default=None, help="local processes (all cores)")
-    s.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address")
-    s.add_argument("--effects", help="comma-separated subset of concealed effects")
-    s.add_argument("--seed", type=int, default=7, help="seed of the injection plan (7)")
-    s.add_argument("--output", "-o", metavar="FILE.json", help="write the full report (all runs)")
-    s.add_argument("--log", metavar="FILE.jsonl",
-                   help="append every finished run to this log at once; runs already in it "
-                        "are not run again (re-running the command resumes)")
-    s.add_argument("--campaigns", metavar="DIR",
-                   help="external mode: diagnose every campaign folder in DIR (with --truth)")
-    s.add_argument("--truth", metavar="FILE",
-                   help="external mode: JSON, campaign id -> {\"effect\": ...}")
-    s.add_argument("--progress", action="store_true", help="progress on stderr")
-    s.add_argument("--json", action="store_true", help="print the summary as JSON")
-    s.set_defaults(func=cmd_harness)
-    return s

@@ -20,15 +20,13 @@ Report keys (keep): ``confusion`` (truth -> verdict -> count),
 from __future__ import annotations
 
 import json
-import multiprocessing
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
 from dpdfit.errors import DpdfitError, InputError
+from dpdfit.simulation.dispatch import run_jobs
 
 __all__ = ["read_truth", "campaign_folders", "run_external_one", "summarise_external",
            "run_external", "report_external"]
@@ -123,34 +121,16 @@ def run_external(directory, truth_file, workers: int | None = None,
         if progress:
             progress(len(runs), len(jobs))
 
-    if scheduler:
-        try:
-            from dask.distributed import Client, as_completed as dask_completed
-        except ImportError:
-            raise InputError("--scheduler needs dask.distributed: pip install 'dpdfit[dask]'"
-                             ) from None
-        client = Client(scheduler)
-        for f in dask_completed(client.map(run_external_one, jobs, pure=False)):
-            finished(f.result())
-        client.close()
-    elif (workers or 1) == 1:
-        # one campaign at a time: each diagnosis uses the cores itself (dpdfit.core.parallel)
-        for j in jobs:
-            finished(run_external_one(j))
-    else:
-        # one diagnosis per worker (serial inside), one BLAS thread each (see harness.py)
-        for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-            os.environ.setdefault(var, "1")
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
-            for f in as_completed([ex.submit(run_external_one, j) for j in jobs]):
-                finished(f.result())
+    # one worker (the default): one campaign at a time, each diagnosis using the cores
+    # itself (dpdfit.core.parallel); more: one diagnosis per worker, serial inside
+    n_workers = None if scheduler else (workers or 1)
+    run_jobs(run_external_one, jobs, n_workers, scheduler, finished)
     order = {j["campaign"]: i for i, j in enumerate(jobs)}
     runs.sort(key=lambda r: order[r["campaign"]])
     out = summarise_external(runs)
     out.update({"campaigns": str(directory), "truth_file": str(truth_file),
-                "seconds": time.perf_counter() - t0, "workers": None if scheduler else
-                (workers or 1), "scheduler": scheduler})
+                "seconds": time.perf_counter() - t0, "workers": n_workers,
+                "scheduler": scheduler})
     return out
 
 

@@ -87,7 +87,7 @@ class GateModel:
     Parameters
     ----------
     camp : dpdfit.analyses.diagnosis.observables.Campaign
-    tone : dpdfit.analyses.diagnosis.effects.ToneModel
+    tone : dpdfit.analyses.diagnosis.tone_model.ToneModel
         Gives each setting's gate tones.
     sig_jit : float
         Per-scan laser-power jitter (dB).

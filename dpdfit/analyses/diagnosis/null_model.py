@@ -19,7 +19,8 @@ those of the noise whatever effect the baseline lacks; they are then held
 fixed for every hypothesis (baseline and effects), so that all are judged
 against the same errors.  The gate-side nuisances (preparation split,
 detection errors, rate-calibration scatter) are fitted with the baseline:
-see :mod:`dpdfit.analyses.diagnosis.effects`.
+see :mod:`dpdfit.analyses.diagnosis.gate_model` and
+:mod:`dpdfit.analyses.diagnosis.rate_scatter`.
 
 Priors (documented bounds; the estimates are clipped into them):
 ``s_tone`` in [``S_TONE_MIN``, ``S_TONE_MAX``] dB, ``s_trace`` in
@@ -28,14 +29,15 @@ Priors (documented bounds; the estimates are clipped into them):
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.observables import HARMONICS, TONE_FEATURES, Campaign, debias_tones, tone_features
+from dpdfit.analyses.diagnosis.observables import (TONE_FEATURES, TONE_HARMONICS, Campaign,
+                                                   debias_tones, tone_features)
 from dpdfit.fits.tone_noise import NoiseFloor, estimate_noise_floor, floor_from_snr, robust_scale
 
-__all__ = ["ToneNoise", "learn_tone_noise", "S_TONE_MIN", "S_TONE_MAX", "S_TRACE_MAX"]
+__all__ = ["GATE", "ToneNoise", "learn_tone_noise", "S_TONE_MIN", "S_TONE_MAX", "S_TRACE_MAX"]
 
 #: repeatability of a recorded tone power: lower bound (the forward model's own accuracy:
 #: its 4x-oversampled grid and the 4096-point table agree with a finer model to ~0.005 dB)
@@ -84,7 +86,7 @@ def learn_tone_noise(camp: Campaign, model_features: dict):
         P, sd_noise = camp.P_dB, camp.sd_dB
         floor = floor_from_snr(camp.P_raw, camp.snr_raw)
     else:
-        im = np.array([h not in GATE for h in HARMONICS])
+        im = np.array([h not in GATE for h in TONE_HARMONICS])
         im = np.broadcast_to(im, camp.P_raw.shape[1:])
         floor = estimate_noise_floor(camp.P_raw, A, im)
         P, sd_noise = debias_tones(camp.P_raw, floor.N0)

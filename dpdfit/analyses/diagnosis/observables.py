@@ -12,7 +12,7 @@ contains every known noise source and nothing else:
   ``gate_power`` carries it (``power_jitter_db`` of the lab's error model).
   Tone powers are debiased for the noise in their bin: the extraction's
   floor is the *median* noise power, the mean is ``floor / ln 2``
-  (:mod:`dpdfit.fits.heterodyne`), so ``P = |c|^2 + N0`` and the error of a
+  (:mod:`dpdfit.fits.tones`), so ``P = |c|^2 + N0`` and the error of a
   tone at SNR ``s`` is ``(10/ln 10) sqrt(2 N0 / P)`` dB.  Tones below
   ``MIN_SNR_DB`` are not used (their reading is an upper limit).
 * **gate observables** per setting ``(A, dpd)``, pooled over the scans:
@@ -22,7 +22,8 @@ contains every known noise source and nothing else:
 * **time scans**: ``P00`` and ``P11`` at each scan time (binomial).
 * **calibration residuals** of the model's own amplitude and phase runs.
 
-Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.effects`.
+Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.tone_model`
+and :mod:`dpdfit.analyses.diagnosis.gate_model`.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.defaults import NBAR
 from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase, fit_amplitude
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.fits.counts import fit_parity
@@ -40,8 +42,8 @@ from dpdfit.errors import DpdfitError, InputError
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
 from dpdfit.recordings.tables import list_runs
 
-__all__ = ["Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
-           "MIN_SNR_DB"]
+__all__ = ["DEFAULT_ERROR_MODEL", "DRIFT_MODE_SIGNIFICANCE", "EXTRACTION_FLOOR_DB", "MAX_DRIFT_MODES", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
+           "TONE_HARMONICS", "MIN_SNR_DB"]
 
 #: tones weaker than this above the (median) floor are not used
 MIN_SNR_DB = 15.0
@@ -53,10 +55,11 @@ TONE_FEATURES = {
     "R5hi": (True, (2, 4)), "gate_balance": (True, (2, 1)),
     "red_blue": (False, (1, 2)), "gate_power": (False, (1, 2)),
 }
-DEFAULT_ERROR_MODEL = {"nbar": 0.1, "T2_s": 50e-3, "heating_quanta_per_s": 5.0,
+DEFAULT_ERROR_MODEL = {"nbar": NBAR, "T2_s": 50e-3, "heating_quanta_per_s": 5.0,
                        "p_prep": 0.003, "p_det": 5e-5, "power_jitter_db": 0.2,
                        "xi0_rel_err": 0.01}
-HARMONICS = (-1, 0, 1, 2, 3, 4)
+#: harmonics n of the recorded tone powers (last axis of ``Campaign.P_dB``)
+TONE_HARMONICS = (-1, 0, 1, 2, 3, 4)
 SIDEBANDS = ("red", "blue")
 
 
@@ -74,7 +77,7 @@ class Campaign:
         ``A, z`` standardised fit residuals of those runs.
     A_tones : ndarray
         Amplitudes of the spectra grid.
-    P_dB, sd_dB : ndarray, shape (nA, 2 dpd, 2 sideband, len(HARMONICS))
+    P_dB, sd_dB : ndarray, shape (nA, 2 dpd, 2 sideband, len(TONE_HARMONICS))
         Debiased tone powers and their errors (NaN where unusable).
     gates : pandas.DataFrame
         Per setting: ``A, dpd, xi0_hz, xi0_rel_err, n_scans`` and the measured
@@ -194,14 +197,14 @@ def _tones(cf: CampaignFolder):
     """Recorded tone powers and (if recorded) SNRs on the (A, dpd, sideband, harmonic) grid."""
     df = cf.spectra
     A = np.unique(df["A"].to_numpy(dtype=float))
-    P = np.full((A.size, 2, 2, len(HARMONICS)), np.nan)
+    P = np.full((A.size, 2, 2, len(TONE_HARMONICS)), np.nan)
     snr = np.full_like(P, np.nan)
     iA = np.searchsorted(A, df["A"].to_numpy(dtype=float))
     d = df["dpd"].to_numpy(dtype=int)
     s = (df["sideband"] == "blue").to_numpy(dtype=int)
     n = df["n"].to_numpy(dtype=int)
-    keep = np.isin(n, HARMONICS)
-    h = np.searchsorted(HARMONICS, n[keep])
+    keep = np.isin(n, TONE_HARMONICS)
+    h = np.searchsorted(TONE_HARMONICS, n[keep])
     P[iA[keep], d[keep], s[keep], h] = df["P_dB"].to_numpy(dtype=float)[keep]
     if "snr_db" in df.columns:
         snr[iA[keep], d[keep], s[keep], h] = df["snr_db"].to_numpy(dtype=float)[keep]
@@ -237,7 +240,7 @@ def tone_features(P_dB: np.ndarray, A: np.ndarray, sd_dB: np.ndarray | None = No
 
     Parameters
     ----------
-    P_dB : ndarray, shape (nA, 2, 2, len(HARMONICS))
+    P_dB : ndarray, shape (nA, 2, 2, len(TONE_HARMONICS))
     A : ndarray, shape (nA,)
     sd_dB : ndarray, optional
         Errors of ``P_dB``; the features' errors are propagated (tones independent).
@@ -248,10 +251,10 @@ def tone_features(P_dB: np.ndarray, A: np.ndarray, sd_dB: np.ndarray | None = No
     sideband-resolved features and (nA, 2 dpd, 1) otherwise (``sd`` None if not given).
     """
     def tone(n):
-        return P_dB[..., HARMONICS.index(n)]
+        return P_dB[..., TONE_HARMONICS.index(n)]
 
     def var(n):
-        return None if sd_dB is None else sd_dB[..., HARMONICS.index(n)] ** 2
+        return None if sd_dB is None else sd_dB[..., TONE_HARMONICS.index(n)] ** 2
 
     out = {}
     for name, (per_sb, (a, b)) in TONE_FEATURES.items():
