@@ -18,8 +18,8 @@ sys.path.insert(0, "tests")
 from test_alignment import ALPHA, DELTA, SDB, simulated_gate  # noqa: E402
 from test_transfer import truth_poly_tf  # noqa: E402
 
-from dpdfit.alignment import align  # noqa: E402
-from dpdfit.sweep import SweepConfig, run_sweep  # noqa: E402
+from dpdfit.fits.alignment import align  # noqa: E402
+from dpdfit.analyses.sweep import SweepConfig, run_sweep  # noqa: E402
 
 
 def main(n=2000):

@@ -2,7 +2,7 @@
 """Coverage of the reported 1-sigma errors of A_corr and phi(1), and inverse accuracy.
 
 Simulates N calibrations (fixed seed) from the physical AOM model with the
-realistic detector noise of dpdfit.aom_truth, fits each, and prints the
+realistic detector noise of dpdfit.simulation.aom_truth, fits each, and prints the
 fraction of runs whose 1-sigma interval covers the truth (target 68.3 %),
 the bias in units of the mean error bar, and the ratio of the scatter of the
 estimates to the mean reported error.
@@ -15,10 +15,10 @@ import time
 
 import numpy as np
 
-from dpdfit.aom_truth import (BraggAOM, HeterodyneNoise, PhotodiodeNoise,
+from dpdfit.simulation.aom_truth import (BraggAOM, HeterodyneNoise, PhotodiodeNoise,
                               simulate_amplitude_run, simulate_phase_run)
-from dpdfit.calibration import fit_amplitude, fit_phase
-from dpdfit.transfer import TransferFunction
+from dpdfit.fits.calibration import fit_amplitude, fit_phase
+from dpdfit.models.transfer import TransferFunction
 
 
 def summary(name, est, se, truth):

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Speed of the raw-count inference (dpdfit.counts, Supplement S7).
+"""Speed of the raw-count inference (dpdfit.fits.counts, Supplement S7).
 
     python benchmarks/counts_speed.py
 
@@ -29,8 +29,8 @@ import numpy as np  # noqa: E402
 from scipy.optimize import minimize  # noqa: E402
 from scipy.special import xlogy  # noqa: E402
 
-from dpdfit.counts import (FD_STEP, fit_parity, gate_fidelities, read_parity,  # noqa: E402
-                           read_populations)
+from dpdfit.fits.counts import HESSIAN_FD_STEP, fit_parity, gate_fidelities  # noqa: E402
+from dpdfit.recordings.counts import read_parity, read_populations  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
@@ -72,7 +72,7 @@ def baseline_fit(k):
     a, b = np.mean(y * np.cos(c2)) * 2, -np.mean(y * np.sin(c2)) * 2
     x0 = [min(np.hypot(a, b), 0.99), np.arctan2(b, a)]
     res = minimize(nll, x0, method="L-BFGS-B", bounds=[(0, 1), (None, None)])
-    h = FD_STEP
+    h = HESSIAN_FD_STEP
     f0 = nll(res.x)
     H = np.empty((2, 2))
     for i in range(2):

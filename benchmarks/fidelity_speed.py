@@ -15,7 +15,7 @@ import time
 import numpy as np
 from scipy.integrate import quad, quad_vec
 
-from dpdfit.fidelity import (amplitudes_from_powers, bell_fidelity, calibrate_g, estimate,
+from dpdfit.models.fidelity import (amplitudes_from_powers, bell_fidelity, calibrate_g, estimate,
                              gate_phase_space)
 
 N = 10_000

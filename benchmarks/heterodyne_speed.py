@@ -1,4 +1,4 @@
-"""Accuracy and speed of dpdfit.heterodyne.trace_tone_powers (Supplement S4).
+"""Accuracy and speed of dpdfit.fits.heterodyne.trace_tone_powers (Supplement S4).
 
 Run:  python benchmarks/heterodyne_speed.py [repeats]
 
@@ -29,10 +29,12 @@ import numpy as np
 from scipy import signal
 
 try:
-    from dpdfit.heterodyne import flattop_periodogram, simulate_beat_trace, trace_tone_powers
+    from dpdfit.fits.tones import flattop_periodogram, trace_tone_powers
+    from dpdfit.simulation.beat_trace import simulate_beat_trace
 except ImportError:                      # run from a source checkout
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-    from dpdfit.heterodyne import flattop_periodogram, simulate_beat_trace, trace_tone_powers
+    from dpdfit.fits.tones import flattop_periodogram, trace_tone_powers
+    from dpdfit.simulation.beat_trace import simulate_beat_trace
 
 import scipy.fft
 

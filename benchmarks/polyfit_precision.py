@@ -1,4 +1,4 @@
-"""Precision and speed of dpdfit.polyfit against plain double least squares.
+"""Precision and speed of dpdfit.fits.polyfit against plain double least squares.
 
 Run:  python benchmarks/polyfit_precision.py [repeats]
 
@@ -9,7 +9,7 @@ and without sigma, prints the number of matching significant digits
 their standard errors against a 50-digit mpmath solution of the very same
 problem (the double x, y, sigma converted exactly), for
 
-* dpdfit.polyfit (double-double iterative refinement),
+* dpdfit.fits.polyfit (double-double iterative refinement),
 * np.linalg.lstsq on the raw (weighted) Vandermonde matrix, with standard
   errors from its pseudo-inverse, with numpy's default singular-value cut-off
   (which drops the smallest singular value at cond 1e15) and without one,
@@ -29,10 +29,10 @@ import mpmath
 import numpy as np
 
 try:
-    from dpdfit.polyfit import polyfit
+    from dpdfit.fits.polyfit import polyfit
 except ImportError:                      # run from a source checkout
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-    from dpdfit.polyfit import polyfit
+    from dpdfit.fits.polyfit import polyfit
 
 
 # problems and the 50-digit reference: the very ones the tests use
@@ -119,7 +119,7 @@ def main(repeats=200):
             print(f"  [{label}]  cond(weighted Vandermonde) = {res.condition_number:.3g}, "
                   f"after power-of-two column scaling {res.condition_number_scaled:.3g}")
             print(f"    {'method':<40}{'coef digits':>12}{'stderr digits':>15}")
-            print(f"    {'dpdfit.polyfit':<40}{digits(res.coefficients, ref_c):>12.1f}"
+            print(f"    {'dpdfit.fits.polyfit':<40}{digits(res.coefficients, ref_c):>12.1f}"
                   f"{digits(res.stderr, ref_s):>15.1f}"
                   f"   ({res.refinement_iterations} refinement iterations, "
                   f"{'converged' if res.converged else 'NOT converged'})")

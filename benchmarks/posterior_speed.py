@@ -1,7 +1,7 @@
 """Speed of the calibration posterior and of the drift propagation.
 
 1. Effective independent samples per second (ESS/s) of
-   :func:`dpdfit.posterior.sample_amplitude_posterior` against lmfit's
+   :func:`dpdfit.fits.posterior.sample_amplitude_posterior` against lmfit's
    ``Minimizer.emcee`` on the same posterior (one simulated 201-point run of
    the Bragg AOM with the default photodiode noise, K = 8, ``power_err``
    given, flat priors, b_1 > 0), same walkers and steps, same start (draws of
@@ -25,9 +25,10 @@ import time
 import numpy as np
 import pandas as pd
 
-from dpdfit.aom_truth import BraggAOM, PhotodiodeNoise, simulate_amplitude_run
-from dpdfit.calibration import fit_amplitude
-from dpdfit.posterior import propagate, sample_amplitude_posterior
+from dpdfit.simulation.aom_truth import BraggAOM, PhotodiodeNoise, simulate_amplitude_run
+from dpdfit.fits.calibration import fit_amplitude
+from dpdfit.analyses.propagation import propagate
+from dpdfit.fits.posterior import sample_amplitude_posterior
 
 
 def ess(chain):

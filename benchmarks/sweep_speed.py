@@ -25,20 +25,20 @@ DATA = ROOT / "datasets" / "synthetic_aom"
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         cal = Path(tmp) / "cal.json"
-        subprocess.run([sys.executable, "-m", "dpdfit.cli", "calibrate", "--amplitude",
+        subprocess.run([sys.executable, "-m", "dpdfit.cli.main", "calibrate", "--amplitude",
                         str(DATA / "calibration_amplitude.csv"), "--phase",
                         str(DATA / "calibration_phase.csv"), "-o", str(cal), "--order-scan", "none"],
                        check=True, capture_output=True)
         walls = []
         for _ in range(5):
             t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "dpdfit.cli", "sweep", str(cal), "-o",
+            subprocess.run([sys.executable, "-m", "dpdfit.cli.main", "sweep", str(cal), "-o",
                             str(Path(tmp) / "sweep.csv")], check=True, capture_output=True)
             walls.append(time.perf_counter() - t0)
         peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-        from dpdfit.calibration import load_calibration
-        from dpdfit.sweep import run_sweep
-        from dpdfit.transfer import TransferFunction
+        from dpdfit.fits.calibration import load_calibration
+        from dpdfit.analyses.sweep import run_sweep
+        from dpdfit.models.transfer import TransferFunction
         tf = TransferFunction.from_calibration(load_calibration(cal))
         inner = []
         for _ in range(7):

@@ -21,24 +21,28 @@ Data flow (one module per stage)::
 ``aom_truth`` is a physical AOM model used to generate synthetic recordings.
 """
 
-__version__ = "0.1.0"
+from dpdfit.core.version import __version__  # noqa: E402
 
-from .errors import DpdfitError, FitError, InputError, NotInvertibleError  # noqa: E402
-from .polyfit import PolyFitResult, parse_powers, polyfit  # noqa: E402
-from .tables import read_calibration, read_table  # noqa: E402
-from .calibration import (  # noqa: E402
+from dpdfit.errors import DpdfitError, FitError, InputError, NotInvertibleError  # noqa: E402
+from dpdfit.fits.polyfit import PolyFitResult, parse_powers, polyfit  # noqa: E402
+from dpdfit.recordings.tables import read_calibration, read_table  # noqa: E402
+from dpdfit.fits.calibration import (  # noqa: E402
     AmplitudeCalibration, Calibration, PhaseCalibration, amplitude_order_table,
     calibrate_amplitude, calibrate_phase, fit_amplitude, fit_phase, load_calibration)
-from .transfer import TransferFunction, predistortion_table  # noqa: E402
-from .waveforms import ToneSet, cardioid, sample_grid, synthesize, predistort  # noqa: E402
-from .spectrum import field_tone_powers, simulate_field  # noqa: E402
-from .heterodyne import trace_tone_powers, trace_estimate, load_trace  # noqa: E402
-from .fidelity import bell_fidelity, estimate, im_requirements, phase_space  # noqa: E402
-from .sweep import SweepConfig, run_sweep, thresholds  # noqa: E402
-from .counts import (fit_parity, gate_fidelities, merge_parity, pool_populations,  # noqa: E402
-                     population_fidelity, read_parity, read_populations)
-from .alignment import align  # noqa: E402
-from .analyze import analyze  # noqa: E402
+from dpdfit.models.transfer import TransferFunction, predistortion_table  # noqa: E402
+from dpdfit.models.waveforms import ToneSet, cardioid, sample_grid, synthesize, predistort  # noqa: E402
+from dpdfit.models.spectrum import field_tone_powers, simulate_field  # noqa: E402
+from dpdfit.fits.tones import trace_tone_powers  # noqa: E402
+from dpdfit.recordings.traces import load_trace  # noqa: E402
+from dpdfit.analyses.trace_estimate import trace_estimate  # noqa: E402
+from dpdfit.models.fidelity import bell_fidelity, estimate, phase_space  # noqa: E402
+from dpdfit.models.im_requirements import im_requirements  # noqa: E402
+from dpdfit.analyses.sweep import SweepConfig, run_sweep, thresholds  # noqa: E402
+from dpdfit.recordings.counts import read_parity, read_populations  # noqa: E402
+from dpdfit.fits.counts import (fit_parity, gate_fidelities, merge_parity, pool_populations,  # noqa: E402
+                                population_fidelity)
+from dpdfit.fits.alignment import align  # noqa: E402
+from dpdfit.pipeline.analyze import analyze  # noqa: E402
 
 __all__ = [
     "__version__", "DpdfitError", "FitError", "InputError", "NotInvertibleError",

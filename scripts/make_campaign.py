@@ -19,9 +19,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from dpdfit.analyze import _fmt as fmt
-from dpdfit.analyze import analyze
-from dpdfit.campaign import simulate_campaign
+from dpdfit.report.summary import format_value as fmt
+from dpdfit.pipeline.analyze import analyze
+from dpdfit.simulation.campaign import simulate_campaign
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "datasets" / "synthetic_campaign"

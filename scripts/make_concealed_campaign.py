@@ -14,7 +14,7 @@ import json
 import shutil
 from pathlib import Path
 
-from dpdfit.campaign import CampaignConfig, simulate_campaign
+from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "datasets" / "concealed_campaign"

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Generate the bundled SYNTHETIC calibration recordings in datasets/synthetic_aom/.
 
-The truth is the physical AOM model of dpdfit.aom_truth (tanh-compressed RF
+The truth is the physical AOM model of dpdfit.simulation.aom_truth (tanh-compressed RF
 amplifier driving a Bragg-regime AOM, AM-to-PM from the acoustic power), not a
 polynomial.  Deterministic: fixed seed.  Re-run to regenerate:
 
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dpdfit.aom_truth import (BraggAOM, HeterodyneNoise, PhotodiodeNoise,
+from dpdfit.simulation.aom_truth import (BraggAOM, HeterodyneNoise, PhotodiodeNoise,
                               simulate_amplitude_run, simulate_phase_run)
 
 SEED = 20260329
@@ -45,7 +45,7 @@ def main() -> None:
         "synthetic": True,
         "generator": "scripts/make_synthetic_calibration.py",
         "seed": SEED,
-        "model": "dpdfit.aom_truth.BraggAOM (tanh amplifier compression, Bragg sin^2 "
+        "model": "dpdfit.simulation.aom_truth.BraggAOM (tanh amplifier compression, Bragg sin^2 "
                  "efficiency, phi = phi_1 u^2)",
         "A_corr_true": aom.true_A_corr,
         "phi_at_1_true": aom.true_phi_1,

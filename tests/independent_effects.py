@@ -1,7 +1,7 @@
 """Independent implementations of two concealed effects, for the generalisation test
 of the diagnosis (issue #7 item 5).
 
-The diagnosis' catalog (:mod:`dpdfit.effects`) models AOM memory as a single-pole
+The diagnosis' catalog (:mod:`dpdfit.analyses.diagnosis.effects`) models AOM memory as a single-pole
 response and a stale calibration as an amplitude-axis scaling of the day's
 calibration.  Here the same physical effects are produced by *different* code with
 *different* functional forms, and only ``spectra.csv`` of a null campaign is
@@ -21,11 +21,11 @@ rewritten from it:
   linearly from their table-time values to the day's; the ramp continues while the
   spectra are recorded (each trace sees the AOM of its own time).
 
-Neither uses :class:`~dpdfit.aom_truth.BraggAOM`'s memory nor :mod:`dpdfit.effects`.
+Neither uses :class:`~dpdfit.simulation.aom_truth.BraggAOM`'s memory nor :mod:`dpdfit.analyses.diagnosis.effects`.
 Reused: the static BraggAOM (memory_tau=0), the calibration fit, the transfer
 function and predistortion-table builders, ``simulate_amplitude_run``.  The tone
 extraction (FFT bins, power jitter, complex noise of a flat-top estimate, floor =
-median, SNR validity rules) follows :func:`dpdfit.campaign.direct_tones`, recoded.
+median, SNR validity rules) follows :func:`dpdfit.simulation.campaign.direct_tones`, recoded.
 """
 
 from __future__ import annotations
@@ -38,12 +38,12 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
-from dpdfit.aom_truth import BraggAOM, simulate_amplitude_run
-from dpdfit.calibration import fit_amplitude
-from dpdfit.campaign import drive_envelope as campaign_drive_envelope
-from dpdfit.campaign import simulate_campaign, tone_readout
-from dpdfit.harness import _silent, harness_config
-from dpdfit.transfer import TransferFunction, predistortion_table
+from dpdfit.simulation.aom_truth import BraggAOM, simulate_amplitude_run
+from dpdfit.fits.calibration import fit_amplitude
+from dpdfit.simulation.campaign import drive_envelope as campaign_drive_envelope
+from dpdfit.simulation.campaign import simulate_campaign, tone_readout
+from dpdfit.simulation.harness import _silent, harness_config
+from dpdfit.models.transfer import TransferFunction, predistortion_table
 
 ETA_REF = 0.8
 

@@ -4,11 +4,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit import gate_sim
-from dpdfit.alignment import K_DB, align, curves, xi0_band
+from dpdfit.models import gate_sim
+from dpdfit.fits.alignment import K_DB, align, curves, xi0_band
 from dpdfit.errors import FitError, InputError
-from dpdfit.fidelity import cardioid_populations
-from dpdfit.sweep import SweepConfig, run_sweep
+from dpdfit.models.fidelity import cardioid_populations
+from dpdfit.analyses.sweep import SweepConfig, run_sweep
 from test_transfer import truth_poly_tf
 
 ALPHA, DELTA, SDB = 3.42, -0.018, 0.2

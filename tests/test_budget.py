@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from dpdfit import budget as bd
-from dpdfit import gate_sim as gs
+from dpdfit.analyses import budget as bd
+from dpdfit.cli import budget as budget_cli
+from dpdfit.models import gate_sim as gs
 from dpdfit.errors import InputError
 
 S = 1 / np.sqrt(1.5)
@@ -218,7 +219,7 @@ def test_load_budget_config(tmp_path):
 
 def _parser():
     p = argparse.ArgumentParser(prog="dpdfit")
-    bd.add_budget_command(p.add_subparsers(dest="command"))
+    budget_cli.add_budget_command(p.add_subparsers(dest="command"))
     return p
 
 
@@ -229,7 +230,7 @@ def test_cli_json(tmp_path, capsys):
     rates.write_text("A,dpd,xi0_khz\n0.4,0,3.349\n0.8,1,6.495\n")
     args = _parser().parse_args(["budget", "--config", str(cfg), "--delta", "-0.02",
                                  "--delta-err", "0.004", "--gate-rates", str(rates), "--json"])
-    assert args.func is bd.cmd_budget
+    assert args.func is budget_cli.cmd_budget
     assert args.func(args) == 0
     d = json.loads(capsys.readouterr().out)
     for k in ("state_preparation", "dephasing", "heating", "detection", "total", "unexplained"):

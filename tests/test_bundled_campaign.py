@@ -5,15 +5,15 @@ from pathlib import Path
 
 import pytest
 
-from dpdfit.analyze import analyze
-from dpdfit.campaign import campaign_hashes, simulate_campaign
+from dpdfit.pipeline.analyze import analyze
+from dpdfit.simulation.campaign import campaign_hashes, simulate_campaign
 
 BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
 SEED = 20260329
 
 
 def quiet(label, total):
-    from dpdfit._progress import Progress
+    from dpdfit.core.progress import Progress
     return Progress(label, total, enabled=False)
 
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from dpdfit.aom_truth import (BraggAOM, HeterodyneNoise, PhotodiodeNoise,
+from dpdfit.simulation.aom_truth import (BraggAOM, HeterodyneNoise, PhotodiodeNoise,
                               simulate_amplitude_run, simulate_phase_run)
-from dpdfit.calibration import (amplitude_order_table, fit_amplitude, fit_phase,
+from dpdfit.fits.calibration import (amplitude_order_table, fit_amplitude, fit_phase,
                                 nonmonotone_intervals)
 from dpdfit.errors import FitError, InputError
 

@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.analyze import analyze
-from dpdfit.campaign import CampaignConfig, campaign_hashes, parse_effects, simulate_campaign
-from dpdfit.cli import main
+from dpdfit.pipeline.analyze import analyze
+from dpdfit.simulation.campaign import CampaignConfig, campaign_hashes, parse_effects, simulate_campaign
+from dpdfit.cli.main import main
 from dpdfit.errors import InputError
 
 SMALL = CampaignConfig(n_amp_runs=4, n_phase_runs=2, cal_points=101,
@@ -18,7 +18,7 @@ SMALL = CampaignConfig(n_amp_runs=4, n_phase_runs=2, cal_points=101,
 
 
 def quiet(label, total):
-    from dpdfit._progress import Progress
+    from dpdfit.core.progress import Progress
     return Progress(label, total, enabled=False)
 
 
@@ -110,7 +110,7 @@ def test_analyze_missing_folder(tmp_path, capsys):
 
 
 def test_trace_regenerates_from_its_seed(small_campaign):
-    from dpdfit.campaign import regenerate_trace
+    from dpdfit.simulation.campaign import regenerate_trace
     idx = pd.read_csv(small_campaign / "traces.csv")
     row = idx.iloc[0]
     with np.load(small_campaign / row["file"]) as z:
@@ -140,7 +140,7 @@ def test_effects_change_the_recordings(tmp_path):
 
 def test_gate_power_offset_reaches_the_time_scans(tmp_path):
     """A time scan is a gate run: the systematic power offset acts on it too."""
-    from dpdfit.harness import harness_config
+    from dpdfit.simulation.harness import harness_config
     cfg = harness_config(11)
     a, b = tmp_path / "a", tmp_path / "b"
     simulate_campaign(a, config=cfg, progress=quiet)

@@ -8,7 +8,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from dpdfit.campaign_folder import META_DEFAULTS, CampaignFolder
+from dpdfit.recordings.campaign_folder import META_DEFAULTS, CampaignFolder
 from dpdfit.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]

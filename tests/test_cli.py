@@ -7,9 +7,9 @@ import shutil
 import numpy as np
 import pytest
 
-from dpdfit.cli import main
-from dpdfit.calibration import load_calibration
-from dpdfit.transfer import TransferFunction
+from dpdfit.cli.main import main
+from dpdfit.fits.calibration import load_calibration
+from dpdfit.models.transfer import TransferFunction
 
 CONTRACT_KEYS = ["A_corr", "A_corr_stderr", "phi_at_1", "phi_at_1_stderr"]
 AMP_KEYS = ["powers", "coefficients", "stderr", "covariance", "monotone"]

@@ -1,4 +1,4 @@
-"""Raw-count inference of Bell-state fidelities (dpdfit.counts, Supplement S7).
+"""Raw-count inference of Bell-state fidelities (dpdfit.fits.counts, Supplement S7).
 
 Statistical properties are tested statistically (fixed seeds): coverage of
 the reported intervals, bias, efficiency against the Cramer-Rao bound,
@@ -17,10 +17,11 @@ from scipy import stats
 from scipy.optimize import minimize
 from scipy.special import xlogy
 
-from dpdfit.counts import (BOUNDARY_SIGMAS, GATE_COLUMNS, LEVEL_1SIGMA, ParityFit,
-                           PopulationFidelity, combined_fidelity, fit_parity, gate_fidelities,
-                           merge_parity, parity_information, pool_populations,
-                           population_fidelity, read_parity, read_populations)
+from dpdfit.fits.counts import (BOUNDARY_SIGMAS, GATE_COLUMNS, LEVEL_1SIGMA, ParityFit,
+                                PopulationFidelity, combined_fidelity, fit_parity, gate_fidelities,
+                                merge_parity, parity_information, pool_populations,
+                                population_fidelity)
+from dpdfit.recordings.counts import read_parity, read_populations
 from dpdfit.errors import FitError, InputError
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dpdfit.cli import main
-from dpdfit.diagnose import ALPHA, diagnose, mismatch_evidence
-from dpdfit.effects import EFFECTS
-from dpdfit.harness import CONCEALED, plan, run_harness, summarise
-from dpdfit.scan import scan_intervals
+from dpdfit.cli.main import main
+from dpdfit.analyses.diagnosis.diagnose import ALPHA, diagnose, mismatch_evidence
+from dpdfit.analyses.diagnosis.effects import EFFECTS
+from dpdfit.simulation.harness import CONCEALED, plan, run_harness, summarise
+from dpdfit.analyses.diagnosis.scan import scan_intervals
 
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ROOT / "datasets" / "synthetic_campaign"
@@ -173,7 +173,7 @@ def test_reduced_harness_runs_and_names_most_concealed_effects():
 
 def test_harness_log_keeps_every_run_and_resumes(tmp_path, monkeypatch):
     """Each finished run is logged at once; re-running skips logged runs, redoes a cut one."""
-    import dpdfit.harness as H
+    import dpdfit.simulation.harness as H
     calls = []
 
     def fake_run_one(job, workdir=None):
@@ -242,7 +242,7 @@ def test_bad_input_one_line_nonzero_exit_input_untouched(tmp_path, capsys, case,
 
 def test_non_monotone_model_calibration_is_named_in_a_warning(tmp_path):
     import pandas as pd
-    from dpdfit.observables import load_campaign
+    from dpdfit.analyses.diagnosis.observables import load_campaign
     camp = _copy_campaign(tmp_path, "nonmono")
     p = camp / "calibration_amplitude.csv"
     d = pd.read_csv(p)
@@ -284,10 +284,11 @@ def test_strong_tone_effect_fit_escapes_a_baseline_pushed_to_its_bounds(tmp_path
     """Regression (harness seed 122199430): the baseline's calibration modes absorb part
     of a strong detector nonlinearity up to their +/-50 sigma bounds; started there, the
     effect fit could not move and the campaign was called unexplained."""
-    from dpdfit.campaign import simulate_campaign
-    from dpdfit.diagnose import FAR_NUISANCE, Problem, _fit
-    from dpdfit.harness import _silent, harness_config
-    from dpdfit.observables import load_campaign
+    from dpdfit.simulation.campaign import simulate_campaign
+    from dpdfit.analyses.diagnosis.fitting import FAR_NUISANCE, fit_hypothesis as _fit
+    from dpdfit.analyses.diagnosis.problem import Problem
+    from dpdfit.simulation.harness import _silent, harness_config
+    from dpdfit.analyses.diagnosis.observables import load_campaign
     seed = 122199430
     truth = simulate_campaign(tmp_path / "c", seed=seed,
                               effects={"detector_nonlinearity": 0.0992},
@@ -306,7 +307,7 @@ def test_linear_profile_of_the_calibration_modes_is_the_exact_marginal_fit():
     r0^T (I + J J^T)^-1 r0, and a fit through it gives the joint fit's parameters and
     the marginal (Schur-complement) errors of the effect parameters."""
     from scipy.optimize import least_squares
-    from dpdfit.diagnose import _Profile
+    from dpdfit.analyses.diagnosis.mode_profile import ModeProfile as _Profile
     rng = np.random.default_rng(3)
     n, kx, kd = 60, 2, 5
     X, D = rng.normal(size=(n, kx)), rng.normal(size=(n, kd))
@@ -342,7 +343,7 @@ def test_whitened_gate_residuals_are_standard_normal_and_give_the_mahalanobis_ch
     """One setting's F_pop, imb, C share its random power error: the whitened
     residuals of draws from the stated covariance are N(0, I) (checked on
     20,000 draws), and their sum of squares is r^T Sigma^-1 r."""
-    from dpdfit.diagnose import _whiten_settings
+    from dpdfit.analyses.diagnosis.problem import _whiten_settings
     rng = np.random.default_rng(11)
     shot = np.array([0.002, 0.023, 0.003])
     g = np.array([-0.0008, -0.35, 0.011])           # per dB, as the engine gives
@@ -373,8 +374,8 @@ def test_effect_scales_follow_the_calibration_modes():
     """At full drive (A = 1) the extra AM-to-PM phase is dphi, the fifth-order factor
     1 + k5 and the detector correction that of u = P/P_max = 1, whatever the
     calibration modes do to y(1): the scales belong to the forward curve in use."""
-    from dpdfit.effects import ToneModel
-    from dpdfit.observables import load_campaign
+    from dpdfit.analyses.diagnosis.tone_model import ToneModel
+    from dpdfit.analyses.diagnosis.observables import load_campaign
     tone = ToneModel(load_campaign(BUNDLED))
     x = np.ones((1, 8))                                  # constant envelope at full drive
     for modes in ({}, {"cal_amp0": 3.0, "cal_amp1": -2.0}, {"cal_amp2": 4.0}):
@@ -395,7 +396,7 @@ def test_effect_scales_follow_the_calibration_modes():
 
 def test_report_shows_the_null_model_the_verdict_fit_and_what_was_left_out():
     from types import SimpleNamespace as NS
-    from dpdfit.diagnose import Diagnosis
+    from dpdfit.analyses.diagnosis.result import Diagnosis
     d = NS(campaign="c", baseline=NS(chi2=10.0, dof=9), baseline_p_value=0.3,
            verdict="aom_memory", mismatches=[], ranking=[], redchi_before={"a": 3.0},
            redchi_after={"a": 1.4},

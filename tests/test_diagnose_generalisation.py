@@ -20,7 +20,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import independent_effects as ie  # noqa: E402
-from dpdfit.diagnose import diagnose  # noqa: E402
+from dpdfit.analyses.diagnosis.diagnose import diagnose  # noqa: E402
 
 TAU = 40e-9          # two-pole kernel t/tau^2 exp(-t/tau): mean delay 2 tau = 80 ns
 F_OFF = 2.5e6        # response centre offset from the carrier, Hz

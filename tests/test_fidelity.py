@@ -5,8 +5,9 @@ import pytest
 from scipy.integrate import quad
 
 import exact_ms
-from dpdfit.fidelity import (bell_fidelity, calibrate_g, estimate, gate_phase_space,
-                             im_infidelity, im_requirements, im_signs, phase_space)
+from dpdfit.models.fidelity import (bell_fidelity, calibrate_g, estimate, gate_phase_space,
+                             im_signs, phase_space)
+from dpdfit.models.im_requirements import im_infidelity, im_requirements
 
 RNG = np.random.default_rng(2024)
 

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.cli import main
+from dpdfit.cli.main import main
 from test_cli import _bad, run
 
 CAMP = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
@@ -76,7 +76,7 @@ def test_fidelity_too_few_phases(tmp_path, capsys):
 
 
 def test_analyze_gate_analysis(tmp_path):
-    from dpdfit.analyze import analyze
+    from dpdfit.pipeline.analyze import analyze
     s = analyze(CAMP, tmp_path / "res", plots=True, diagnosis=False)
     assert s["analyses"]["gates"]["status"] == "ok"
     al = s["gates"]["alignment"]

@@ -1,7 +1,7 @@
-"""Tests of the gate-experiment physics engine (dpdfit.gate_sim).
+"""Tests of the gate-experiment physics engine (dpdfit.models.gate_sim).
 
 Reference values are independent of the engine: the brute-force oracle
-tests/exact_ms.py, the closed-form exact Bell formula of dpdfit.fidelity
+tests/exact_ms.py, the closed-form exact Bell formula of dpdfit.models.fidelity
 (itself validated against exact_ms), first-order (Dyson) perturbation theory
 in the dissipators built from the analytic displacement alpha(t) and
 geometric phase theta(t) of the ideal gate, and hand-computed SPAM branches.
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 import exact_ms
-from dpdfit import gate_sim as gs
+from dpdfit.models import gate_sim as gs
 from dpdfit.errors import InputError
-from dpdfit.fidelity import bell_fidelity as formula_fidelity
-from dpdfit.fidelity import calibrate_g, phase_space
+from dpdfit.models.fidelity import bell_fidelity as formula_fidelity
+from dpdfit.models.fidelity import calibrate_g, phase_space
 
 XI0 = 3.4e3
 T_GATE = 1 / XI0
@@ -181,7 +181,7 @@ def test_time_scan_of_ideal_gate():
     assert res.scan_pop[:, 1].max() > 0.1 and res.scan_pop[-1, 2] == pytest.approx(0.5, abs=1e-8)
     # full matrices at intermediate times, also at nbar = 0.1 (order of times irrelevant)
     t = np.array([0.9, 0.31, 0.55]) * T_GATE
-    rho = gs.propagate(R_C, R_C, N_C, EO, XI0, t, 0.1)
+    rho = gs.evolve(R_C, R_C, N_C, EO, XI0, t, 0.1)
     assert np.max(np.abs(rho - magnus_rho(t * XI0, 0.1))) < 1e-8
     # with all imperfections the last scan point is still the gate-time measurement
     res = gs.simulate_setting(R_C, R_C, N_C, EO, XI0, scan_times=[0.5 * T_GATE, T_GATE])
@@ -204,7 +204,7 @@ def test_agrees_with_exact_ms_oracle():
     for n, r in TONE_SETS:
         n, r = np.array(n), np.array(r)
         times = np.array([0.47, 1.0]) * T_GATE
-        rho = gs.propagate(r, r, n, EO, XI0, times, 0.1)
+        rho = gs.evolve(r, r, n, EO, XI0, times, 0.1)
         for k, T in enumerate(times):
             mirror = exact_ms.propagate_ms(-n, r, 0.0, ETA, EO / ETA, XI0, 0.1, T=T)
             conj = exact_ms.propagate_ms(n, r, 0.0, ETA, EO / ETA, XI0, 0.1, T=T)
@@ -218,7 +218,7 @@ def test_agrees_with_exact_ms_oracle():
 def test_motional_phases_map_to_opposite_sideband_phases():
     n, r, phi = np.array([0, 1, 2, 4]), np.array([0.05, S, -0.9 * S, 0.1]), \
         np.array([0.7, 0.0, 0.0, -1.1])
-    rho = gs.propagate(r * np.exp(-1j * phi), r * np.exp(1j * phi), n, EO, XI0, T_GATE, 0.1)
+    rho = gs.evolve(r * np.exp(-1j * phi), r * np.exp(1j * phi), n, EO, XI0, T_GATE, 0.1)
     ex = exact_ms.propagate_ms(n, r, phi, ETA, EO / ETA, XI0, 0.1)
     assert np.max(np.abs(rho - W @ ex.conj() @ W.conj().T)) < 1e-7
 
@@ -232,11 +232,11 @@ def test_agrees_with_exact_fidelity_formula(nbar):
         g = float(calibrate_g(n, r))
         eO = 2 * np.pi * XI0 * g
         assert gs.calibrate_xi0(r, r, n, eO) == pytest.approx(XI0, rel=1e-12)
-        rho = gs.propagate(r, r, n, eO, XI0, T_GATE, nbar)
+        rho = gs.evolve(r, r, n, eO, XI0, T_GATE, nbar)
         F, G, Phi = phase_space(n, r, 0.0, g, 2 * np.pi)
         expect = float(formula_fidelity(F, G, Phi, nbar, "exact"))
-        assert gs.bell_fidelity(rho) == pytest.approx(expect, abs=1e-7), (n, r)
-        assert gs.bell_fidelity(rho, gs.gate_target(r, r, n, XI0)) == pytest.approx(
+        assert gs.state_bell_fidelity(rho) == pytest.approx(expect, abs=1e-7), (n, r)
+        assert gs.state_bell_fidelity(rho, gs.gate_target(r, r, n, XI0)) == pytest.approx(
             expect, abs=1e-7)
         assert expect < 1 - 1e-5                       # the IM tones matter
 
@@ -254,32 +254,32 @@ def test_lindblad_without_decoherence_equals_schrodinger():
     n, b = np.array([0, 1, 2, 3]), np.array([0.05j, S, -S * np.exp(0.2j), 0.03])
     c = b * np.exp(0.1j) * 1.03
     t = np.array([0.4, 1.0]) * T_GATE
-    a = gs.propagate(b, c, n, EO, XI0, t, 0.1)
-    m = gs.propagate_lindblad(b, c, n, EO, XI0, t, 0.1)
+    a = gs.evolve(b, c, n, EO, XI0, t, 0.1)
+    m = gs.evolve_lindblad(b, c, n, EO, XI0, t, 0.1)
     assert np.max(np.abs(a - m)) < 1e-8
     for n_ions in (1,):
-        a1 = gs.propagate(b, c, n, EO, XI0, t, 0.1, n_ions=n_ions)
-        m1 = gs.propagate_lindblad(b, c, n, EO, XI0, t, 0.1, n_ions=n_ions)
+        a1 = gs.evolve(b, c, n, EO, XI0, t, 0.1, n_ions=n_ions)
+        m1 = gs.evolve_lindblad(b, c, n, EO, XI0, t, 0.1, n_ions=n_ions)
         assert a1.shape == (2, 2, 2) and np.max(np.abs(a1 - m1)) < 1e-8
 
 
 def test_fock_cutoff_converged():
     n, b = np.array([0, 1, 2, 3]), np.array([0.05, S, -S * np.exp(0.3j), 0.1])
     c = b.conj() * 0.97
-    rho, info = gs.propagate(b, c, n, EO, XI0, T_GATE, 0.1, return_info=True)
+    rho, info = gs.evolve(b, c, n, EO, XI0, T_GATE, 0.1, return_info=True)
     assert info["top_population"] < 1e-14
-    big = gs.propagate(b, c, n, EO, XI0, T_GATE, 0.1, n_fock=info["n_fock"] + 10)
+    big = gs.evolve(b, c, n, EO, XI0, T_GATE, 0.1, n_fock=info["n_fock"] + 10)
     assert np.max(np.abs(rho - big)) < 1e-11
     # (tight tolerances: at the defaults the master equation's integration error,
     # ~4e-10, would hide the cutoff effect)
     kw = dict(T2=20e-3, ndot=50.0, return_info=True, rtol=1e-11, atol=1e-13)
-    rl, il = gs.propagate_lindblad(b, c, n, EO, XI0, T_GATE, 0.1, **kw)
-    bl, _ = gs.propagate_lindblad(b, c, n, EO, XI0, T_GATE, 0.1, n_fock=il["n_fock"] + 10, **kw)
+    rl, il = gs.evolve_lindblad(b, c, n, EO, XI0, T_GATE, 0.1, **kw)
+    bl, _ = gs.evolve_lindblad(b, c, n, EO, XI0, T_GATE, 0.1, n_fock=il["n_fock"] + 10, **kw)
     assert il["top_population"] < 1e-14 and np.max(np.abs(rl - bl)) < 1e-11
-    default = gs.propagate_lindblad(b, c, n, EO, XI0, T_GATE, 0.1, T2=20e-3, ndot=50.0)
+    default = gs.evolve_lindblad(b, c, n, EO, XI0, T_GATE, 0.1, T2=20e-3, ndot=50.0)
     assert np.max(np.abs(default - rl)) < 2e-9
     # a too-small cutoff is detectably wrong (the check has teeth)
-    bad = gs.propagate(b, c, n, EO, XI0, T_GATE, 0.1, n_fock=12)
+    bad = gs.evolve(b, c, n, EO, XI0, T_GATE, 0.1, n_fock=12)
     assert np.max(np.abs(rho - bad)) > 1e-7
     p = gs.thermal_weights(0.1)
     q = 0.1 / 1.1
@@ -294,11 +294,11 @@ def test_dephasing_matches_first_order_theory(T2):
     """T2 only, ideal gate, nbar = 0.1: exact master equation vs first-order
     Dyson theory.  The remainder is bounded by (||L_D|| T)^2/2 = 2 (T/T2)^2
     (two ions, ||L_D|| <= 2/T2), i.e. 7e-5 at T2 = 50 ms and 7e-3 at 5 ms."""
-    rho = gs.propagate_lindblad(R_C, R_C, N_C, EO, XI0, T_GATE, 0.1, T2=T2)
+    rho = gs.evolve_lindblad(R_C, R_C, N_C, EO, XI0, T_GATE, 0.1, T2=T2)
     valid_density_matrix(rho)
     rho0, d1 = first_order_dephasing(T2, 0.1)
     bound = 2 * (T_GATE / T2) ** 2
-    loss, loss1 = 1 - gs.bell_fidelity(rho), -gs.bell_fidelity(d1)
+    loss, loss1 = 1 - gs.state_bell_fidelity(rho), -gs.state_bell_fidelity(d1)
     closs, closs1 = 1 - 2 * abs(rho[0, 3]), 1 - 2 * abs((rho0 + d1)[0, 3])
     assert abs(loss - loss1) < bound and abs(closs - closs1) < bound
     # measured: the remainder is 0.15 bound and scales as (T/T2)^2
@@ -316,7 +316,7 @@ def test_heating_matches_first_order_theory():
     res = gs.simulate_setting(R_C, R_C, N_C, EO, XI0, nbar=0.1, T2=np.inf, ndot=5.0,
                               p_prep=0.0, p_det=0.0)
     rho0, d1 = first_order_heating(5.0)
-    loss1 = -gs.bell_fidelity(d1)
+    loss1 = -gs.state_bell_fidelity(d1)
     assert loss1 == pytest.approx(3.676e-4, rel=1e-3)
     assert 1 - res.fidelity == pytest.approx(loss1, abs=5 * loss1 ** 2)   # second order
     C = res.parity_fit()[0]
@@ -340,7 +340,7 @@ def test_prep_error_branches_by_hand():
     assert res.apparent_fidelity == pytest.approx(0.5 + (1 - p) ** 2 / 2, abs=1e-8)
     assert 1 - res.fidelity < 1e-7          # the gate itself is perfect
     # the single-ion branch is propagated, not assumed: a miscalibrated gate leaves it off |0>
-    r1 = gs.propagate(R_C, R_C, N_C, EO, XI0, 0.8 * T_GATE, 0.1, n_ions=1)
+    r1 = gs.evolve(R_C, R_C, N_C, EO, XI0, 0.8 * T_GATE, 0.1, n_ions=1)
     assert r1.shape == (2, 2) and r1[1, 1].real > 1e-3
 
 
@@ -377,9 +377,9 @@ def test_complex_phases_and_asymmetry_are_valid_and_cost_fidelity():
     mag = np.array([0.01, 0.03, S, S, 0.04])
     theta = np.array([0.3, -0.5, 0.05, np.pi - 0.12, 0.9])     # unequal spin phases
     b = mag * np.exp(1j * theta)
-    rho = gs.propagate(b, b, n, EO, XI0, T_GATE, 0.1)
+    rho = gs.evolve(b, b, n, EO, XI0, T_GATE, 0.1)
     valid_density_matrix(rho)
-    ideal = gs.propagate(R_C, R_C, N_C, EO, XI0, T_GATE, 0.1)
+    ideal = gs.evolve(R_C, R_C, N_C, EO, XI0, T_GATE, 0.1)
     assert gs.bell_fidelity_max(rho) < gs.bell_fidelity_max(ideal) - 1e-4
     c = b * 1.05 * np.exp(0.2j)                                  # red != blue
     res = gs.simulate_setting(b, c, n, EO, gs.calibrate_xi0(b, c, n, EO), nbar=0.1)
@@ -388,11 +388,11 @@ def test_complex_phases_and_asymmetry_are_valid_and_cost_fidelity():
     # a common phase chi of all tones only rotates the Bell phase (by 2 chi):
     # |<Phi_0|Phi_2chi>|^2 = (1 + cos 2 chi)/2
     chi = 0.2
-    rot = gs.propagate(R_C * np.exp(1j * chi), R_C * np.exp(1j * chi), N_C, EO, XI0, T_GATE, 0.1)
+    rot = gs.evolve(R_C * np.exp(1j * chi), R_C * np.exp(1j * chi), N_C, EO, XI0, T_GATE, 0.1)
     assert gs.bell_fidelity_max(rot) == pytest.approx(1, abs=1e-7)
-    assert gs.bell_fidelity(rot) == pytest.approx((1 + np.cos(2 * chi)) / 2, abs=1e-7)
+    assert gs.state_bell_fidelity(rot) == pytest.approx((1 + np.cos(2 * chi)) / 2, abs=1e-7)
     tgt = gs.gate_target(R_C * np.exp(1j * chi), R_C * np.exp(1j * chi), N_C, XI0)
-    assert gs.bell_fidelity(rot, tgt) == pytest.approx(1, abs=1e-7)
+    assert gs.state_bell_fidelity(rot, tgt) == pytest.approx(1, abs=1e-7)
     # a 0.2 dB red/blue imbalance rotates the Bell phase too (fixed-target loss 1.3e-4);
     # the gate-tone target and the phase-free fidelity see only the 2e-6 residual
     e = (10 ** 0.01 - 1) / (10 ** 0.01 + 1)
@@ -435,8 +435,8 @@ def test_bad_input(kwargs):
 
 def test_bad_tones():
     with pytest.raises(InputError):
-        gs.propagate([1.0, 2.0], [1.0], [1, 2], EO, XI0, T_GATE, 0.0)
+        gs.evolve([1.0, 2.0], [1.0], [1, 2], EO, XI0, T_GATE, 0.0)
     with pytest.raises(InputError):
-        gs.propagate([1.0, 2.0], [1.0, 2.0], [1, 1], EO, XI0, T_GATE, 0.0)
+        gs.evolve([1.0, 2.0], [1.0, 2.0], [1, 1], EO, XI0, T_GATE, 0.0)
     with pytest.raises(InputError):
-        gs.propagate([1.0], [1.0], [1.5], EO, XI0, T_GATE, 0.0)
+        gs.evolve([1.0], [1.0], [1.5], EO, XI0, T_GATE, 0.0)

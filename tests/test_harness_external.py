@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from dpdfit.cli import main
-from dpdfit.harness_external import summarise_external
+from dpdfit.cli.main import main
+from dpdfit.simulation.harness_external import summarise_external
 
 DATA = Path(__file__).parent / "data" / "validation"
 

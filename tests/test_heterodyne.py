@@ -1,4 +1,4 @@
-"""Heterodyne trace -> tone powers (Supplement S4): dpdfit.heterodyne."""
+"""Heterodyne trace -> tone powers (Supplement S4): dpdfit.fits.heterodyne."""
 
 from __future__ import annotations
 
@@ -11,11 +11,13 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from dpdfit._io import to_jsonable
+from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.errors import DpdfitError, InputError
-from dpdfit.heterodyne import (AT_NOISE_FLOOR, FLATTOP_COEFFICIENTS, add_spectrum_command,
-                               flattop_periodogram, load_trace, simulate_beat_trace,
+from dpdfit.cli.spectrum import add_spectrum_command
+from dpdfit.fits.tones import (AT_NOISE_FLOOR, FLATTOP_COEFFICIENTS, flattop_periodogram,
                                trace_tone_powers)
+from dpdfit.recordings.traces import load_trace
+from dpdfit.simulation.beat_trace import simulate_beat_trace
 
 # Scaled-down recording (fast tests): 100 MS/s for 1.3 ms -> bins of 763 Hz,
 # main lobe +/-3.8 kHz, well inside xi0/2 = 10 kHz.

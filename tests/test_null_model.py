@@ -5,10 +5,10 @@ and the exact preparation/detection branches of the gate engine."""
 import numpy as np
 import pytest
 
-from dpdfit import gate_sim
-from dpdfit.observables import debias_tones
-from dpdfit.photodiode import fit_phase_noise, fit_power_noise
-from dpdfit.tone_noise import MEDIAN_CHI2_1, estimate_noise_floor, robust_scale
+from dpdfit.models import gate_sim
+from dpdfit.analyses.diagnosis.observables import debias_tones
+from dpdfit.fits.photodiode import fit_phase_noise, fit_power_noise
+from dpdfit.fits.tone_noise import MEDIAN_CHI2_1, estimate_noise_floor, robust_scale
 
 
 def _im_series(rng, N0, A, k):
@@ -79,7 +79,7 @@ def test_robust_scale_recovers_the_white_noise_under_a_smooth_misfit():
 
 def test_photodiode_noise_model_is_learnt_from_the_runs():
     """sigma(P)^2 = a^2 + (b P)^2 of 30 simulated runs is recovered to 10 %."""
-    from dpdfit.calibration import fit_amplitude
+    from dpdfit.fits.calibration import fit_amplitude
     rng = np.random.default_rng(4)
     A = np.linspace(0, 1, 101)
     a, b = 2e-5, 2e-4
@@ -163,12 +163,12 @@ def test_correlated_dephasing_costs_the_bell_contrast_more_than_independent():
     xi = 4000.0
     T = 1 / xi
     kw = dict(nbar=0.1, ndot=0.0, rtol=1e-9, atol=1e-11)
-    one_i = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2=0.01, **kw)
-    one_c = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2_corr=0.01, **kw)
+    one_i = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2=0.01, **kw)
+    one_c = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, n_ions=1, T2_corr=0.01, **kw)
     np.testing.assert_allclose(one_i, one_c, atol=1e-10)
-    ind = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, T2=0.01, **kw)
-    cor = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, T2_corr=0.01, **kw)
-    ideal = gate_sim.propagate_lindblad(b, c, n, xi / unit, xi, T, **kw)
+    ind = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, T2=0.01, **kw)
+    cor = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, T2_corr=0.01, **kw)
+    ideal = gate_sim.evolve_lindblad(b, c, n, xi / unit, xi, T, **kw)
     loss = {k: 2 * abs(ideal[0, 3]) - 2 * abs(r[0, 3]) for k, r in
             (("ind", ind), ("cor", cor))}
     assert loss["cor"] > 1.3 * loss["ind"] > 0

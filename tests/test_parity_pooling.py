@@ -16,8 +16,8 @@ import pandas as pd
 import pytest
 from scipy.optimize import minimize
 
-from dpdfit.cli import main
-from dpdfit.counts import gate_fidelities
+from dpdfit.cli.main import main
+from dpdfit.fits.counts import gate_fidelities
 
 PHI16 = np.arange(16) * 2 * np.pi / 16
 SHOTS = (400, 625, 900)
@@ -110,7 +110,7 @@ def test_a_shifted_scan_is_reported_with_a_warning_not_refused(caplog):
     rng = np.random.default_rng(3)
     pop, par = _scans(rng, 0.95, 0.3, (0.0, 0.002, -0.003), shift_phi0=(0.0, 0.0, 0.4))
     par.attrs["source"] = "parity.csv"
-    with caplog.at_level(logging.WARNING, logger="dpdfit.counts"):
+    with caplog.at_level(logging.WARNING, logger="dpdfit.fits.counts"):
         tab = gate_fidelities(pop, par)
     assert len(tab) == 1 and np.isfinite(tab["contrast"].iloc[0])
     assert tab["parity_scan_lr_p"].iloc[0] < 1e-6

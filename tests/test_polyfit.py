@@ -1,4 +1,4 @@
-"""Tests of dpdfit.polyfit: accuracy against 50-digit mpmath, API, error convention."""
+"""Tests of dpdfit.fits.polyfit: accuracy against 50-digit mpmath, API, error convention."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from dpdfit import _dd
+from dpdfit.fits.polyfit import double_double as _dd
 from dpdfit.errors import FitError, InputError
-from dpdfit.polyfit import PolyFitResult, parse_powers, polyfit
+from dpdfit.fits.polyfit import PolyFitResult, parse_powers, polyfit
 
 DICT_KEYS = {
     "powers", "coefficients", "stderr", "covariance", "residual_std", "chi2", "dof",
@@ -365,7 +365,7 @@ def test_bad_input_raises(kwargs, error, match):
 
 
 def test_refinement_status_is_reported(monkeypatch):
-    module = importlib.import_module("dpdfit.polyfit")
+    module = importlib.import_module("dpdfit.fits.polyfit.refine")
     x, y, powers, sigma = hard_case(True)
     full = polyfit(x, y, powers, sigma=sigma)
     assert full.converged and 3 <= full.refinement_iterations <= 6

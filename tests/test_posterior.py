@@ -7,14 +7,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.aom_truth import BraggAOM, PhotodiodeNoise, simulate_amplitude_run
-from dpdfit.calibration import Calibration, fit_amplitude, fit_phase
+from dpdfit.simulation.aom_truth import BraggAOM, PhotodiodeNoise, simulate_amplitude_run
+from dpdfit.fits.calibration import Calibration, fit_amplitude, fit_phase
 from dpdfit.errors import DpdfitError
-from dpdfit.posterior import (ConvergenceError, PosteriorResult, add_propagate_command,
-                              drift_model, plot_corner, propagate, recalibration,
-                              sample_amplitude_posterior)
-from dpdfit.sweep import SweepConfig, run_sweep
-from dpdfit.transfer import TransferFunction
+from dpdfit.fits.posterior import ConvergenceError, PosteriorResult, sample_amplitude_posterior
+from dpdfit.fits.drift import drift_model
+from dpdfit.analyses.propagation import propagate, recalibration
+from dpdfit.report.posterior_plots import plot_corner
+from dpdfit.cli.propagate import add_propagate_command
+from dpdfit.analyses.sweep import SweepConfig, run_sweep
+from dpdfit.models.transfer import TransferFunction
 
 A_GRID = np.linspace(0.0, 1.0, 201)
 KEYS = ["F_est_median", "F_est_q16", "F_est_q84", "F_est_q2.5", "F_est_q97.5"]
@@ -244,8 +246,8 @@ def test_cli(tmp_path, capsys):
 
 
 def test_threshold_rows_match_scalar_first_crossing():
-    from dpdfit.posterior import _first_crossing_rows
-    from dpdfit.sweep import _first_crossing
+    from dpdfit.analyses.sweep import first_crossing_rows as _first_crossing_rows
+    from dpdfit.analyses.sweep import first_crossing as _first_crossing
     rng = np.random.default_rng(3)
     x = np.sort(rng.uniform(0.01, 0.5, (50, 30)), axis=1)
     y = 1e-5 * (x / 0.01) ** rng.uniform(1.5, 3.5, (50, 1)) * rng.uniform(0.5, 2, (50, 30))
@@ -258,11 +260,11 @@ def test_threshold_rows_match_scalar_first_crossing():
 
 def test_threshold_distribution_brackets_the_point_estimate():
     """With a fresh table the draws' thresholds scatter around the sweep of the fit itself."""
-    from dpdfit.aom_truth import BraggAOM, simulate_amplitude_run
-    from dpdfit.posterior import threshold_distribution
-    from dpdfit.calibration import fit_amplitude
-    from dpdfit.sweep import SweepConfig, run_sweep, thresholds
-    from dpdfit.transfer import TransferFunction
+    from dpdfit.simulation.aom_truth import BraggAOM, simulate_amplitude_run
+    from dpdfit.analyses.propagation import threshold_distribution
+    from dpdfit.fits.calibration import fit_amplitude
+    from dpdfit.analyses.sweep import SweepConfig, run_sweep, thresholds
+    from dpdfit.models.transfer import TransferFunction
     rng = np.random.default_rng(8)
     frames = []
     for k in range(3):
@@ -287,9 +289,9 @@ def test_threshold_distribution_brackets_the_point_estimate():
 def test_phase_perturbation_first_order_matches_exact_forward():
     """The draw-batched phase perturbation equals the exact forward model to first order."""
     import dataclasses
-    from dpdfit.aom_truth import BraggAOM, simulate_amplitude_run, simulate_phase_run
-    from dpdfit.calibration import fit_amplitude, fit_phase
-    from dpdfit.posterior import _Forward
+    from dpdfit.simulation.aom_truth import BraggAOM, simulate_amplitude_run, simulate_phase_run
+    from dpdfit.fits.calibration import fit_amplitude, fit_phase
+    from dpdfit.analyses.propagation import BatchedForwardModel as _Forward
     rng = np.random.default_rng(4)
     aom = BraggAOM()
     grid = np.linspace(0, 1, 201)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from dpdfit.errors import InputError
-from dpdfit.scan import scan_intervals
+from dpdfit.analyses.diagnosis.scan import scan_intervals
 
 
 def test_false_alarm_rate_on_null_series_is_below_nominal():

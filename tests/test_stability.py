@@ -1,4 +1,4 @@
-"""Calibration stability over runs (Supplement S2, Figs. S2-S3): dpdfit.stability."""
+"""Calibration stability over runs (Supplement S2, Figs. S2-S3): dpdfit.analyses.stability."""
 
 from __future__ import annotations
 
@@ -11,10 +11,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.aom_truth import ou_series
+from dpdfit.simulation.aom_truth import ou_series
 from dpdfit.errors import DpdfitError, FitError, InputError
-from dpdfit.stability import (add_stability_command, allan_deviation, drift_test,
-                              plot_stability, stability)
+from dpdfit.analyses.stability import allan_deviation, drift_test, stability
+from dpdfit.report.stability_plots import plot_stability
+from dpdfit.cli.stability import add_stability_command
 
 ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
@@ -31,7 +32,7 @@ def amp_result():
 
 
 def _run_cli(argv):
-    """Parse with a parser holding only the stability sub-command; mimic dpdfit.cli.main."""
+    """Parse with a parser holding only the stability sub-command; mimic dpdfit.cli.main.main."""
     p = argparse.ArgumentParser(prog="dpdfit")
     sub = p.add_subparsers(dest="command", required=True)
     add_stability_command(sub)

@@ -6,11 +6,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.cli import main
+from dpdfit.cli.main import main
 from dpdfit.errors import InputError
-from dpdfit.sweep import (COLUMNS, SweepConfig, _first_crossing, eta_bar, parse_amplitudes,
+from dpdfit.analyses.sweep import (COLUMNS, SweepConfig, eta_bar, parse_amplitudes,
                           run_sweep, thresholds)
-from dpdfit.waveforms import cardioid, sample_grid, synthesize
+from dpdfit.analyses.sweep import first_crossing as _first_crossing
+from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
 from test_cli import _bad, bundled, run  # noqa: F401  (fixture re-use)
 from test_transfer import truth_poly_tf
 

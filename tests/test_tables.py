@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from dpdfit.errors import InputError
-from dpdfit.tables import read_calibration, read_table
+from dpdfit.recordings.tables import read_calibration, read_table
 
 
 def good_rows(n=12):

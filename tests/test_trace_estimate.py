@@ -5,9 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from dpdfit.cli import main
-from dpdfit.fidelity import estimate
-from dpdfit.heterodyne import delta_powers, simulate_beat_trace, trace_estimate, trace_tone_powers
+from dpdfit.cli.main import main
+from dpdfit.models.fidelity import estimate
+from dpdfit.analyses.trace_estimate import delta_powers, trace_estimate
+from dpdfit.fits.tones import trace_tone_powers
+from dpdfit.simulation.beat_trace import simulate_beat_trace
 
 FS, N, FDET, NU, XI0 = 1e9, 2 ** 20, 20e6, 1.84e6, 20e3
 

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from dpdfit.aom_truth import BraggAOM
+from dpdfit.simulation.aom_truth import BraggAOM
 from dpdfit.errors import NotInvertibleError
-from dpdfit.transfer import TransferFunction, predistortion_table
+from dpdfit.models.transfer import TransferFunction, predistortion_table
 
 
 def truth_poly_tf(K=8, with_phase=True):

@@ -1,0 +1,184 @@
+"""Configuration of the error budget: defaults (the paper's inputs), validation, reading.
+
+Configuration (TOML; every key optional, defaults = the paper's values)
+-----------------------------------------------------------------------
+::
+
+    [state_preparation]
+    rabi_amplitude = 0.997        # Rabi-flop amplitude per ion (dimensionless, 0..1]
+    rabi_amplitude_err = 0.003    # its 1-sigma error (dimensionless)
+
+    [dephasing]
+    T2_ms = 50.0                  # coherence time T2 [ms]
+    T2_err_ms = 5.0               # its 1-sigma error [ms]
+    coefficient = 0.591           # dF/(T/T2) of the measured fidelity (dimensionless)
+
+    [heating]
+    rate_per_ms = 0.01            # heating rate (or its upper limit) [quanta/ms]
+    rate_err_per_ms = 0.0         # 1-sigma error [quanta/ms], used if upper_limit = false
+    upper_limit = true            # rate_per_ms is an upper limit: uniform prior [0, limit]
+
+    [detection]
+    error_per_ion = 1e-4          # per-ion bright/dark misassignment (or its upper limit)
+    error_err = 0.0               # 1-sigma error, used if upper_limit = false
+    upper_limit = true            # uniform prior [0, error_per_ion]
+
+    [gate]
+    time_min_us = 150.0           # shortest gate time T_g [us]
+    time_max_us = 310.0           # longest gate time T_g [us]
+    rates_khz = []                # optional list of gate rates xi0 [kHz]; T_g = 1/xi0
+                                  # (overrides time_min_us/time_max_us)
+
+    [delta]
+    value = -0.018                # fitted fidelity offset delta (dimensionless)
+    error = 0.003                 # its 1-sigma error
+    enabled = true                # false: no delta, no 'unexplained'
+
+    [monte_carlo]
+    samples = 200000              # number of draws
+    seed = 20240601               # numpy Generator seed
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.errors import InputError
+
+from .losses import DEPHASING_COEFFICIENT
+
+__all__ = ["DEFAULT_CONFIG", "validate_budget_config", "load_budget_config", "read_gate_rates"]
+
+DEFAULT_CONFIG = {
+    "state_preparation": {"rabi_amplitude": 0.997, "rabi_amplitude_err": 0.003},
+    "dephasing": {"T2_ms": 50.0, "T2_err_ms": 5.0, "coefficient": DEPHASING_COEFFICIENT},
+    "heating": {"rate_per_ms": 0.01, "rate_err_per_ms": 0.0, "upper_limit": True},
+    "detection": {"error_per_ion": 1e-4, "error_err": 0.0, "upper_limit": True},
+    "gate": {"time_min_us": 150.0, "time_max_us": 310.0, "rates_khz": []},
+    "delta": {"value": -0.018, "error": 0.003, "enabled": True},
+    "monte_carlo": {"samples": 200000, "seed": 20240601},
+}
+
+_SIGNED = {("delta", "value")}          # the only key allowed to be negative
+_POSITIVE = {("dephasing", "T2_ms"), ("gate", "time_min_us"), ("gate", "time_max_us")}
+
+
+def _type_name(v):
+    return type(v).__name__
+
+
+def _checked_value(sec: str, key: str, val):
+    """``val`` for ``[sec] key`` checked against the type of its default (InputError if bad)."""
+    name = f"{sec}.{key}"
+    default = DEFAULT_CONFIG[sec][key]
+    if isinstance(default, bool):
+        if not isinstance(val, bool):
+            raise InputError(f"budget config key '{name}' must be true/false, got {val!r}")
+    elif isinstance(default, list):
+        if not isinstance(val, list) or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in val):
+            raise InputError(f"budget config key '{name}' must be a list of numbers, "
+                             f"got {val!r}")
+        if not all(math.isfinite(v) and v > 0 for v in val):
+            raise InputError(f"budget config key '{name}' must hold positive values, "
+                             f"got {val!r}")
+        val = [float(v) for v in val]
+    elif isinstance(default, int):
+        if not isinstance(val, int) or isinstance(val, bool):
+            raise InputError(f"budget config key '{name}' must be an integer, got {val!r}")
+        if val < (1000 if key == "samples" else 0):
+            raise InputError(f"budget config key '{name}' must be "
+                             f">= {1000 if key == 'samples' else 0}, got {val}")
+    else:
+        if not isinstance(val, (int, float)) or isinstance(val, bool):
+            raise InputError(f"budget config key '{name}' must be a number, got {val!r}")
+        val = float(val)
+        if not math.isfinite(val):
+            raise InputError(f"budget config key '{name}' must be finite, got {val}")
+        if (sec, key) not in _SIGNED and val < 0:
+            raise InputError(f"budget config key '{name}' must be >= 0, got {val}")
+        if (sec, key) in _POSITIVE and val <= 0:
+            raise InputError(f"budget config key '{name}' must be > 0, got {val}")
+    return val
+
+
+def _check_consistency(cfg: dict) -> None:
+    """Bounds that involve the physics or two keys at once."""
+    if cfg["state_preparation"]["rabi_amplitude"] > 1:
+        raise InputError("budget config key 'state_preparation.rabi_amplitude' must be <= 1, "
+                         f"got {cfg['state_preparation']['rabi_amplitude']}")
+    if cfg["detection"]["error_per_ion"] > 0.5:
+        raise InputError("budget config key 'detection.error_per_ion' must be <= 0.5, "
+                         f"got {cfg['detection']['error_per_ion']}")
+    g = cfg["gate"]
+    if not g["rates_khz"] and g["time_min_us"] > g["time_max_us"]:
+        raise InputError("budget config key 'gate.time_min_us' must be <= 'gate.time_max_us', "
+                         f"got {g['time_min_us']} > {g['time_max_us']}")
+
+
+def validate_budget_config(config: dict | None) -> dict:
+    """Full config (defaults filled in, a fresh copy) or InputError naming the offending key.
+
+    ``None`` gives the defaults (the paper's inputs).
+    """
+    cfg = copy.deepcopy(DEFAULT_CONFIG)
+    if config is None:
+        return cfg
+    if not isinstance(config, dict):
+        raise InputError(f"budget config must be a table/dict, got {_type_name(config)}")
+    for sec, body in config.items():
+        if sec not in DEFAULT_CONFIG:
+            raise InputError(f"unknown budget config key '{sec}' "
+                             f"(known sections: {', '.join(DEFAULT_CONFIG)})")
+        if not isinstance(body, dict):
+            raise InputError(f"budget config key '{sec}' must be a table, got {_type_name(body)}")
+        for key, val in body.items():
+            if key not in DEFAULT_CONFIG[sec]:
+                raise InputError(f"unknown budget config key '{sec}.{key}' "
+                                 f"(known: {', '.join(DEFAULT_CONFIG[sec])})")
+            cfg[sec][key] = _checked_value(sec, key, val)
+    _check_consistency(cfg)
+    return cfg
+
+
+def load_budget_config(path) -> dict:
+    """Read and validate a budget TOML file; returns the full config (defaults filled in)."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            raw = tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError("file not found", file=str(path)) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"invalid TOML: {exc}", file=str(path)) from None
+    try:
+        return validate_budget_config(raw)
+    except InputError as exc:
+        raise InputError(str(exc), file=str(path)) from None
+
+
+def read_gate_rates(path) -> list[float]:
+    """Gate rates ``xi0`` [kHz] from a CSV with columns ``A, dpd, xi0_khz``."""
+    try:
+        df = pd.read_csv(path, comment="#")
+    except FileNotFoundError:
+        raise InputError("file not found", file=str(path)) from None
+    except Exception as exc:  # noqa: BLE001 - pandas raises many types
+        raise InputError(f"cannot read CSV: {exc}", file=str(path)) from None
+    for col in ("A", "dpd", "xi0_khz"):
+        if col not in df.columns:
+            raise InputError("missing column", file=str(path), column=col)
+    if len(df) == 0:
+        raise InputError("no data rows", file=str(path))
+    v = pd.to_numeric(df["xi0_khz"], errors="coerce").to_numpy(float)
+    bad = np.flatnonzero(~(np.isfinite(v) & (v > 0)))
+    if bad.size:
+        raise InputError("xi0_khz must be a positive number", file=str(path),
+                         column="xi0_khz", row=int(bad[0]) + 1)
+    return [float(x) for x in v]

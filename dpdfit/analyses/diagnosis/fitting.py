@@ -1,0 +1,377 @@
+"""The fit of one hypothesis (the baseline, an effect or a pair) to every observable.
+
+:func:`fit_hypothesis` fits the nuisances plus the effects' parameters by
+``scipy.optimize.least_squares`` in three steps: the starting points
+(:func:`_initial`, :func:`_starts`: the nuisances' centres or the baseline's optimum, an
+effect's seed grid, the prior centre of a nuisance pushed far out, given
+starts), the solution with the calibration modes profiled out linearly
+(:class:`ModeProfile`, re-linearised at the optimum until the modes settle,
+:func:`_best_solution`), and the result (:func:`_result`: Gauss-Newton errors,
+an effect's derived quantities, chi2 per observable).
+
+Parameter errors are the Gauss-Newton ones, ``(J^T J)^-1`` of the standardised
+residuals at the optimum (1 sigma), with the calibration's error modes profiled
+out, so they include the calibration uncertainty; ``params_err`` is NaN when a
+parameter sits at its bound.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import chi2 as chi2_dist
+
+from dpdfit.analyses.diagnosis.effects import effect_form
+from dpdfit.analyses.diagnosis.mode_profile import ModeProfile
+from dpdfit.core.parallel import pmap
+
+__all__ = ["FitResult", "fit_hypothesis", "fit_all", "MAX_NFEV", "PROFILE_RELIN", "PROFILE_TOL", "JACOBIAN_FD_STEP", "SCREEN_NFEV", "FAR_NUISANCE"]
+
+#: cap on residual evaluations per least-squares start
+MAX_NFEV = 100
+#: calibration modes profiled out linearly (:class:`ModeProfile`): re-linearisations at
+#: the optimum, and the change of the modes (sigma) that ends them
+PROFILE_RELIN = 3
+PROFILE_TOL = 0.05
+#: finite-difference step of the fits' Jacobian, in units of each parameter's scale
+JACOBIAN_FD_STEP = 1e-3
+#: evaluations of the short runs that choose among several starts
+SCREEN_NFEV = 15
+#: a baseline nuisance further than this (prior sigmas) from its centre also gets a
+#: start from the centre in the effect fits
+FAR_NUISANCE = 5.0
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Best fit of one hypothesis (baseline, an effect or a pair)."""
+
+    effect: str
+    params: dict
+    params_err: dict
+    nuisances: dict
+    chi2: float
+    n_obs: int
+    n_par: int
+    chi2_by_observable: dict
+    n_by_observable: dict
+    #: which form of the effect fitted best (stale_calibration: "table" or "aom")
+    variant: str | None = None
+
+    @property
+    def dof(self) -> int:
+        return max(self.n_obs - self.n_par, 1)
+
+    @property
+    def bic(self) -> float:
+        return self.chi2 + self.n_par * np.log(self.n_obs)
+
+    @property
+    def p_fit(self) -> float:
+        return float(chi2_dist.sf(self.chi2, self.dof))
+
+    def redchi(self) -> dict:
+        return {k: self.chi2_by_observable[k] / max(self.n_by_observable[k], 1)
+                for k in self.chi2_by_observable}
+
+
+@dataclass(frozen=True)
+class _Opt:
+    """Optimum of one least-squares run: parameters, cost (chi2/2), Jacobian."""
+
+    x: np.ndarray
+    cost: float
+    jac: np.ndarray
+
+
+class _Objective:
+    """The standardised residuals of one hypothesis over its free parameters.
+
+    Free: every nuisance that is neither ``fixed`` nor a calibration mode
+    (those are profiled, :class:`ModeProfile`) nor an effect parameter, then the
+    effects' parameters (``forms``), with bounds, starting values and scales.
+    """
+
+    def __init__(self, prob, forms: list, fixed: dict):
+        self.prob, self.fixed = prob, fixed
+        self.prof = [k for k in prob.tone.mode_names if k not in fixed]
+        effect_pars = [par for form in forms for par in form.params]
+        effect_names = {par.name for par in effect_pars}
+        names, lo, hi, x0, scale = [], [], [], [], []
+        for k, s in prob.prior.items():
+            if k in fixed or k in self.prof or k in effect_names:
+                continue
+            c = prob.center[k]
+            names.append(k)
+            b = prob.bounds.get(k, (c - 50 * s, c + 50 * s))
+            lo.append(b[0])
+            hi.append(b[1])
+            x0.append(c)
+            scale.append(s if np.isfinite(s) else 0.1 * (b[1] - b[0]))
+        for par in effect_pars:
+            names.append(par.name)
+            lo.append(par.lo)
+            hi.append(par.hi)
+            x0.append(par.start)
+            scale.append(par.scale)
+        self.names, self.scale = names, scale
+        self.lo, self.hi = np.array(lo), np.array(hi)
+        #: starting values: nuisances at their prior centre, effects at their start
+        self.x_prior = x0
+        self.eff_params = [par.name for par in effect_pars]
+
+    def params(self, x) -> dict:
+        return {**self.fixed, **dict(zip(self.names, x))}
+
+    def data(self, p) -> np.ndarray:
+        z = self.prob.residuals(p, with_prior=False)
+        return np.where(np.isfinite(z), z, 0.0)
+
+    def prior_z(self, p) -> np.ndarray:
+        prob = self.prob
+        return np.array([(p.get(k, prob.center[k]) - prob.center[k]) / prob.prior[k]
+                         for k in list(prob.prior) if k not in self.prof
+                         and np.isfinite(prob.prior[k])])
+
+    def linearise(self, x, d: dict) -> ModeProfile | None:
+        return ModeProfile(self.data, {**self.params(x), **d}, self.prof) if self.prof else None
+
+    def fun(self, lin):
+        """The residual function of the free parameters with the modes profiled at ``lin``."""
+        def fun(x):
+            p = self.params(x)
+            if lin is None:
+                return np.concatenate([self.data(p), self.prior_z(p)])
+            zd, d = lin.solve(self.data(lin.point(p)))
+            return np.concatenate([zd, self.prior_z(p), d])
+        return fun
+
+    def modes_at(self, lin, x) -> dict:
+        if lin is None:
+            return {}
+        return dict(zip(self.prof, lin.solve(self.data(lin.point(self.params(x))))[1]))
+
+    def solve(self, x, lin, nfev: int = MAX_NFEV) -> _Opt:
+        """Least squares from ``x`` with the modes profiled at ``lin``.
+
+        A wrong effect against a strong mismatch converges slowly and is rejected
+        anyway: the evaluations are capped (the right one converges in a few).  The
+        start is moved strictly inside the bounds: a start on a bound can stall the
+        trust region.
+        """
+        fun = self.fun(lin)
+        if not self.names:
+            z = fun(np.zeros(0))
+            return _Opt(np.zeros(0), 0.5 * float(z @ z), np.zeros((z.size, 0)))
+        lo, hi, scale = self.lo, self.hi, self.scale
+        memo = {}
+
+        def f(x):
+            memo["x"], memo["f"] = np.array(x), fun(x)
+            return memo["f"]
+
+        def jac(x):
+            # forward differences with absolute steps (a fraction of each parameter's
+            # scale): scipy's steps are relative to x, which at a start of 0 (every
+            # effect's "absent") probes at ~1e-8 and drowns the slope in rounding
+            f0 = memo["f"] if "x" in memo and np.array_equal(memo["x"], x) else fun(x)
+            J = np.empty((f0.size, x.size))
+            for i in range(x.size):
+                h = JACOBIAN_FD_STEP * scale[i] * (
+                    1.0 if x[i] + JACOBIAN_FD_STEP * scale[i] <= hi[i] else -1.0)
+                xi = np.array(x, dtype=float)
+                xi[i] += h
+                J[:, i] = (fun(xi) - f0) / h
+            return J
+
+        pad = 1e-6 * (hi - lo)
+        r = least_squares(f, np.clip(x, lo + pad, hi - pad), jac=jac, bounds=(lo, hi),
+                          x_scale=np.array(scale), method="trf",
+                          max_nfev=nfev, ftol=1e-8, xtol=1e-8)
+        return _Opt(r.x, float(r.cost), r.jac)
+
+
+def _initial(obj: _Objective, init: dict):
+    """The first starting point, nuisances from ``init`` (e.g. the baseline's optimum)
+    else at their centres, and whether one of them is far from its centre."""
+    prob, names = obj.prob, obj.names
+    x0 = list(obj.x_prior)
+    far = False
+    for k, v in init.items():
+        if k in names:
+            i = names.index(k)
+            x0[i] = float(np.clip(v, obj.lo[i], obj.hi[i]))
+            far |= k in prob.prior and abs(x0[i] - prob.center[k]) > FAR_NUISANCE * prob.prior[k]
+    return np.array(x0), far
+
+
+def _starts(obj: _Objective, forms: list, x0: np.ndarray, far: bool, starts, lin0) -> list:
+    """Starting points of the fit (arrays over ``obj.names``).
+
+    ``x0`` (:func:`_initial`); for an effect with a seed grid (a multimodal chi2
+    surface) instead the grid's best point of each sign of its second parameter
+    (other parameters at ``x0``, modes profiled at ``lin0``); when ``far``, each
+    of those also with the nuisances at their prior centre; and every point of
+    ``starts`` (dicts of parameters).
+    """
+    prob, names = obj.prob, obj.names
+    candidates = [np.array(x0)]
+    seeds = next((form.seed_grid for form in forms if form.seed_grid is not None), None)
+    if seeds is not None:
+        (pa, pb), (ga, gb) = seeds
+        ia, ib = names.index(pa), names.index(pb)
+        fun0 = obj.fun(lin0)
+        grid = []
+        for va in ga:
+            for vb in gb:
+                x = np.array(x0)
+                x[ia], x[ib] = va, vb
+                grid.append((float(np.sum(fun0(x) ** 2)), x))
+        candidates = [min((g for g in grid if np.sign(g[1][ib]) == sgn),
+                          key=lambda g: g[0])[1] for sgn in (-1.0, 1.0)]
+    if far:
+        # the baseline pushed a nuisance far out (it absorbed part of a strong effect,
+        # possibly up to its bound, where the trust region cannot move): also start
+        # from the nuisances' prior centre
+        is_nuis = np.array([k in prob.prior for k in names])
+        x_prior = np.array(obj.x_prior)
+        candidates += [np.where(is_nuis, x_prior, c) for c in candidates]
+    for st in starts or ():
+        x = np.array(x0)
+        for k, v in st.items():
+            if k in names:
+                x[names.index(k)] = v
+        candidates.append(x)
+    return candidates
+
+
+def _solve_profiled(obj: _Objective, x, lin):
+    """Solution from ``x``, re-linearised at the optimum until the profiled modes settle."""
+    r = obj.solve(x, lin)
+    for _ in range(PROFILE_RELIN):
+        if lin is None:
+            break
+        d_new = obj.modes_at(lin, r.x)
+        if max(abs(d_new[k] - v) for k, v in zip(obj.prof, lin.d_lin)) < PROFILE_TOL:
+            break
+        lin = obj.linearise(r.x, d_new)
+        r = obj.solve(r.x, lin)
+    return r, lin
+
+
+def _best_solution(obj: _Objective, candidates: list, lin0, d_init: dict):
+    """The best solution over the starting points: ``(_Opt, its ModeProfile)``.
+
+    Several starts: a short run from each (modes profiled at ``lin0``), and only
+    the best one is refined.
+    """
+    if len(candidates) > 1:
+        screened = []
+        for x in candidates:
+            try:
+                screened.append(obj.solve(x, lin0, SCREEN_NFEV))
+            except ValueError:
+                continue
+        if screened:
+            candidates = [min(screened, key=lambda r: r.cost).x]
+    best, best_lin = None, None
+    for x in candidates:
+        lin = obj.linearise(x, d_init) if len(obj.names) and obj.prof else lin0
+        try:
+            r, lin = _solve_profiled(obj, x, lin)
+        except ValueError:
+            continue
+        if best is None or r.cost < best.cost:
+            best, best_lin = r, lin
+    return best, best_lin
+
+
+def _result(obj: _Objective, forms: list, best: _Opt, best_lin) -> FitResult:
+    """The :class:`FitResult` of the solution ``best`` (modes profiled at ``best_lin``)."""
+    prob, names, eff_params = obj.prob, obj.names, obj.eff_params
+    x = best.x
+    J = best.jac
+    try:
+        cov = np.linalg.pinv(J.T @ J)
+        err = np.sqrt(np.clip(np.diag(cov), 0, None))
+    except np.linalg.LinAlgError:
+        cov = np.full((x.size, x.size), np.nan)
+        err = np.full(x.size, np.nan)
+    lo, hi = obj.lo, obj.hi
+    at_bound = (np.isclose(x, lo, rtol=0, atol=1e-9 * np.maximum(1, np.abs(lo)))
+                | np.isclose(x, hi, rtol=0, atol=1e-9 * np.maximum(1, np.abs(hi))))
+    err = np.where(at_bound, np.nan, err)
+    p = {**obj.params(x), **obj.modes_at(best_lin, x)}
+    params_ = {k: float(p[k]) for k in eff_params}
+    perr = {k: float(err[names.index(k)]) for k in eff_params}
+    for form in forms:
+        # derived quantities (stale_calibration's drift) are reported first
+        value, value_err = form.derived(prob.tone, p, cov, names)
+        params_, perr = {**value, **params_}, {**value_err, **perr}
+    # chi2 and counts of the model itself at the optimum (modes at their profiled values)
+    n_data = int(np.isfinite(prob.residuals(p, with_prior=False)).sum())
+    chi_obs, n_obs = {}, {}
+    for lab, z in prob.blocks(p, with_prior=False):
+        z = z[np.isfinite(z)]
+        key = f"{lab['kind']}:{lab['observable']}"
+        chi_obs[key] = float(np.sum(z ** 2))
+        n_obs[key] = int(z.size)
+    z_all = prob.residuals(p)
+    z_all = z_all[np.isfinite(z_all)]
+    return FitResult(effect="+".join(form.name for form in forms) if forms else "baseline",
+                     variant="+".join(form.form for form in forms if form.form) or None,
+                     params=params_, params_err=perr,
+                     nuisances={k: float(p[k]) for k in p if k not in eff_params},
+                     chi2=float(np.sum(z_all ** 2)),
+                     n_obs=n_data + sum(np.isfinite(v) for v in prob.prior.values()),
+                     # every nuisance (fixed ones were fitted in the baseline) + tone offset
+                     n_par=len(prob.prior) + 1 + len(eff_params),
+                     chi2_by_observable=chi_obs, n_by_observable=n_obs)
+
+
+def fit_hypothesis(prob, effects: tuple, starts=None, fixed: dict | None = None,
+                   init: dict | None = None) -> FitResult:
+    """Least-squares fit of the nuisances plus the effects' parameters.
+
+    ``effects``: keys of catalog effects or variants
+    (:func:`dpdfit.analyses.diagnosis.effects.effect_form`); none: the baseline.
+    ``fixed`` holds nuisances at given values (the baseline's): the tone and
+    gate sides of the model share no parameter, so an effect on one side is
+    fitted with the other side's nuisances held at their baseline optimum,
+    which is exact and saves the other side's model evaluations.  ``init``:
+    starting values of nuisances; ``starts``: further starting points.  The
+    calibration modes that are not held are profiled out linearly
+    (:class:`ModeProfile`), linearised first at the prior centre of the modes (an
+    effect that explains the recordings leaves them near it), then at the
+    optimum.
+    """
+    fixed = dict(fixed or {})
+    init = dict(init or {})
+    forms = [effect_form(e).for_campaign(prob.tone) for e in effects]
+    obj = _Objective(prob, forms, fixed)
+    d_init = {k: 0.0 for k in obj.prof}
+    x0, far = _initial(obj, init)
+    lin0 = obj.linearise(x0, d_init)
+    candidates = _starts(obj, forms, x0, far, starts, lin0)
+    best, best_lin = _best_solution(obj, candidates, lin0, d_init)
+    return _result(obj, forms, best, best_lin)
+
+
+#: the problem the parallel fits share (set before forking: children inherit it)
+_SHARED: dict = {}
+
+
+def _fit_job(effects: tuple, kw: dict) -> FitResult:
+    return fit_hypothesis(_SHARED["prob"], effects, **kw)
+
+
+def fit_all(prob, jobs: list) -> list:
+    """``[fit_hypothesis(prob, effects, **kw) for effects, kw in jobs]`` over the cores
+    (fork: only the job's arguments and result are pickled; same results in any order)."""
+    _SHARED["prob"] = prob
+    try:
+        return pmap(_fit_job, [((e, kw), {}) for e, kw in jobs])
+    finally:
+        _SHARED.clear()

@@ -1,0 +1,358 @@
+"""Gate observables of a campaign: the baseline, its nuisances and the gate-side effects.
+
+Baseline values per setting come from the exact engine (:mod:`dpdfit.models.gate_sim`)
+with the lab's error model (dephasing, heating, initial phonons; ``campaign.json``
+``error_model``, else the paper's values), each setting's ``eta Omega0`` chosen
+so that the engine's gate rate equals the recorded ``xi0`` (the lab's rate
+calibration).
+
+The engine is run *once* per setting for the raw outcome probabilities of
+every preparation branch (:func:`dpdfit.models.gate_sim.setting_branches`: both ions
+right, one a spectator, one flipped), so that preparation and detection enter
+exactly and analytically (:func:`dpdfit.models.gate_sim.mix_branches`,
+:func:`dpdfit.models.gate_sim.confusion`).  That makes what a lab does not know about
+them nuisances of the baseline at no cost (issue #14):
+
+* ``prep_split`` in [0, 1] -- which part of the lab's known total preparation
+  error per ion (``p_prep``, 0.3 % in the paper) is a *spectator* (a level that
+  takes no part in the gate, read bright) rather than a *flip* (the wrong qubit
+  state, driven); flat prior;
+* ``e01``, ``e10`` -- the two detection errors (bright read dark, dark read
+  bright): Gaussian priors centred on the lab's ``p_det`` (5e-5) with sigma
+  ``DETECTION_PRIOR_SIGMA`` (1e-4), clipped at 0.
+
+Effects on the gates act on the two-ion branch through engine finite differences
+at every setting (and at the time scans' times): ``dephasing`` (extra rate,
+1/s), ``motional_heating`` (quanta/ms), ``higher_nbar`` (quanta) linearly,
+``gate_rate_miscalibration`` (power offset, dB) quadratically; ``spam_offset``
+adds to the total preparation error (split like the rest).  Contrasts are the
+``cos 2 phi`` amplitude of the predicted fringe on 16 phases (exact: the
+spectator branches add ``cos phi`` terms, orthogonal on that grid).
+
+The known random power errors of a setting (per-scan laser jitter averaged over
+its scans, per-setting rate-calibration scatter) shift the expected values by
+``quad var`` and give the three observables of one setting a shared error
+(:meth:`GateModel.predict`).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from dpdfit.models import gate_sim
+from dpdfit.core.parallel import pmap
+
+__all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES"]
+
+#: finite-difference steps of the gate-side responses
+_STEPS = {"gamma": 100.0, "gamma_c": 100.0, "ndot": 0.1, "eps": 0.3, "dnbar": 0.2}
+_LINEAR = ("gamma", "gamma_c", "ndot", "dnbar")
+#: engine tolerances for the diagnosis (probabilities to ~1e-6, far below shot noise)
+_TOL = {"rtol": 1e-7, "atol": 1e-9}
+_XI_STEP = 0.01
+#: analysis phases of the model's fringes (the contrast does not depend on them)
+PHASES = np.arange(16) * 2 * np.pi / 16
+#: prior sigma of each detection error around the lab's p_det
+DETECTION_PRIOR_SIGMA = 1e-4
+#: gate-side nuisances: name -> (unit, meaning)
+GATE_NUISANCES = {
+    "prep_split": ("1", "fraction of the known preparation error that is a spectator "
+                        "(rest: a flip); flat prior on [0, 1]"),
+    "e01": ("probability", "detection error, bright read dark (prior N(p_det, 1e-4))"),
+    "e10": ("probability", "detection error, dark read bright (prior N(p_det, 1e-4))"),
+}
+
+# design of the fringe fit: 1, cos phi, sin phi, cos 2phi, sin 2phi (exact on PHASES)
+_DESIGN = np.stack([np.ones_like(PHASES), np.cos(PHASES), np.sin(PHASES), np.cos(2 * PHASES),
+                    np.sin(2 * PHASES)], axis=1)
+_PINV = np.linalg.pinv(_DESIGN)[3:5]                 # rows giving the cos/sin 2phi coefficients
+
+
+def _collapse(p4):
+    return p4[..., 0] + p4[..., 3], p4[..., 0] - p4[..., 3]
+
+
+def _contrast(par4):
+    """``cos 2 phi`` amplitude of the parity ``2 (P00 + P11) - 1`` over PHASES (last-but-one axis)."""
+    parity = 2 * (par4[..., 0] + par4[..., 3]) - 1
+    c = np.einsum("ij,...j->...i", _PINV, parity)
+    return np.hypot(c[..., 0], c[..., 1])
+
+
+class GateModel:
+    """Predicted gate observables as functions of the nuisances and effect parameters.
+
+    Parameters
+    ----------
+    camp : dpdfit.analyses.diagnosis.observables.Campaign
+    tone : dpdfit.analyses.diagnosis.tone_model.ToneModel
+        Gives each setting's gate tones.
+    sig_jit : float
+        Per-scan laser-power jitter (dB).
+    """
+
+    def __init__(self, camp, tone, sig_jit: float, responses: bool = True):
+        em = camp.error_model
+        self.em = em
+        self.nominal = dict(nbar=float(em["nbar"]), T2=float(em["T2_s"]),
+                            ndot=float(em["heating_quanta_per_s"]))
+        self.p_total = float(em["p_prep"])
+        self.p_det = float(em["p_det"])
+        self.sig_jit = float(sig_jit)
+        g = camp.gates
+        self.gates = g
+        self.ts = camp.time_scans
+        self.keys = [(float(r.A), int(r.dpd)) for r in g.itertuples()]
+        self.xi = {k: float(x) for k, x in zip(self.keys, g.xi0_hz)}
+        # time scans: their settings (with the rate of the matching gate setting)
+        self.ts_keys = []
+        if self.ts is not None:
+            for (A, d), _ in self.ts.groupby(["A", "dpd"], sort=False):
+                key = (float(A), int(d))
+                self.ts_keys.append(key)
+                if key not in self.xi:
+                    # a time scan at a setting without gate data: its rate from the tones
+                    self.xi[key] = None
+        self.tone = tone
+        self.base = self._base_runs(tone, {})
+        self.resp = None
+        self.db_per_rel_xi = 10 / np.log(10)        # rate ~ power, until measured
+        self._tab = self._stk = None
+        if responses:
+            self.compute_responses()
+
+    def compute_responses(self) -> None:
+        """Engine runs of every gate-side effect at every setting (the expensive part).
+
+        Until they are computed the model predicts the baseline means only (no effects,
+        no power-error variance): enough to choose among baselines.
+        """
+        self.resp = self._response_runs()
+        # power error (dB) equivalent to a relative gate-rate error, from the imbalance
+        # of the (first) time-scan setting
+        key = self.ts_keys[0] if self.ts_keys else self.keys[0]
+        n, b, c, eO, xi = self._tones[key]
+        run = gate_sim.setting_branches(b, c, n, eO, xi * (1 + _XI_STEP), **self.nominal,
+                                        phases=PHASES, spectator=False, flip=False, **_TOL)
+        base_imb = _collapse(self.base[key]["p2"][0])[1]
+        d_xi = (_collapse(run["p2"][0])[1] - base_imb) / _XI_STEP
+        lin = (_collapse(self.resp[key]["eps+"]["p2"][0])[1]
+               - _collapse(self.resp[key]["eps-"]["p2"][0])[1]) / (2 * _STEPS["eps"])
+        self.db_per_rel_xi = float(abs(d_xi / lin))
+        self._tab = self._stk = None
+
+    # ------------------------------------------------------------------ engine
+    def _scan_times(self, key):
+        if self.ts is None:
+            return None
+        sel = np.isclose(self.ts.A, key[0]) & (self.ts.dpd == key[1])
+        t = self.ts.loc[sel, "t_s"].to_numpy()
+        return t[t > 0] if (t > 0).any() else None
+
+    def _base_runs(self, tone, p: dict) -> dict:
+        """Raw branch outcomes at every setting for the field of tone parameters ``p``."""
+        self._tones = getattr(self, "_tones", {})
+        ref = self.keys[0]
+        keys = list(dict.fromkeys(self.keys + self.ts_keys))
+        calls = []
+        for key in keys:
+            n, b, c = tone.gate_tones(p, *key)
+            unit = gate_sim.calibrate_xi0(b, c, n, 1.0)
+            xi = self.xi[key]
+            if xi is None:                          # same eta Omega0 as the first setting
+                xi = self._tones[ref][3] * unit
+            self._tones[key] = (n, b, c, xi / unit, xi)
+            calls.append(((b, c, n, xi / unit, xi), dict(
+                **self.nominal, phases=PHASES, scan_times=self._scan_times(key), **_TOL)))
+        return dict(zip(keys, pmap(gate_sim.setting_branches, calls)))
+
+    def _perturbed(self, name, step):
+        nm = dict(self.nominal)
+        if name == "gamma":
+            nm["T2"] = 1.0 / (1.0 / nm["T2"] + step)
+        elif name == "gamma_c":
+            nm["T2_corr"] = 1.0 / step
+        elif name == "ndot":
+            nm["ndot"] = nm["ndot"] + step * 1e3
+        elif name == "dnbar":
+            nm["nbar"] = nm["nbar"] + step
+        return nm
+
+    def _response_runs(self) -> dict:
+        """Two-ion branch at every setting with each gate-side effect stepped."""
+        calls, where = [], []
+        for key in dict.fromkeys(self.keys + self.ts_keys):
+            n, b, c, eO, xi = self._tones[key]
+            kw = dict(phases=PHASES, scan_times=self._scan_times(key), spectator=False,
+                      flip=False, **_TOL)
+            for name, sign in (("eps+", 1), ("eps-", -1)):
+                calls.append(((b, c, n, eO, xi), dict(**self.nominal, **kw,
+                                                      power_error_db=sign * _STEPS["eps"])))
+                where.append((key, name))
+            for name in _LINEAR:
+                calls.append(((b, c, n, eO, xi),
+                              dict(**self._perturbed(name, _STEPS[name]), **kw)))
+                where.append((key, name))
+        out = {}
+        for (key, name), run in zip(where, pmap(gate_sim.setting_branches, calls)):
+            out.setdefault(key, {})[name] = run
+        return out
+
+    def rebased(self, tone, p: dict) -> "GateModel":
+        """A copy whose baseline values use the field of tone-side parameters ``p``
+        (e.g. AOM memory changes every setting's spectrum); responses are kept."""
+        new = copy.copy(self)
+        new._tones = dict(self._tones)
+        new.base = new._base_runs(tone, p)
+        new._tab = new._stk = None
+        return new
+
+    # ------------------------------------------------------------------ tables
+    def _stack(self, keys, part):
+        """Arrays over ``keys`` of the base branch outcomes and the two-ion responses."""
+        sel = (lambda a: a[0]) if part == "gate" else (lambda a: a[1:])
+        base = {}
+        for name in ("p2", "p1", "p2_01", "p1_1"):
+            base[name] = np.stack([sel(self.base[key][name]) for key in keys])
+        if part == "gate":
+            for name in ("par2", "par1", "par2_01", "par1_1"):
+                base[name] = np.stack([self.base[key][name] for key in keys])
+        if self.resp is None:
+            zero = {q: np.zeros_like(base[q]) for q in (("p2", "par2") if part == "gate"
+                                                        else ("p2",))}
+            return base, {name: zero for name in _LINEAR}, zero, zero
+        d = {}
+        for name in _LINEAR:
+            d[name] = {q: np.stack([(sel(self.resp[key][name][q]) if q == "p2"
+                                     else self.resp[key][name][q]) - (
+                                        sel(self.base[key][q]) if q == "p2"
+                                        else self.base[key][q]) for key in keys]) / _STEPS[name]
+                       for q in (("p2", "par2") if part == "gate" else ("p2",))}
+        e = _STEPS["eps"]
+        lin, quad = {}, {}
+        for q in (("p2", "par2") if part == "gate" else ("p2",)):
+            plus = np.stack([sel(self.resp[key]["eps+"][q]) if q == "p2"
+                             else self.resp[key]["eps+"][q] for key in keys])
+            minus = np.stack([sel(self.resp[key]["eps-"][q]) if q == "p2"
+                              else self.resp[key]["eps-"][q] for key in keys])
+            lin[q] = (plus - minus) / (2 * e)
+            quad[q] = (plus + minus - 2 * base[q]) / (2 * e * e)
+        return base, d, lin, quad
+
+    @property
+    def stated_rate_error(self) -> float:
+        """The lab's stated relative gate-rate error (median ``xi0_err/xi0``, else the
+        error model's ``xi0_rel_err``)."""
+        rel = self.gates.xi0_rel_err.to_numpy(dtype=float)
+        return (float(np.nanmedian(rel)) if np.isfinite(rel).any()
+                else float(self.em.get("xi0_rel_err", 0.01)))
+
+    @property
+    def rate_error_stated(self) -> bool:
+        """Whether the lab states each setting's gate-rate error (``xi0_err_khz``)."""
+        return bool(np.isfinite(self.gates.xi0_rel_err.to_numpy(dtype=float)).any())
+
+    def set_rate_scatter(self, rel: float) -> None:
+        """Relative scatter of the settings' gate-rate calibrations (a nuisance)."""
+        self.rate_rel = float(rel)
+        self._tab = None
+
+    def _tables(self):
+        if self._tab is not None:
+            return self._tab
+        g = self.gates
+        self._tab = tab = dict(self._stacks())
+        vj = self.sig_jit ** 2
+        vx = self.rate_error_db() ** 2
+        ns = g.n_scans.to_numpy(dtype=float)
+        tab["var"] = (vj / ns + vx, 2 * (vj ** 2 / ns + vx ** 2))
+        return tab
+
+    def _stacks(self):
+        if self._stk is None or self._stk[0] is not self.base:
+            self._stk = (self.base, {"gate": self._stack(self.keys, "gate"),
+                                     "ts": [self._stack([key], "scan") for key in self.ts_keys]})
+        return self._stk[1]
+
+    # ------------------------------------------------------------------ predict
+    def _prep(self, p: dict):
+        total = self.p_total + float(p.get("p_prep", 0.0))
+        f = float(np.clip(p.get("prep_split", 0.5), 0.0, 1.0))
+        det = (max(float(p.get("e01", self.p_det)), 0.0), max(float(p.get("e10", self.p_det)), 0.0))
+        return f * total, (1 - f) * total, det
+
+    def _observe(self, base, d, lin, quad, p, eps, v_mean, gate: bool):
+        """Measured probabilities at power error ``eps`` (dB) for parameters ``p``."""
+        ps, pf, det = self._prep(p)
+        vm = np.asarray(v_mean, dtype=float)
+
+        def two_ion(q):
+            v = base[q] + lin[q] * eps + quad[q] * (eps ** 2 + vm.reshape(
+                vm.shape + (1,) * (base[q].ndim - vm.ndim)))
+            for name in _LINEAR:
+                v = v + d[name][q] * float(p.get(name, 0.0))
+            return v
+
+        pop = gate_sim.mix_branches(two_ion("p2"), base["p1"], ps, pf, base["p2_01"], None,
+                                    base["p1_1"])
+        pop = gate_sim.confusion(pop, det)
+        if not gate:
+            return pop, None
+        par = gate_sim.mix_branches(two_ion("par2"), base["par1"], ps, pf, base["par2_01"],
+                                    None, base["par1_1"])
+        return pop, gate_sim.confusion(par, det)
+
+    def predict(self, p: dict) -> dict:
+        """Predicted gate observables and their model-side variances.
+
+        Returns dict with arrays over the settings (order of ``camp.gates``):
+        ``F_pop, imb, C``, their model-side variances ``var_*`` (known random
+        power errors), the shared directions of those errors ``dlin_*``
+        (``d/d eps`` at ``eps``, per dB) and ``dquad_*`` (half the second
+        derivative), with weights ``v_lin`` (dB^2) and ``v_quad`` (dB^4): the
+        three observables of one setting see the *same* power errors, so their
+        model-side covariance is ``v_lin dlin dlin^T + v_quad dquad dquad^T``;
+        and over the time-scan points (``t > 0``, concatenated over scans):
+        ``P00_t, P11_t``.  Time scan ``k`` also takes ``eps_ts{k}``, its own
+        gate-rate error (dB), on top of ``eps``.
+        """
+        tab = self._tables()
+        eps = float(p.get("eps", 0.0))
+        v_mean, v_quad = tab["var"]
+        base, d, lin, quad = tab["gate"]
+        h = _STEPS["eps"] / 3
+        vals = {}
+        for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
+            pop, par = self._observe(base, d, lin, quad, p, e, v_mean, True)
+            F, imb = _collapse(pop)
+            vals[s] = {"F_pop": F, "imb": imb, "C": _contrast(par)}
+        res = {}
+        for q in ("F_pop", "imb", "C"):
+            res[q] = vals["0"][q]
+            dl = (vals["+"][q] - vals["-"][q]) / (2 * h)
+            dq = (vals["+"][q] + vals["-"][q] - 2 * vals["0"][q]) / (2 * h * h)
+            res["dlin_" + q] = dl
+            res["dquad_" + q] = dq
+            res["var_" + q] = dl ** 2 * v_mean + dq ** 2 * v_quad
+        res["v_lin"], res["v_quad"] = v_mean, v_quad
+        acc = {"P00_t": [], "P11_t": []}
+        for k, (b, dd, li, qu) in enumerate(tab["ts"]):
+            e = eps + float(p.get(f"eps_ts{k}", 0.0))
+            pop, _ = self._observe(b, dd, li, qu, p, e, 0.0, False)
+            acc["P00_t"].append(pop[0, :, 0])
+            acc["P11_t"].append(pop[0, :, 3])
+        for q, v in acc.items():
+            if v:
+                res[q] = np.concatenate(v)
+        return res
+
+    @property
+    def n_time_scans(self) -> int:
+        return len(self.ts_keys)
+
+    def rate_error_db(self) -> float:
+        """1-sigma power-equivalent error (dB) of one setting's gate-rate calibration."""
+        rel = getattr(self, "rate_rel", None)
+        return float(self.db_per_rel_xi * (self.stated_rate_error if rel is None else rel))

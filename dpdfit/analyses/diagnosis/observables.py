@@ -1,0 +1,370 @@
+"""Recorded observables of a campaign, standardised for the discrepancy diagnosis (issue #7).
+
+Reads a campaign folder (layout of :mod:`dpdfit.simulation.campaign`) into the
+quantities that the forward model predicts, each with a 1-sigma error that
+contains every known noise source and nothing else:
+
+* **tone features** per trace (``spectra.csv``): ``R10 = P1 - P0``,
+  ``R23 = P2 - P3``, ``R5lo = P1 - P(-1)`` and ``R5hi = P2 - P4`` (IM5),
+  ``gate_balance = P2 - P1`` per sideband, ``red_blue`` (mean red minus mean
+  blue gate tone) and ``gate_power`` (mean gate tone minus ``20 log10 A``, up
+  to a constant).  Ratios within one trace cancel its laser-power jitter;
+  ``gate_power`` carries it (``power_jitter_db`` of the lab's error model).
+  Tone powers are debiased for the noise in their bin: the extraction's
+  floor is the *median* noise power, the mean is ``floor / ln 2``
+  (:mod:`dpdfit.fits.tones`), so ``P = |c|^2 + N0`` and the error of a
+  tone at SNR ``s`` is ``(10/ln 10) sqrt(2 N0 / P)`` dB.  Tones below
+  ``MIN_SNR_DB`` are not used (their reading is an upper limit).
+* **gate observables** per setting ``(A, dpd)``, pooled over the scans:
+  population fidelity ``F_pop = P00 + P11``, imbalance ``P00 - P11`` and the
+  mean of the scans' parity contrasts (binomial MLE per scan, :mod:`dpdfit.fits.counts`;
+  not the count-level merge, whose contrast the scans' power jitter washes out).
+* **time scans**: ``P00`` and ``P11`` at each scan time (binomial).
+* **calibration residuals** of the model's own amplitude and phase runs.
+
+Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.tone_model`
+and :mod:`dpdfit.analyses.diagnosis.gate_model`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.core.defaults import NBAR
+from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase, fit_amplitude
+from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.fits.counts import fit_parity
+from dpdfit.errors import DpdfitError, InputError
+from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
+from dpdfit.recordings.tables import list_runs
+
+__all__ = ["DEFAULT_ERROR_MODEL", "DRIFT_MODE_SIGNIFICANCE", "EXTRACTION_FLOOR_DB", "MAX_DRIFT_MODES", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
+           "TONE_HARMONICS", "MIN_SNR_DB"]
+
+#: tones weaker than this above the (median) floor are not used
+MIN_SNR_DB = 15.0
+#: extraction error floor of a tone power (flat-top scalloping, dB)
+EXTRACTION_FLOOR_DB = 0.01
+#: per-trace tone features: name -> (sideband-resolved, harmonics used)
+TONE_FEATURES = {
+    "R10": (True, (1, 0)), "R23": (True, (2, 3)), "R5lo": (True, (1, -1)),
+    "R5hi": (True, (2, 4)), "gate_balance": (True, (2, 1)),
+    "red_blue": (False, (1, 2)), "gate_power": (False, (1, 2)),
+}
+DEFAULT_ERROR_MODEL = {"nbar": NBAR, "T2_s": 50e-3, "heating_quanta_per_s": 5.0,
+                       "p_prep": 0.003, "p_det": 5e-5, "power_jitter_db": 0.2,
+                       "xi0_rel_err": 0.01}
+#: harmonics n of the recorded tone powers (last axis of ``Campaign.P_dB``)
+TONE_HARMONICS = (-1, 0, 1, 2, 3, 4)
+SIDEBANDS = ("red", "blue")
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A campaign's recordings and the lab's own model inputs.
+
+    Attributes
+    ----------
+    folder : Path
+    meta : dict
+        ``campaign.json``.
+    amplitude, phase : calibration results of the model's runs (phase may be None)
+    amp_residuals, phase_residuals : pandas.DataFrame
+        ``A, z`` standardised fit residuals of those runs.
+    A_tones : ndarray
+        Amplitudes of the spectra grid.
+    P_dB, sd_dB : ndarray, shape (nA, 2 dpd, 2 sideband, len(TONE_HARMONICS))
+        Debiased tone powers and their errors (NaN where unusable).
+    gates : pandas.DataFrame
+        Per setting: ``A, dpd, xi0_hz, xi0_rel_err, n_scans`` and the measured
+        ``F_pop, imb, C`` with shot-noise errors ``*_shot``.
+    time_scans : pandas.DataFrame
+        ``A, dpd, t_s, n00, n11, shots``.
+    error_model : dict
+        The lab's error model (``campaign.json`` ``error_model``, else defaults).
+    warnings : tuple of str
+        One line each, e.g. a non-monotone model calibration.
+    """
+
+    folder: Path
+    meta: dict
+    amplitude: object
+    phase: object
+    amp_residuals: pd.DataFrame
+    phase_residuals: pd.DataFrame | None
+    A_tones: np.ndarray
+    P_dB: np.ndarray
+    sd_dB: np.ndarray
+    gates: pd.DataFrame | None
+    time_scans: pd.DataFrame | None
+    error_model: dict = field(default_factory=dict)
+    warnings: tuple = ()
+    #: recorded tone powers (dB, before debiasing), same shape as ``P_dB``
+    P_raw: np.ndarray | None = None
+    #: recorded SNR over the median noise power (NaN without ``snr_db``)
+    snr_raw: np.ndarray | None = None
+    #: spectra.csv carries snr_db (else the noise floor is estimated by the diagnosis)
+    has_snr: bool = True
+    #: campaign.json carries the lab's error_model
+    has_error_model: bool = True
+    #: what the folder lacks and what that leaves out of the analysis, one line each
+    left_out: tuple = ()
+    #: run-to-run drift of the amplitude calibration: coefficient directions (k = 2..K) of
+    #: its significant principal components, each scaled to its run-to-run sd (m x (K-1))
+    drift_modes: np.ndarray | None = None
+    #: noise models learnt from the calibration runs when the files give no errors
+    #: (``photodiode``: sigma(P) = sqrt(a^2 + (b P)^2); ``phase``: sqrt(c^2 + (d/A)^2))
+    calibration_noise: dict = field(default_factory=dict)
+
+    @property
+    def nu(self) -> float:
+        return float(self.meta["nu_hz"])
+
+    @property
+    def xi0_spectra(self) -> float:
+        return float(self.meta["xi0_spectra_hz"])
+
+    @property
+    def has_imbalance(self) -> bool:
+        return self.gates is not None and bool(np.isfinite(self.gates["imb"]).any())
+
+
+def _residual_frame(cal, A, value, err) -> pd.DataFrame:
+    pred = cal.power(A) if hasattr(cal, "power") else cal.phi(A)
+    if err is None:
+        err = np.full_like(value, np.std(value - pred))
+    return pd.DataFrame({"A": A, "z": (value - pred) / err})
+
+
+def _calibrations(cf: CampaignFolder, noise: dict):
+    data, noise["photodiode"] = model_run_with_noise(cf)
+    amp = calibrate_amplitude(data, int(cf.meta["order"]))
+    amp_res = _residual_frame(amp, data.A, data.value, data.error)
+    ph, ph_res = None, None
+    pdata, noise["phase"] = phase_run_with_noise(cf)
+    if pdata is not None:
+        ph = calibrate_phase(pdata)
+        use = pdata.A >= 0.1
+        ph_res = _residual_frame(ph, pdata.A[use], pdata.value[use],
+                                 None if pdata.error is None else pdata.error[use])
+    return amp, amp_res, ph, ph_res
+
+
+#: at most this many run-to-run drift modes; a mode counts if its run-to-run sd exceeds
+#: DRIFT_MODE_SIGNIFICANCE times the runs' median fit error (both rms over 0 <= A <= 1)
+MAX_DRIFT_MODES = 3
+DRIFT_MODE_SIGNIFICANCE = 2.0
+
+
+def _drift_modes(cf: CampaignFolder, order: int) -> np.ndarray | None:
+    """Principal components of the amplitude runs' normalised curves (see Campaign)."""
+    df = cf.amplitude_runs
+    runs = list_runs(df)
+    if len(runs) < 3:
+        return None
+    C, err = [], []
+    A = np.linspace(0.0, 1.0, 101)
+    for r in runs:
+        sub = df[df["run"] == r]
+        try:
+            f = fit_amplitude(sub["A"].to_numpy(), sub["power"].to_numpy(),
+                              sub["power_err"].to_numpy() if "power_err" in sub.columns else None,
+                              order)
+        except DpdfitError:
+            continue
+        C.append(np.asarray(f.coefficients)[1:])
+        err.append(np.sqrt(np.mean(f.y_stderr(A) ** 2)))
+    if len(C) < 3:
+        return None
+    C = np.array(C)
+    V = A[:, None] ** np.arange(2, order + 1)[None, :]
+    _, sv, Vt = np.linalg.svd((C - C.mean(0)) @ V.T, full_matrices=False)
+    sd = sv / np.sqrt((len(C) - 1) * A.size)                  # rms over A of each mode
+    keep = [i for i in range(min(MAX_DRIFT_MODES, sd.size))
+            if sd[i] > DRIFT_MODE_SIGNIFICANCE * np.median(err)]
+    if not keep:
+        keep = [0]
+    # function-space direction -> coefficients (least squares on the grid), scaled to 1 sd
+    coef = np.linalg.lstsq(V, Vt[keep].T * sd[keep] * np.sqrt(A.size), rcond=None)[0]
+    return coef.T
+
+
+def _tones(cf: CampaignFolder):
+    """Recorded tone powers and (if recorded) SNRs on the (A, dpd, sideband, harmonic) grid."""
+    df = cf.spectra
+    A = np.unique(df["A"].to_numpy(dtype=float))
+    P = np.full((A.size, 2, 2, len(TONE_HARMONICS)), np.nan)
+    snr = np.full_like(P, np.nan)
+    iA = np.searchsorted(A, df["A"].to_numpy(dtype=float))
+    d = df["dpd"].to_numpy(dtype=int)
+    s = (df["sideband"] == "blue").to_numpy(dtype=int)
+    n = df["n"].to_numpy(dtype=int)
+    keep = np.isin(n, TONE_HARMONICS)
+    h = np.searchsorted(TONE_HARMONICS, n[keep])
+    P[iA[keep], d[keep], s[keep], h] = df["P_dB"].to_numpy(dtype=float)[keep]
+    if "snr_db" in df.columns:
+        snr[iA[keep], d[keep], s[keep], h] = df["snr_db"].to_numpy(dtype=float)[keep]
+    return A, P, snr, "snr_db" in df.columns
+
+
+def debias_tones(P_raw: np.ndarray, N0: np.ndarray):
+    """Tone powers debiased for the noise in their bin, and the noise part of their error.
+
+    ``P_raw`` (dB) reads ``|c + n|^2`` with complex noise of mean power ``N0``
+    (linear, broadcastable), so ``E P = |c|^2 + N0``; the debiased power is
+    ``10 log10(P - N0)`` and its error ``(10/ln 10) sqrt(2 N0 / (P - N0))`` dB.
+    Tones below ``MIN_SNR_DB`` over the *median* noise power ``N0 ln 2`` are
+    not used (NaN: their reading is an upper limit).
+
+    Returns
+    -------
+    (P_dB, sd_noise_dB) : arrays of the shape of ``P_raw``
+    """
+    N0 = np.broadcast_to(np.asarray(N0, dtype=float), P_raw.shape)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        snr = P_raw - 10 * np.log10(N0 * np.log(2))
+        lin = 10 ** (P_raw / 10) - N0
+        ok = np.isfinite(P_raw) & (snr >= MIN_SNR_DB) & (lin > 0)
+        lin = np.where(ok, lin, 1.0)
+        val = np.where(ok, 10 * np.log10(lin), np.nan)
+        err = np.where(ok, 10 / np.log(10) * np.sqrt(2 * N0 / lin), np.nan)
+    return val, err
+
+
+def tone_features(P_dB: np.ndarray, A: np.ndarray, sd_dB: np.ndarray | None = None):
+    """Per-trace features of tone powers (see module doc).
+
+    Parameters
+    ----------
+    P_dB : ndarray, shape (nA, 2, 2, len(TONE_HARMONICS))
+    A : ndarray, shape (nA,)
+    sd_dB : ndarray, optional
+        Errors of ``P_dB``; the features' errors are propagated (tones independent).
+
+    Returns
+    -------
+    dict name -> (value, sd) with arrays of shape (nA, 2 dpd, 2 sideband) for
+    sideband-resolved features and (nA, 2 dpd, 1) otherwise (``sd`` None if not given).
+    """
+    def tone(n):
+        return P_dB[..., TONE_HARMONICS.index(n)]
+
+    def var(n):
+        return None if sd_dB is None else sd_dB[..., TONE_HARMONICS.index(n)] ** 2
+
+    out = {}
+    for name, (per_sb, (a, b)) in TONE_FEATURES.items():
+        if per_sb:
+            v = tone(a) - tone(b)
+            e = None if sd_dB is None else np.sqrt(var(a) + var(b))
+        elif name == "red_blue":
+            g = 0.5 * (tone(1) + tone(2))                       # (nA, 2, 2)
+            v = (g[..., 0] - g[..., 1])[..., None]
+            e = None if sd_dB is None else 0.5 * np.sqrt(var(1).sum(-1) + var(2).sum(-1))[..., None]
+        else:                                                   # gate_power
+            g = 0.25 * (tone(1) + tone(2)).sum(-1)
+            v = (g - 20 * np.log10(np.maximum(A, 1e-300))[:, None])[..., None]
+            e = None if sd_dB is None else 0.25 * np.sqrt(var(1).sum(-1) + var(2).sum(-1))[..., None]
+        out[name] = (v, e)
+    return out
+
+
+def _gates(cf: CampaignFolder):
+    pop, par, rates = cf.populations, cf.parity, cf.gate_rates
+    if pop is None or par is None or rates is None:
+        return None
+    rate_path = str(cf.file("gate_rates.csv"))
+    has_imb = {"n00", "n11"} <= set(pop.columns)
+    rows = []
+    for (A, d), g in pop.groupby(["A", "dpd"]):
+        r = rates[(np.isclose(rates.A, A)) & (rates.dpd == d)]
+        if r.empty:
+            raise InputError(f"no gate rate for A={A:g}, dpd={int(d)}", file=rate_path,
+                             column="xi0_khz")
+        sel = par[(np.isclose(par.A, A)) & (par.dpd == d)]
+        if sel.empty:
+            raise InputError(f"setting A={A:g}, dpd={int(d)} has populations but no parity "
+                             "scans", file=str(cf.file("parity.csv")), column="A")
+        N = float(g["shots"].sum())
+        F = float(g["n_even"].sum()) / N
+        # contrast per scan, averaged: each scan's power error also moves its
+        # fringe phase, so a count-level merge would wash the contrast out
+        cs, es = [], []
+        for _, sc in sel.groupby("scan"):
+            f = fit_parity(sc["phase_rad"].to_numpy(), sc["n_even"].to_numpy(),
+                           sc["shots"].to_numpy())
+            cs.append(f.A)
+            es.append(f.A_err)
+        xi = float(r["xi0_khz"].iloc[0]) * 1e3
+        rel = (float(r["xi0_err_khz"].iloc[0]) * 1e3 / xi if "xi0_err_khz" in r.columns
+               else np.nan)
+        pe = max(min(F, 1 - 0.5 / N), 0.5 / N)
+        row = {"A": float(A), "dpd": int(d), "xi0_hz": xi, "xi0_rel_err": rel,
+               "n_scans": int(g["scan"].nunique()), "shots": N,
+               "F_pop": F, "F_pop_shot": np.sqrt(pe * (1 - pe) / N),
+               "imb": np.nan, "imb_shot": np.nan,
+               "C": float(np.mean(cs)), "C_shot": float(np.sqrt(np.sum(np.square(es))) / len(es))}
+        if has_imb:
+            p00, p11 = g["n00"].sum() / N, g["n11"].sum() / N
+            row["imb"] = p00 - p11
+            row["imb_shot"] = np.sqrt(max(p00 + p11 - (p00 - p11) ** 2, 1.0 / N) / N)
+        rows.append(row)
+    return pd.DataFrame(rows).sort_values(["dpd", "A"], ignore_index=True)
+
+
+def _time_scans(cf: CampaignFolder):
+    ts = cf.time_scans
+    if ts is None:
+        return None
+    return ts[["A", "dpd", "t_s", "n00", "n11", "shots"]].reset_index(drop=True)
+
+
+def load_campaign(folder) -> Campaign:
+    """Read and validate a campaign folder for the diagnosis.
+
+    ``folder`` is a path or a :class:`~dpdfit.recordings.campaign_folder.CampaignFolder`
+    (the reader ``dpdfit analyze`` shares).  Required: ``campaign.json``,
+    ``calibration_amplitude.csv``, ``spectra.csv``; everything else is
+    optional and what is absent is listed in :attr:`Campaign.left_out`.
+    """
+    cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
+    cal_noise = {}
+    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise)
+    warnings = []
+    if not amp.monotone:
+        iv = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in amp.nonmonotone_intervals)
+        warnings.append(f"{cf.file('calibration_amplitude.csv')}, run "
+                        f"{amp.source.get('run', '?')}: amplitude calibration decreases on "
+                        f"A in {iv}; the predistortion table clamps there")
+    cf.require("spectra.csv", "the diagnosis")
+    A, P_raw, snr, has_snr = _tones(cf)
+    if has_snr:
+        # the recorded SNR is over the median noise power: mean power = floor / ln 2
+        N0 = 10 ** ((P_raw - snr) / 10) / np.log(2)
+        P, sd = debias_tones(P_raw, np.where(np.isfinite(N0), N0, np.inf))
+    else:
+        P, sd = np.full_like(P_raw, np.nan), np.full_like(P_raw, np.nan)
+    em = dict(DEFAULT_ERROR_MODEL)
+    em.update(cf.raw_meta.get("error_model") or {})
+    gates = _gates(cf)
+    left = cf.left_out()
+    if not has_snr:
+        left.append("spectra.csv has no snr_db: the noise floor is estimated from the "
+                    "recordings (IM tones at low A)")
+    pop = cf.populations
+    if gates is not None and pop is not None and not {"n00", "n11"} <= set(pop.columns):
+        left.append("populations.csv has no n00/n11: the imbalance P00 - P11 is not used")
+    if ph is None:
+        left.append("no phase calibration: the model has no AM-to-PM")
+    return Campaign(folder=cf.path, meta=cf.meta, amplitude=amp, phase=ph,
+                    amp_residuals=amp_res, phase_residuals=ph_res, A_tones=A, P_dB=P,
+                    sd_dB=sd, gates=gates, time_scans=_time_scans(cf), error_model=em,
+                    warnings=tuple(warnings), P_raw=P_raw, snr_raw=snr, has_snr=has_snr,
+                    has_error_model="error_model" in cf.raw_meta, left_out=tuple(left),
+                    drift_modes=_drift_modes(cf, int(cf.meta["order"])),
+                    calibration_noise={k: None if v is None else v.to_dict()
+                                       for k, v in cal_noise.items()})

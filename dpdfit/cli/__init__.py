@@ -1,0 +1,3 @@
+"""The ``dpdfit`` command line: a thin layer over the API."""
+
+__all__: list[str] = []

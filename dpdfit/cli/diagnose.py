@@ -1,0 +1,45 @@
+"""``dpdfit diagnose``: locate simulation/recording mismatches and name the missing physics."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
+from dpdfit.recordings.outputs import to_jsonable
+from dpdfit.report.diagnosis_plots import plot_diagnosis
+
+__all__ = ["add_diagnose_command", "cmd_diagnose"]
+
+
+def cmd_diagnose(args) -> int:
+    """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr."""
+    res = diagnose(args.campaign, pairs=args.pairs)
+    for w in res.extra.get("warnings", []):
+        print(f"dpdfit: warning: {w}", file=sys.stderr)
+    if args.plot:
+        plot_diagnosis(res, args.campaign, args.plot)
+    if args.json:
+        print(json.dumps(to_jsonable(res.to_dict()), indent=2))
+    else:
+        print(res.report())
+    return 0
+
+
+def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR] [--pairs 3]``."""
+    s = subparsers.add_parser(
+        "diagnose", help="locate simulation/recording mismatches and name the missing physics",
+        description="Standardised residuals of every observable against the simulation built "
+                    "from the campaign's own calibration; interval scan with Bonferroni "
+                    "correction; catalog effects fitted and ranked by BIC and likelihood-ratio "
+                    "tests; verdict: an effect, 'none' or 'unexplained'.")
+    s.add_argument("campaign", metavar="CAMPAIGN_DIR")
+    s.add_argument("--json", action="store_true", help="print JSON instead of a report")
+    s.add_argument("--plot", metavar="DIR", help="write before/after residual plots into DIR")
+    s.add_argument("--pairs", type=int, default=DEFAULT_PAIRS,
+                   help="fit pairs of this many best single effects when there is a mismatch "
+                        f"({DEFAULT_PAIRS})")
+    s.set_defaults(func=cmd_diagnose)
+    return s

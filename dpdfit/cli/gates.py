@@ -1,0 +1,128 @@
+"""``dpdfit fidelity`` and ``dpdfit align``: the measured gate side (S6.3-S6.4, S7).
+
+``fidelity`` infers Bell fidelities from raw population and parity counts;
+``align`` fits the scale ``alpha`` and offset ``delta`` that put the
+photodiode curves of a sweep onto the gate data.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from dpdfit.recordings.outputs import read_csv_header, refuse_overwriting_inputs, to_jsonable
+from dpdfit.recordings.tables import read_table
+
+__all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_align"]
+
+
+# ----------------------------------------------------------------------------- fidelity
+
+
+def _gate_table(pop_path, par_path, interval, rates_path=None):
+    from dpdfit.fits.counts import gate_fidelities
+    from dpdfit.recordings.counts import read_parity, read_populations
+    pop = read_populations(pop_path)
+    par = read_parity(par_path)
+    tab = gate_fidelities(pop, par, interval=interval)
+    if rates_path:
+        rates = read_table(rates_path, ["A", "dpd", "xi0_khz", "xi0_err_khz"],
+                           ranges={"dpd": (0, 1)})
+        rates["dpd"] = rates["dpd"].astype(int)
+        tab = tab.merge(rates[["A", "dpd", "xi0_khz", "xi0_err_khz"]], on=["A", "dpd"],
+                        how="left")
+    return tab
+
+
+def _print_gate_table(records) -> None:
+    print(f"{'A':>6s} {'dpd':>3s} {'F_pop':>9s} {'+/-':>7s} {'F_par':>9s} {'+/-':>7s} "
+          f"{'F':>9s} {'+/-':>7s} {'scans':>5s} {'shots':>6s}")
+    for r in records:
+        print(f"{r['A']:6.3f} {int(r['dpd']):3d} {r['F_pop']:9.5f} {r['F_pop_err']:7.5f} "
+              f"{r['F_par']:9.5f} {r['F_par_err']:7.5f} {r['F']:9.5f} {r['F_err']:7.5f} "
+              f"{int(r['n_scans']):5d} {int(r['shots']):6d}")
+
+
+def cmd_fidelity(args) -> int:
+    outs = [args.output] if args.output else []
+    refuse_overwriting_inputs(outs, [args.populations, args.parity, args.gate_rates])
+    tab = _gate_table(args.populations, args.parity, args.interval, args.gate_rates)
+    records = tab.to_dict(orient="records")
+    if args.output:
+        from dpdfit.recordings.outputs import atomic_write_text
+        atomic_write_text(args.output, tab.to_csv(index=False, float_format="%.10g"))
+    if args.json:
+        print(json.dumps(to_jsonable(records), indent=2))
+    else:
+        _print_gate_table(records)
+    if args.plot:
+        from dpdfit.fits.counts import merge_parity
+        from dpdfit.recordings.counts import read_parity
+        from dpdfit.report.gate_plots import plot_parity_only
+        par = merge_parity(read_parity(args.parity))
+        for p in plot_parity_only(tab, par, args.plot):
+            print(f"wrote {p}", file=sys.stderr)
+    if args.output:
+        print(f"wrote {args.output}", file=sys.stderr)
+    return 0
+
+
+def add_fidelity_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit fidelity`` on an argparse sub-parsers object."""
+    f = subparsers.add_parser("fidelity",
+                              help="Bell fidelities from raw population and parity counts (S7)")
+    f.add_argument("--populations", required=True, metavar="POP.csv",
+                   help="A, dpd, scan, n_even, shots (or n00, n01_10, n11, shots)")
+    f.add_argument("--parity", required=True, metavar="PARITY.csv",
+                   help="A, dpd, scan, phase_rad, n_even, shots")
+    f.add_argument("--interval", choices=["wilson", "clopper-pearson"], default="wilson",
+                   help="population interval near 1 (wilson)")
+    f.add_argument("--gate-rates", metavar="RATES.csv",
+                   help="A, dpd, xi0_khz, xi0_err_khz: joined into -o")
+    f.add_argument("-o", "--output", metavar="GATE.csv", help="write the table as CSV")
+    f.add_argument("--json", action="store_true",
+                   help="print a JSON list (one record per A, dpd)")
+    f.add_argument("--plot", metavar="DIR", help="write the parity-fringe figure (Fig. S8)")
+    f.set_defaults(func=cmd_fidelity)
+    return f
+
+
+# ----------------------------------------------------------------------------- align
+
+
+def cmd_align(args) -> int:
+    from dpdfit.analyses.sweep import COLUMNS
+    from dpdfit.fits.alignment import align
+    gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
+                      numeric=["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
+                      ranges={"dpd": (0, 1)})
+    sweep = read_table(args.sweep, COLUMNS, numeric=[c for c in COLUMNS if c != "sideband"])
+    sweep["dpd"] = sweep["dpd"].astype(int)
+    meta = read_csv_header(args.sweep)
+    sweep.attrs["A_corr"] = meta.get("A_corr")
+    fit = align(gate, sweep, args.sigma_db)
+    if args.json:
+        print(json.dumps(to_jsonable(fit.to_dict()), indent=2))
+    else:
+        print(fit.report())
+    if args.plot:
+        from dpdfit.report.gate_plots import plot_gate_figures
+        g = gate.copy()
+        for p in plot_gate_figures(g, sweep, fit, args.plot):
+            print(f"wrote {p}", file=sys.stderr)
+    return 0
+
+
+def add_align_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit align`` on an argparse sub-parsers object."""
+    al = subparsers.add_parser(
+        "align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
+    al.add_argument("--gate", required=True, help="A, dpd, xi0_khz, xi0_err_khz, F, F_err")
+    al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")
+    al.add_argument("--sigma-db", type=float, default=0.2,
+                    help="laser-power fluctuation, dB (0.2)")
+    al.add_argument("--json", action="store_true")
+    al.add_argument("--plot", metavar="DIR", help="write Figs. 3 and 4 (PNG)")
+    al.set_defaults(func=cmd_align)
+    return al

@@ -1,0 +1,91 @@
+"""``dpdfit harness``: injection-recovery harness of the diagnosis, or external campaigns.
+
+Without ``--campaigns`` it runs :func:`dpdfit.simulation.harness.run_harness`
+(simulated campaigns with concealed effects); with ``--campaigns DIR --truth
+FILE`` it diagnoses campaigns written elsewhere
+(:func:`dpdfit.simulation.harness_external.run_external`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from dpdfit.errors import InputError
+from dpdfit.recordings.outputs import to_jsonable
+from dpdfit.simulation.harness import (CONCEALED, NULLS, PER_EFFECT, PLAN_SEED, report,
+                                       run_harness, write_report)
+from dpdfit.simulation.harness_external import report_external, run_external
+
+__all__ = ["add_harness_command", "cmd_harness"]
+
+
+def cmd_harness(args) -> int:
+    """``dpdfit harness``: run the harness (or the external mode) and print its summary."""
+    def prog(k, n):
+        if args.progress:
+            print(f"\r[harness] {k}/{n}", end="", file=sys.stderr, flush=True)
+
+    if args.campaigns or args.truth:
+        return _cmd_external(args, prog)
+    effects = tuple(args.effects.split(",")) if args.effects else CONCEALED
+    s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
+                    effects, progress=prog, log=args.log)
+    if args.progress:
+        print(file=sys.stderr)
+    if args.output:
+        write_report(s, args.output)
+    if args.json:
+        print(json.dumps(to_jsonable({k: v for k, v in s.items() if k != "runs"}), indent=2))
+    else:
+        print(report(s))
+    return 0
+
+
+def _cmd_external(args, prog) -> int:
+    """``dpdfit harness --campaigns DIR --truth FILE``: diagnose external campaigns
+    (:mod:`dpdfit.simulation.harness_external`)."""
+    if not (args.campaigns and args.truth):
+        raise InputError("--campaigns DIR and --truth FILE go together")
+    s = run_external(args.campaigns, args.truth, args.workers, args.scheduler, progress=prog)
+    if args.progress:
+        print(file=sys.stderr)
+    if args.output:
+        write_report(s, args.output)
+    if args.json:
+        print(json.dumps(to_jsonable(s), indent=2))
+    else:
+        print(report_external(s))
+    return 0
+
+
+def add_harness_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit harness [--per-effect 20] [--nulls 20] [--workers N]
+    [--scheduler ADDR] [--json]`` on an argparse sub-parsers object (``func=cmd_harness``)."""
+    s = subparsers.add_parser(
+        "harness", help="injection-recovery harness of the diagnosis (parallel)",
+        description="Simulate campaigns with each catalog effect concealed at realistic "
+                    "strengths plus null campaigns, diagnose each, and report the confusion "
+                    "matrix, false-alarm rate, parameter recovery and fit improvement.")
+    s.add_argument("--per-effect", type=int, default=PER_EFFECT,
+                   help=f"campaigns per effect ({PER_EFFECT})")
+    s.add_argument("--nulls", type=int, default=NULLS,
+                   help=f"campaigns with nothing concealed ({NULLS})")
+    s.add_argument("--workers", type=int, default=None, help="local processes (all cores)")
+    s.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address")
+    s.add_argument("--effects", help="comma-separated subset of concealed effects")
+    s.add_argument("--seed", type=int, default=PLAN_SEED,
+                   help=f"seed of the injection plan ({PLAN_SEED})")
+    s.add_argument("--output", "-o", metavar="FILE.json", help="write the full report (all runs)")
+    s.add_argument("--log", metavar="FILE.jsonl",
+                   help="append every finished run to this log at once; runs already in it "
+                        "are not run again (re-running the command resumes)")
+    s.add_argument("--campaigns", metavar="DIR",
+                   help="external mode: diagnose every campaign folder in DIR (with --truth)")
+    s.add_argument("--truth", metavar="FILE",
+                   help="external mode: JSON, campaign id -> {\"effect\": ...}")
+    s.add_argument("--progress", action="store_true", help="progress on stderr")
+    s.add_argument("--json", action="store_true", help="print the summary as JSON")
+    s.set_defaults(func=cmd_harness)
+    return s

@@ -1,0 +1,76 @@
+"""The ``dpdfit`` command line: a thin layer over the Python API.
+
+Every sub-command validates its inputs through :mod:`dpdfit.recordings.tables`, calls the
+API, and writes its outputs atomically.  Any :class:`~dpdfit.errors.DpdfitError`
+is printed as one line ``dpdfit: error: ...`` on stderr with exit status 2.
+
+Each command (or small family of commands) lives in its own module of
+:mod:`dpdfit.cli` with an ``add_<command>_command(subparsers)`` that registers
+it; this module only assembles the parser, in the order of ``dpdfit --help``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from dpdfit.cli.calibration import add_calibrate_command, add_lut_command, add_polyfit_command
+from dpdfit.cli.campaign import add_analyze_command, add_simulate_campaign_command
+from dpdfit.cli.gates import add_align_command, add_fidelity_command
+from dpdfit.cli.spectral import (add_estimate_command, add_im_table_command, add_sweep_command,
+                                 add_thresholds_command)
+from dpdfit.core.version import __version__
+from dpdfit.errors import DpdfitError
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``dpdfit`` parser: each command registered by its module in ``dpdfit.cli``."""
+    p = argparse.ArgumentParser(prog="dpdfit", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"dpdfit {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    add_polyfit_command(sub)
+    add_calibrate_command(sub)
+    add_lut_command(sub)
+    add_sweep_command(sub)
+    add_estimate_command(sub)
+    add_im_table_command(sub)
+    add_thresholds_command(sub)
+
+    from dpdfit.cli.spectrum import add_spectrum_command
+    from dpdfit.cli.stability import add_stability_command
+    from dpdfit.cli.budget import add_budget_command
+    from dpdfit.cli.propagate import add_propagate_command
+    add_spectrum_command(sub)
+    add_stability_command(sub)
+    add_propagate_command(sub)
+    add_budget_command(sub)
+    from dpdfit.cli.diagnose import add_diagnose_command
+    from dpdfit.cli.harness import add_harness_command
+    add_diagnose_command(sub)
+    add_harness_command(sub)
+    add_fidelity_command(sub)
+    add_align_command(sub)
+    add_simulate_campaign_command(sub)
+    add_analyze_command(sub)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run one ``dpdfit`` command; returns its exit status (2 on any input or file error)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except DpdfitError as exc:
+        print(f"dpdfit: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"dpdfit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,89 @@
+"""``dpdfit propagate``: posterior and drift of the AOM calibration propagated into F_est."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import pandas as pd
+
+from dpdfit.analyses.propagation import propagate, threshold_distribution
+from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.fits.calibration import calibrate_phase
+from dpdfit.recordings.outputs import to_jsonable
+from dpdfit.recordings.tables import read_calibration, read_table
+
+__all__ = ["add_propagate_command", "cmd_propagate"]
+
+
+def _read_runs(path: str) -> pd.DataFrame:
+    df = read_table(path, ["A", "power"], ["power_err", "run", "timestamp"],
+                    ranges={"A": (0.0, 1.0)}, positive=["power_err"])
+    return df
+
+
+def cmd_propagate(args) -> int:
+    """``dpdfit propagate``: drift propagation into F_est (report or JSON)."""
+    df = _read_runs(args.calibration_runs)
+    phase = None
+    if args.phase:
+        phase = calibrate_phase(read_calibration(args.phase, "phase", run="latest"))
+    res = propagate(df, args.A, stale_days=args.stale_days, draws=args.draws, phase=phase,
+                    order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
+                    n_steps=args.steps, force=args.force, progress=args.progress,
+                    recalibration_loss=args.loss)
+    d = res.to_dict()
+    if args.thresholds:
+        d["thresholds"] = threshold_distribution(
+            df, stale_days=args.stale_days, draws=min(args.draws, 2000), phase=phase,
+            order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
+            n_steps=args.steps, force=args.force)
+    if args.json:
+        print(json.dumps(to_jsonable(d), indent=2))
+    else:
+        print(res.report())
+        if args.thresholds:
+            for flag in ("no_dpd", "dpd"):
+                print(f"    eta_th {flag:7s}: " + ", ".join(
+                    f"{lev}: " + ("-" if v.get("median") is None else
+                                  f"{v['median']:.4f} [{v['q16']:.4f}, {v['q84']:.4f}]")
+                    for lev, v in d["thresholds"][flag].items()))
+    return 0
+
+
+def add_propagate_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit propagate`` on an argparse sub-parsers object.
+
+    ``dpdfit propagate --calibration-runs runs.csv --A 0.5 [--stale-days D]
+    [--draws N] [--json] [--force]``; the registered ``func`` returns an exit
+    code and raises :class:`~dpdfit.errors.DpdfitError` on bad input.
+    """
+    s = subparsers.add_parser(
+        "propagate", help="posterior + drift of the AOM calibration propagated into F_est",
+        description="Posterior (emcee) of the latest calibration run, run-to-run drift from "
+                    "all runs, propagated through the Cardioid forward model at one amplitude "
+                    "for both DPD flags: quantiles of F_est, R10 and eta_bar.")
+    s.add_argument("--calibration-runs", required=True, metavar="RUNS.csv",
+                   help="amplitude calibration runs: run, timestamp, A, power[, power_err]")
+    s.add_argument("--A", type=float, required=True, help="RF-envelope peak amplitude (0..1]")
+    s.add_argument("--stale-days", type=float, default=0.0,
+                   help="age of the calibration, days (0)")
+    s.add_argument("--draws", type=int, default=10000, help="predictive draws (10000)")
+    s.add_argument("--run", help="run used as the calibration (default: latest)")
+    s.add_argument("--phase", metavar="PHASE.csv", help="phase calibration (latest run; "
+                   "default: AM-only forward model)")
+    s.add_argument("--order", type=int, default=AMPLITUDE_ORDER,
+                   help=f"amplitude polynomial order ({AMPLITUDE_ORDER})")
+    s.add_argument("--walkers", type=int, default=32, help="emcee walkers (32)")
+    s.add_argument("--steps", type=int, default=400, help="emcee steps per walker (400)")
+    s.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    s.add_argument("--loss", type=float, default=1e-4,
+                   help="fidelity loss for the recalibration answer (1e-4)")
+    s.add_argument("--thresholds", action="store_true",
+                   help="also the distribution of the threshold efficiencies (40-point sweep "
+                        "per draw; uses min(draws, 2000) draws)")
+    s.add_argument("--force", action="store_true", help="report an unconverged chain")
+    s.add_argument("--progress", action="store_true", help="progress line on stderr")
+    s.add_argument("--json", action="store_true", help="print JSON instead of a report")
+    s.set_defaults(func=cmd_propagate)
+    return s

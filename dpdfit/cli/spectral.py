@@ -1,0 +1,223 @@
+"""``dpdfit sweep``, ``estimate``, ``im-table`` and ``thresholds``: the spectral side (S5, S6).
+
+``sweep`` simulates the amplitude sweep of a calibration; ``estimate`` is the
+closed-form fidelity estimate from one sideband's tone powers; ``im-table``
+prints the required gate-to-IM power ratios (Table S2); ``thresholds`` reads a
+sweep table back and prints its threshold efficiencies.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from dpdfit.core.defaults import ETA_REF, FORMULA, NBAR, NU_HZ, XI0_SPECTRA_HZ
+from dpdfit.core.version import __version__
+from dpdfit.errors import InputError
+from dpdfit.fits.calibration import load_calibration
+from dpdfit.models.transfer import TransferFunction
+from dpdfit.recordings.outputs import (read_csv_header, refuse_overwriting_inputs, sha256_file,
+                                       to_jsonable, write_csv_with_header)
+from dpdfit.recordings.tables import read_table
+
+__all__ = ["add_sweep_command", "add_estimate_command", "add_im_table_command",
+           "add_thresholds_command", "cmd_sweep", "cmd_estimate", "cmd_im_table",
+           "cmd_thresholds"]
+
+_FORMULAS = ["exact", "paper"]
+
+
+def _print_thresholds(th: dict) -> None:
+    for key in ("no_dpd", "dpd"):
+        print(f"eta_th ({key}): " + ", ".join(
+            f"{lev}: {'-' if v is None else f'{v:.4f}'}" for lev, v in th["eta_th"][key].items()))
+
+
+# ----------------------------------------------------------------------------- sweep
+
+
+def _float_arg(name, value, positive=True):
+    if value is None or not np.isfinite(value) or (positive and value <= 0):
+        raise InputError(f"{name} must be a positive number, got {value}")
+    return float(value)
+
+
+def cmd_sweep(args) -> int:
+    from dpdfit.analyses.sweep import SweepConfig, parse_amplitudes, run_sweep, thresholds
+    out = Path(args.output)
+    refuse_overwriting_inputs([out], [args.calibration])
+    cal = load_calibration(args.calibration)
+    tf = TransferFunction.from_calibration(cal)
+    kw = {}
+    if args.amplitudes:
+        kw["amplitudes"] = parse_amplitudes(args.amplitudes)
+    cfg = SweepConfig(nu=_float_arg("--nu", args.nu), xi0=_float_arg("--xi0", args.xi0),
+                      nbar=args.nbar, am_only=args.am_only, formula=args.formula,
+                      eta_ref=args.eta_ref, anchor=(args.anchor_A, args.anchor_dpd), **kw)
+    df = run_sweep(tf, cfg)
+    th = thresholds(df)
+    meta = {"dpdfit_version": __version__,
+            "calibration_file": str(args.calibration),
+            "calibration_sha256": sha256_file(args.calibration),
+            **{k: v for k, v in df.attrs.items()}}
+    write_csv_with_header(out, df, meta)
+    print(f"sweep: {len(cfg.amplitudes)} amplitudes x 2 DPD flags x 3 rows "
+          f"({'AM only' if cfg.am_only else 'AM+PM'}, formula {cfg.formula}, nbar {cfg.nbar:g})")
+    print(f"A_corr = {tf.A_corr:.6f}; eta_bar_corr: DPD {th['eta_corr']['dpd']}, "
+          f"no DPD {th['eta_corr']['no_dpd']}")
+    _print_thresholds(th)
+    print(f"wrote {out}", file=sys.stderr)
+    if args.plot:
+        from dpdfit.report.sweep_plots import plot_sweep
+        for p in plot_sweep(df, args.plot):
+            print(f"wrote {p}", file=sys.stderr)
+    return 0
+
+
+def add_sweep_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit sweep`` on an argparse sub-parsers object."""
+    w = subparsers.add_parser("sweep", help="amplitude sweep: spectra, F_est, eta_bar, r_rel (S6)")
+    w.add_argument("calibration", help="calibration.json")
+    w.add_argument("--amplitudes", metavar="START:STOP:N",
+                   help="inclusive amplitude grid (default 0.05:1:100)")
+    w.add_argument("--nbar", type=float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
+    w.add_argument("--am-only", action="store_true", help="forward model without AM-to-PM")
+    w.add_argument("--xi0", type=float, default=XI0_SPECTRA_HZ, help="gate detuning, Hz (20e3)")
+    w.add_argument("--nu", type=float, default=NU_HZ, help="sideband detuning, Hz (1.84e6)")
+    w.add_argument("--formula", choices=_FORMULAS, default=FORMULA,
+                   help=f"Bell-fidelity expression (default {FORMULA}; see README)")
+    w.add_argument("--eta-ref", type=float, default=ETA_REF,
+                   help=f"peak diffraction efficiency ({ETA_REF:.2f})")
+    w.add_argument("--anchor-A", type=float, default=0.4, help="r_rel anchor amplitude (0.4)")
+    w.add_argument("--anchor-dpd", type=int, choices=[0, 1], default=0,
+                   help="r_rel anchor DPD flag (0)")
+    w.add_argument("-o", "--output", required=True, help="sweep table (CSV)")
+    w.add_argument("--plot", metavar="DIR", help="write Figs. 2, 5, S4, S6 (PNG) into DIR")
+    w.set_defaults(func=cmd_sweep)
+    return w
+
+
+# ----------------------------------------------------------------------------- estimate
+
+
+def _parse_powers_db(spec: str) -> tuple[tuple, np.ndarray]:
+    items = [s for s in str(spec).split(",") if s.strip()]
+    harm, vals = [], []
+    for item in items:
+        n, sep, v = item.partition(":")
+        try:
+            if not sep:
+                raise ValueError
+            harm.append(int(n))
+            vals.append(float(v))
+        except ValueError:
+            raise InputError(f"--powers-db: '{item.strip()}' is not 'n:dB' (expected e.g. "
+                             "\"0:-40,1:0,2:0,3:-30\")") from None
+    if len(set(harm)) != len(harm):
+        raise InputError(f"--powers-db: harmonic given twice in '{spec}'")
+    if not np.all(np.isfinite(vals)):
+        raise InputError(f"--powers-db: powers must be finite dB values, got '{spec}'")
+    for n in (1, 2):
+        if n not in harm:
+            raise InputError(f"--powers-db: gate tone n={n} is missing in '{spec}'")
+    return tuple(harm), np.array(vals)
+
+
+def cmd_estimate(args) -> int:
+    from dpdfit.models.fidelity import estimate
+    harm, P = _parse_powers_db(args.powers_db)
+    est = estimate(P, harm, nbar=args.nbar, formula=args.formula)
+    d = est.to_dict()
+    if args.json:
+        print(json.dumps(to_jsonable(d), indent=2))
+    else:
+        print(f"F_est   = {d['F_est']:.9f}   eps_est = {d['eps_est']:.3e}   "
+              f"(formula {args.formula}, nbar {args.nbar:g})")
+        print(f"F(T_g)  = {d['F']:+.6e}   G(T_g) = {d['G']:+.6e}   Phi(T_g) = {d['Phi']:.9f} rad")
+    return 0
+
+
+def add_estimate_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit estimate`` on an argparse sub-parsers object."""
+    e = subparsers.add_parser("estimate",
+                              help="fidelity estimate from tone powers of one sideband (S5)")
+    e.add_argument("--powers-db", required=True, metavar="n:dB,...",
+                   help='tone powers, e.g. "0:-40,1:0,2:0,3:-30"')
+    e.add_argument("--nbar", type=float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
+    e.add_argument("--formula", choices=_FORMULAS, default=FORMULA)
+    e.add_argument("--json", action="store_true")
+    e.set_defaults(func=cmd_estimate)
+    return e
+
+
+# ----------------------------------------------------------------------------- im-table
+
+
+def cmd_im_table(args) -> int:
+    from dpdfit.models.im_requirements import im_requirements
+    tab = im_requirements(nbar=args.nbar, formula=args.formula, as_printed=args.as_printed)
+    if args.json:
+        print(json.dumps(to_jsonable(tab), indent=2))
+    else:
+        what = ("as printed in Table S2 (assumptions: see README)" if args.as_printed
+                else f"formula {args.formula}, nbar {args.nbar:g}")
+        print(f"required P_gate/P_IM (dB), {what}")
+        print("  infidelity      n=0       n=3")
+        for lev in tab["0"]:
+            v0, v3 = tab["0"][lev], tab["3"][lev]
+            print(f"  {lev:>10s}  {v0:8.2f}  {v3:8.2f}")
+    return 0
+
+
+def add_im_table_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit im-table`` on an argparse sub-parsers object."""
+    m = subparsers.add_parser("im-table", help="required gate-to-IM power ratios (Table S2)")
+    m.add_argument("--nbar", type=float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
+    m.add_argument("--formula", choices=_FORMULAS, default=FORMULA)
+    m.add_argument("--as-printed", action="store_true",
+                   help="use the assumptions that reproduce the printed Table S2")
+    m.add_argument("--json", action="store_true")
+    m.set_defaults(func=cmd_im_table)
+    return m
+
+
+# ----------------------------------------------------------------------------- thresholds
+
+
+def cmd_thresholds(args) -> int:
+    from dpdfit.analyses.sweep import COLUMNS, thresholds
+    df = read_table(args.sweep, COLUMNS, numeric=[c for c in COLUMNS if c != "sideband"])
+    bad = ~df["sideband"].isin(["red", "blue", "mean"])
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise InputError(f"sideband must be red, blue or mean, got '{df['sideband'].iloc[i]}'",
+                         file=str(args.sweep), column="sideband", row=i + 1)
+    df["dpd"] = df["dpd"].astype(int)
+    meta = read_csv_header(args.sweep)
+    A_corr = args.A_corr if args.A_corr is not None else meta.get("A_corr")
+    if A_corr is None:
+        raise InputError("no A_corr in the sweep file's header; give --A-corr", file=str(args.sweep))
+    df.attrs["A_corr"] = float(A_corr)
+    res = thresholds(df)
+    if args.json:
+        print(json.dumps(to_jsonable(res), indent=2))
+    else:
+        print(f"eta_bar_corr: DPD {res['eta_corr']['dpd']}, no DPD {res['eta_corr']['no_dpd']}")
+        _print_thresholds(res)
+    return 0
+
+
+def add_thresholds_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit thresholds`` on an argparse sub-parsers object."""
+    h = subparsers.add_parser("thresholds",
+                              help="eta_bar_corr and threshold efficiencies of a sweep")
+    h.add_argument("sweep", help="sweep.csv written by 'dpdfit sweep'")
+    h.add_argument("--A-corr", type=float, dest="A_corr",
+                   help="A_corr if the sweep file's header lacks it")
+    h.add_argument("--json", action="store_true")
+    h.set_defaults(func=cmd_thresholds)
+    return h

@@ -1,0 +1,3 @@
+"""Shared helpers every layer may use: version, defaults, parallel map, progress."""
+
+__all__: list[str] = []

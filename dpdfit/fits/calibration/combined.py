@@ -1,0 +1,76 @@
+"""Amplitude and phase calibration together: the content of ``calibration.json``.
+
+:class:`Calibration` holds an :class:`~dpdfit.fits.calibration.AmplitudeCalibration`
+and an optional :class:`~dpdfit.fits.calibration.PhaseCalibration`, writes
+the JSON (:meth:`Calibration.to_dict`) and reads it back
+(:meth:`Calibration.from_dict`, :func:`load_calibration`).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+from dataclasses import dataclass, field
+
+from dpdfit.core.version import __version__
+from dpdfit.errors import InputError
+from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
+from dpdfit.fits.calibration.phase import PhaseCalibration
+
+__all__ = ["Calibration", "load_calibration"]
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Amplitude and (optional) phase calibration: the content of calibration.json."""
+
+    amplitude: AmplitudeCalibration
+    phase: PhaseCalibration | None = None
+    created: str = field(default_factory=lambda: _dt.datetime.now(_dt.timezone.utc)
+                         .isoformat(timespec="seconds"))
+
+    @property
+    def A_corr(self) -> float:
+        return self.amplitude.A_corr
+
+    def to_dict(self) -> dict:
+        return {
+            "dpdfit_version": __version__,
+            "created": self.created,
+            "amplitude": self.amplitude.to_dict(),
+            "A_corr": self.amplitude.A_corr,
+            "A_corr_stderr": self.amplitude.A_corr_stderr,
+            "phase": None if self.phase is None else self.phase.to_dict(),
+            "phi_at_1": None if self.phase is None else self.phase.phi_at_1,
+            "phi_at_1_stderr": None if self.phase is None else self.phase.phi_at_1_stderr,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Calibration":
+        amp = AmplitudeCalibration.from_dict(d["amplitude"])
+        ph = PhaseCalibration.from_dict(d["phase"]) if d.get("phase") else None
+        return cls(amplitude=amp, phase=ph, created=d.get("created", ""))
+
+    def report(self) -> str:
+        parts = [self.amplitude.report()]
+        if self.phase is not None:
+            parts.append(self.phase.report())
+        return "\n".join(parts)
+
+
+def load_calibration(path: str | os.PathLike) -> Calibration:
+    """Read a ``calibration.json`` written by ``dpdfit calibrate``."""
+    name = str(path)
+    if not os.path.exists(path):
+        raise InputError("file not found", file=name)
+    try:
+        with open(path) as fh:
+            d = json.load(fh)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
+    try:
+        return Calibration.from_dict(d)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"not a dpdfit calibration file (missing or bad key: {exc})",
+                         file=name) from None

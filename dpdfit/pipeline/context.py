@@ -1,0 +1,76 @@
+"""What every step of ``dpdfit analyze`` works with: the campaign, the results, the figures.
+
+:class:`Results` collects the outputs in memory (files, the summary, each
+analysis's status); :func:`dpdfit.pipeline.analyze.analyze` writes them
+atomically at the end.  :class:`Context` is handed to every step: the
+campaign folder (read once, :class:`~dpdfit.recordings.campaign_folder.CampaignFolder`),
+the results, the fidelity formula and the queue of figures (drawn after the
+results are written, so that a figure never delays or breaks a result).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.recordings.outputs import to_jsonable
+
+__all__ = ["Results", "Context"]
+
+
+class Results:
+    """Collects outputs in memory; written atomically at the end.
+
+    ``files`` maps a file name to its text, or to ``("csv", DataFrame, meta)``
+    for a table (written with ``meta`` as ``# key: value`` header lines);
+    ``summary`` becomes ``summary.json``.
+    """
+
+    def __init__(self):
+        self.files: dict[str, object] = {}
+        self.summary: dict = {"analyses": {}}
+
+    def text(self, name, text):
+        self.files[name] = text
+
+    def json_file(self, name, obj):
+        """A JSON file (indented, numpy values converted)."""
+        self.files[name] = json.dumps(to_jsonable(obj), indent=2) + "\n"
+
+    def table(self, name, df, meta=None):
+        self.files[name] = ("csv", df, meta or {})
+
+    def status(self, analysis, state, detail=""):
+        self.summary["analyses"][analysis] = {"status": state, "detail": detail}
+
+
+@dataclass
+class Context:
+    """The state shared by the steps of one ``analyze`` run.
+
+    ``figures`` is the queue of figure jobs (zero-argument callables), or None
+    when figures are off.
+    """
+
+    campaign: CampaignFolder
+    results: Results
+    figdir: Path
+    formula: str
+    figures: list | None = field(default_factory=list)
+
+    @property
+    def meta(self) -> dict:
+        """``campaign.json`` with the defaults filled in."""
+        return self.campaign.meta
+
+    @property
+    def folder(self) -> Path:
+        return self.campaign.path
+
+    def figure(self, draw, *args, **kwargs) -> None:
+        """Queue ``draw(*args, **kwargs)`` (nothing when figures are off)."""
+        if self.figures is not None:
+            self.figures.append(functools.partial(draw, *args, **kwargs))

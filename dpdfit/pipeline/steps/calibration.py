@@ -1,0 +1,162 @@
+"""Steps ``calibration`` and ``stability`` of ``dpdfit analyze``: the calibration runs.
+
+The calibration step fits every amplitude and phase run once and hands the
+fits down (:class:`CalibrationFits`): the stability step and the propagation
+reuse them instead of refitting the same runs.  A fit is reused only where it
+is the same fit (same run, order and window), so the numbers are unchanged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pandas as pd
+
+from dpdfit.analyses.stability import stability
+from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.fits.calibration import Calibration, calibrate_amplitude, calibrate_phase
+from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
+from dpdfit.recordings.tables import list_runs, read_calibration
+from dpdfit.report.calibration_plots import plot_calibration
+from dpdfit.report.stability_plots import plot_stability
+
+from ..context import Context
+
+__all__ = ["CalibrationFits", "calibration_step", "stability_step"]
+
+#: orders of the AIC/BIC table of the predistortion table's run
+_ORDER_SCAN = range(4, 13)
+
+
+@dataclass(frozen=True)
+class CalibrationFits:
+    """What the calibration step hands down.
+
+    ``calibration``: the predistortion table's amplitude run (with the
+    photodiode's noise model when the file has no ``power_err``, and the
+    AIC/BIC order table) and the model's phase run.  ``amplitude_runs`` /
+    ``phase_runs``: every run's own fit, ``{run label: fit}`` (amplitude at
+    order ``order``, phase with the default order and window).
+    """
+
+    calibration: Calibration
+    order: int
+    amplitude_runs: dict
+    phase_runs: dict
+
+    def amplitude_fits(self, order: int) -> dict | None:
+        """The per-run amplitude fits if they were made at ``order`` (else None: refit)."""
+        return self.amplitude_runs if order == self.order else None
+
+
+def _amplitude_run_fits(cf, order) -> dict:
+    """Every amplitude run's fit at ``order``, ``{label: fit}`` (label None: a single run)."""
+    path = cf.file("calibration_amplitude.csv")
+    return {r: calibrate_amplitude(read_calibration(path, "amplitude", r), order)
+            for r in list_runs(cf.amplitude_runs) or [None]}
+
+
+def _phase_run_fits(cf) -> dict:
+    """Every phase run's fit (default order and window), ``{label: fit}``."""
+    path = cf.file("calibration_phase.csv")
+    return {r: calibrate_phase(read_calibration(path, "phase", r))
+            for r in list_runs(cf.phase_runs) or [None]}
+
+
+def _runs_table(amp_fits: dict, ph_fits: dict) -> pd.DataFrame:
+    """``calibration_runs.csv``: y(1) of every amplitude run, phi(1) of every phase run."""
+    rows = [{"kind": "amplitude", "run": r, "timestamp": c.source.get("timestamp"),
+             "value": c.A_corr, "stderr": c.A_corr_stderr, "quantity": "A_corr",
+             "monotone": int(c.monotone), "reduced_chi2": c.reduced_chi2}
+            for r, c in amp_fits.items()]
+    rows += [{"kind": "phase", "run": r, "timestamp": c.source.get("timestamp"),
+              "value": c.phi_at_1, "stderr": c.phi_at_1_stderr, "quantity": "phi_at_1",
+              "monotone": None, "reduced_chi2": c.reduced_chi2}
+             for r, c in ph_fits.items()]
+    return pd.DataFrame(rows)
+
+
+def _summary(cal: Calibration, runs_df: pd.DataFrame, noise, ph_noise) -> dict:
+    amp, ph = cal.amplitude, cal.phase
+    a = runs_df[runs_df.kind == "amplitude"]["value"]
+    p = runs_df[runs_df.kind == "phase"]["value"]
+    out = {
+        "lut_run": amp.source.get("run"), "A_corr": amp.A_corr,
+        "A_corr_stderr": amp.A_corr_stderr, "monotone": amp.monotone,
+        "phi_at_1": None if ph is None else ph.phi_at_1,
+        "phi_at_1_stderr": None if ph is None else ph.phi_at_1_stderr,
+        "n_amplitude_runs": int(a.size), "A_corr_runs_mean": float(a.mean()),
+        "A_corr_runs_std": float(a.std(ddof=1)) if a.size > 1 else None,
+        "n_phase_runs": int(p.size),
+        "phi_at_1_runs_mean": float(p.mean()) if p.size else None,
+        "phi_at_1_runs_std": float(p.std(ddof=1)) if p.size > 1 else None,
+    }
+    if noise is not None or ph_noise is not None:
+        out["noise_model"] = {"power": None if noise is None else noise.to_dict(),
+                              "phase": None if ph_noise is None else ph_noise.to_dict()}
+    return out
+
+
+def calibration_step(ctx: Context) -> CalibrationFits | None:
+    """Fits of the table's run, the model's phase run and every run -> ``calibration.json``,
+    ``calibration_runs.csv``, Fig. 1."""
+    cf, res = ctx.campaign, ctx.results
+    if not cf.has("calibration_amplitude.csv"):
+        res.status("calibration", "skipped", "calibration_amplitude.csv not found")
+        return None
+    order = ctx.meta["order"]
+    runs = list_runs(cf.amplitude_runs)
+    # the table run, with the photodiode's noise learnt from all runs when the file
+    # has no power_err (the same rule as the diagnosis: dpdfit.fits.photodiode)
+    amp_data, noise = model_run_with_noise(cf)
+    amp = calibrate_amplitude(amp_data, order, order_scan=_ORDER_SCAN)
+    amp_fits = _amplitude_run_fits(cf, order)
+    ph = ph_data = ph_noise = None
+    ph_fits = {}
+    if cf.has("calibration_phase.csv"):
+        ph_data, ph_noise = phase_run_with_noise(cf)
+        ph = calibrate_phase(ph_data)
+        ph_fits = _phase_run_fits(cf)
+    cal = Calibration(amplitude=amp, phase=ph)
+    res.json_file("calibration.json", cal.to_dict())
+    runs_df = _runs_table(amp_fits, ph_fits)
+    res.table("calibration_runs.csv", runs_df)
+    res.summary["calibration"] = _summary(cal, runs_df, noise, ph_noise)
+    ctx.figure(plot_calibration, cal, ctx.figdir, amp_data, ph_data)
+    res.status("calibration", "ok", f"amplitude run {amp.source.get('run')}, "
+                                    f"{len(runs) or 1} amplitude / {len(ph_fits)} phase runs fitted")
+    return CalibrationFits(calibration=cal, order=order, amplitude_runs=amp_fits,
+                           phase_runs=ph_fits)
+
+
+def _stability_fits(fits: CalibrationFits | None, kind: str) -> dict | None:
+    """The calibration step's run fits where they are the stability's own (default order)."""
+    if fits is None:
+        return None
+    return fits.amplitude_fits(AMPLITUDE_ORDER) if kind == "amplitude" else fits.phase_runs
+
+
+def stability_step(ctx: Context, fits: CalibrationFits | None):
+    """y(1) and phi(1) per run: mean, sd, drift test, Allan deviation (S2) ->
+    ``stability_*.json``, Figs. S2, S3."""
+    res = ctx.results
+    done = []
+    for kind, name in (("amplitude", "calibration_amplitude.csv"),
+                       ("phase", "calibration_phase.csv")):
+        path = ctx.folder / name
+        if not path.exists():
+            continue
+        st = stability(path, kind=kind, fits=_stability_fits(fits, kind))
+        d = st.to_dict()
+        res.json_file(f"stability_{kind}.json", d)
+        res.summary.setdefault("stability", {})[kind] = {
+            k: d[k] for k in ("mean", "std", "relative_std", "n_runs", "span_days",
+                              "trend_per_day", "trend_per_day_err")}
+        ctx.figure(plot_stability, st, ctx.figdir)
+        done.append(f"{kind}: {st.n_runs} runs, sd {st.std:.3g}, trend "
+                    f"{st.trend_per_day:+.2e} +/- {st.trend_per_day_err:.1e} /day")
+    if not done:
+        res.status("stability", "skipped", "no calibration files")
+        return None
+    res.status("stability", "ok", "; ".join(done))
+    return True

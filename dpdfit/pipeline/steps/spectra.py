@@ -1,0 +1,99 @@
+"""Steps ``sweep``, ``spectra`` and ``traces`` of ``dpdfit analyze``: the spectral side.
+
+``sweep`` simulates the amplitude sweep of the calibration at the spectra's
+``nu``, ``xi0`` (S6); ``spectra`` analyses the recorded tone powers against it
+(:func:`dpdfit.analyses.measured_spectra.measured_spectra`); ``traces``
+re-analyses the bundled raw heterodyne traces and checks them against
+``spectra.csv``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.analyses.measured_spectra import measured_spectra
+from dpdfit.analyses.sweep import SweepConfig, run_sweep, thresholds
+from dpdfit.errors import InputError
+from dpdfit.fits.tones import trace_tone_powers
+from dpdfit.models.transfer import TransferFunction
+from dpdfit.recordings.traces import load_trace
+
+from ..context import Context
+from .calibration import CalibrationFits
+
+__all__ = ["sweep_step", "spectra_step", "traces_step"]
+
+
+def sweep_step(ctx: Context, fits: CalibrationFits | None):
+    """The simulated sweep of the calibration -> ``sweep.csv`` (its figures come at the end)."""
+    res = ctx.results
+    if fits is None:
+        res.status("sweep", "skipped", "needs the calibration")
+        return None
+    camp = ctx.meta
+    cfg = SweepConfig(nu=camp["nu_hz"], xi0=camp["xi0_spectra_hz"], nbar=camp["nbar_assumed"],
+                      eta_ref=camp["eta_ref"], formula=ctx.formula)
+    df = run_sweep(TransferFunction.from_calibration(fits.calibration), cfg)
+    res.table("sweep.csv", df, dict(df.attrs))
+    res.summary["sweep"] = thresholds(df)
+    res.status("sweep", "ok", f"{len(cfg.amplitudes)} amplitudes x 2 flags, formula {ctx.formula}")
+    return df
+
+
+def spectra_step(ctx: Context, sweep):
+    """Measured tone powers: R10, R23, dP_n, F_est, eta_bar, thresholds
+    -> ``spectra_measured.csv``."""
+    res = ctx.results
+    if not ctx.campaign.has("spectra.csv"):
+        res.status("spectra", "skipped", "spectra.csv not found")
+        return None
+    m, summary = measured_spectra(ctx.campaign.spectra, sweep, nbar=ctx.meta["nbar_assumed"],
+                                  formula=ctx.formula)
+    res.table("spectra_measured.csv", m)
+    res.summary["spectra"] = summary
+    res.status("spectra", "ok", f"{summary['n_amplitudes']} amplitudes with both flags")
+    return m
+
+
+def _trace_rows(folder, i, r, idx_path, raw) -> list[dict]:
+    """Tone powers of one listed trace, with the same tone's power in ``spectra.csv``."""
+    f = folder / r["file"]
+    if not f.exists():
+        raise InputError(f"listed trace file '{r['file']}' not found", file=str(idx_path),
+                         column="file", row=i + 1)
+    t = trace_tone_powers(load_trace(f), r["fs"], r["fdet"], r["nu"], r["xi0"])
+    rows = []
+    for sb in ("red", "blue"):
+        tones = getattr(t, sb)
+        for n in t.harmonics:
+            ref = np.nan
+            if raw is not None:
+                s = raw[np.isclose(raw.A, r["A"]) & (raw.dpd == int(r["dpd"]))
+                        & (raw.sideband == sb) & (raw.n == n)]
+                ref = float(s["P_dB"].iloc[0]) if len(s) else np.nan
+            rows.append({"file": r["file"], "A": r["A"], "dpd": int(r["dpd"]), "sideband": sb,
+                         "n": int(n), "P_dB": tones.P_dB[n], "valid": int(tones.valid[n]),
+                         "P_dB_in_spectra_csv": ref, "difference_dB": tones.P_dB[n] - ref})
+    return rows
+
+
+def traces_step(ctx: Context):
+    """The raw traces re-analysed and checked against ``spectra.csv`` -> ``traces_check.csv``."""
+    res, folder = ctx.results, ctx.folder
+    idx_path = folder / "traces.csv"
+    if not idx_path.exists():
+        res.status("traces", "skipped", "traces.csv not found")
+        return
+    idx = ctx.campaign.traces
+    # the spectra file as recorded (not validated: a check of the traces, not of the file)
+    raw = None
+    if (folder / "spectra.csv").exists():
+        raw = pd.read_csv(folder / "spectra.csv", comment="#")
+    rows = [row for i, r in idx.iterrows() for row in _trace_rows(folder, i, r, idx_path, raw)]
+    chk = pd.DataFrame(rows)
+    res.table("traces_check.csv", chk)
+    diff = chk["difference_dB"].abs().max() if len(chk) else np.nan
+    res.summary["traces"] = {"n_traces": int(len(idx)),
+                             "max_abs_difference_to_spectra_csv_dB": float(diff)}
+    res.status("traces", "ok", f"{len(idx)} raw traces re-analysed")

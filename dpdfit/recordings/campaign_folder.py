@@ -1,0 +1,288 @@
+"""The campaign folder: one reader, one set of rules, for every analysis.
+
+``dpdfit analyze`` and ``dpdfit diagnose`` read a campaign folder (layout in
+the README, "Campaign folder layout") through :class:`CampaignFolder`.  Each
+file is read and validated once, on first use, so that a malformed file stops
+only the analyses that need it (``analyze``) while a missing *optional* file
+or column only changes what is analysed; :meth:`CampaignFolder.left_out`
+says what was left out and why.
+
+Required and optional (everything else in the layout is optional):
+
+* ``campaign.json`` -- required (a folder without it is not a campaign).
+  Keys default to the paper's values when absent (``nu_hz`` 1.84 MHz,
+  ``xi0_spectra_hz`` 20 kHz, ``nbar_assumed`` 0.1, ``eta_ref`` 0.8, ``order``
+  8, the latest amplitude run for the table, the latest phase run for the
+  model); :attr:`CampaignFolder.defaults_used` lists which.  ``error_model``
+  is optional: without it the diagnosis uses the paper's values with priors
+  wide enough for real labs (:mod:`dpdfit.analyses.diagnosis.observables`).
+* ``calibration_amplitude.csv`` -- required by every model-based analysis.
+* ``calibration_phase.csv`` -- optional; without it the model has no AM-to-PM.
+* ``spectra.csv`` -- ``A, dpd, sideband, n, P_dB``; optional columns
+  ``valid`` (default 1) and ``snr_db`` (without it the diagnosis estimates the
+  noise floor from the recordings).
+* ``populations.csv`` -- ``A, dpd, scan, shots`` and ``n_even`` or
+  ``n00, n01_10, n11`` (:func:`dpdfit.recordings.counts.read_populations`); without
+  ``n00``/``n11`` the imbalance ``P00 - P11`` is not available.
+* ``parity.csv`` -- :func:`dpdfit.recordings.counts.read_parity`.
+* ``gate_rates.csv`` -- ``A, dpd, xi0_khz`` (+ ``xi0_err_khz``).
+* ``time_scans.csv`` -- ``A, dpd, t_us, n00, n11, shots`` (+ ``n01_10``: then
+  ``n00 + n01_10 + n11 = shots`` is checked, else ``n00 + n11 <= shots``).
+* ``traces.csv`` + ``traces/`` -- ``file, A, dpd, fs, fdet, nu, xi0``.
+
+Nothing is ever written into the folder.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
+from dpdfit.errors import InputError
+
+from .counts import read_parity, read_populations
+from .tables import CalibrationData, list_runs, read_calibration, read_table
+
+__all__ = ["CampaignFolder", "META_DEFAULTS", "FILES"]
+
+#: campaign.json constants and their defaults (the paper's values) when absent
+META_DEFAULTS = {"nu_hz": NU_HZ, "xi0_spectra_hz": XI0_SPECTRA_HZ, "nbar_assumed": NBAR,
+                 "eta_ref": ETA_REF, "eta_ld": ETA_LD, "order": AMPLITUDE_ORDER}
+#: file -> (required by, what it holds)
+FILES = {
+    "campaign.json": "campaign constants",
+    "calibration_amplitude.csv": "amplitude calibration runs",
+    "calibration_phase.csv": "phase calibration runs (AM-to-PM)",
+    "spectra.csv": "recorded heterodyne tone powers",
+    "populations.csv": "population counts at the gate time",
+    "parity.csv": "parity-fringe counts",
+    "gate_rates.csv": "gate-rate calibrations",
+    "time_scans.csv": "population time scans",
+    "traces.csv": "raw heterodyne traces",
+}
+
+
+class CampaignFolder:
+    """A campaign folder read lazily and validated once per file.
+
+    Parameters
+    ----------
+    folder : path-like
+        The folder.  It must exist and hold a readable ``campaign.json``
+        (else :class:`~dpdfit.errors.InputError`).
+    """
+
+    def __init__(self, folder):
+        self.path = Path(folder)
+        if not self.path.is_dir():
+            raise InputError("campaign folder not found", file=str(self.path))
+        p = self.path / "campaign.json"
+        if not p.exists():
+            raise InputError("not a campaign folder: campaign.json missing", file=str(self.path))
+        try:
+            raw = json.loads(p.read_text())
+        except json.JSONDecodeError as exc:
+            raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
+                             file=str(p)) from None
+        if not isinstance(raw, dict):
+            raise InputError("campaign.json must hold a JSON object", file=str(p))
+        self.raw_meta = raw
+        self.meta = {**META_DEFAULTS, **raw}
+        self.defaults_used = tuple(k for k in META_DEFAULTS if k not in raw)
+        for k in META_DEFAULTS:
+            try:
+                self.meta[k] = float(self.meta[k])
+            except (TypeError, ValueError):
+                raise InputError(f"key '{k}' must be a number, got {self.meta[k]!r}",
+                                 file=str(p)) from None
+        self.meta["order"] = int(self.meta["order"])
+
+    # ------------------------------------------------------------------ basics
+    def file(self, name: str) -> Path:
+        return self.path / name
+
+    def has(self, name: str) -> bool:
+        return (self.path / name).exists()
+
+    def require(self, name: str, what: str) -> Path:
+        """Path of a file an analysis cannot do without (InputError naming it if absent)."""
+        path = self.path / name
+        if not path.exists():
+            raise InputError(f"{what} needs {name}, which is missing", file=str(self.path))
+        return path
+
+    @property
+    def nu(self) -> float:
+        return self.meta["nu_hz"]
+
+    @property
+    def xi0_spectra(self) -> float:
+        return self.meta["xi0_spectra_hz"]
+
+    @property
+    def table_run(self) -> str:
+        """Amplitude run behind the predistortion table (``latest`` if not named)."""
+        run = (self.raw_meta.get("predistortion_table") or {}).get("amplitude_run")
+        return "latest" if run is None else str(run)
+
+    @property
+    def phase_run(self) -> str:
+        run = self.raw_meta.get("phase_run_for_model")
+        return "latest" if run is None else str(run)
+
+    # -------------------------------------------------------------- calibration
+    @functools.cached_property
+    def amplitude_runs(self) -> pd.DataFrame:
+        """Every amplitude calibration run (validated table)."""
+        return read_table(self.require("calibration_amplitude.csv", "the calibration"),
+                          ["A", "power"], ["power_err", "run", "timestamp"],
+                          ranges={"A": (0, 1)}, positive=["power_err"])
+
+    @functools.cached_property
+    def amplitude_model(self) -> CalibrationData:
+        """The amplitude run behind the predistortion table."""
+        self.amplitude_runs                                   # validate the whole file once
+        run = self.table_run if list_runs(self.amplitude_runs) else None
+        return read_calibration(self.file("calibration_amplitude.csv"), "amplitude", run)
+
+    @functools.cached_property
+    def phase_runs(self) -> pd.DataFrame | None:
+        if not self.has("calibration_phase.csv"):
+            return None
+        return read_table(self.file("calibration_phase.csv"), ["A", "phase_rad"],
+                          ["phase_err", "run", "timestamp"], ranges={"A": (0, 1)},
+                          positive=["phase_err"])
+
+    @functools.cached_property
+    def phase_model(self) -> CalibrationData | None:
+        if self.phase_runs is None:
+            return None
+        run = self.phase_run if list_runs(self.phase_runs) else None
+        return read_calibration(self.file("calibration_phase.csv"), "phase", run)
+
+    # ------------------------------------------------------------------ spectra
+    @functools.cached_property
+    def spectra(self) -> pd.DataFrame:
+        """``A, dpd, sideband, n, P_dB, valid`` (+ ``snr_db`` when recorded)."""
+        path = self.require("spectra.csv", "the spectra analysis")
+        df = read_table(path, ["A", "dpd", "sideband", "n", "P_dB"], ["valid", "snr_db"],
+                        numeric=["A", "dpd", "n", "P_dB"], ranges={"A": (0, 1), "dpd": (0, 1)})
+        bad = ~df["sideband"].isin(["red", "blue"])
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputError(f"sideband must be red or blue, got '{df['sideband'].iloc[i]}'",
+                             file=str(path), column="sideband", row=i + 1)
+        for col in ("dpd", "n"):
+            v = df[col].to_numpy()
+            bad = v != np.round(v)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise InputError(f"{col} = {v[i]:g} must be an integer", file=str(path),
+                                 column=col, row=i + 1)
+        df["dpd"] = df["dpd"].astype(int)
+        df["n"] = df["n"].astype(int)
+        dup = df.duplicated(["A", "dpd", "sideband", "n"], keep="first")
+        if dup.any():
+            i = int(np.flatnonzero(dup.to_numpy())[0])
+            raise InputError(f"tone (A={df['A'].iloc[i]:g}, dpd={df['dpd'].iloc[i]}, "
+                             f"{df['sideband'].iloc[i]}, n={df['n'].iloc[i]}) appears twice",
+                             file=str(path), column="n", row=i + 1)
+        df["valid"] = (pd.to_numeric(df["valid"], errors="coerce").fillna(0).astype(int)
+                       if "valid" in df.columns else 1)
+        if "snr_db" in df.columns:
+            df["snr_db"] = pd.to_numeric(df["snr_db"], errors="coerce")
+        df.attrs["source"] = str(path)
+        return df
+
+    # -------------------------------------------------------------------- gates
+    @functools.cached_property
+    def populations(self) -> pd.DataFrame | None:
+        return read_populations(self.file("populations.csv")) if self.has(
+            "populations.csv") else None
+
+    @functools.cached_property
+    def parity(self) -> pd.DataFrame | None:
+        return read_parity(self.file("parity.csv")) if self.has("parity.csv") else None
+
+    @functools.cached_property
+    def gate_rates(self) -> pd.DataFrame | None:
+        if not self.has("gate_rates.csv"):
+            return None
+        path = self.file("gate_rates.csv")
+        df = read_table(path, ["A", "dpd", "xi0_khz"], ["xi0_err_khz"],
+                        ranges={"A": (0, 1), "dpd": (0, 1)},
+                        positive=["xi0_khz", "xi0_err_khz"])
+        df["dpd"] = df["dpd"].astype(int)
+        dup = df.duplicated(["A", "dpd"])
+        if dup.any():
+            i = int(np.flatnonzero(dup.to_numpy())[0])
+            raise InputError(f"setting A={df['A'].iloc[i]:g}, dpd={df['dpd'].iloc[i]} appears "
+                             "twice", file=str(path), column="A", row=i + 1)
+        return df
+
+    @functools.cached_property
+    def time_scans(self) -> pd.DataFrame | None:
+        """``A, dpd, t_us, t_s, n00, n11, shots`` (+ ``n01_10``)."""
+        if not self.has("time_scans.csv"):
+            return None
+        path = self.file("time_scans.csv")
+        ts = read_table(path, ["A", "dpd", "t_us", "n00", "n11", "shots"], ["n01_10"],
+                        ranges={"A": (0, 1), "dpd": (0, 1)})
+        counts = ["n00", "n11", "shots"] + (["n01_10"] if "n01_10" in ts.columns else [])
+        for c in counts:
+            v = ts[c].to_numpy()
+            bad = (v < 0) | (v != np.round(v)) | ((v == 0) if c == "shots" else False)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                what = "shots must be > 0" if c == "shots" else "must be a non-negative integer"
+                raise InputError(f"count {v[i]:g}: {what}", file=str(path), column=c, row=i + 1)
+        if "n01_10" in ts.columns:
+            tot = ts["n00"] + ts["n01_10"] + ts["n11"]
+            bad = (tot != ts["shots"]).to_numpy()
+            what = "does not equal"
+        else:
+            tot = ts["n00"] + ts["n11"]
+            bad = (tot > ts["shots"]).to_numpy()
+            what = "exceeds"
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"counts sum to {tot.iloc[i]:g}, which {what} shots = "
+                             f"{ts['shots'].iloc[i]:g}", file=str(path), column="shots",
+                             row=i + 1)
+        bad = (ts["t_us"] < 0).to_numpy()
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError("time must be >= 0", file=str(path), column="t_us", row=i + 1)
+        ts["dpd"] = ts["dpd"].astype(int)
+        ts["t_s"] = ts["t_us"] * 1e-6
+        ts.attrs["source"] = str(path)
+        return ts
+
+    @functools.cached_property
+    def traces(self) -> pd.DataFrame | None:
+        if not self.has("traces.csv"):
+            return None
+        return read_table(self.file("traces.csv"), ["file", "A", "dpd", "fs", "fdet", "nu", "xi0"],
+                          numeric=["A", "dpd", "fs", "fdet", "nu", "xi0"])
+
+    # -------------------------------------------------------------- left out
+    def left_out(self) -> list[str]:
+        """What is absent from the folder, one line each (nothing if complete)."""
+        out = [f"{name} absent ({what})" for name, what in FILES.items()
+               if name not in ("campaign.json", "calibration_amplitude.csv")
+               and not self.has(name)]
+        if self.defaults_used:
+            out.append("campaign.json: default for " + ", ".join(
+                f"{k} = {META_DEFAULTS[k]:g}" for k in self.defaults_used))
+        if "error_model" not in self.raw_meta:
+            out.append("campaign.json has no error_model: paper values with wide priors")
+        return out
+
+    def __repr__(self) -> str:
+        return f"CampaignFolder({os.fspath(self.path)!r})"

@@ -1,0 +1,249 @@
+"""Readers of count recordings: ``populations.csv`` and ``parity.csv`` (Supplement S7).
+
+:func:`read_populations` and :func:`read_parity` read a file through
+:func:`~dpdfit.recordings.tables.read_table` and check every count once
+(integer, non-negative, at most ``shots``), the settings (``dpd`` 0 or 1,
+``A`` in [0, 1]), the scan labels and duplicated rows, and the parity
+fringe's design (at least 3 distinct analysis phases).  A problem is one
+:class:`~dpdfit.errors.InputError` naming the file, the column and the data
+row.  The few checks that the fits repeat on frames built in Python
+(:func:`check_counts`, :func:`fringe_points`, :func:`grid_keys`) are public
+here so that they are written once.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.errors import InputError
+
+from .tables import read_table
+
+__all__ = ["PHASE_GRID_RAD", "read_populations", "read_parity", "check_counts", "grid_keys",
+           "fringe_points", "setting_label"]
+
+#: Phase grid (rad) on which repeated parity scans are compared and merged (S7.4).
+PHASE_GRID_RAD = 0.01
+
+
+def setting_label(A, dpd) -> str:
+    """``"A=0.8, dpd=1"``: a setting as named in messages."""
+    return f"A={float(A):g}, dpd={int(dpd)}"
+
+
+def grid_keys(phases, grid: float) -> np.ndarray:
+    """Index ``round(phi / grid)`` of the phase-grid point nearest to each phase (ties up)."""
+    return np.floor(np.asarray(phases, dtype=float) / grid + 0.5).astype(np.int64)
+
+
+def fringe_points(phases, tol=1e-9, period=math.pi) -> int:
+    """Number of distinct phases modulo ``period`` (circular, within ``tol``).
+
+    ``period = pi``: distinct fringe points (phi and phi + pi measure the same
+    p).  ``period = pi/2``: distinct fringe *axes* (phi + pi/2 measures
+    ``1 - p``, the same linear functional of (a, b)); the fit needs >= 2.
+    """
+    x = np.sort(np.mod(phases, period))
+    if x.size == 0:
+        return 0
+    gaps = np.diff(np.concatenate([x, [x[0] + period]]))
+    return max(int(np.sum(gaps > tol)), 1)
+
+
+def check_counts(df: pd.DataFrame, cols, file) -> None:
+    """Check the count columns ``cols`` (with ``shots``) of ``df``: integer, non-negative,
+    ``shots > 0``, counts <= shots; InputError naming ``file``, column and row (position + 1)."""
+    vals = {c: pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float) for c in cols}
+    for c in cols:
+        arr = vals[c]
+        bad = ~(arr == np.round(arr))                 # also NaN and non-numbers
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"count {df[c].iloc[i]!r} is not an integer", file=file, column=c,
+                             row=i + 1)
+        bad = arr < 0
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"count {arr[i]:g} is negative", file=file, column=c, row=i + 1)
+    shots = vals["shots"]
+    bad = shots <= 0
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"shots = {shots[i]:g}: a setting with no shots (shots must be > 0)",
+                         file=file, column="shots", row=i + 1)
+    for c in cols:
+        if c == "shots":
+            continue
+        bad = vals[c] > shots
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"count {vals[c][i]:g} exceeds shots = {shots[i]:g}", file=file,
+                             column=c, row=i + 1)
+
+
+def _check_dpd(df, file):
+    arr = df["dpd"].to_numpy(dtype=float)
+    bad = (arr != 0) & (arr != 1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"dpd = {arr[i]:g} must be 0 or 1", file=file, column="dpd", row=i + 1)
+    df["dpd"] = arr.astype(np.int64)
+
+
+def _check_scan(df, file):
+    empty = df["scan"] == ""
+    if empty.any():
+        i = int(np.flatnonzero(empty.to_numpy())[0])
+        raise InputError("scan label is empty", file=file, column="scan", row=i + 1)
+
+
+def _check_unique(df, keys, file, what):
+    dup = df.duplicated(keys, keep=False)
+    if dup.any():
+        idx = np.flatnonzero(dup.to_numpy())
+        first = df.iloc[idx[0]]
+        same = [int(i) + 1 for i in idx if all(df.iloc[i][k] == first[k] for k in keys)]
+        label = ", ".join(f"{k}={first[k]}" for k in keys)
+        raise InputError(f"{what} {label} appears in more than one row (rows "
+                         f"{', '.join(map(str, same[:6]))}): a duplicated line?",
+                         file=file, column=keys[-1], row=same[1])
+
+
+def _header(path) -> list[str]:
+    """Column names of a CSV file ([] if it cannot be read; read_table reports why)."""
+    try:
+        cols = pd.read_csv(path, comment="#", skipinitialspace=True, nrows=0).columns
+    except Exception:  # noqa: BLE001 - read_table gives the proper message
+        return []
+    return [str(c).strip() for c in cols]
+
+
+def _check_trio(df, file):
+    """``n00 + n01_10 + n11 == shots``; ``n_even == n00 + n11`` (added when absent)."""
+    tot = df["n00"] + df["n01_10"] + df["n11"]
+    bad = (tot != df["shots"]).to_numpy()
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"n00 + n01_10 + n11 = {tot.iloc[i]:g} differs from shots = "
+                         f"{df['shots'].iloc[i]:g}", file=file, column="shots", row=i + 1)
+    even = df["n00"] + df["n11"]
+    if "n_even" in df.columns:
+        bad = (even != df["n_even"]).to_numpy()
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"n_even = {df['n_even'].iloc[i]:g} differs from n00 + n11 = "
+                             f"{even.iloc[i]:g}", file=file, column="n_even", row=i + 1)
+    else:
+        df["n_even"] = even
+
+
+def read_populations(path: str | os.PathLike) -> pd.DataFrame:
+    """Read and validate a population file.
+
+    Columns ``A, dpd, scan, n_even, shots`` or ``A, dpd, scan, n00, n01_10,
+    n11, shots`` (then ``n_even = n00 + n11`` and ``n00 + n01_10 + n11 ==
+    shots`` is required; with both forms present ``n_even`` must equal
+    ``n00 + n11``).  Extra columns allowed, ``#`` lines are comments.
+
+    Bad input raises InputError naming file, column and row: counts not
+    integer, negative or above ``shots``; ``shots <= 0``; ``dpd`` not 0/1;
+    ``A`` outside [0, 1]; the same ``(A, dpd, scan)`` in two rows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Numeric columns as float64 (``dpd`` int, ``scan`` str), ``n_even``
+        always present; the index is the 0-based data row.
+    """
+    name = str(path)
+    optional = ["n_even", "n00", "n01_10", "n11"]
+    present = _header(path)
+    df = read_table(path, ["A", "dpd", "scan", "shots"], optional,
+                    numeric=["A", "dpd", "shots"] + [c for c in optional if c in present],
+                    ranges={"A": (0.0, 1.0)})
+    trio = [c for c in ("n00", "n01_10", "n11") if c in df.columns]
+    if "n_even" not in df.columns and len(trio) < 3:
+        missing = next(c for c in ("n00", "n01_10", "n11") if c not in df.columns)
+        raise InputError("required column is missing (give n_even, or n00, n01_10 and n11)",
+                         file=name, column=missing if trio else "n_even")
+    _check_dpd(df, name)
+    _check_scan(df, name)
+    counts = (["n_even"] if "n_even" in df.columns else []) + (trio if len(trio) == 3 else [])
+    check_counts(df, counts + ["shots"], name)
+    if len(trio) == 3:
+        _check_trio(df, name)
+    _check_unique(df, ["A", "dpd", "scan"], name, "population setting")
+    df.attrs["source"] = name
+    return df
+
+
+def _check_phase_duplicates(df, grid, file):
+    """The same phase-grid point twice in one scan of a setting: a duplicated line."""
+    key = pd.Series(grid_keys(df["phase_rad"], grid), index=df.index, name="_key")
+    cols = [df["A"], df["dpd"], df["scan"], key]
+    dup = pd.concat(cols, axis=1).duplicated(keep=False)
+    if dup.any():
+        idx = np.flatnonzero(dup.to_numpy())
+        ref = (df["A"].iloc[idx[0]], df["dpd"].iloc[idx[0]], df["scan"].iloc[idx[0]],
+               key.iloc[idx[0]])
+        same = [int(i) + 1 for i in idx
+                if (df["A"].iloc[i], df["dpd"].iloc[i], df["scan"].iloc[i], key.iloc[i]) == ref]
+        raise InputError(
+            f"setting {setting_label(ref[0], ref[1])}, scan {ref[2]}: phase "
+            f"{df['phase_rad'].iloc[idx[0]]:.6g} rad appears twice (rows {same[0]} and "
+            f"{same[1]}, same {grid:g}-rad grid point): a duplicated line?", file=file,
+            column="phase_rad", row=same[1])
+
+
+def _check_fringe_design(df, grid, file):
+    """Every setting has >= 3 distinct phases modulo pi, not all on one fringe axis."""
+    for (A, dpd), g in df.groupby(["A", "dpd"], sort=False):
+        if fringe_points(g["phase_rad"].to_numpy(), tol=grid / 2) < 3:
+            ph = np.unique(np.round(np.mod(g["phase_rad"].to_numpy(), math.pi), 6))
+            raise InputError(
+                f"setting {setting_label(A, dpd)} has only {ph.size} distinct analysis "
+                f"phase(s) modulo pi ({', '.join(f'{p:g}' for p in ph[:5])}); a parity "
+                "fringe fit needs at least 3", file=file, column="phase_rad",
+                row=int(g.index[0]) + 1)
+        if fringe_points(g["phase_rad"].to_numpy(), tol=grid / 2, period=math.pi / 2) < 2:
+            raise InputError(
+                f"setting {setting_label(A, dpd)}: all analysis phases are equal modulo "
+                "pi/2 (one fringe axis: 2*phi equal modulo pi), so contrast and phase offset "
+                "cannot be separated; a degenerate fringe fit", file=file,
+                column="phase_rad", row=int(g.index[0]) + 1)
+
+
+def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.DataFrame:
+    """Read and validate a parity-fringe file ``A, dpd, scan, phase_rad, n_even, shots``.
+
+    Bad input raises InputError naming file, column and row: counts not
+    integer, negative or above ``shots``; ``shots <= 0``; ``dpd`` not 0/1;
+    ``A`` outside [0, 1]; the same phase grid point twice in one scan; a
+    setting with fewer than 3 distinct analysis phases (modulo pi, since
+    ``phi`` and ``phi + pi`` measure the same fringe point), or with all its
+    phases on one fringe axis (equal modulo pi/2).  Scans whose phases jitter
+    around a common set are accepted (see
+    :func:`dpdfit.fits.counts.merge_parity`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        As read (``dpd`` int, ``scan`` str); the index is the 0-based data row.
+    """
+    name = str(path)
+    df = read_table(path, ["A", "dpd", "scan", "phase_rad", "n_even", "shots"],
+                    numeric=["A", "dpd", "phase_rad", "n_even", "shots"],
+                    ranges={"A": (0.0, 1.0)})
+    _check_dpd(df, name)
+    _check_scan(df, name)
+    check_counts(df, ["n_even", "shots"], name)
+    _check_phase_duplicates(df, grid, name)
+    _check_fringe_design(df, grid, name)
+    if not float(grid) > 0:                       # as merge_parity requires
+        raise InputError(f"phase grid {float(grid):g} must be > 0")
+    df.attrs["source"] = name
+    return df

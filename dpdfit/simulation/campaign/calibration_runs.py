@@ -1,0 +1,119 @@
+"""Calibration recordings of a campaign: amplitude and phase runs of a drifting AOM, the DPD table.
+
+The AOM's ``A_corr`` drifts from run to run (Ornstein-Uhlenbeck over days,
+Supplement S2), its ``phi(1)`` within the gate day (over hours).  The gate
+day's truth is the last amplitude run's drift value with the last phase
+run's; the predistortion table is fitted to the gate day's run, to an older
+one (``stale_calibration``) or to an unrecorded run of the AOM before it
+drifted (``calibration_drift``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.fits.calibration import fit_amplitude
+from dpdfit.models.transfer import TransferFunction
+from dpdfit.simulation.aom_truth import (BraggAOM, ou_series, simulate_amplitude_run,
+                                        simulate_phase_run)
+
+from .config import CampaignConfig, rng_for
+
+__all__ = ["calibration_runs"]
+
+
+def _iso(t0: _dt.datetime, days: float) -> str:
+    return (t0 + _dt.timedelta(days=float(days))).isoformat(timespec="seconds")
+
+
+def _detector(cfg: CampaignConfig, df: pd.DataFrame) -> None:
+    """Quadratic photodiode response (concealed ``detector_nonlinearity``), in place."""
+    if cfg.detector_nonlinearity:
+        p = df["power"].to_numpy()
+        df["power"] = p * (1 + cfg.detector_nonlinearity * p / cfg.photodiode.p_full)
+
+
+def _amplitude_runs(cfg, rng, t0, grid):
+    """Days, drifting ``A_corr`` and recordings of the amplitude runs."""
+    inner = np.sort(rng.uniform(0, cfg.amp_span_days, cfg.n_amp_runs - 2))
+    days = np.concatenate([[0.0], inner, [cfg.amp_span_days]])
+    days = np.sort(days + rng.uniform(0, 2 / 24, days.size))  # session start jitter
+    A_corr = cfg.A_corr_mean + ou_series(days, cfg.A_corr_sigma, cfg.A_corr_tau_days, rng)
+    rows, truth = [], []
+    for k, (d, ac) in enumerate(zip(days, A_corr)):
+        aom = BraggAOM(A_corr=float(ac), phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
+        df = simulate_amplitude_run(aom, grid, rng_for(cfg, 2, k), cfg.photodiode)
+        _detector(cfg, df)
+        df.insert(0, "timestamp", _iso(t0, d))
+        df.insert(0, "run", f"R{k + 1:03d}")
+        rows.append(df)
+        truth.append({"run": f"R{k + 1:03d}", "day": float(d), "A_corr": float(ac)})
+    return days, A_corr, rows, truth
+
+
+def _phase_runs(cfg, rng, t0, grid, gate_day, A_corr_day):
+    """Drifting ``phi(1)`` and recordings of the phase runs of the gate day."""
+    hours = np.linspace(0.5, 0.5 + cfg.phase_span_hours, cfg.n_phase_runs)
+    phi1 = cfg.phi1_mean + ou_series(hours, cfg.phi1_sigma, cfg.phi1_tau_hours, rng)
+    rows, truth = [], []
+    for k, (h, p1) in enumerate(zip(hours, phi1)):
+        aom = BraggAOM(A_corr=A_corr_day, phi_1=float(p1), eta_ref=cfg.eta_ref)
+        df = simulate_phase_run(aom, grid, rng_for(cfg, 3, k), cfg.heterodyne_phase)
+        df.insert(0, "timestamp", _iso(t0, gate_day + h / 24))
+        df.insert(0, "run", f"P{k + 1:03d}")
+        rows.append(df)
+        truth.append({"run": f"P{k + 1:03d}", "hours_after_amplitude_run": float(h),
+                      "phi_at_1": float(p1)})
+    return phi1, rows, truth
+
+
+def _table_run(cfg, days, A_corr, amp_rows, grid, gate_day):
+    """Index and recording of the calibration run behind the predistortion table."""
+    target_day = gate_day - cfg.stale_days
+    lut_run = int(np.argmin(np.abs(days - target_day)))
+    sub = amp_rows[lut_run]
+    if cfg.table_drift:
+        # the table was made from a calibration of the AOM before it drifted
+        # by table_drift in A_corr (a run that is not among the recordings)
+        aom_t = BraggAOM(A_corr=float(A_corr[lut_run]) * (1 + cfg.table_drift),
+                         phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
+        sub = simulate_amplitude_run(aom_t, grid, rng_for(cfg, 7), cfg.photodiode)
+        _detector(cfg, sub)
+    return lut_run, sub
+
+
+def calibration_runs(cfg: CampaignConfig):
+    """Amplitude and phase calibration runs with run-to-run drift.
+
+    Returns ``(amplitude table, phase table, the gate day's AOM, the transfer
+    function of the predistortion table, truth dict)``.
+    """
+    t0 = _dt.datetime.fromisoformat(cfg.start)
+    rng = rng_for(cfg, 1)
+    grid = np.round(np.linspace(0.0, 1.0, cfg.cal_points), 10)
+    days, A_corr, amp_rows, amp_truth = _amplitude_runs(cfg, rng, t0, grid)
+    gate_day = days[-1]
+    phi1, ph_rows, ph_truth = _phase_runs(cfg, rng, t0, grid, gate_day, float(A_corr[-1]))
+    amp = pd.concat(amp_rows, ignore_index=True)
+    ph = pd.concat(ph_rows, ignore_index=True)
+    # the day's truth: drift value of the last amplitude run, last phase run
+    day_aom = BraggAOM(A_corr=float(A_corr[-1]), phi_1=float(phi1[-1]), eta_ref=cfg.eta_ref,
+                       memory_tau=cfg.memory_tau, memory_offset_hz=cfg.memory_offset_hz)
+    # predistortion table: from the run of the gate day, or a stale one
+    lut_run, sub = _table_run(cfg, days, A_corr, amp_rows, grid, gate_day)
+    fit = fit_amplitude(sub["A"], sub["power"], sub["power_err"], cfg.order)
+    day_fit = fit_amplitude(amp_rows[-1]["A"], amp_rows[-1]["power"],
+                            amp_rows[-1]["power_err"], cfg.order)
+    tf = TransferFunction(fit.powers, fit.coefficients)
+    truth = {"amplitude_runs": amp_truth, "phase_runs": ph_truth, "gate_day": float(gate_day),
+             "lut_run": f"R{lut_run + 1:03d}", "lut_fit_A_corr": fit.A_corr,
+             "day_fit_A_corr": day_fit.A_corr,
+             "lut_relative_A_corr": fit.A_corr / day_fit.A_corr - 1,
+             "lut_relative_y05": float(fit.y(0.5) / day_fit.y(0.5) - 1),
+             "detector_nonlinearity_rel_max": cfg.detector_nonlinearity
+             * float(amp_rows[-1]["power"].max()) / cfg.photodiode.p_full,
+             "day_A_corr": float(A_corr[-1]), "day_phi_at_1": float(phi1[-1])}
+    return amp, ph, day_aom, tf, truth

@@ -1,0 +1,97 @@
+"""Gate recordings of a campaign: populations, parity scans, gate rates and time scans.
+
+Each setting (gate amplitude, DPD flag) drives the exact gate engine
+(:mod:`dpdfit.models.gate_sim`) with the optical tones the day's AOM
+produces; its ``xi0`` is calibrated with a relative error, and every scan
+carries a laser-power jitter (plus any systematic power offset).  All draws
+come from one random stream (purpose 5), in a fixed order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.models import gate_sim
+
+from .config import CampaignConfig, rng_for
+from .optics import gate_spectrum
+
+__all__ = ["gate_tables"]
+
+_PHASES = np.arange(16) * 2 * np.pi / 16          # analysis phases of the parity scans
+_SCAN_SHOTS = 625                                  # shots per time-scan point
+
+
+def _t2(cfg) -> float:
+    rate = 1.0 / cfg.T2 + cfg.extra_dephasing
+    return 1.0 / rate
+
+
+def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
+    """Gate rate, population and parity scans of one setting: rows appended to ``out``."""
+    xi_true = gate_sim.calibrate_xi0(b, c, n, eta_Omega0)
+    xi_cal = xi_true * (1 + cfg.xi0_rel_err * rng.standard_normal())
+    out["rates"].append({"A": A, "dpd": d, "xi0_khz": xi_cal / 1e3,
+                         "xi0_err_khz": cfg.xi0_rel_err * xi_cal / 1e3})
+    fids = []
+    fids_gate, fids_app = [], []
+    for s, (shots_pop, shots_par) in enumerate(cfg.scan_shots):
+        eps_db = cfg.gate_power_offset_db + cfg.power_jitter_db * rng.standard_normal()
+        res = gate_sim.simulate_setting(
+            b, c, n, eta_Omega0, xi_cal, nbar=cfg.nbar, T2=_t2(cfg), ndot=cfg.ndot,
+            p_prep=cfg.p_prep, p_det=cfg.p_det, parity_phases=_PHASES,
+            power_error_db=eps_db)
+        counts = res.sample(rng, shots_pop, shots_par)
+        out["pop"].append({"A": A, "dpd": d, "scan": s + 1, "n00": counts["n00"],
+                           "n01_10": counts["n01_10"], "n11": counts["n11"],
+                           "n_even": counts["n00"] + counts["n11"], "shots": shots_pop})
+        for ph, k in zip(_PHASES, counts["parity_even"]):
+            out["par"].append({"A": A, "dpd": d, "scan": s + 1, "phase_rad": float(ph),
+                               "n_even": int(k), "shots": shots_par})
+        fids.append(res.fidelity_max)
+        fids_gate.append(res.fidelity_gate)
+        fids_app.append(res.apparent_fidelity)
+        p.update()
+    out["truth"].append({"A": A, "dpd": d, "xi0_true_hz": xi_true, "xi0_cal_hz": xi_cal,
+                         "bell_fidelity_mean_over_scans": float(np.mean(fids)),
+                         "gate_only_fidelity_mean_over_scans": float(np.mean(fids_gate)),
+                         "apparent_fidelity_mean_over_scans": float(np.mean(fids_app))})
+
+
+def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out):
+    """Time scan at ``cfg.time_scan_A`` of one flag: rows appended to ``out["time"]``."""
+    A = cfg.time_scan_A
+    xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
+    t = np.linspace(0, cfg.time_scan_max / xi_cal, cfg.time_scan_points)
+    res = gate_sim.simulate_setting(
+        b, c, n, eta_Omega0, xi_cal, nbar=cfg.nbar, T2=_t2(cfg), ndot=cfg.ndot,
+        p_prep=cfg.p_prep, p_det=cfg.p_det, parity_phases=_PHASES, scan_times=t,
+        # a time scan is a gate run: it carries the systematic power offset
+        # (no per-scan jitter is drawn, which keeps older campaigns' bytes)
+        power_error_db=cfg.gate_power_offset_db)
+    counts = res.sample(rng, 0, 0, shots_scan=_SCAN_SHOTS)
+    for ti, cnt in zip(t, counts.scan_counts):
+        out["time"].append({"A": A, "dpd": d, "t_us": ti * 1e6, "n00": int(cnt[0]),
+                            "n01_10": int(cnt[1]), "n11": int(cnt[2]), "shots": _SCAN_SHOTS})
+
+
+def gate_tables(cfg: CampaignConfig, aom, lut, progress):
+    """``populations.csv``, ``parity.csv``, ``gate_rates.csv``, ``time_scans.csv`` tables
+    and the gates' truth (``eta_Omega0`` and per-setting true/calibrated ``xi0``, fidelities)."""
+    rng = rng_for(cfg, 5)
+    settings = [(A, d) for A in cfg.gate_amplitudes for d in (0, 1)]
+    spectra = {s: gate_spectrum(cfg, aom, lut, *s) for s in settings}
+    # eta*Omega0 such that the anchor (A=0.4, no DPD) calibrates to alpha
+    n0, b0, c0 = gate_spectrum(cfg, aom, lut, 0.4, 0)
+    xi_unit = gate_sim.calibrate_xi0(b0, c0, n0, 1.0)
+    eta_Omega0 = cfg.alpha_khz * 1e3 / xi_unit
+    out = {"pop": [], "par": [], "rates": [], "time": [], "truth": []}
+    with progress("gate experiments", len(settings) * len(cfg.scan_shots) + 2) as p:
+        for (A, d) in settings:
+            _setting_scans(cfg, rng, eta_Omega0, A, d, *spectra[(A, d)], out, p)
+        for d in (0, 1):
+            _time_scan(cfg, rng, eta_Omega0, d, *spectra[(cfg.time_scan_A, d)], out)
+            p.update()
+    return (pd.DataFrame(out["pop"]), pd.DataFrame(out["par"]), pd.DataFrame(out["rates"]),
+            pd.DataFrame(out["time"]), {"eta_Omega0": eta_Omega0, "settings": out["truth"]})

@@ -1,0 +1,122 @@
+"""The campaign simulator's driver: the recordings of one seed, ``campaign.json``, ``truth.json``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from dpdfit.core.progress import Progress
+from dpdfit.core.version import __version__
+
+from .calibration_runs import calibration_runs
+from .config import DEFAULT_SEED, CampaignConfig
+from .folder import check_new_folder, csv_text, write_folder
+from .gate_runs import gate_tables
+from .optics import dpd_lut
+from .readme import campaign_readme
+from .spectra import spectra_tables
+
+__all__ = ["simulate_campaign"]
+
+
+def _campaign_json(cfg: CampaignConfig, nominal: CampaignConfig) -> dict:
+    """Constants of the campaign as the lab records them (``campaign.json``)."""
+    return {
+        "name": f"synthetic campaign, seed {cfg.seed}",
+        "synthetic": True,
+        "generator": f"dpdfit {__version__} simulate-campaign --seed {cfg.seed}",
+        "nu_hz": cfg.nu, "xi0_spectra_hz": cfg.xi0_spec, "f_det_hz": cfg.f_det,
+        "fs_traces_hz": cfg.fs, "eta_ld": cfg.eta_ld, "nbar_assumed": cfg.nbar,
+        "eta_ref": cfg.eta_ref, "order": cfg.order,
+        # what the lab's records say: the table was made from the gate day's run
+        "predistortion_table": {"amplitude_run": f"R{cfg.n_amp_runs:03d}",
+                                "points": cfg.lut_points,
+                                "order": cfg.order, "interpolation": "linear"},
+        "phase_run_for_model": f"P{cfg.n_phase_runs:03d}",
+        "gate_waveform": "Cardioid(1,2)",
+        "parity_phases": 16, "nominal_shots": 625,
+        # the lab's error model (its own characterisation, Table S3), not the truth
+        "error_model": {"nbar": nominal.nbar, "T2_s": nominal.T2,
+                        "heating_quanta_per_s": nominal.ndot, "p_prep": nominal.p_prep,
+                        "p_det": nominal.p_det, "power_jitter_db": nominal.power_jitter_db,
+                        "xi0_rel_err": nominal.xi0_rel_err},
+        "units": {"A": "normalised RF amplitude", "power": "photodiode V*us (arbitrary)",
+                  "phase_rad": "rad", "P_dB": "dB re unit-amplitude sinusoid in trace volts",
+                  "xi0_khz": "kHz", "t_us": "microseconds", "timestamp": "ISO 8601 UTC"},
+    }
+
+
+def _rounded(obj, digits: int = 10):
+    """Round every float in a JSON-like object to ``digits`` significant digits."""
+    if isinstance(obj, dict):
+        return {k: _rounded(v, digits) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_rounded(v, digits) for v in obj]
+    if isinstance(obj, float) and np.isfinite(obj):
+        return float(f"{obj:.{digits}g}")
+    return obj
+
+
+def _jsonable_config(cfg: CampaignConfig) -> dict:
+    d = {}
+    for f in dataclasses.fields(cfg):
+        v = getattr(cfg, f.name)
+        if dataclasses.is_dataclass(v):
+            v = {k: (abs(x) if isinstance(x, complex) else x)
+                 for k, x in dataclasses.asdict(v).items()}
+        elif isinstance(v, tuple):
+            v = [list(x) if isinstance(x, tuple) else x for x in v]
+        d[f.name] = v
+    return json.loads(json.dumps(d, default=lambda o: float(np.real(o))))
+
+
+def _truth_json(truth: dict) -> str:
+    # 10 significant digits: independent of BLAS threading in the last bits
+    return json.dumps(_rounded(json.loads(json.dumps(truth, default=float))),
+                      indent=2, sort_keys=True) + "\n"
+
+
+def simulate_campaign(outdir: str | os.PathLike, seed: int = DEFAULT_SEED,
+                      effects: dict | None = None, *, config: CampaignConfig | None = None,
+                      progress=None, include_gates: bool = True) -> dict:
+    """Simulate a campaign and write it to ``outdir`` (which must not exist or be empty).
+
+    Files are written into a temporary folder beside ``outdir`` and moved
+    into place only when complete.  Returns the ``truth`` dict.
+    """
+    if progress is None:
+        def progress(label, total):
+            return Progress(label, total)
+    out = Path(outdir)
+    check_new_folder(out)
+    cfg = (config or CampaignConfig(seed=seed))
+    cfg = dataclasses.replace(cfg, seed=seed) if config is None else cfg
+    nominal = cfg
+    cfg = cfg.with_effects(effects or {})
+    amp, ph, aom, tf, cal_truth = calibration_runs(cfg)
+    lut = dpd_lut(tf, cfg.lut_points)
+    spectra, index, bundled = spectra_tables(cfg, aom, lut, progress)
+    files = {
+        "calibration_amplitude.csv": csv_text(amp),
+        "calibration_phase.csv": csv_text(ph),
+        "spectra.csv": csv_text(spectra),
+        "traces.csv": csv_text(index),
+    }
+    gate_truth = None
+    if include_gates:
+        pop, par, rates, ts, gate_truth = gate_tables(cfg, aom, lut, progress)
+        files.update({"populations.csv": csv_text(pop), "parity.csv": csv_text(par),
+                      "gate_rates.csv": csv_text(rates), "time_scans.csv": csv_text(ts)})
+    truth = {"config": _jsonable_config(cfg), "calibration": cal_truth, "gates": gate_truth}
+    files["campaign.json"] = json.dumps(_campaign_json(cfg, nominal), indent=2,
+                                        sort_keys=True) + "\n"
+    files["truth.json"] = _truth_json(truth)
+    files["README.md"] = campaign_readme(f"Synthetic campaign (seed {cfg.seed})", cfg.seed,
+                                         cfg.effects)
+    write_folder(out, files, bundled)
+    return truth

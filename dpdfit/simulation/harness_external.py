@@ -1,0 +1,159 @@
+"""External injection recovery: diagnose campaigns someone else wrote (issue #14).
+
+``dpdfit harness --campaigns DIR --truth FILE`` diagnoses every campaign folder
+in ``DIR`` (a sub-folder holding ``campaign.json``, in name order) exactly as a
+lab would -- the diagnosis reads the recordings only -- and compares each
+verdict with ``FILE``: JSON, campaign id (the folder's name) -> object with at
+least ``effect`` (``"none"`` for a campaign with nothing concealed; other keys
+are kept in the report as they are).  A campaign without a truth entry is
+diagnosed and reported with truth ``"unknown"`` (it counts in neither rate).
+A diagnosis that refuses the campaign is recorded with verdict ``"refused"``
+and its one-line error, never a crash.  Nothing is written into ``DIR``.
+
+Report keys (keep): ``confusion`` (truth -> verdict -> count),
+``false_alarm_rate`` (nulls not called ``none``), ``named_correctly``
+(fraction of the concealed campaigns whose verdict is the truth's effect),
+``n_campaigns``, ``runs`` (per campaign ``campaign``, ``truth``, ``verdict``,
+``seconds``, plus ``verdict_fit``, ``params``, ``params_err``, ``error``).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dpdfit.errors import DpdfitError, InputError
+from dpdfit.simulation.dispatch import run_jobs
+
+__all__ = ["read_truth", "campaign_folders", "run_external_one", "summarise_external",
+           "run_external", "report_external"]
+
+
+def read_truth(path) -> dict:
+    """The truth file: campaign id -> object with ``effect`` (InputError naming what is wrong)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("truth file does not exist", file=str(path))
+    try:
+        truth = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON ({exc.msg}, line {exc.lineno})", file=str(path)
+                         ) from None
+    if not isinstance(truth, dict):
+        raise InputError("must hold a JSON object: campaign id -> {\"effect\": ...}",
+                         file=str(path))
+    for cid, v in truth.items():
+        if not isinstance(v, dict) or not isinstance(v.get("effect"), str):
+            raise InputError(f"campaign {cid!r}: needs an object with a string 'effect'",
+                             file=str(path))
+    return truth
+
+
+def campaign_folders(directory) -> list[Path]:
+    """Campaign folders of ``directory`` (sub-folders with ``campaign.json``), by name."""
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise InputError("campaigns folder does not exist", file=str(directory))
+    out = sorted(p for p in directory.iterdir() if (p / "campaign.json").is_file())
+    if not out:
+        raise InputError("no campaign folders (sub-folders with campaign.json) in it",
+                         file=str(directory))
+    return out
+
+
+def run_external_one(job: dict) -> dict:
+    """Diagnose one campaign folder; ``job`` = ``{"campaign", "folder", "truth"}``."""
+    from dpdfit.analyses.diagnosis.diagnose import diagnose
+    t0 = time.perf_counter()
+    rec = {"campaign": job["campaign"], "truth": job["truth"]}
+    try:
+        d = diagnose(job["folder"])
+    except DpdfitError as exc:
+        return {**rec, "verdict": "refused", "error": str(exc),
+                "seconds": time.perf_counter() - t0}
+    chosen = d.chosen
+    return {**rec, "verdict": d.verdict, "seconds": d.seconds,
+            "verdict_fit": d.extra.get("verdict_fit"),
+            "explained_fraction": d.extra.get("explained_fraction"),
+            "params": None if chosen is None else chosen.params,
+            "params_err": None if chosen is None else chosen.params_err,
+            "left_out": d.extra.get("left_out"), "error": None}
+
+
+def summarise_external(runs: list) -> dict:
+    """Confusion, false-alarm rate and fraction named correctly of diagnosed campaigns."""
+    confusion: dict = {}
+    for r in runs:
+        row = confusion.setdefault(r["truth"], {})
+        row[r["verdict"]] = row.get(r["verdict"], 0) + 1
+    nulls = [r for r in runs if r["truth"] == "none"]
+    conc = [r for r in runs if r["truth"] not in ("none", "unknown")]
+    secs = [r["seconds"] for r in runs]
+    return {"n_campaigns": len(runs), "confusion": confusion,
+            "false_alarm_rate": (sum(r["verdict"] != "none" for r in nulls) / len(nulls)
+                                 if nulls else None),
+            "named_correctly": (sum(r["verdict"] == r["truth"] for r in conc) / len(conc)
+                                if conc else None),
+            "n_nulls": len(nulls), "n_concealed": len(conc),
+            "n_refused": sum(r["verdict"] == "refused" for r in runs),
+            "median_seconds": float(np.median(secs)) if secs else None,
+            "max_seconds": float(np.max(secs)) if secs else None,
+            "runs": runs}
+
+
+def run_external(directory, truth_file, workers: int | None = None,
+                 scheduler: str | None = None, progress=None) -> dict:
+    """Diagnose every campaign of ``directory`` and compare with ``truth_file`` (module doc)."""
+    truth = read_truth(truth_file)
+    folders = campaign_folders(directory)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers must be >= 1, got {workers}")
+    jobs = [{"campaign": p.name, "folder": str(p),
+             "truth": truth.get(p.name, {}).get("effect", "unknown")} for p in folders]
+    t0 = time.perf_counter()
+    runs = []
+
+    def finished(r):
+        runs.append(r)
+        if progress:
+            progress(len(runs), len(jobs))
+
+    # one worker (the default): one campaign at a time, each diagnosis using the cores
+    # itself (dpdfit.core.parallel); more: one diagnosis per worker, serial inside
+    n_workers = None if scheduler else (workers or 1)
+    run_jobs(run_external_one, jobs, n_workers, scheduler, finished)
+    order = {j["campaign"]: i for i, j in enumerate(jobs)}
+    runs.sort(key=lambda r: order[r["campaign"]])
+    out = summarise_external(runs)
+    out.update({"campaigns": str(directory), "truth_file": str(truth_file),
+                "seconds": time.perf_counter() - t0, "workers": n_workers,
+                "scheduler": scheduler})
+    return out
+
+
+def report_external(s: dict) -> str:
+    """Readable summary of an external run."""
+    def num(v):
+        return "n/a" if v is None else f"{v:.3g}"
+
+    lines = [f"External injection recovery: {s['n_campaigns']} campaigns from "
+             f"{s['campaigns']} in {s['seconds']:.0f} s",
+             f"  named correctly: {num(s['named_correctly'])} of {s['n_concealed']} concealed",
+             f"  false-alarm rate: {num(s['false_alarm_rate'])} of {s['n_nulls']} nulls",
+             f"  refused: {s['n_refused']}; seconds per campaign: median "
+             f"{num(s['median_seconds'])}, max {num(s['max_seconds'])}", "",
+             "  confusion (truth -> verdict):"]
+    for t, row in sorted(s["confusion"].items()):
+        lines.append(f"    {t:>26s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
+    lines += ["", "  runs:"]
+    for r in s["runs"]:
+        mark = "ok" if r["verdict"] == r["truth"] else "--"
+        extra = f"  ({r['error']})" if r.get("error") else (
+            f"  [{r['verdict_fit']}]" if r.get("verdict_fit") not in (None, "acceptable",
+                                                                     "none") else "")
+        lines.append(f"    {mark} {r['campaign']:>8s}: truth {r['truth']:<26s} verdict "
+                     f"{r['verdict']:<26s} {r['seconds']:6.1f} s{extra}")
+    return "\n".join(lines)
