@@ -1,24 +1,21 @@
 """dpdfit: analysis of digitally predistorted trapped-ion entangling-gate experiments.
 
-Data flow (one module per stage)::
+Data flow one way; each layer (a folder) imports only from the layers before it,
+plus :mod:`dpdfit.core` and :mod:`dpdfit.errors` (import-linter contracts in
+``pyproject.toml``)::
 
-    tables       recordings (CSV) -> validated tables
-    polyfit      stable weighted polynomial least squares
-    calibration  AOM amplitude y(A) and phase phi(A) fits with uncertainties
-    transfer     forward AM/PM model, inverse f_AM^-1, predistortion table
-    waveforms    multi-tone gate waveforms (Cardioid), sampling grid, DPD
-    spectrum     tone powers of simulated fields; R10, R23
-    heterodyne   tone powers of recorded heterodyne traces (S4)
-    fidelity     closed-form phase-space fidelity estimate (S5), Table S2
-    sweep        amplitude sweep, eta_bar, r_rel, threshold efficiencies (S6)
-    counts       population/parity fidelities from raw counts, pooling (S7)
-    alignment    the alpha/delta fit of photodiode curves to gate data (S6.3-S6.4)
-    campaign     synthetic campaign simulator; gate_sim its exact gate dynamics
-    analyze      the main job: every analysis on a campaign folder
-    plots        figures (matplotlib, at the edge)
+    recordings   CSV/NPY recordings -> validated tables; the one campaign-folder reader
+    fits         polyfit, AOM calibration, counts (population, parity, pooling),
+                 tone extraction from traces, posterior, drift, alignment
+    models       transfer (AM/PM, inverse, table), waveforms, spectrum,
+                 fidelity (S5 estimate), gate_sim (exact gate dynamics)
+    analyses     sweep, measured spectra, stability, propagation, budget, diagnosis
+    simulation   AOM truth, synthetic campaign simulator, injection harness
+    report       figures (matplotlib only here) and the summary
+    pipeline     ``analyze``: every analysis on a campaign folder, each fit done once
     cli          the ``dpdfit`` command, a thin layer over this API
 
-``aom_truth`` is a physical AOM model used to generate synthetic recordings.
+The public API is re-exported here (``dpdfit.__all__``).
 """
 
 from dpdfit.core.version import __version__  # noqa: E402
