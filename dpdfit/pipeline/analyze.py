@@ -105,7 +105,7 @@ def _run_steps(ctx: Context, diagnosis: bool):
     run("propagation", propagation_step, fits)
     run("budget", budget_step)
     if diagnosis:
-        run("diagnosis", diagnosis_step)
+        run("diagnosis", diagnosis_step, fits)
     else:
         ctx.results.status("diagnosis", "skipped", "--no-diagnosis")
     return sweep, meas, failures

@@ -69,7 +69,7 @@ DEFAULT_PAIRS = 3
 
 
 def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = DEFAULT_PAIRS,
-             with_gates: bool = True) -> Diagnosis:
+             with_gates: bool = True, run_fits: dict | None = None) -> Diagnosis:
     """Diagnose a campaign folder (see module doc).
 
     Parameters
@@ -82,18 +82,21 @@ def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = DEFAULT_PAIRS,
         Fit the pairs of this many best single effects (0: none).
     with_gates : bool
         Use the gate recordings (else the tone side alone, tone-side effects only).
+    run_fits : dict, optional
+        The amplitude runs' fits at the campaign's order, ``{run label: fit}``,
+        when the caller has made them (``dpdfit analyze`` does): not refitted.
 
     BLAS runs single-threaded meanwhile: the engine's many small matrix products
     are 1.5x slower with threaded BLAS (measured on the bundled campaign), and the
     independent engine runs use the cores instead (:mod:`dpdfit.core.parallel`).
     """
     with threadpool_limits(limits=1, user_api="blas"):
-        return _diagnose(folder, effects, pairs, with_gates)
+        return _diagnose(folder, effects, pairs, with_gates, run_fits)
 
 
-def _diagnose(folder, effects, pairs: int, with_gates: bool) -> Diagnosis:
+def _diagnose(folder, effects, pairs: int, with_gates: bool, run_fits=None) -> Diagnosis:
     t0 = time.perf_counter()
-    camp = load_campaign(folder)
+    camp = load_campaign(folder, run_fits)
     prob = Problem(camp, with_gates=with_gates)
     effects = tuple(e for e in effects if with_gates or EFFECTS[e].side == "tones")
     base = fit_hypothesis(prob, ())

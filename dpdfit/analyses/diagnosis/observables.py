@@ -160,8 +160,14 @@ MAX_DRIFT_MODES = 3
 DRIFT_MODE_SIGNIFICANCE = 2.0
 
 
-def _drift_modes(cf: CampaignFolder, order: int) -> np.ndarray | None:
-    """Principal components of the amplitude runs' normalised curves (see Campaign)."""
+def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None
+                 ) -> np.ndarray | None:
+    """Principal components of the amplitude runs' normalised curves (see Campaign).
+
+    ``run_fits``: the runs' fits at ``order`` already made by the caller
+    (``{run label: fit}``, as ``dpdfit analyze``'s calibration step makes them);
+    a run not in it is fitted here.
+    """
     df = cf.amplitude_runs
     runs = list_runs(df)
     if len(runs) < 3:
@@ -170,8 +176,9 @@ def _drift_modes(cf: CampaignFolder, order: int) -> np.ndarray | None:
     A = np.linspace(0.0, 1.0, 101)
     for r in runs:
         sub = df[df["run"] == r]
+        f = (run_fits or {}).get(r)
         try:
-            f = fit_amplitude(sub["A"].to_numpy(), sub["power"].to_numpy(),
+            f = f if f is not None else fit_amplitude(sub["A"].to_numpy(), sub["power"].to_numpy(),
                               sub["power_err"].to_numpy() if "power_err" in sub.columns else None,
                               order)
         except DpdfitError:
@@ -323,13 +330,15 @@ def _time_scans(cf: CampaignFolder):
     return ts[["A", "dpd", "t_s", "n00", "n11", "shots"]].reset_index(drop=True)
 
 
-def load_campaign(folder) -> Campaign:
+def load_campaign(folder, run_fits: dict | None = None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
 
     ``folder`` is a path or a :class:`~dpdfit.recordings.campaign_folder.CampaignFolder`
     (the reader ``dpdfit analyze`` shares).  Required: ``campaign.json``,
     ``calibration_amplitude.csv``, ``spectra.csv``; everything else is
     optional and what is absent is listed in :attr:`Campaign.left_out`.
+    ``run_fits``: the amplitude runs' fits at the campaign's order, if the
+    caller has them (not refitted).
     """
     cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
     cal_noise = {}
@@ -365,6 +374,6 @@ def load_campaign(folder) -> Campaign:
                     sd_dB=sd, gates=gates, time_scans=_time_scans(cf), error_model=em,
                     warnings=tuple(warnings), P_raw=P_raw, snr_raw=snr, has_snr=has_snr,
                     has_error_model="error_model" in cf.raw_meta, left_out=tuple(left),
-                    drift_modes=_drift_modes(cf, int(cf.meta["order"])),
+                    drift_modes=_drift_modes(cf, int(cf.meta["order"]), run_fits),
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()})
