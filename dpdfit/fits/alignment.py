@@ -34,6 +34,8 @@ import pandas as pd
 from scipy.interpolate import CubicSpline
 from scipy.optimize import least_squares
 
+from dpdfit.core.adequacy import ModelAdequacy
+from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 
 __all__ = ["AlignmentFit", "align", "curves", "xi0_band", "K_DB"]
@@ -61,8 +63,8 @@ def curves(sweep: pd.DataFrame) -> dict:
     return out
 
 
-@dataclass(frozen=True)
-class AlignmentFit:
+@dataclass(frozen=True, repr=False)
+class AlignmentFit(ModelAdequacy, Displayable):
     """Result of the two-parameter alignment fit.
 
     Attributes
@@ -90,12 +92,30 @@ class AlignmentFit:
     redchi: float
     sigma_db: float
     points: pd.DataFrame = field(repr=False)
+    _adequacy_model = "the model xi0 = alpha r_rel, F = F_est + delta"
+
+    @property
+    def alpha_khz_err_birge(self) -> float:
+        """``alpha_khz_err`` times the Birge factor sqrt(redchi); ``alpha_khz_err`` stays
+        the absolute error."""
+        return float(self.birge(self.alpha_khz_err))
+
+    @property
+    def delta_err_birge(self) -> float:
+        """``delta_err`` times the Birge factor sqrt(redchi); ``delta_err`` stays absolute."""
+        return float(self.birge(self.delta_err))
+
+    def to_frame(self) -> pd.DataFrame:
+        """The per-point table (inputs, curve values, both residuals), a copy."""
+        return self.points.copy()
 
     def to_dict(self) -> dict:
         return {"alpha_khz": self.alpha_khz, "alpha_khz_err": self.alpha_khz_err,
                 "delta": self.delta, "delta_err": self.delta_err,
                 "correlation": self.correlation, "redchi": self.redchi, "chi2": self.chi2,
-                "dof": self.dof, "sigma_db": self.sigma_db, "n_points": int(len(self.points))}
+                "dof": self.dof, "sigma_db": self.sigma_db, "n_points": int(len(self.points)),
+                **self.adequacy_dict(), "alpha_khz_err_birge": self.alpha_khz_err_birge,
+                "delta_err_birge": self.delta_err_birge}
 
     def report(self) -> str:
         return "\n".join([
@@ -105,7 +125,8 @@ class AlignmentFit:
             f"    delta       : {self.delta:+.5f} +/- {self.delta_err:.5f}",
             f"    correlation : {self.correlation:+.3f}",
             f"    chi2        : {self.chi2:.3f}   reduced chi2: {self.redchi:.3f} (errors not rescaled)",
-        ])
+        ] + self.adequacy_lines({"alpha": (self.alpha_khz_err, "kHz"),
+                                 "delta": (self.delta_err, "")}))
 
 
 def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> AlignmentFit:

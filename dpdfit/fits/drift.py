@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.core.display import Displayable
 from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.fits.calibration import AmplitudeCalibration, fit_amplitude
 from dpdfit.fits.draws import read_only
@@ -51,8 +52,8 @@ __all__ = ["DriftModel", "drift_model", "fit_runs", "CalibrationUncertainty",
            "calibration_uncertainty"]
 
 
-@dataclass(frozen=True)
-class DriftModel:
+@dataclass(frozen=True, repr=False)
+class DriftModel(Displayable):
     """Run-to-run drift of ``y(1)`` from repeated calibration runs (Supplement S2).
 
     Attributes

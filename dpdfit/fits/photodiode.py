@@ -25,6 +25,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
+from dpdfit.core.display import Displayable
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
 from dpdfit.errors import DpdfitError
 
@@ -35,8 +36,8 @@ __all__ = ["PowerNoise", "PhaseNoise", "fit_power_noise", "fit_phase_noise",
 MIN_RUNS = 3
 
 
-@dataclass(frozen=True)
-class PowerNoise:
+@dataclass(frozen=True, repr=False)
+class PowerNoise(Displayable):
     """``sigma(P) = sqrt(a^2 + (b P)^2)`` (power units), learnt from ``n_runs`` runs."""
 
     a: float
@@ -106,8 +107,8 @@ def _two_term_variance(r2, u, w):
     return float(np.exp(best.x[0])), float(np.exp(best.x[1]))
 
 
-@dataclass(frozen=True)
-class PhaseNoise:
+@dataclass(frozen=True, repr=False)
+class PhaseNoise(Displayable):
     """``sigma(A) = sqrt(c^2 + (d/A)^2)`` (rad): a floor plus heterodyne noise ~ 1/amplitude."""
 
     c: float

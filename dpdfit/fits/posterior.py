@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.core.display import Displayable
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.fits.calibration import AmplitudeCalibration, fit_amplitude
 from dpdfit.fits.draws import quantile_summary, read_only, shift_y1
@@ -102,8 +103,8 @@ def laplace_independence_move(mean, cov, df=_T_DF):
     return emcee.moves.MHMove(proposal, ndim=d)
 
 
-@dataclass(frozen=True)
-class PosteriorResult:
+@dataclass(frozen=True, repr=False)
+class PosteriorResult(Displayable):
     """Posterior draws of the amplitude transfer function of one calibration run.
 
     Attributes

@@ -35,6 +35,8 @@ from scipy.optimize import brentq, minimize
 from scipy.special import chndtr, i0e
 from scipy.stats import chi2
 
+from dpdfit.core.display import Displayable
+
 __all__ = ["MAX_FLOOR_ERR_DB", "MIN_FLOOR_READINGS", "NoiseFloor", "estimate_noise_floor", "floor_from_snr", "robust_scale",
            "FLOOR_FIT_DB", "MEDIAN_CHI2_1"]
 
@@ -48,8 +50,8 @@ MAX_FLOOR_ERR_DB = 3.0
 MIN_FLOOR_READINGS = 8
 
 
-@dataclass(frozen=True)
-class NoiseFloor:
+@dataclass(frozen=True, repr=False)
+class NoiseFloor(Displayable):
     """Noise floor of the tone powers (dB re the spectra's reference).
 
     ``N0`` is the mean noise power per bin (linear), ``floor_db = 10 log10 N0``,

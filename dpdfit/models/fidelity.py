@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dpdfit.core.defaults import FORMULA, NBAR
+from dpdfit.core.display import Displayable
 from dpdfit.errors import InputError
 
 __all__ = ["phase_space", "gate_phase_space", "calibrate_g", "bell_fidelity",
@@ -267,8 +268,8 @@ def amplitudes_from_powers(P_dB, harmonics=(0, 1, 2, 3), gate=(1, 2), gate_signs
     return amp * np.array([sign_of[n] for n in h])
 
 
-@dataclass(frozen=True)
-class Estimate:
+@dataclass(frozen=True, repr=False)
+class Estimate(Displayable):
     """Spectrum-based fidelity estimate for one or a batch of sideband groups."""
 
     F_est: np.ndarray

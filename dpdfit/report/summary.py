@@ -145,6 +145,13 @@ def _gates(g: dict) -> list[str]:
         lines += ["", f"Alignment: alpha = {al['alpha_khz']:.3f} ± {al['alpha_khz_err']:.3f} kHz, "
                       f"delta = {al['delta']:+.4f} ± {al['delta_err']:.4f}, correlation "
                       f"{al['correlation']:+.2f}, reduced chi2 {al['redchi']:.2f}."]
+        if al.get("model_adequate") is False:
+            lo, hi = al["redchi_range_99"]
+            lines += ["", f"**The model F = F_est + delta does not describe the data**: reduced "
+                          f"chi2 {al['redchi']:.2f} lies outside its 99 % range [{lo:.2f}, "
+                          f"{hi:.2f}] for {al['dof']} dof.  Birge-scaled errors (x "
+                          f"{al['birge_factor']:.2f}): alpha ± {al['alpha_khz_err_birge']:.3f} "
+                          f"kHz, delta ± {al['delta_err_birge']:.4f}."]
     return lines
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field
 
+from dpdfit.core.display import Displayable
+
 __all__ = ["SOURCES", "PAPER_TABLE", "BudgetResult"]
 
 SOURCES = ("state_preparation", "dephasing", "heating", "detection")
@@ -14,8 +16,8 @@ PAPER_TABLE = {"state_preparation": "<~0.6%", "dephasing": "0.3-0.6%", "heating"
                "detection": "<0.02%", "total": "<~0.9-1.2%", "delta": "1.8 +/- 0.3%"}
 
 
-@dataclass(frozen=True)
-class BudgetResult:
+@dataclass(frozen=True, repr=False)
+class BudgetResult(Displayable):
     """Error budget (fractions of fidelity; ``estimate`` = MC mean, ``error`` = MC sd).
 
     Attributes

@@ -10,6 +10,7 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting import FitResult
 from dpdfit.analyses.diagnosis.verdict import ALPHA
+from dpdfit.core.display import Displayable
 
 __all__ = ["CONVENTIONS", "Diagnosis"]
 
@@ -22,8 +23,8 @@ CONVENTIONS = {"delta_bic": "BIC(effect) - BIC(baseline); negative favours the e
                                      "Bonferroni-corrected p-value"}
 
 
-@dataclass(frozen=True)
-class Diagnosis:
+@dataclass(frozen=True, repr=False)
+class Diagnosis(Displayable):
     """Result of :func:`~dpdfit.analyses.diagnosis.diagnose.diagnose` (JSON keys of
     ``dpdfit diagnose --json``)."""
 

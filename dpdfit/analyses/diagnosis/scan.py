@@ -31,13 +31,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import norm
 
+from dpdfit.core.display import Displayable
 from dpdfit.errors import InputError
 
 __all__ = ["Deviation", "scan_intervals"]
 
 
-@dataclass(frozen=True)
-class Deviation:
+@dataclass(frozen=True, repr=False)
+class Deviation(Displayable):
     """One interval of significant deviation.
 
     Attributes

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from dpdfit.core.display import Displayable
 from dpdfit.fits.draws import quantile_summary
 
 __all__ = ["PropagationResult"]
 
 
-@dataclass(frozen=True)
-class PropagationResult:
+@dataclass(frozen=True, repr=False)
+class PropagationResult(Displayable):
     """Distribution of F_est, R10 and eta_bar per DPD flag at one amplitude."""
 
     A: float

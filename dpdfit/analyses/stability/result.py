@@ -6,11 +6,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dpdfit.core.display import Displayable
+
 __all__ = ["StabilityResult"]
 
 
-@dataclass(frozen=True)
-class StabilityResult:
+@dataclass(frozen=True, repr=False)
+class StabilityResult(Displayable):
     """Calibration stability over runs (Supplement S2).
 
     Attributes

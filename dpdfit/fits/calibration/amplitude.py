@@ -31,9 +31,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 from scipy.optimize import least_squares
 
+from dpdfit.core.adequacy import ModelAdequacy
 from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 from dpdfit.fits.calibration.shared import (frozen_array, gaussian_ic, json_float,
                                             nonmonotone_intervals, run_source, vander)
@@ -44,8 +47,8 @@ __all__ = ["AmplitudeCalibration", "fit_amplitude", "amplitude_order_table",
            "calibrate_amplitude"]
 
 
-@dataclass(frozen=True)
-class AmplitudeCalibration:
+@dataclass(frozen=True, repr=False)
+class AmplitudeCalibration(ModelAdequacy, Displayable):
     """Result of the amplitude fit (paper Eq. amplitude-poly, normalised).
 
     Attributes
@@ -102,6 +105,7 @@ class AmplitudeCalibration:
     method: str = ("weighted least squares of the recorded power, P(A) = (sum_k b_k A^k)^2, "
                    "all points kept (negative powers included); a_k = b_k/b_1; "
                    "errors by the delta method from the full covariance")
+    _adequacy_model = "the model P(A) = (sum_k b_k A^k)^2"
 
     @property
     def order(self) -> int:
@@ -142,8 +146,18 @@ class AmplitudeCalibration:
             "sigma_source": self.sigma_source, "n_points": self.n_points,
             "aic": self.aic, "bic": self.bic, "log_likelihood": self.log_likelihood,
             "method": self.method, "source": dict(self.source),
-            "order_table": list(self.order_table),
+            "order_table": list(self.order_table), **self.adequacy_dict(),
+            "A_corr_stderr_birge": self.A_corr_stderr_birge,
         }
+
+    @property
+    def A_corr_stderr_birge(self) -> float:
+        """``A_corr_stderr`` times the Birge factor; ``A_corr_stderr`` stays absolute."""
+        return float(self.birge(self.A_corr_stderr))
+
+    def to_frame(self) -> pd.DataFrame:
+        """The order scan (:func:`amplitude_order_table`) as a DataFrame, one row per K."""
+        return pd.DataFrame(list(self.order_table))
 
     @classmethod
     def from_dict(cls, d: dict) -> "AmplitudeCalibration":
@@ -190,6 +204,7 @@ class AmplitudeCalibration:
                 lines.append(f"      {r['order']:2d}  {r['chi2']:12.5g}  {r['aic']:12.5g}"
                              f"{'*' if r['aic'] == amin else ' '} {r['bic']:12.5g}"
                              f"{'*' if r['bic'] == bmin else ' '} {r['A_corr']:.6f}")
+        lines += self.adequacy_lines({"A_corr": (self.A_corr_stderr, "")})
         return "\n".join(lines)
 
 
@@ -314,14 +329,16 @@ def fit_amplitude(A, power, power_err=None, order: int = AMPLITUDE_ORDER, *,
         source=dict(source or {}), order_table=table)
 
 
-def amplitude_order_table(A, power, power_err=None, orders=range(3, 13)) -> list[dict]:
+def amplitude_order_table(A, power, power_err=None, orders=range(3, 13), *,
+                          as_frame: bool = False) -> list[dict] | pd.DataFrame:
     """AIC/BIC of the amplitude fit over a range of orders K.
 
     Returns one dict per order that could be fitted: ``order``, ``n_params``
     (K, plus one for sigma when estimated), ``chi2``, ``dof``,
     ``log_likelihood``, ``aic``, ``bic``, ``A_corr``, ``A_corr_stderr``.
     All orders use the same data and the same likelihood, so the criteria
-    are comparable; the lowest value is preferred.
+    are comparable; the lowest value is preferred.  ``as_frame=True`` returns
+    the same rows as a pandas DataFrame.
     """
     A = np.asarray(A, dtype=float)
     power = np.asarray(power, dtype=float)
@@ -339,7 +356,7 @@ def amplitude_order_table(A, power, power_err=None, orders=range(3, 13)) -> list
         out.append({"order": int(K), "n_params": int(k), "chi2": chi2, "dof": int(dof),
                     "log_likelihood": float(ll), "aic": float(aic), "bic": float(bic),
                     "A_corr": Ac, "A_corr_stderr": float(np.sqrt(g @ cov_b @ g))})
-    return out
+    return pd.DataFrame(out) if as_frame else out
 
 
 def calibrate_amplitude(data: CalibrationData, order: int = AMPLITUDE_ORDER, order_scan=None

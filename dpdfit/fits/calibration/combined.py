@@ -13,6 +13,7 @@ import json
 import os
 from dataclasses import dataclass, field
 
+from dpdfit.core.display import Displayable
 from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
@@ -21,8 +22,8 @@ from dpdfit.fits.calibration.phase import PhaseCalibration
 __all__ = ["Calibration", "load_calibration"]
 
 
-@dataclass(frozen=True)
-class Calibration:
+@dataclass(frozen=True, repr=False)
+class Calibration(Displayable):
     """Amplitude and (optional) phase calibration: the content of calibration.json."""
 
     amplitude: AmplitudeCalibration
@@ -33,6 +34,18 @@ class Calibration:
     @property
     def A_corr(self) -> float:
         return self.amplitude.A_corr
+
+    def _display_rows(self) -> list[tuple]:
+        return ([("amplitude." + r[0],) + r[1:] for r in self.amplitude._display_rows()]
+                + ([] if self.phase is None else
+                   [("phase." + r[0],) + r[1:] for r in self.phase._display_rows()]))
+
+    def _display_diagnostics(self) -> dict:
+        diag = self.amplitude._display_diagnostics()
+        if self.phase is not None:
+            ph = self.phase._display_diagnostics()
+            diag["warnings"] = diag["warnings"] + [f"phase: {w}" for w in ph["warnings"]]
+        return diag
 
     def to_dict(self) -> dict:
         return {

@@ -18,7 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dpdfit.core.adequacy import ModelAdequacy
 from dpdfit.core.defaults import PHASE_MIN_A, PHASE_ORDER
+from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 from dpdfit.fits.calibration.shared import frozen_array, json_float, run_source, vander
 from dpdfit.fits.polyfit import polyfit
@@ -27,8 +29,8 @@ from dpdfit.recordings.tables import CalibrationData, check_duplicates
 __all__ = ["PhaseCalibration", "fit_phase", "calibrate_phase"]
 
 
-@dataclass(frozen=True)
-class PhaseCalibration:
+@dataclass(frozen=True, repr=False)
+class PhaseCalibration(ModelAdequacy, Displayable):
     """Result of the phase fit (Supplement S1, Eq. phase-poly).
 
     Attributes
@@ -63,10 +65,16 @@ class PhaseCalibration:
     log_likelihood: float
     condition_number: float
     source: dict = field(default_factory=dict)
+    _adequacy_model = "the model phi(A) = sum_k b_k A^k"
 
     @property
     def order(self) -> int:
         return max(self.powers)
+
+    @property
+    def phi_at_1_stderr_birge(self) -> float:
+        """``phi_at_1_stderr`` times the Birge factor; ``phi_at_1_stderr`` stays absolute."""
+        return float(self.birge(self.phi_at_1_stderr))
 
     def phi(self, A):
         """phi(A), rad."""
@@ -87,7 +95,8 @@ class PhaseCalibration:
             "reduced_chi2": self.reduced_chi2, "residual_std": self.residual_std,
             "sigma_source": self.sigma_source, "aic": self.aic, "bic": self.bic,
             "log_likelihood": self.log_likelihood, "condition_number": self.condition_number,
-            "source": dict(self.source),
+            "source": dict(self.source), **self.adequacy_dict(),
+            "phi_at_1_stderr_birge": self.phi_at_1_stderr_birge,
         }
 
     @classmethod
@@ -121,6 +130,7 @@ class PhaseCalibration:
                  "    coefficient        value          stderr"]
         for p, c, s in zip(self.powers, self.coefficients, self.stderr):
             lines.append(f"      b_{p:<3d}   {c:+16.9e}  {s:14.6e}")
+        lines += self.adequacy_lines({"phi(1)": (self.phi_at_1_stderr, "rad")})
         return "\n".join(lines)
 
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 from dpdfit.recordings.counts import fringe_points
 
@@ -37,8 +38,8 @@ from .parity_optimiser import _optimise
 __all__ = ["ParityFit", "fit_parity"]
 
 
-@dataclass(frozen=True)
-class ParityFit:
+@dataclass(frozen=True, repr=False)
+class ParityFit(Displayable):
     """Binomial maximum-likelihood fit of ``Pi(phi) = A cos(2 phi + phi0)`` (S7.2).
 
     Attributes

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from dpdfit.core.display import Displayable
 from dpdfit.errors import InputError
 
 from ._common import LEVEL_1SIGMA, _check_level, _to_dict, _z
@@ -32,8 +33,8 @@ from ._common import LEVEL_1SIGMA, _check_level, _to_dict, _z
 __all__ = ["PopulationFidelity", "population_fidelity"]
 
 
-@dataclass(frozen=True)
-class PopulationFidelity:
+@dataclass(frozen=True, repr=False)
+class PopulationFidelity(Displayable):
     """Population fidelity ``F_pop = n_even / shots`` (S7.1) with an interval.
 
     Attributes

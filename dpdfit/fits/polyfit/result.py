@@ -12,7 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 
 import numpy as np
+import pandas as pd
 
+from dpdfit.core.adequacy import ModelAdequacy
+from dpdfit.core.display import Displayable
 from dpdfit.fits.polyfit import double_double as _dd
 from dpdfit.fits.polyfit.inputs import format_powers
 from dpdfit.fits.polyfit.refine import solve_upper
@@ -27,8 +30,8 @@ def _readonly(a) -> np.ndarray:
     return arr
 
 
-@dataclass(frozen=True, eq=False)
-class PolyFitResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class PolyFitResult(ModelAdequacy, Displayable):
     """Result of :func:`polyfit` (immutable; all arrays are read-only).
 
     Attributes
@@ -121,6 +124,7 @@ class PolyFitResult:
     # weighted design); used by predict_stderr to avoid the cancellation in
     # v^T C v with a monomial covariance matrix.
     _cov_factor: np.ndarray = field(default=None, repr=False)
+    _adequacy_model = "the polynomial"
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -218,7 +222,14 @@ class PolyFitResult:
             elif isinstance(value, tuple):
                 value = list(value)
             out[f.name] = value
+        out.update(self.adequacy_dict())
+        out["stderr_birge"] = self.stderr_birge.tolist()
         return out
+
+    def to_frame(self) -> pd.DataFrame:
+        """The coefficients: ``power``, ``coefficient``, ``stderr``, ``stderr_birge``."""
+        return pd.DataFrame({"power": list(self.powers), "coefficient": self.coefficients,
+                             "stderr": self.stderr, "stderr_birge": self.stderr_birge})
 
     def report(self) -> str:
         """Readable multi-line fit report (coefficients, statistics, numerics)."""
@@ -263,6 +274,7 @@ class PolyFitResult:
             lines.append("[[Correlations]] (largest 5 with |r| > 0.1)")
             for _, i, j in sorted(strong, reverse=True)[:5]:
                 lines.append(f"    C(c{self.powers[i]}, c{self.powers[j]}) = {corr[i, j]:+.6f}")
+        lines += self.adequacy_lines({f"c{k}": (s, "") for k, s in zip(self.powers, self.stderr)})
         return "\n".join(lines)
 
 

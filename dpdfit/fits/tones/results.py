@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dpdfit.core.display import Displayable
 from dpdfit.fits.tones.params import format_hz
 
 __all__ = ["ToneMap", "SidebandTones", "TraceSpectrum"]
@@ -40,8 +41,8 @@ class ToneMap(Mapping):
         return f"ToneMap({self._d!r})"
 
 
-@dataclass(frozen=True)
-class SidebandTones:
+@dataclass(frozen=True, repr=False)
+class SidebandTones(Displayable):
     """Tones of one sideband group ('red' or 'blue') of the beat spectrum.
 
     All maps are keyed by the harmonic number ``n`` (int).
@@ -104,8 +105,8 @@ class SidebandTones:
         }
 
 
-@dataclass(frozen=True)
-class TraceSpectrum:
+@dataclass(frozen=True, repr=False)
+class TraceSpectrum(Displayable):
     """Tone powers of a heterodyne trace (result of :func:`trace_tone_powers`).
 
     Attributes
