@@ -92,7 +92,13 @@ class AlignmentFit(ModelAdequacy, Displayable):
     redchi: float
     sigma_db: float
     points: pd.DataFrame = field(repr=False)
-    _adequacy_model = "the model xi0 = alpha r_rel, F = F_est + delta"
+    _adequacy_model = "the model F = F_est + delta (with xi0 = alpha r_rel)"
+
+    @property
+    def chi2_parts(self) -> tuple[float, float]:
+        """(horizontal, vertical) parts of ``chi2``: the xi0 and the F residuals."""
+        return (float((self.points["resid_h"] ** 2).sum()),
+                float((self.points["resid_v"] ** 2).sum()))
 
     @property
     def alpha_khz_err_birge(self) -> float:
@@ -115,7 +121,8 @@ class AlignmentFit(ModelAdequacy, Displayable):
                 "correlation": self.correlation, "redchi": self.redchi, "chi2": self.chi2,
                 "dof": self.dof, "sigma_db": self.sigma_db, "n_points": int(len(self.points)),
                 **self.adequacy_dict(), "alpha_khz_err_birge": self.alpha_khz_err_birge,
-                "delta_err_birge": self.delta_err_birge}
+                "delta_err_birge": self.delta_err_birge, "chi2_horizontal": self.chi2_parts[0],
+                "chi2_vertical": self.chi2_parts[1]}
 
     def report(self) -> str:
         return "\n".join([
@@ -126,7 +133,10 @@ class AlignmentFit(ModelAdequacy, Displayable):
             f"    correlation : {self.correlation:+.3f}",
             f"    chi2        : {self.chi2:.3f}   reduced chi2: {self.redchi:.3f} (errors not rescaled)",
         ] + self.adequacy_lines({"alpha": (self.alpha_khz_err, "kHz"),
-                                 "delta": (self.delta_err, "")}))
+                                 "delta": (self.delta_err, "")})
+            + ([] if self.model_adequate is not False else [
+                f"    chi2 parts  : horizontal (xi0) {self.chi2_parts[0]:.3f}, vertical (F) "
+                f"{self.chi2_parts[1]:.3f}, {len(self.points)} points each"]))
 
 
 def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> AlignmentFit:

@@ -149,7 +149,9 @@ def _gates(g: dict) -> list[str]:
             lo, hi = al["redchi_range_99"]
             lines += ["", f"**The model F = F_est + delta does not describe the data**: reduced "
                           f"chi2 {al['redchi']:.2f} lies outside its 99 % range [{lo:.2f}, "
-                          f"{hi:.2f}] for {al['dof']} dof.  Birge-scaled errors (x "
+                          f"{hi:.2f}] for {al['dof']} dof (chi2 parts: xi0 "
+                          f"{al.get('chi2_horizontal', float('nan')):.1f}, F "
+                          f"{al.get('chi2_vertical', float('nan')):.1f}).  Birge-scaled errors (x "
                           f"{al['birge_factor']:.2f}): alpha ± {al['alpha_khz_err_birge']:.3f} "
                           f"kHz, delta ± {al['delta_err_birge']:.4f}."]
     return lines
