@@ -21,6 +21,8 @@ DICT_KEYS = {
     "reduced_chi2", "r2", "aic", "bic", "log_likelihood", "condition_number",
     "condition_number_scaled", "n_points", "sigma_source", "refinement_iterations",
     "converged",
+    # model adequacy (issue #16)
+    "model_adequate", "redchi_range_99", "birge_factor", "chi2_p_value", "stderr_birge",
 }
 
 

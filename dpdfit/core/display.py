@@ -39,6 +39,7 @@ MAX_ROWS = 24
 _DIAG_KEYS = ("chi2", "dof", "reduced_chi2", "redchi", "chi2_p_value", "model_adequate",
               "redchi_range_99", "birge_factor", "n_points", "converged", "monotone", "flag")
 _ERR_SUFFIXES = ("_err", "_stderr")
+_NOT_LISTED = {"powers", "stderr", "raw_coefficients", "harmonics", "gate"}
 _DIAG_LABELS = {"reduced_chi2": "reduced chi2", "redchi": "reduced chi2",
                 "chi2_p_value": "p-value", "model_adequate": "model adequate",
                 "redchi_range_99": "99% range", "birge_factor": "Birge factor"}
@@ -92,7 +93,7 @@ def format_value_error(value, error) -> tuple[str, str]:
         return format_number(value), format_number(error)
     last = math.floor(math.log10(e)) - (ERROR_DIGITS - 1)     # exponent of the last digit
     top = math.floor(math.log10(max(abs(v), e)))
-    if -5 <= last and top < 7:
+    if top < 7 and (last >= -5 or (top >= -2 and last >= -10)):
         decimals = max(0, -last)
         v = round(v, decimals) + 0.0                           # no "-0.000"
         return f"{v:.{decimals}f}", f"{round(e, decimals):.{decimals}f}"
@@ -141,8 +142,14 @@ def rows_from_dict(d: dict) -> list[tuple]:
             rows.append((key, val, e if _is_scalar(e) else None, _unit(key)))
         elif isinstance(val, str) and len(val) <= 40:
             rows.append((key, val, None, ""))
+        elif isinstance(val, dict) and set(val) == {"estimate", "error"}:
+            rows.append((key, val["estimate"], val["error"], _unit(key)))
         elif isinstance(val, dict) and 0 < len(val) <= 8 and all(map(_is_scalar, val.values())):
             rows += [(f"{key}.{k}", v, None, "") for k, v in val.items()]
+        elif (isinstance(val, list) and 1 < len(val) <= 64 and key not in _NOT_LISTED
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)):
+            rows.append((key, f"{len(val)} values, {format_number(min(val))} .. "
+                              f"{format_number(max(val))}", None, _unit(key)))
     return rows
 
 

@@ -106,6 +106,12 @@ class DriftModel(Displayable):
                 "mean_stderr": float(np.sqrt(np.mean(self.y1_stderr ** 2))),
                 "span_days": None if self.days is None else float(self.days[-1] - self.days[0])}
 
+    def to_frame(self) -> pd.DataFrame:
+        """One row per run: ``run``, ``days`` (NaN without timestamps), ``y1``, ``y1_stderr``."""
+        days = np.full(len(self.runs), np.nan) if self.days is None else self.days
+        return pd.DataFrame({"run": list(self.runs), "days": days, "y1": self.y1,
+                             "y1_stderr": self.y1_stderr})
+
 
 def _runs_frame(runs_df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
     """Copy with ``run`` labels as strings (``"1"`` if absent) and parsed timestamps."""

@@ -51,6 +51,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 from dpdfit.core.defaults import FORMULA, NBAR
 from dpdfit.core.display import Displayable
@@ -291,6 +292,11 @@ class Estimate(Displayable):
         return {"F_est": v(self.F_est), "eps_est": v(self.eps_est), "F": v(self.F),
                 "G": v(self.G), "Phi": v(self.Phi), "eta_Omega_over_2pi_xi0": v(self.g),
                 "formula": self.formula, "nbar": float(self.nbar)}
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per sideband group of the batch: F_est, eps_est, F, G, Phi, g."""
+        return pd.DataFrame({k: np.ravel(getattr(self, k)) for k in
+                             ("F_est", "eps_est", "F", "G", "Phi", "g")})
 
 
 def estimate(P_dB, harmonics=(0, 1, 2, 3), *, gate=(1, 2), gate_signs=(1.0, -1.0),

@@ -5,6 +5,8 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field
 
+import pandas as pd
+
 from dpdfit.core.display import Displayable
 
 __all__ = ["SOURCES", "PAPER_TABLE", "BudgetResult"]
@@ -74,6 +76,13 @@ class BudgetResult(Displayable):
         out["details"] = det
         out["inputs"] = copy.deepcopy(self.inputs)
         return out
+
+    def to_frame(self) -> pd.DataFrame:
+        """The budget rows (sources, total, delta, unexplained): estimate, error, ..."""
+        rows = {**self.sources, "total": self.total, "delta": self.delta,
+                "unexplained": self.unexplained}
+        return pd.DataFrame([{"source": k, **{q: v for q, v in d.items() if not isinstance(
+            v, (list, tuple, dict))}} for k, d in rows.items() if d is not None])
 
     def report(self, paper: bool = True) -> str:
         """Table in the style of Table S3 (percent), optionally with the paper's column."""

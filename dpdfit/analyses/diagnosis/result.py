@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting import FitResult
@@ -57,6 +58,16 @@ class Diagnosis(Displayable):
                 "units": {p.name: p.unit for e in EFFECTS.values() for p in e.params},
                 "conventions": dict(CONVENTIONS),
                 "alpha": ALPHA, "seconds": self.seconds, **self.extra}
+
+    def to_frame(self) -> pd.DataFrame:
+        """The ranking of the hypotheses, one row per effect (best first)."""
+        return pd.DataFrame(list(self.ranking))
+
+    def _display_rows(self) -> list[tuple]:
+        return ([("verdict", self.verdict, None, ""),
+                 ("baseline p-value", self.baseline_p_value, None, "")]
+                + [(f"rank {i + 1}: {r['effect']}", r["delta_bic"], None, "delta BIC")
+                   for i, r in enumerate(self.ranking[:5])])
 
     def report(self) -> str:
         lines = [f"Diagnosis of {self.campaign}",

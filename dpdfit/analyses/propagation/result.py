@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import pandas as pd
+
 from dpdfit.core.display import Displayable
 from dpdfit.fits.draws import quantile_summary
 
@@ -36,6 +38,16 @@ class PropagationResult(Displayable):
                 row[f"{key}_point"] = float(self.point[flag][key])
             out[flag] = row
         return out
+
+    def to_frame(self) -> pd.DataFrame:
+        """:meth:`summary` as a table, one row per DPD flag."""
+        return pd.DataFrame.from_dict(self.summary(), orient="index")
+
+    def _display_rows(self) -> list[tuple]:
+        return [(f"{flag} F_est (median, 68% half-width)", r["F_est_median"],
+                 (r["F_est_q84"] - r["F_est_q16"]) / 2, "") for flag, r in self.summary().items()] + [
+            ("stale_days", self.stale_days, None, "d"), ("sigma_drift_y1", self.sigma_drift, None, ""),
+            ("draws", self.n_draws, None, ""), ("tau", self.tau, None, "steps")]
 
     def to_dict(self) -> dict:
         d = self.summary()

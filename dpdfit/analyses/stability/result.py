@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from dpdfit.core.display import Displayable
 
@@ -93,6 +94,10 @@ class StabilityResult(Displayable):
                          "std": self.std_curve.tolist(), "curves": self.curves.tolist()},
             "notes": list(self.notes),
         }
+
+    def to_frame(self) -> pd.DataFrame:
+        """The per-run table (one row per run, time order)."""
+        return pd.DataFrame([dict(r) for r in self.runs])
 
     def report(self) -> str:
         d = self.drift

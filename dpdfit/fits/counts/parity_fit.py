@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
@@ -136,6 +137,13 @@ class ParityFit(Displayable):
         out = _to_dict(self)
         out["F_par"] = self.F_par
         return out
+
+    def to_frame(self) -> pd.DataFrame:
+        """Per phase point: ``phase_rad``, ``n_even``, ``shots``, the measured parity
+        ``2 n_even/shots - 1`` and the fitted ``parity_model``."""
+        return pd.DataFrame({"phase_rad": self.phases, "n_even": self.n_even,
+                             "shots": self.shots, "parity": 2 * self.n_even / self.shots - 1,
+                             "parity_model": self.parity(self.phases)})
 
     def report(self) -> str:
         """Readable multi-line fit report."""

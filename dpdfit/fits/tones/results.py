@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from dpdfit.core.display import Displayable
 from dpdfit.fits.tones.params import format_hz
@@ -104,6 +105,14 @@ class SidebandTones(Displayable):
             "freq_error_hz": m(self.freq_error_hz), "sign": self.sign,
         }
 
+    def to_frame(self) -> pd.DataFrame:
+        """One row per harmonic ``n``: role, frequencies, P_dB, snr_db, valid, reason."""
+        cols = ("role", "expected_hz", "found_hz", "freq_error_hz", "P_dB", "snr_db", "valid",
+                "reason")
+        return pd.DataFrame([{"sideband": self.name, "n": n, **{c: getattr(self, c)[n]
+                                                              for c in cols}}
+                             for n in self.P_dB])
+
 
 @dataclass(frozen=True, repr=False)
 class TraceSpectrum(Displayable):
@@ -183,6 +192,10 @@ class TraceSpectrum(Displayable):
             "im_min_snr_db": self.im_min_snr_db, "swap_sidebands": self.swap_sidebands,
             "db_reference": self.db_reference,
         }
+
+    def to_frame(self) -> pd.DataFrame:
+        """The tone table of both sidebands (:meth:`SidebandTones.to_frame`), red first."""
+        return pd.concat([self.red.to_frame(), self.blue.to_frame()], ignore_index=True)
 
     def report(self) -> str:
         """Readable report: settings, noise floor, per-tone table, ratios."""
