@@ -163,6 +163,11 @@ def diagnostics_from_dict(d: dict) -> dict:
         warnings.append(f"model does not describe the data: reduced chi2 {red:.3g} outside "
                         f"its 99 % range [{lo:.3g}, {hi:.3g}]; Birge factor "
                         f"{d.get('birge_factor', float('nan')):.3g}")
+        scaled = [f"{k[:-6]} +/- {v:#.{ERROR_DIGITS}g}" for k, v in d.items()
+                  if k.endswith(("_err_birge", "_stderr_birge")) and isinstance(v, float)]
+        if scaled:
+            warnings.append("Birge-scaled errors (the errors above stay absolute): "
+                            + ", ".join(scaled))
     if d.get("converged") is False:
         warnings.append("not converged")
     if d.get("monotone") is False:
