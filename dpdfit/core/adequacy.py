@@ -11,6 +11,8 @@ is flagged ``model_adequate = False`` (a correct model is flagged 1 % of the
 time).  Beside the absolute errors the result then offers *Birge-scaled*
 errors, ``error * sqrt(reduced chi2)`` (the Birge ratio), for a reader who
 wants to absorb unexplained scatter; the primary errors are never changed.
+(Below the range -- sigmas too large -- the factor is < 1 and the reports do
+not list Birge-scaled errors, though ``birge`` still computes them.)
 
 When sigma was estimated from the residuals (``sigma_source ==
 "residuals"``) the reduced chi-square is 1 by construction (or not
@@ -104,11 +106,16 @@ class ModelAdequacy:
         if self.model_adequate:
             return [f"    adequacy    : reduced chi2 {red:.3g} within its 99 % range "
                     f"[{rng[0]:.3g}, {rng[1]:.3g}] for dof {int(self.dof)}"]
-        lines = [f"    ** {self._adequacy_model} does not describe the data: reduced chi2 "
-                 f"{red:.3g} outside its 99 % range [{rng[0]:.3g}, {rng[1]:.3g}] for dof "
-                 f"{int(self.dof)} (p = {self.chi2_p_value:.2g}) **",
-                 f"    Birge-scaled errors (x sqrt(reduced chi2) = {self.birge_factor:.3g}; "
-                 "the errors above stay absolute):"]
+        what = (f"{self._adequacy_model} does not describe the data (or the sigmas are too "
+                "small)" if red > rng[1] else "the given sigmas look too large (or the "
+                "points are not independent)")
+        lines = [f"    ** {what}: reduced chi2 {red:.3g} outside its 99 % range "
+                 f"[{rng[0]:.3g}, {rng[1]:.3g}] for dof {int(self.dof)} "
+                 f"(p = {self.chi2_p_value:.2g}) **"]
+        if red < rng[0]:          # a Birge scaling would shrink the errors: not offered here
+            return lines
+        lines += [f"    Birge-scaled errors (x sqrt(reduced chi2) = {self.birge_factor:.3g}; "
+                  "the errors above stay absolute):"]
         for name, (err, unit) in (errors or {}).items():
             lines.append(f"      {name:<10s}: +/- {self.birge(err):.4g} {unit}".rstrip())
         return lines

@@ -160,12 +160,14 @@ def diagnostics_from_dict(d: dict) -> dict:
     if d.get("model_adequate") is False:
         lo, hi = d.get("redchi_range_99") or (float("nan"), float("nan"))
         red = d.get("reduced_chi2", d.get("redchi"))
-        warnings.append(f"model does not describe the data: reduced chi2 {red:.3g} outside "
+        what = ("model does not describe the data" if red > hi else
+                "sigmas look too large")
+        warnings.append(f"{what}: reduced chi2 {red:.3g} outside "
                         f"its 99 % range [{lo:.3g}, {hi:.3g}]; Birge factor "
                         f"{d.get('birge_factor', float('nan')):.3g}")
         scaled = [f"{k[:-6]} +/- {v:#.{ERROR_DIGITS}g}" for k, v in d.items()
                   if k.endswith(("_err_birge", "_stderr_birge")) and isinstance(v, float)]
-        if scaled:
+        if scaled and red > hi:
             warnings.append("Birge-scaled errors (the errors above stay absolute): "
                             + ", ".join(scaled))
     if d.get("converged") is False:
