@@ -107,6 +107,15 @@ def test_wrong_model_is_flagged_and_errors_stay_absolute():
     assert "within its 99 % range" in ok.report()
 
 
+def test_too_small_chi2_says_sigmas_too_large():
+    x = np.linspace(0, 1, 30)
+    fit = polyfit(x, 1 + x + 1e-3 * np.sin(40 * x), range(2), sigma=0.1)
+    assert fit.model_adequate is False and fit.reduced_chi2 < fit.redchi_range_99[0]
+    text = fit.report()
+    assert "sigmas look too large" in text and "Birge-scaled" not in text
+    assert "Birge-scaled" not in fit.display_text()
+
+
 def test_not_testable_without_given_sigma():
     x = np.linspace(0, 1, 30)
     fit = polyfit(x, 1 + x + 0.1 * np.sin(40 * x), range(2))     # sigma from residuals

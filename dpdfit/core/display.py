@@ -296,8 +296,11 @@ class Displayable:
         return self.report()
 
     def __repr__(self) -> str:
-        return short_repr(type(self).__name__, self._display_rows(),
-                          self._display_diagnostics())
+        try:
+            return short_repr(type(self).__name__, self._display_rows(),
+                              self._display_diagnostics())
+        except Exception as exc:        # a repr must not raise (debuggers, tracebacks)
+            return f"<{type(self).__name__}: no summary ({type(exc).__name__})>"
 
     def _repr_html_(self) -> str:
         return html_table(self._title(), self._display_rows(), self._display_diagnostics())
