@@ -27,7 +27,7 @@ from dpdfit.recordings.outputs import staged_outputs, to_jsonable
 from dpdfit.report.summary import summary_markdown
 from dpdfit.report.sweep_plots import plot_sweep
 
-__all__ = ["Analysis"]
+__all__ = ["Analysis", "write_outputs"]
 
 log = logging.getLogger(__name__)
 
