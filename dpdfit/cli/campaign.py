@@ -34,7 +34,7 @@ def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
     c.add_argument("outdir", help="new folder to write the campaign into")
     c.add_argument("--seed", type=int, default=20260329, help="random seed (20260329)")
     c.add_argument("--effects", metavar="NAME=STRENGTH,...",
-                   help="effects to conceal (see dpdfit.simulation.campaign.EFFECTS)")
+                   help="effects to conceal (see dpdfit.simulation.campaign.SIMULATOR_EFFECTS)")
     c.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bars on stderr (default: when stderr is a terminal)")
     c.set_defaults(func=cmd_simulate_campaign)
