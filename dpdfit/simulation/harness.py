@@ -137,7 +137,7 @@ def run_one(job: dict, workdir: str | None = None) -> dict:
                                   progress=False)
         t_sim = time.perf_counter() - t0
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
-        d = diagnose(folder)
+        d = diagnose(folder, progress=False)          # the harness has its own bar
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     out = {**job, "verdict": d.verdict, "seconds_simulation": t_sim,

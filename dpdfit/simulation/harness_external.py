@@ -71,7 +71,7 @@ def run_external_one(job: dict) -> dict:
     t0 = time.perf_counter()
     rec = {"campaign": job["campaign"], "truth": job["truth"]}
     try:
-        d = diagnose(job["folder"])
+        d = diagnose(job["folder"], progress=False)   # the harness has its own bar
     except DpdfitError as exc:
         return {**rec, "verdict": "refused", "error": str(exc),
                 "seconds": time.perf_counter() - t0}
