@@ -18,6 +18,8 @@ plus :mod:`dpdfit.core` and :mod:`dpdfit.errors` (import-linter contracts in
 The public API is re-exported here (``dpdfit.__all__``).
 """
 
+import logging as _logging
+
 from dpdfit.core.version import __version__  # noqa: E402
 
 from dpdfit.errors import DpdfitError, FitError, InputError, NotInvertibleError  # noqa: E402
@@ -39,7 +41,10 @@ from dpdfit.recordings.counts import read_parity, read_populations  # noqa: E402
 from dpdfit.fits.counts import (fit_parity, gate_fidelities, merge_parity, pool_populations,  # noqa: E402
                                 population_fidelity)
 from dpdfit.fits.alignment import align  # noqa: E402
-from dpdfit.pipeline.analyze import analyze  # noqa: E402
+from dpdfit.pipeline.analyze import Analysis, analyze  # noqa: E402
+
+# the library logs, the application decides what to show (the CLI: dpdfit.cli.logs)
+_logging.getLogger("dpdfit").addHandler(_logging.NullHandler())
 
 __all__ = [
     "__version__", "DpdfitError", "FitError", "InputError", "NotInvertibleError",
@@ -51,5 +56,5 @@ __all__ = [
     "simulate_field", "trace_tone_powers", "trace_estimate", "load_trace", "bell_fidelity",
     "estimate", "im_requirements", "phase_space", "SweepConfig", "run_sweep", "thresholds",
     "fit_parity", "gate_fidelities", "merge_parity", "pool_populations", "population_fidelity",
-    "read_parity", "read_populations", "align", "analyze",
+    "read_parity", "read_populations", "align", "analyze", "Analysis",
 ]

@@ -21,7 +21,7 @@ __all__ = ["add_simulate_campaign_command", "add_analyze_command", "cmd_simulate
 def cmd_simulate_campaign(args) -> int:
     from dpdfit.simulation.campaign import parse_effects, simulate_campaign
     effects = parse_effects(args.effects)
-    simulate_campaign(args.outdir, seed=args.seed, effects=effects)
+    simulate_campaign(args.outdir, seed=args.seed, effects=effects, progress=args.progress)
     print(f"wrote campaign {args.outdir} (seed {args.seed}"
           + (f", effects {args.effects}" if effects else "") + ")")
     return 0
@@ -34,7 +34,9 @@ def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
     c.add_argument("outdir", help="new folder to write the campaign into")
     c.add_argument("--seed", type=int, default=20260329, help="random seed (20260329)")
     c.add_argument("--effects", metavar="NAME=STRENGTH,...",
-                   help="effects to conceal (see dpdfit.simulation.campaign.EFFECTS)")
+                   help="effects to conceal (see dpdfit.simulation.campaign.SIMULATOR_EFFECTS)")
+    c.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bars on stderr (default: when stderr is a terminal)")
     c.set_defaults(func=cmd_simulate_campaign)
     return c
 
@@ -46,7 +48,7 @@ def cmd_analyze(args) -> int:
     if folder.resolve() == out.resolve():
         raise InputError("results folder must differ from the campaign folder", file=str(out))
     summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
-                      diagnosis=not args.no_diagnosis)
+                      diagnosis=not args.no_diagnosis, progress=args.progress)
     for name, st in summary["analyses"].items():
         print(f"{name:12s} {st['status']:8s} {st['detail']}")
     print(f"results in {out}/ (summary.md, summary.json)")
@@ -64,5 +66,7 @@ def add_analyze_command(subparsers) -> argparse.ArgumentParser:
     a.add_argument("--no-plots", action="store_true", help="skip the figures")
     a.add_argument("--no-diagnosis", action="store_true",
                    help="skip the discrepancy diagnosis (the slowest step, ~1 min)")
+    a.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
     a.set_defaults(func=cmd_analyze)
     return a

@@ -15,7 +15,7 @@ __all__ = ["add_diagnose_command", "cmd_diagnose"]
 
 def cmd_diagnose(args) -> int:
     """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr."""
-    res = diagnose(args.campaign, pairs=args.pairs)
+    res = diagnose(args.campaign, pairs=args.pairs, progress=args.progress)
     for w in res.extra.get("warnings", []):
         print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:
@@ -41,5 +41,7 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--pairs", type=int, default=DEFAULT_PAIRS,
                    help="fit pairs of this many best single effects when there is a mismatch "
                         f"({DEFAULT_PAIRS})")
+    s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
     s.set_defaults(func=cmd_diagnose)
     return s

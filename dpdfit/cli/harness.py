@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 
 from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import to_jsonable
@@ -23,17 +22,11 @@ __all__ = ["add_harness_command", "cmd_harness"]
 
 def cmd_harness(args) -> int:
     """``dpdfit harness``: run the harness (or the external mode) and print its summary."""
-    def prog(k, n):
-        if args.progress:
-            print(f"\r[harness] {k}/{n}", end="", file=sys.stderr, flush=True)
-
     if args.campaigns or args.truth:
-        return _cmd_external(args, prog)
+        return _cmd_external(args)
     effects = tuple(args.effects.split(",")) if args.effects else CONCEALED
     s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
-                    effects, progress=prog, log=args.log)
-    if args.progress:
-        print(file=sys.stderr)
+                    effects, progress=args.progress, log=args.log)
     if args.output:
         write_report(s, args.output)
     if args.json:
@@ -43,14 +36,13 @@ def cmd_harness(args) -> int:
     return 0
 
 
-def _cmd_external(args, prog) -> int:
+def _cmd_external(args) -> int:
     """``dpdfit harness --campaigns DIR --truth FILE``: diagnose external campaigns
     (:mod:`dpdfit.simulation.harness_external`)."""
     if not (args.campaigns and args.truth):
         raise InputError("--campaigns DIR and --truth FILE go together")
-    s = run_external(args.campaigns, args.truth, args.workers, args.scheduler, progress=prog)
-    if args.progress:
-        print(file=sys.stderr)
+    s = run_external(args.campaigns, args.truth, args.workers, args.scheduler,
+                     progress=args.progress)
     if args.output:
         write_report(s, args.output)
     if args.json:
@@ -85,7 +77,8 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
                    help="external mode: diagnose every campaign folder in DIR (with --truth)")
     s.add_argument("--truth", metavar="FILE",
                    help="external mode: JSON, campaign id -> {\"effect\": ...}")
-    s.add_argument("--progress", action="store_true", help="progress on stderr")
+    s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
     s.set_defaults(func=cmd_harness)
     return s

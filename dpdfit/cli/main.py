@@ -1,8 +1,10 @@
-"""The ``dpdfit`` command line: a thin layer over the Python API.
+"""The ``dpdfit`` command line: a thin layer over the Python API (also ``python -m dpdfit``).
 
 Every sub-command validates its inputs through :mod:`dpdfit.recordings.tables`, calls the
 API, and writes its outputs atomically.  Any :class:`~dpdfit.errors.DpdfitError`
 is printed as one line ``dpdfit: error: ...`` on stderr with exit status 2.
+The library's log messages are shown on stderr while a command runs
+(:mod:`dpdfit.cli.logs`); progress bars appear when stderr is a terminal.
 
 Each command (or small family of commands) lives in its own module of
 :mod:`dpdfit.cli` with an ``add_<command>_command(subparsers)`` that registers
@@ -17,17 +19,35 @@ import sys
 from dpdfit.cli.calibration import add_calibrate_command, add_lut_command, add_polyfit_command
 from dpdfit.cli.campaign import add_analyze_command, add_simulate_campaign_command
 from dpdfit.cli.gates import add_align_command, add_fidelity_command
+from dpdfit.cli.help_texts import describe
+from dpdfit.cli.logs import cli_logging
 from dpdfit.cli.spectral import (add_estimate_command, add_im_table_command, add_sweep_command,
                                  add_thresholds_command)
 from dpdfit.core.version import __version__
 from dpdfit.errors import DpdfitError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "DESCRIPTION", "EPILOG"]
+
+#: The top of ``dpdfit --help`` (plain text).
+DESCRIPTION = ("dpdfit: analysis of digitally predistorted (DPD) trapped-ion entangling-gate "
+               "experiments --\nAOM transfer-function fits, predistortion tables, spectra, "
+               "fidelities, diagnosis.")
+#: The bottom of ``dpdfit --help``.
+EPILOG = """\
+examples:
+  dpdfit analyze datasets/synthetic_campaign -o results     # every analysis of a campaign
+  dpdfit calibrate --amplitude amp.csv --phase phase.csv -o calibration.json
+  dpdfit COMMAND --help                                     # a command's options and example
+
+Also runnable as 'python -m dpdfit'.  In Python: dpdfit.analyze(folder) returns every
+result and table in memory; see the README."""
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``dpdfit`` parser: each command registered by its module in ``dpdfit.cli``."""
-    p = argparse.ArgumentParser(prog="dpdfit", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(
+        prog="dpdfit", description=DESCRIPTION, epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="version", version=f"dpdfit {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -55,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_align_command(sub)
     add_simulate_campaign_command(sub)
     add_analyze_command(sub)
+    describe(sub)
     return p
 
 
@@ -63,7 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        with cli_logging():
+            return args.func(args)
     except DpdfitError as exc:
         print(f"dpdfit: error: {exc}", file=sys.stderr)
         return 2

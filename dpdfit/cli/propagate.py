@@ -83,7 +83,8 @@ def add_propagate_command(subparsers) -> argparse.ArgumentParser:
                    help="also the distribution of the threshold efficiencies (40-point sweep "
                         "per draw; uses min(draws, 2000) draws)")
     s.add_argument("--force", action="store_true", help="report an unconverged chain")
-    s.add_argument("--progress", action="store_true", help="progress line on stderr")
+    s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
     s.add_argument("--json", action="store_true", help="print JSON instead of a report")
     s.set_defaults(func=cmd_propagate)
     return s

@@ -1,47 +1,74 @@
-"""A minimal progress display for long loops (stderr; silent when not wanted).
+"""Progress bars for long work (tqdm), on by default in a terminal.
 
-Hand-written because none of the project's dependencies provides one
-(tqdm is not a dependency); it prints ``label: k/n (elapsed)`` on one updating
-line when stderr is a terminal and a few plain lines otherwise (CI logs).
+Every ``progress`` argument of dpdfit (``analyze``, ``diagnose``, the harness,
+``propagate``, ``simulate_campaign``) takes ``None`` (the default: a bar when
+stderr is a terminal), ``True`` or ``False``.  Bars are ``tqdm.auto`` bars
+(a plain text bar in a terminal, a widget in a notebook when ipywidgets is
+installed) on stderr; tqdm is imported only when a bar is made.
+
+:func:`progress_scope` sets the default for everything run inside it, so that
+``analyze(..., progress=False)`` also silences the bars of the work it calls.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import sys
-import time
 
-__all__ = ["Progress"]
+__all__ = ["progress_enabled", "progress_bar", "progress_scope", "job_progress", "Progress"]
+
+_DEFAULT: contextvars.ContextVar = contextvars.ContextVar("dpdfit_progress", default=None)
 
 
-class Progress:
-    """``with Progress(label, total) as p: ... p.update()``."""
+def progress_enabled(progress: bool | None = None) -> bool:
+    """Whether to show a bar: ``progress`` if given, else the enclosing
+    :func:`progress_scope`'s setting, else whether stderr is a terminal."""
+    if progress is None:
+        progress = _DEFAULT.get()
+    if progress is None:
+        isatty = getattr(sys.stderr, "isatty", None)
+        return bool(isatty and isatty())
+    return bool(progress)
 
-    def __init__(self, label: str, total: int, *, enabled: bool = True, stream=None):
-        self.label, self.total, self.enabled = label, int(total), enabled
-        self.stream = stream or sys.stderr
-        self.k = 0
-        self.t0 = time.perf_counter()
-        self.tty = getattr(self.stream, "isatty", lambda: False)()
-        self._last_pct = -1
 
-    def __enter__(self):
-        return self
+@contextlib.contextmanager
+def progress_scope(progress: bool | None):
+    """Within the block, ``progress=None`` means ``progress`` (``None``: no change)."""
+    token = _DEFAULT.set(progress if progress is not None else _DEFAULT.get())
+    try:
+        yield
+    finally:
+        _DEFAULT.reset(token)
 
-    def update(self, n: int = 1) -> None:
-        self.k += n
-        if not self.enabled:
-            return
-        dt = time.perf_counter() - self.t0
-        if self.tty:
-            self.stream.write(f"\r{self.label}: {self.k}/{self.total} ({dt:.1f} s)")
-            self.stream.flush()
-        else:
-            pct = int(100 * self.k / max(self.total, 1)) // 25 * 25
-            if pct != self._last_pct:
-                self._last_pct = pct
-                self.stream.write(f"{self.label}: {self.k}/{self.total} ({dt:.1f} s)\n")
 
-    def __exit__(self, *exc):
-        if self.enabled and self.tty:
-            self.stream.write("\n")
-        return False
+def progress_bar(iterable=None, *, total=None, desc: str | None = None,
+                 progress: bool | None = None, disable: bool | None = None, **kws):
+    """A ``tqdm.auto.tqdm`` bar on stderr (``leave=False`` unless given), shown when
+    :func:`progress_enabled` says so (``disable=True`` hides it whatever ``progress``)."""
+    from tqdm.auto import tqdm
+    off = (not progress_enabled(progress)) or bool(disable)
+    kws.setdefault("leave", False)
+    kws.setdefault("file", sys.stderr)
+    return tqdm(iterable, total=total, desc=desc, disable=off, **kws)
+
+
+@contextlib.contextmanager
+def job_progress(progress, total: int, desc: str, initial: int = 0):
+    """Yields ``update(k, n)`` ("k of n jobs done"): ``progress`` itself when it is a
+    callable (the callback form), else a :func:`progress_bar`'s (``progress`` None/bool)."""
+    if callable(progress):
+        yield progress
+        return
+    with progress_bar(total=total, initial=initial, desc=desc, progress=progress) as bar:
+        def update(k, n):
+            bar.update(k - bar.n)
+        yield update
+
+
+def Progress(label: str, total: int, *, enabled: bool = True, stream=None):  # noqa: N802
+    """Backwards-compatible ``Progress(label, total, enabled=...)``: a :func:`progress_bar`
+    (a context manager with ``update()``); shown only when ``enabled`` and stderr is a
+    terminal (or the enclosing :func:`progress_scope` says so)."""
+    return progress_bar(total=total, desc=label, disable=not enabled,
+                        **({"file": stream} if stream is not None else {}))

@@ -138,6 +138,18 @@ class AlignmentFit(ModelAdequacy, Displayable):
                 f"    chi2 parts  : horizontal (xi0) {self.chi2_parts[0]:.3f}, vertical (F) "
                 f"{self.chi2_parts[1]:.3f}, {len(self.points)} points each"]))
 
+    def to_lmfit(self):
+        """The fit as ``lmfit.Parameters`` ``alpha_khz``, ``delta`` with ``stderr`` and
+        ``correl``; dpdfit's absolute errors (lmfit's ``scale_covar`` rescaling by the
+        reduced chi-square is not applied).  See :mod:`dpdfit.fits.lmfit_export`."""
+        from dpdfit.fits.lmfit_export import alignment_parameters
+        return alignment_parameters(self)
+
+    def fit_report(self, **kws) -> str:
+        """:func:`lmfit.fit_report` of :meth:`to_lmfit` with this fit's statistics."""
+        from dpdfit.fits.lmfit_export import alignment_report
+        return alignment_report(self, **kws)
+
 
 def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> AlignmentFit:
     """Fit ``alpha`` and ``delta`` (see module docstring).

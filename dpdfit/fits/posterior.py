@@ -37,9 +37,8 @@ is always returned; the length requirement is checked here).  A result is
 unless ``force=True`` (then ``converged`` is False and the report says so).
 ``n_independent = n_walkers * n_kept_steps / max(tau)``.
 
-Progress: emcee's own bar needs ``tqdm`` (not a dependency), so the chain is
-run by iterating ``sampler.sample(..., iterations=n_steps)`` and the project's
-:class:`dpdfit.core.progress.Progress` is updated per step (``progress=True``).
+Progress: a tqdm bar (:func:`dpdfit.core.progress.progress_bar`, ``progress=True``)
+per step.  The result keeps the whole chain (``chain``, ``log_prob``, ``acceptance_fraction``).
 
 The run-to-run drift of the calibration is :mod:`dpdfit.fits.drift`; the
 propagation of posterior and drift into the fidelity estimate is
@@ -133,6 +132,9 @@ class PosteriorResult(Displayable):
     moves : str
     wall_time : float
         Seconds spent sampling.
+    chain, log_prob, acceptance_fraction : ndarray or None
+        The whole emcee chain ``(n_steps, n_walkers, n_params)`` (burn-in included; ``b_k``
+        then ``log sigma`` if sampled; ~1 MB by default), its log-posterior and per walker.
     """
 
     powers: tuple
@@ -151,6 +153,9 @@ class PosteriorResult(Displayable):
     moves: str = "laplace"
     wall_time: float = float("nan")
     source: dict = field(default_factory=dict)
+    chain: np.ndarray | None = field(default=None, repr=False)
+    log_prob: np.ndarray | None = field(default=None, repr=False)
+    acceptance_fraction: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def tau_max(self) -> float:
@@ -266,7 +271,7 @@ def _log_probability(A, power, sig, order):
 def _run_chain(log_prob, mean, cov, n_walkers, n_steps, moves, rng, progress):
     """Run emcee from Laplace draws; returns ``(sampler, wall_time)``."""
     import emcee
-    from dpdfit.core.progress import Progress
+    from dpdfit.core.progress import progress_bar
     ndim = mean.size
     L = np.linalg.cholesky(cov)
     p0 = mean + rng.standard_normal((n_walkers, ndim)) @ L.T
@@ -279,7 +284,7 @@ def _run_chain(log_prob, mean, cov, n_walkers, n_steps, moves, rng, progress):
     sampler.random_state = np.random.RandomState(
         int(rng.integers(0, 2 ** 31 - 1))).get_state()
     t0 = time.perf_counter()
-    with Progress("emcee", n_steps, enabled=progress) as bar:
+    with progress_bar(total=n_steps, desc="emcee", progress=progress) as bar:
         for _ in sampler.sample(p0, iterations=n_steps):
             bar.update()
     return sampler, time.perf_counter() - t0
@@ -340,8 +345,8 @@ def sample_amplitude_posterior(A, power, power_err=None, order: int = AMPLITUDE_
     burn : float
         Fraction of steps discarded before estimating tau and keeping draws.
     seed : int, optional
-    progress : bool
-        Show a progress line on stderr.
+    progress : bool or None
+        A bar over the steps on stderr (None: when stderr is a terminal).
     force : bool
         Return an unconverged chain (flagged) instead of raising.
     moves : {"laplace", "stretch"}
@@ -382,4 +387,6 @@ def sample_amplitude_posterior(A, power, power_err=None, order: int = AMPLITUDE_
         sigma_draws=None if sig is not None else read_only(np.exp(flat[:, order])),
         tau=read_only(tau), acceptance=acc, n_independent=n_ind, n_walkers=int(n_walkers),
         n_steps=int(n_steps), n_discard=discard, converged=not problems, fit=fit,
-        moves=moves, wall_time=wall, source=dict(source or fit.source or {}))
+        moves=moves, wall_time=wall, source=dict(source or fit.source or {}),
+        chain=read_only(sampler.get_chain()), log_prob=read_only(sampler.get_log_prob()),
+        acceptance_fraction=read_only(np.asarray(sampler.acceptance_fraction, dtype=float)))

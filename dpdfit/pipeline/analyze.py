@@ -42,64 +42,76 @@ once (in ``calibration``; ``stability`` and ``propagation`` reuse the fits)
 and the amplitude posterior is sampled once (``propagation``: the
 propagation, the threshold distributions and the corner plot share it).  The
 Markdown summary is written by :mod:`dpdfit.report.summary`.
+
+In a notebook: ``res = dpdfit.analyze(folder)`` (no output folder: nothing is
+written) returns an :class:`~dpdfit.pipeline.analysis.Analysis` -- the tables as
+DataFrames (``res.tables``, ``res.sweep``, ``res.gate``, ``res.budget``), the
+fits (``res.calibration``, ``res.alignment``), each analysis's status
+(``res.status``) -- and ``res.save(outdir)`` writes what the command line
+writes.  Messages go through :mod:`logging` (logger ``dpdfit.pipeline.analyze``:
+one INFO line per step, ERROR for a failed analysis); a progress bar over the
+steps is shown when stderr is a terminal (``progress=None``), or as
+``progress`` says.
 """
 
 from __future__ import annotations
 
-import json
+import logging
 import os
-import sys
+import tempfile
 import time
 from pathlib import Path
 
 from dpdfit.core.defaults import FORMULA
+from dpdfit.core.progress import progress_bar, progress_scope
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.recordings.campaign_folder import CampaignFolder
-from dpdfit.recordings.outputs import staged_outputs, to_jsonable
-from dpdfit.report.summary import PAPER, realism_table, summary_markdown
-from dpdfit.report.sweep_plots import plot_sweep
+from dpdfit.report.summary import PAPER, realism_table
 
+from .analysis import Analysis
 from .context import Context, Results
 from .steps import (budget_step, calibration_step, diagnosis_step, gates_step, propagation_step,
                     spectra_step, stability_step, sweep_step, traces_step)
 
-__all__ = ["analyze", "PAPER"]
+__all__ = ["analyze", "Analysis", "PAPER", "STEPS"]
 
+log = logging.getLogger(__name__)
 
-def _step(label):
-    print(f"[analyze] {label} ...", file=sys.stderr, flush=True)
-    return time.perf_counter()
-
-
-def _done(t0):
-    print(f"[analyze]   done in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
+#: The analyses in the order they run.
+STEPS = ("calibration", "stability", "sweep", "spectra", "traces", "gates", "propagation",
+         "budget", "diagnosis")
 
 
 def _guarded(ctx: Context, failures: list, name, step, *args):
     """Run one step; an input or fit error fails that analysis only (status, failures)."""
-    t0 = _step(name)
+    log.info(f"[analyze] {name} ...")
+    t0 = time.perf_counter()
     try:
         return step(ctx, *args)
     except DpdfitError as exc:
         ctx.results.status(name, "failed", str(exc))
         failures.append(f"{name}: {exc}")
-        print(f"dpdfit: error: {exc}", file=sys.stderr)
+        log.error("%s", exc)
         return None
     finally:
-        _done(t0)
+        log.info(f"[analyze]   done in {time.perf_counter() - t0:.1f} s")
 
 
-def _run_steps(ctx: Context, diagnosis: bool):
-    """Every analysis in order, each handed what it needs -> (sweep, measured, failures)."""
+def _run_steps(ctx: Context, diagnosis: bool, bar) -> tuple[dict, list]:
+    """Every analysis in order, each handed what it needs -> (step results, failures)."""
     failures: list[str] = []
+    out: dict = {}
 
     def run(name, step, *args):
-        return _guarded(ctx, failures, name, step, *args)
+        bar.set_postfix_str(name, refresh=False)
+        out[name] = _guarded(ctx, failures, name, step, *args)
+        bar.update()
+        return out[name]
 
     fits = run("calibration", calibration_step)
     run("stability", stability_step, fits)
     sweep = run("sweep", sweep_step, fits)
-    meas = run("spectra", spectra_step, sweep)
+    run("spectra", spectra_step, sweep)
     run("traces", traces_step)
     run("gates", gates_step, sweep)
     run("propagation", propagation_step, fits)
@@ -108,53 +120,87 @@ def _run_steps(ctx: Context, diagnosis: bool):
         run("diagnosis", diagnosis_step, fits)
     else:
         ctx.results.status("diagnosis", "skipped", "--no-diagnosis")
-    return sweep, meas, failures
+        out["diagnosis"] = None
+        bar.update()
+    return out, failures
 
 
-def _write(res: Results, out: Path, folder: Path, formula: str):
-    """Publish every output, ``summary.json`` and ``summary.md`` together (staged)."""
-    with staged_outputs() as stage:
-        for name, obj in res.files.items():
-            path = stage(out / name)
-            if isinstance(obj, tuple):
-                _, df, meta = obj
-                text = "".join(f"# {k}: {json.dumps(to_jsonable(v))}\n" for k, v in meta.items())
-                path.write_text(text + df.to_csv(index=False, float_format="%.10g"))
-            else:
-                path.write_text(obj)
-        stage(out / "summary.json").write_text(json.dumps(to_jsonable(res.summary), indent=2) + "\n")
-        stage(out / "summary.md").write_text(summary_markdown(res.summary, folder, formula))
+class _Collect(logging.Handler):
+    """Keeps the warnings and errors logged during one ``analyze`` (``Analysis.messages``)."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record):
+        self.messages.append(record.getMessage())
 
 
-def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: str = FORMULA,
-            plots: bool = True, diagnosis: bool = True) -> dict:
-    """Run every analysis on a campaign folder; write results into ``outdir``.
-
-    Returns the summary dict (also written as ``summary.json``); its
-    ``analyses`` entry says per analysis ``ok``, ``skipped`` (why) or
-    ``failed`` (the error line).
-    """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError("campaign folder not found", file=str(folder))
-    out = Path(outdir)
-    # one reader for every analysis, with the diagnosis's rules (dpdfit.recordings.campaign_folder)
+def _analysis(folder: Path, figdir: Path, formula, plots, diagnosis, bar) -> Analysis:
+    """Run the steps; everything in memory (figures queued, drawn by ``Analysis.save``)."""
     cf = CampaignFolder(folder)
-    ctx = Context(campaign=cf, results=Results(), figdir=out / "figures", formula=formula,
+    ctx = Context(campaign=cf, results=Results(), figdir=figdir, formula=formula,
                   figures=[] if plots else None)
     res = ctx.results
     res.summary["campaign"] = cf.meta.get("name", folder.name)
     res.summary["left_out"] = cf.left_out()
-    sweep, meas, failures = _run_steps(ctx, diagnosis)
+    collect = _Collect()
+    logging.getLogger("dpdfit").addHandler(collect)
+    try:
+        results, failures = _run_steps(ctx, diagnosis, bar)
+    finally:
+        logging.getLogger("dpdfit").removeHandler(collect)
     res.summary["realism"] = realism_table(res.summary)
     res.summary["failures"] = failures
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = _step("writing results")
-    _write(res, out, folder, formula)
-    if ctx.figures is not None:
-        for draw in ctx.figures:
-            draw()
-        if sweep is not None:
-            plot_sweep(sweep, ctx.figdir, measured=meas)
-    _done(t0)
-    return res.summary
+    return Analysis(folder, res.summary, res.files, results, formula, figures=ctx.figures,
+                    figdir=figdir, sweep=results.get("sweep"), measured=results.get("spectra"),
+                    messages=collect.messages)
+
+
+def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, *,
+            formula: str = FORMULA, plots: bool = True, diagnosis: bool = True,
+            progress: bool | None = None) -> Analysis:
+    """Run every analysis on a campaign folder; with ``outdir``, write the results there.
+
+    Parameters
+    ----------
+    folder : path-like
+        The campaign folder.
+    outdir : path-like, optional
+        Results folder, written as by ``dpdfit analyze FOLDER -o OUTDIR``.
+        Without it nothing is written (``Analysis.save`` writes later).
+    formula : {"exact", "paper"}
+        Bell-fidelity expression for ``F_est``.
+    plots : bool
+        Make the figures (drawn when the results are saved).
+    diagnosis : bool
+        Run the discrepancy diagnosis (the slowest analysis).
+    progress : bool, optional
+        A progress bar over the analyses (and the long work inside them);
+        default: when stderr is a terminal.  ``False``: nothing on the terminal.
+
+    Returns
+    -------
+    Analysis
+        Every analysis's result and tables; also a mapping over the summary
+        (``res["analyses"]``: per analysis ``ok``, ``skipped`` (why) or
+        ``failed`` (the error line)), as the summary dict returned before.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("campaign folder not found", file=str(folder))
+    tmp = None
+    if outdir is not None:
+        figdir = Path(outdir) / "figures"
+    else:  # figures are drawn on save: into a folder of the result's own, then copied
+        tmp = tempfile.TemporaryDirectory(prefix="dpdfit-figures-") if plots else None
+        figdir = Path(tmp.name if tmp else tempfile.gettempdir()) / "figures"
+    n = len(STEPS) + (outdir is not None)
+    with progress_scope(progress), progress_bar(total=n, desc="analyze") as bar:
+        result = _analysis(folder, figdir, formula, plots, diagnosis, bar)
+        result.keep_alive(tmp)
+        if outdir is not None:
+            bar.set_postfix_str("writing", refresh=False)
+            result.save(outdir)
+            bar.update()
+    return result

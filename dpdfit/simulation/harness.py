@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
@@ -133,10 +134,10 @@ def run_one(job: dict, workdir: str | None = None) -> dict:
         folder = tmp / "campaign"
         truth = simulate_campaign(folder, seed=job["seed"], effects=job["effects"],
                                   config=harness_config(job["seed"]),
-                                  progress=_silent)
+                                  progress=False)
         t_sim = time.perf_counter() - t0
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
-        d = diagnose(folder)
+        d = diagnose(folder, progress=False)          # the harness has its own bar
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     out = {**job, "verdict": d.verdict, "seconds_simulation": t_sim,
@@ -242,6 +243,8 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     ``log``: path of a run log (JSON lines).  Every finished run is appended
     to it at once, so a stopped harness loses nothing; runs of the plan
     already in the log are not run again (re-running the same command resumes).
+    ``progress``: None (a bar when stderr is a terminal), True, False, or a
+    callback ``progress(k_done, n_jobs)``.
     """
     jobs = plan(per_effect, nulls, seed, effects)
     if workers is not None and workers < 1:
@@ -252,15 +255,15 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     todo = _round_robin(jobs, set(by_key))
     results = list(by_key.values())
 
-    def finished(r):
-        results.append(r)
-        if log is not None:
-            _append_log(log, r)
-        if progress:
-            progress(len(results), len(jobs))
-
     n_workers = None if scheduler else (workers or os.cpu_count() or 1)
-    run_jobs(run_one, todo, n_workers, scheduler, finished)
+    with job_progress(progress, len(jobs), "harness", initial=len(results)) as update:
+        def finished(r):
+            results.append(r)
+            if log is not None:
+                _append_log(log, r)
+            update(len(results), len(jobs))
+
+        run_jobs(run_one, todo, n_workers, scheduler, finished)
     # plan order, whatever order the runs finished in
     order = {_job_key(j): i for i, j in enumerate(jobs)}
     results.sort(key=lambda r: order[_job_key(r)])

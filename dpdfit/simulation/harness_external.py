@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.core.progress import job_progress
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.simulation.dispatch import run_jobs
 
@@ -70,7 +71,7 @@ def run_external_one(job: dict) -> dict:
     t0 = time.perf_counter()
     rec = {"campaign": job["campaign"], "truth": job["truth"]}
     try:
-        d = diagnose(job["folder"])
+        d = diagnose(job["folder"], progress=False)   # the harness has its own bar
     except DpdfitError as exc:
         return {**rec, "verdict": "refused", "error": str(exc),
                 "seconds": time.perf_counter() - t0}
@@ -116,15 +117,15 @@ def run_external(directory, truth_file, workers: int | None = None,
     t0 = time.perf_counter()
     runs = []
 
-    def finished(r):
-        runs.append(r)
-        if progress:
-            progress(len(runs), len(jobs))
-
     # one worker (the default): one campaign at a time, each diagnosis using the cores
     # itself (dpdfit.core.parallel); more: one diagnosis per worker, serial inside
     n_workers = None if scheduler else (workers or 1)
-    run_jobs(run_external_one, jobs, n_workers, scheduler, finished)
+    with job_progress(progress, len(jobs), "harness") as update:
+        def finished(r):
+            runs.append(r)
+            update(len(runs), len(jobs))
+
+        run_jobs(run_external_one, jobs, n_workers, scheduler, finished)
     order = {j["campaign"]: i for i, j in enumerate(jobs)}
     runs.sort(key=lambda r: order[r["campaign"]])
     out = summarise_external(runs)

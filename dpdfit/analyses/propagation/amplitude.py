@@ -25,7 +25,7 @@ def propagate(posterior_or_runs, A: float, stale_days: float = 0.0, draws: int =
               drift: DriftModel | None = None, fits: dict | None = None,
               order: int = AMPLITUDE_ORDER, run=None, seed=None,
               n_walkers: int = 32, n_steps: int = 400, force: bool = False,
-              progress: bool = False, nu: float = NU_HZ, xi0: float = XI0_SPECTRA_HZ,
+              progress: bool | None = None, nu: float = NU_HZ, xi0: float = XI0_SPECTRA_HZ,
               nbar: float = NBAR, formula: str = FORMULA, eta_ref: float = ETA_REF,
               recalibration_loss: float | None = None, chunk: int = 5000) -> PropagationResult:
     """Distribution of ``F_est``, ``R10`` and ``eta_bar`` at amplitude ``A``, both DPD flags.
@@ -58,6 +58,8 @@ def propagate(posterior_or_runs, A: float, stale_days: float = 0.0, draws: int =
         (:func:`dpdfit.fits.drift.fit_runs`); same numbers, no refit.
     recalibration_loss : float, optional
         Also answer :func:`recalibration` for this fidelity loss.
+    progress : bool, optional
+        A bar over the emcee steps; default: when stderr is a terminal.
     """
     t0 = time.perf_counter()
     A = float(A)

@@ -207,6 +207,19 @@ class AmplitudeCalibration(ModelAdequacy, Displayable):
         lines += self.adequacy_lines({"A_corr": (self.A_corr_stderr, "")})
         return "\n".join(lines)
 
+    def to_lmfit(self, raw: bool = False):
+        """The fit as ``lmfit.Parameters``: ``a_1`` (fixed) .. ``a_K`` and ``A_corr``, or
+        ``raw=True`` the ``b_k``; ``stderr`` and ``correl`` are dpdfit's (absolute with given
+        sigmas; lmfit's ``scale_covar`` rescaling is not applied).  See
+        :mod:`dpdfit.fits.lmfit_export`."""
+        from dpdfit.fits.lmfit_export import amplitude_parameters
+        return amplitude_parameters(self, raw)
+
+    def fit_report(self, raw: bool = False, **kws) -> str:
+        """:func:`lmfit.fit_report` of :meth:`to_lmfit` with this fit's statistics."""
+        from dpdfit.fits.lmfit_export import amplitude_report
+        return amplitude_report(self, raw, **kws)
+
 
 def _amplitude_core(A, power, sigma, order):
     """Fit P = (V b)^2.  Returns (b, cov_b, chi2, n, dof, sigma_source)."""

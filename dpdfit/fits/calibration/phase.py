@@ -133,6 +133,18 @@ class PhaseCalibration(ModelAdequacy, Displayable):
         lines += self.adequacy_lines({"phi(1)": (self.phi_at_1_stderr, "rad")})
         return "\n".join(lines)
 
+    def to_lmfit(self):
+        """The fit as ``lmfit.Parameters`` ``b_1 .. b_K`` (rad) with ``stderr`` and ``correl``;
+        dpdfit's errors (absolute with given sigmas; lmfit's ``scale_covar`` rescaling is not
+        applied).  See :mod:`dpdfit.fits.lmfit_export`."""
+        from dpdfit.fits.lmfit_export import phase_parameters
+        return phase_parameters(self)
+
+    def fit_report(self, **kws) -> str:
+        """:func:`lmfit.fit_report` of :meth:`to_lmfit` with this fit's statistics."""
+        from dpdfit.fits.lmfit_export import phase_report
+        return phase_report(self, **kws)
+
 
 def fit_phase(A, phase, phase_err=None, order: int = PHASE_ORDER, *, A_min: float = PHASE_MIN_A,
               A_max: float = 1.0, source: dict | None = None) -> PhaseCalibration:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dpdfit.core.progress import Progress
+from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 
 from .calibration_runs import calibration_runs
@@ -87,11 +87,15 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = DEFAULT_SEED,
     """Simulate a campaign and write it to ``outdir`` (which must not exist or be empty).
 
     Files are written into a temporary folder beside ``outdir`` and moved
-    into place only when complete.  Returns the ``truth`` dict.
+    into place only when complete.  Returns the ``truth`` dict.  ``progress``:
+    None (bars when stderr is a terminal), True, False, or a factory
+    ``progress(label, total)`` returning a context manager with ``update()``.
     """
-    if progress is None:
+    if progress is None or isinstance(progress, bool):
+        show = progress
+
         def progress(label, total):
-            return Progress(label, total)
+            return progress_bar(total=total, desc=label, progress=show)
     out = Path(outdir)
     check_new_folder(out)
     cfg = (config or CampaignConfig(seed=seed))

@@ -1,0 +1,209 @@
+"""What :func:`dpdfit.analyze` returns: every analysis's result and its tables, in memory.
+
+:class:`Analysis` holds the outputs of one ``analyze`` run -- the summary,
+each analysis's status, the tables as pandas DataFrames, the JSON outputs as
+dicts and the result objects the steps made (calibration fits, alignment fit,
+error budget, diagnosis) -- and writes them with :meth:`Analysis.save`,
+exactly the files ``dpdfit analyze FOLDER -o RESULTS`` writes.
+
+It is also a read-only mapping over the summary, so code written for the old
+return value (the summary dict) keeps working: ``res["analyses"]``,
+``res["failures"]``, ``dict(res)``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import shutil
+import time
+from collections.abc import Mapping
+from pathlib import Path
+
+import pandas as pd
+
+from dpdfit.fits.alignment import AlignmentFit
+from dpdfit.recordings.outputs import staged_outputs, to_jsonable
+from dpdfit.report.summary import summary_markdown
+from dpdfit.report.sweep_plots import plot_sweep
+
+__all__ = ["Analysis", "write_outputs"]
+
+log = logging.getLogger(__name__)
+
+
+def write_outputs(files: dict, summary: dict, out: Path, folder: Path, formula: str) -> None:
+    """Publish every output, ``summary.json`` and ``summary.md`` together (staged)."""
+    with staged_outputs() as stage:
+        for name, obj in files.items():
+            path = stage(out / name)
+            if isinstance(obj, tuple):
+                _, df, meta = obj
+                text = "".join(f"# {k}: {json.dumps(to_jsonable(v))}\n" for k, v in meta.items())
+                path.write_text(text + df.to_csv(index=False, float_format="%.10g"))
+            else:
+                path.write_text(obj)
+        stage(out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=2) + "\n")
+        stage(out / "summary.md").write_text(summary_markdown(summary, folder, formula))
+
+
+class Analysis(Mapping):
+    """The results of :func:`dpdfit.analyze` on one campaign folder.
+
+    Attributes
+    ----------
+    folder : Path
+        The campaign folder.
+    summary : dict
+        What ``summary.json`` holds (``analyses``: per analysis ``status`` and
+        ``detail``; ``failures``; each analysis's headline numbers).
+    files : dict
+        Output file name -> its text, or ``("csv", DataFrame, meta)`` for a table.
+    results : dict
+        Analysis name -> the object its step returned (``calibration``:
+        the fits, ``sweep``/``spectra``/``gates``: DataFrames, ``propagation``:
+        dict, ``budget``: :class:`~dpdfit.analyses.budget.BudgetResult`,
+        ``diagnosis``: :class:`~dpdfit.analyses.diagnosis.Diagnosis`); None when
+        the analysis was skipped or failed.
+    formula : str
+    messages : list of str
+        Warnings and errors logged while analysing.
+    """
+
+    def __init__(self, folder, summary: dict, files: dict, results: dict, formula: str, *,
+                 figures=None, figdir: Path | None = None, sweep=None, measured=None,
+                 messages=None):
+        self.folder = Path(folder)
+        self.summary = summary
+        self.files = files
+        self.results = results
+        self.formula = formula
+        self.messages = list(messages or [])
+        self._figures = figures
+        self._figdir = figdir
+        self._sweep, self._measured = sweep, measured
+        self._drawn = False
+        self._keep = None
+
+    # ------------------------------------------------------------ old dict access
+    def __getitem__(self, key):
+        return self.summary[key]
+
+    def __iter__(self):
+        return iter(self.summary)
+
+    def __len__(self):
+        return len(self.summary)
+
+    def __repr__(self):
+        st = {k: v["status"] for k, v in self.summary.get("analyses", {}).items()}
+        return f"Analysis({str(self.folder)!r}, {st})"
+
+    # ------------------------------------------------------------ tables and results
+    @property
+    def status(self) -> pd.DataFrame:
+        """One row per analysis: ``status`` (ok, skipped, failed) and ``detail``."""
+        return pd.DataFrame.from_dict(self.summary.get("analyses", {}), orient="index")
+
+    @property
+    def failures(self) -> list:
+        return list(self.summary.get("failures", []))
+
+    @property
+    def tables(self) -> dict:
+        """Every CSV output as a DataFrame, by name without ``.csv`` (``calibration_runs``,
+        ``sweep``, ``spectra_measured``, ``traces_check``, ``gate``, ``alignment_points``)."""
+        return {name.removesuffix(".csv"): obj[1] for name, obj in self.files.items()
+                if isinstance(obj, tuple)}
+
+    @property
+    def outputs(self) -> dict:
+        """Every JSON output as a dict, by name without ``.json`` (``calibration``,
+        ``stability_amplitude``, ``propagation``, ``budget``, ``diagnosis``, ...)."""
+        return {name.removesuffix(".json"): json.loads(obj) for name, obj in self.files.items()
+                if isinstance(obj, str) and name.endswith(".json")}
+
+    def table(self, name: str) -> pd.DataFrame | None:
+        """One table (``"sweep"`` or ``"sweep.csv"``), None when not produced."""
+        return self.tables.get(name.removesuffix(".csv"))
+
+    @property
+    def calibration(self):
+        """The :class:`~dpdfit.fits.calibration.Calibration` of the day (amplitude, phase)."""
+        fits = self.results.get("calibration")
+        return None if fits is None else fits.calibration
+
+    @property
+    def calibration_runs(self) -> pd.DataFrame | None:
+        return self.table("calibration_runs")
+
+    @property
+    def sweep(self) -> pd.DataFrame | None:
+        return self.table("sweep")
+
+    @property
+    def gate(self) -> pd.DataFrame | None:
+        """The gate table: fidelities per setting, joined with the gate rates."""
+        return self.table("gate")
+
+    @property
+    def alignment_points(self) -> pd.DataFrame | None:
+        return self.table("alignment_points")
+
+    @property
+    def alignment(self) -> AlignmentFit | None:
+        """The alignment fit of ``alpha`` and ``delta`` (with its points)."""
+        d = (self.summary.get("gates") or {}).get("alignment")
+        pts = self.alignment_points
+        if d is None or pts is None:
+            return None
+        keys = ("alpha_khz", "alpha_khz_err", "delta", "delta_err", "correlation", "chi2",
+                "dof", "redchi", "sigma_db")
+        return AlignmentFit(**{k: d[k] for k in keys}, points=pts)
+
+    @property
+    def budget(self) -> pd.DataFrame | None:
+        """The error budget (Table S3): one row per term, ``estimate`` and ``error``."""
+        d = self.outputs.get("budget")
+        if d is None:
+            return None
+        rows = {k: v for k, v in d.items() if isinstance(v, dict) and "estimate" in v}
+        return pd.DataFrame.from_dict(rows, orient="index")[["estimate", "error"]]
+
+    @property
+    def diagnosis(self):
+        """The :class:`~dpdfit.analyses.diagnosis.Diagnosis` (None when not run)."""
+        return self.results.get("diagnosis")
+
+    # ------------------------------------------------------------ writing
+    def keep_alive(self, obj) -> None:
+        """Keep ``obj`` (the temporary figure folder) as long as this result lives."""
+        self._keep = obj
+
+    def _draw_figures(self) -> None:
+        """Draw the queued figures into their folder, once."""
+        if self._drawn or self._figures is None:
+            return
+        for draw in self._figures:
+            draw()
+        if self._sweep is not None:
+            plot_sweep(self._sweep, self._figdir, measured=self._measured)
+        self._drawn = True
+
+    def save(self, outdir, *, plots: bool = True) -> Path:
+        """Write every output into ``outdir`` -- the files ``dpdfit analyze -o`` writes:
+        tables, JSON files, ``summary.json``, ``summary.md`` (staged, published together)
+        and, when figures were made (``analyze(plots=True)``) and ``plots``, ``figures/``."""
+        out = Path(outdir)
+        out.mkdir(parents=True, exist_ok=True)
+        t0 = time.perf_counter()
+        log.info("[analyze] writing results ...")
+        write_outputs(self.files, self.summary, out, self.folder, self.formula)
+        if plots and self._figures is not None:
+            self._draw_figures()
+            target = out / "figures"
+            if self._figdir is not None and self._figdir.is_dir() and (
+                    not target.exists() or not target.samefile(self._figdir)):
+                shutil.copytree(self._figdir, target, dirs_exist_ok=True)
+        log.info(f"[analyze]   done in {time.perf_counter() - t0:.1f} s")
+        return out
