@@ -57,7 +57,7 @@ from dpdfit.errors import DpdfitError, InputError
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.outputs import staged_outputs, to_jsonable
 from dpdfit.report.summary import PAPER, realism_table, summary_markdown
-from dpdfit.report.sweep_plots import plot_sweep
+from dpdfit.report.sweep_plots import sweep_figures
 
 from .context import Context, Results
 from .steps import (budget_step, calibration_step, diagnosis_step, gates_step, propagation_step,
@@ -151,10 +151,8 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike, *, formula: st
     out.mkdir(parents=True, exist_ok=True)
     t0 = _step("writing results")
     _write(res, out, folder, formula)
-    if ctx.figures is not None:
-        for draw in ctx.figures:
-            draw()
-        if sweep is not None:
-            plot_sweep(sweep, ctx.figdir, measured=meas)
+    if sweep is not None:
+        ctx.figure(sweep_figures, sweep, meas)
+    ctx.write_figures()
     _done(t0)
     return res.summary
