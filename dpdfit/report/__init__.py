@@ -9,7 +9,12 @@ Every figure has a function that draws it and returns a
     figs = sweep_figures(sweep)                   # {file stem: Figure}
     save_figures(figs, "figures")                 # figures/fig2_spectral.png, ...
 
-No matplotlib backend is chosen by the library.  The older ``plot_*``
+No matplotlib backend is chosen by the library.  New figures are plain
+:class:`~matplotlib.figure.Figure` objects, not managed by pyplot (nothing to
+close, no duplicate display): in Jupyter a returned Figure is shown once
+matplotlib's inline support is on (``%matplotlib inline``, or after any pyplot
+figure); ``plt.show()`` does not know them -- draw into your own
+``plt.subplots()`` with ``ax=``/``fig=`` for that.  The older ``plot_*``
 functions, which write PNG files into a folder, still work but are deprecated.
 """
 

@@ -1,11 +1,11 @@
 """Figure making and PNG writing shared by every figure module of ``dpdfit.report``.
 
 matplotlib is imported on first use only (``dpdfit`` itself never needs it) and
-no backend is ever chosen here: new figures are plain
-:class:`matplotlib.figure.Figure` objects, not managed by pyplot, so they work
-the same in a script, on a server and inline in Jupyter (a returned Figure is
-displayed there).  Every drawing function takes ``ax=`` (one panel) or ``fig=``
-(several panels) to draw into the caller's own axes or figure instead.
+the library never chooses a backend: new figures are plain
+:class:`matplotlib.figure.Figure` objects, not managed by pyplot (nothing to
+close; in Jupyter a returned Figure is shown by the inline support, whatever
+backend the notebook uses).  Every drawing function takes ``ax=`` (one panel)
+or ``fig=`` (several panels) to draw into the caller's own axes or figure instead.
 
 Saving is a separate step: :func:`save_figures` writes a set of figures as PNG
 (130 dpi unless told) into a staging area
@@ -109,7 +109,7 @@ def use_noninteractive_backend() -> None:
 
 
 def deprecated_plot(old: str, new: str) -> None:
-    """The DeprecationWarning of an old ``plot_*`` function that writes PNGs into a folder."""
-    warnings.warn(f"{old}(..., outdir) is deprecated: draw with dpdfit.report.{new}(...) "
-                  "(returns matplotlib Figures) and write them with "
-                  "dpdfit.report.save_figures(...)", DeprecationWarning, stacklevel=3)
+    """The DeprecationWarning of an old ``plot_*`` function that writes PNG files."""
+    warnings.warn(f"{old}() is deprecated: draw with dpdfit.report.{new}() (returns "
+                  "matplotlib Figures) and write them with dpdfit.report.save_figures()",
+                  DeprecationWarning, stacklevel=3)
