@@ -66,7 +66,8 @@ def diagnosis_figure(result: Diagnosis, group: str = "tones", *, fig=None):
     n = len(keys)
     cols = 4 if n > 4 else n
     rows = -(-n // cols)
-    fig, axes = panel_grid(fig, rows, cols, (3.2 * cols, 2.4 * rows), layout="tight")
+    own = fig is None
+    fig, axes = panel_grid(fig, rows, cols, (3.2 * cols, 2.4 * rows), layout=None)
     for ax, k in zip(axes.flat, keys):
         _residual_panel(ax, result, before[k], after.get(k), k)
     for ax in list(axes.flat)[n:]:
@@ -74,6 +75,8 @@ def diagnosis_figure(result: Diagnosis, group: str = "tones", *, fig=None):
     axes.flat[0].legend(fontsize=6)
     axes.flat[0].figure.suptitle(  # the caller's SubFigure, if that is where the axes are
         f"standardised residuals: baseline vs {result.verdict}", fontsize=9)
+    if own:  # the caller's figure keeps its own layout
+        fig.tight_layout()
     return fig
 
 
