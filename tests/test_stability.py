@@ -122,7 +122,8 @@ def test_phase_kind():
 
 
 def test_amplitude_plots(amp_result, tmp_path):
-    paths = plot_stability(amp_result, tmp_path)
+    with pytest.deprecated_call():                    # the old writer (issue #16)
+        paths = plot_stability(amp_result, tmp_path)
     assert [Path(p).name for p in paths] == ["figS2_stability_amplitude.png",
                                              "figS3_envelope_amplitude.png"]
     assert all(Path(p).stat().st_size > 5000 for p in paths)

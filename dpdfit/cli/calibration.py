@@ -155,8 +155,10 @@ def cmd_calibrate(args) -> int:
         if args.output:
             print(f"wrote {args.output}", file=sys.stderr)
     if args.plot:
-        from dpdfit.report.calibration_plots import plot_calibration
-        for p in plot_calibration(cal, args.plot, amp_data, ph_data):
+        from dpdfit.report.calibration_plots import calibration_figures
+        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
+        use_noninteractive_backend()
+        for p in save_figures(calibration_figures(cal, amp_data, ph_data), args.plot):
             print(f"wrote {p}", file=sys.stderr)
     return 0
 

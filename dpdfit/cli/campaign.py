@@ -43,6 +43,9 @@ def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
 
 def cmd_analyze(args) -> int:
     from dpdfit.pipeline.analyze import analyze
+    if not args.no_plots:
+        from dpdfit.report.figure_io import use_noninteractive_backend
+        use_noninteractive_backend()
     out = Path(args.output)
     folder = Path(args.folder)
     if folder.resolve() == out.resolve():

@@ -8,7 +8,8 @@ import sys
 
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.recordings.outputs import to_jsonable
-from dpdfit.report.diagnosis_plots import plot_diagnosis
+from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
+from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 
 __all__ = ["add_diagnose_command", "cmd_diagnose"]
 
@@ -19,7 +20,8 @@ def cmd_diagnose(args) -> int:
     for w in res.extra.get("warnings", []):
         print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:
-        plot_diagnosis(res, args.campaign, args.plot)
+        use_noninteractive_backend()
+        save_figures(diagnosis_figures(res), args.plot, dpi=DIAGNOSIS_DPI)
     if args.json:
         print(json.dumps(to_jsonable(res.to_dict()), indent=2))
     else:

@@ -59,9 +59,12 @@ def cmd_fidelity(args) -> int:
     if args.plot:
         from dpdfit.fits.counts import merge_parity
         from dpdfit.recordings.counts import read_parity
-        from dpdfit.report.gate_plots import plot_parity_only
+        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
+        from dpdfit.report.gate_plots import merged_parity_figure
+        use_noninteractive_backend()
         par = merge_parity(read_parity(args.parity))
-        for p in plot_parity_only(tab, par, args.plot):
+        fig = merged_parity_figure(tab, par)
+        for p in save_figures({"figS8_parity_fringes": fig}, args.plot):
             print(f"wrote {p}", file=sys.stderr)
     if args.output:
         print(f"wrote {args.output}", file=sys.stderr)
@@ -107,9 +110,10 @@ def cmd_align(args) -> int:
     else:
         print(fit.report())
     if args.plot:
-        from dpdfit.report.gate_plots import plot_gate_figures
-        g = gate.copy()
-        for p in plot_gate_figures(g, sweep, fit, args.plot):
+        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
+        from dpdfit.report.gate_plots import gate_figures
+        use_noninteractive_backend()
+        for p in save_figures(gate_figures(gate.copy(), sweep, fit), args.plot):
             print(f"wrote {p}", file=sys.stderr)
     return 0
 

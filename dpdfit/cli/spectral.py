@@ -72,8 +72,10 @@ def cmd_sweep(args) -> int:
     _print_thresholds(th)
     print(f"wrote {out}", file=sys.stderr)
     if args.plot:
-        from dpdfit.report.sweep_plots import plot_sweep
-        for p in plot_sweep(df, args.plot):
+        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
+        from dpdfit.report.sweep_plots import sweep_figures
+        use_noninteractive_backend()
+        for p in save_figures(sweep_figures(df), args.plot):
             print(f"wrote {p}", file=sys.stderr)
     return 0
 

@@ -11,7 +11,8 @@ import pandas as pd
 from dpdfit.analyses.stability import stability
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.recordings.outputs import to_jsonable
-from dpdfit.report.stability_plots import plot_stability
+from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
+from dpdfit.report.stability_plots import stability_figures
 
 __all__ = ["add_stability_command", "cmd_stability"]
 
@@ -31,7 +32,10 @@ def cmd_stability(args) -> int:
     """``dpdfit stability``: calibration stability over runs (report or JSON)."""
     kind = args.kind or _guess_kind(args.file)
     res = stability(args.file, kind=kind, order=args.order, A_min=args.A_min)
-    written = plot_stability(res, args.plot) if args.plot else []
+    written = []
+    if args.plot:
+        use_noninteractive_backend()
+        written = save_figures(stability_figures(res), args.plot)
     if args.json:
         d = res.to_dict()
         if written:

@@ -13,6 +13,7 @@ return value (the summary dict) keeps working: ``res["analyses"]``,
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import shutil
@@ -24,8 +25,11 @@ import pandas as pd
 
 from dpdfit.fits.alignment import AlignmentFit
 from dpdfit.recordings.outputs import staged_outputs, to_jsonable
+from dpdfit.report.figure_io import DPI
 from dpdfit.report.summary import summary_markdown
-from dpdfit.report.sweep_plots import plot_sweep
+from dpdfit.report.sweep_plots import sweep_figures
+
+from .context import write_figure_jobs
 
 __all__ = ["Analysis", "write_outputs"]
 
@@ -184,10 +188,10 @@ class Analysis(Mapping):
         """Draw the queued figures into their folder, once."""
         if self._drawn or self._figures is None:
             return
-        for draw in self._figures:
-            draw()
+        jobs = list(self._figures)
         if self._sweep is not None:
-            plot_sweep(self._sweep, self._figdir, measured=self._measured)
+            jobs.append((functools.partial(sweep_figures, self._sweep, self._measured), DPI))
+        write_figure_jobs(jobs, self._figdir)
         self._drawn = True
 
     def save(self, outdir, *, plots: bool = True) -> Path:

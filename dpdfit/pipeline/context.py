@@ -17,8 +17,9 @@ from pathlib import Path
 
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.outputs import to_jsonable
+from dpdfit.report.figure_io import DPI, save_figures
 
-__all__ = ["Results", "Context"]
+__all__ = ["Results", "Context", "write_figure_jobs"]
 
 
 class Results:
@@ -51,8 +52,9 @@ class Results:
 class Context:
     """The state shared by the steps of one ``analyze`` run.
 
-    ``figures`` is the queue of figure jobs (zero-argument callables), or None
-    when figures are off.
+    ``figures`` is the queue of figure jobs, or None when figures are off:
+    pairs ``(job, dpi)`` with ``job`` a zero-argument callable returning
+    ``{file stem: Figure}``.
     """
 
     campaign: CampaignFolder
@@ -70,7 +72,26 @@ class Context:
     def folder(self) -> Path:
         return self.campaign.path
 
-    def figure(self, draw, *args, **kwargs) -> None:
-        """Queue ``draw(*args, **kwargs)`` (nothing when figures are off)."""
+    def figure(self, draw, *args, dpi: float = DPI, **kwargs) -> None:
+        """Queue ``draw(*args, **kwargs)``, which returns ``{file stem: Figure}``, to be
+        written at ``dpi`` into ``figdir`` (nothing when figures are off)."""
         if self.figures is not None:
-            self.figures.append(functools.partial(draw, *args, **kwargs))
+            self.figures.append((functools.partial(draw, *args, **kwargs), dpi))
+
+    def write_figures(self) -> list[str]:
+        """Draw every queued figure, then write them all together as PNG into ``figdir``."""
+        return write_figure_jobs(self.figures, self.figdir)
+
+
+def write_figure_jobs(jobs, figdir) -> list[str]:
+    """Draw the figure jobs ``[(job, dpi)]`` (``job()`` -> ``{file stem: Figure}``) and
+    write them all together as PNG into ``figdir``; returns the paths."""
+    if not jobs:
+        return []
+    figures, dpi = {}, {}
+    for job, res in jobs:
+        for name, fig in job().items():
+            if name in figures:
+                raise ValueError(f"two figures named {name!r}")
+            figures[name], dpi[name] = fig, res
+    return save_figures(figures, figdir, dpi=dpi)

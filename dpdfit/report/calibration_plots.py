@@ -1,8 +1,11 @@
 """Fig. 1 of the paper: the AOM calibration.
 
-:func:`plot_calibration` draws (a) amplitude data, fit, confidence band and the
-linearised response under DPD; (b) phase data, fit and band; (c) the
-predistortion function -- each panel alone and all side by side.
+(a) amplitude data, fit, confidence band and the linearised response under
+DPD (:func:`amplitude_calibration_figure`); (b) phase data, fit and band
+(:func:`phase_calibration_figure`); (c) the predistortion function
+(:func:`predistortion_figure`); all side by side (:func:`calibration_figure`).
+:func:`calibration_figures` draws the set ``dpdfit analyze`` writes;
+:func:`plot_calibration` (deprecated) writes it as PNG files.
 """
 
 from __future__ import annotations
@@ -13,11 +16,11 @@ import numpy as np
 
 from dpdfit.fits.calibration import AmplitudeCalibration, Calibration, PhaseCalibration
 from dpdfit.models.transfer import TransferFunction
-from dpdfit.recordings.outputs import staged_outputs
 from dpdfit.recordings.tables import CalibrationData
-from dpdfit.report.figure_io import pyplot, save_png
+from dpdfit.report.figure_io import deprecated_plot, panel_grid, save_figures, single_axes
 
-__all__ = ["plot_calibration"]
+__all__ = ["amplitude_calibration_figure", "phase_calibration_figure", "predistortion_figure",
+           "calibration_figure", "calibration_figures", "plot_calibration"]
 
 #: amplitude grid of the drawn curves
 _GRID = np.linspace(0, 1, 501)
@@ -84,40 +87,91 @@ def _predistortion_panel(ax, tf: TransferFunction, A_corr: float, inv_err):
     ax.legend(fontsize=7, loc="lower right")
 
 
-def plot_calibration(cal: Calibration, outdir: str | os.PathLike,
-                     amp_data: CalibrationData | None = None,
-                     phase_data: CalibrationData | None = None) -> list[str]:
-    """Write Fig. 1 (a), (b), (c) as PNG files into ``outdir``.
-
-    Returns the list of written paths: ``fig1a_amplitude.png``,
-    ``fig1b_phase.png`` (if a phase calibration is present),
-    ``fig1c_predistortion.png`` and ``fig1_calibration.png`` (all panels).
-    Panel (c) is left out when the fit is not invertible (the reason is
-    written in its place).
-    """
-    plt = pyplot()
-    amp = cal.amplitude
+def _inversion(cal: Calibration):
+    """``(transfer function, None)``, or ``(transfer function, reason)`` when not invertible."""
     tf = TransferFunction.from_calibration(cal)
     try:
         tf.invertibility()
-        inv_err = None
     except Exception as exc:  # NotInvertibleError: show it, do not fail the plot
-        inv_err = str(exc)
+        return tf, str(exc)
+    return tf, None
 
-    panels = [("fig1a_amplitude.png", lambda ax: _amplitude_panel(ax, amp, tf, inv_err, amp_data))]
+
+def _panels(cal: Calibration, amp_data, phase_data) -> dict:
+    """``{file stem: draw(ax)}`` of the panels of Fig. 1 ((b) only with a phase calibration)."""
+    amp = cal.amplitude
+    tf, inv_err = _inversion(cal)
+    panels = {"fig1a_amplitude": lambda ax: _amplitude_panel(ax, amp, tf, inv_err, amp_data)}
     if cal.phase is not None:
-        panels.append(("fig1b_phase.png", lambda ax: _phase_panel(ax, cal.phase, phase_data)))
-    panels.append(("fig1c_predistortion.png",
-                   lambda ax: _predistortion_panel(ax, tf, amp.A_corr, inv_err)))
-    written = []
-    with staged_outputs() as stage:
-        for name, draw in panels:
-            fig, ax = plt.subplots(figsize=(4.2, 3.4), constrained_layout=True)
-            draw(ax)
-            written.append(save_png(fig, stage, outdir, name))
-        fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.6),
-                                 constrained_layout=True)
-        for ax, (_, draw) in zip(np.atleast_1d(axes), panels):
-            draw(ax)
-        written.append(save_png(fig, stage, outdir, "fig1_calibration.png"))
-    return written
+        panels["fig1b_phase"] = lambda ax: _phase_panel(ax, cal.phase, phase_data)
+    panels["fig1c_predistortion"] = lambda ax: _predistortion_panel(ax, tf, amp.A_corr, inv_err)
+    return panels
+
+
+def _one_panel(draw, ax):
+    fig, ax = single_axes(ax, (4.2, 3.4))
+    draw(ax)
+    return fig
+
+
+def amplitude_calibration_figure(cal: Calibration, amp_data: CalibrationData | None = None, *,
+                                 ax=None):
+    """Fig. 1(a): amplitude data (signed sqrt of the powers), the fit with its 2-sigma band
+    and the response with DPD; returns the Figure (drawn into ``ax`` when given)."""
+    return _one_panel(_panels(cal, amp_data, None)["fig1a_amplitude"], ax)
+
+
+def phase_calibration_figure(cal: Calibration, phase_data: CalibrationData | None = None, *,
+                             ax=None):
+    """Fig. 1(b): phase data inside and outside the fit window, the fit with its 2-sigma band.
+
+    ``cal`` must have a phase calibration; returns the Figure (drawn into ``ax`` when given).
+    """
+    if cal.phase is None:
+        raise ValueError("the calibration has no phase part")
+    return _one_panel(lambda a: _phase_panel(a, cal.phase, phase_data), ax)
+
+
+def predistortion_figure(cal: Calibration, *, ax=None):
+    """Fig. 1(c): the predistortion function f_AM^-1, or the reason it does not exist;
+    returns the Figure (drawn into ``ax`` when given)."""
+    return _one_panel(_panels(cal, None, None)["fig1c_predistortion"], ax)
+
+
+def calibration_figure(cal: Calibration, amp_data: CalibrationData | None = None,
+                       phase_data: CalibrationData | None = None, *, fig=None):
+    """Fig. 1: panels (a), (b) (if a phase calibration is present) and (c) side by side.
+
+    Drawn into ``fig`` (an empty Figure or SubFigure) when given; returns the Figure.
+    """
+    panels = list(_panels(cal, amp_data, phase_data).values())
+    fig, axes = panel_grid(fig, 1, len(panels), (4.2 * len(panels), 3.6))
+    for ax, draw in zip(axes.flat, panels):
+        draw(ax)
+    return fig
+
+
+def calibration_figures(cal: Calibration, amp_data: CalibrationData | None = None,
+                        phase_data: CalibrationData | None = None) -> dict:
+    """Fig. 1 as ``dpdfit analyze`` writes it: ``{file stem: Figure}``.
+
+    ``fig1a_amplitude``, ``fig1b_phase`` (if a phase calibration is present),
+    ``fig1c_predistortion`` (each panel alone) and ``fig1_calibration`` (all
+    panels).  Panel (c) shows the reason in its place when the fit is not invertible.
+    """
+    figs = {name: _one_panel(draw, None)
+            for name, draw in _panels(cal, amp_data, phase_data).items()}
+    figs["fig1_calibration"] = calibration_figure(cal, amp_data, phase_data)
+    return figs
+
+
+def plot_calibration(cal: Calibration, outdir: str | os.PathLike,
+                     amp_data: CalibrationData | None = None,
+                     phase_data: CalibrationData | None = None) -> list[str]:
+    """Deprecated: write :func:`calibration_figures` as PNG files into ``outdir``; returns the paths.
+
+    Use :func:`calibration_figures` (or the single-figure functions) and
+    :func:`dpdfit.report.figure_io.save_figures`.
+    """
+    deprecated_plot("plot_calibration", "calibration_figures")
+    return save_figures(calibration_figures(cal, amp_data, phase_data), outdir)

@@ -1,9 +1,13 @@
 """Figures of the measured gate side: main-text Figs. 3, 4 and Supplement Figs. S7, S8.
 
-:func:`plot_gate_figures` draws the gate fidelities against the gate rate
-(Fig. 3) and against the efficiency (Fig. 4) with the aligned photodiode
-curves, every parity fringe (S8) and the population time scans (S7);
-:func:`plot_parity_only` draws Fig. S8 alone (``dpdfit fidelity --plot``).
+:func:`fidelity_vs_rate_figure` (Fig. 3) and :func:`fidelity_vs_efficiency_figure`
+(Fig. 4) draw the gate fidelities with the aligned photodiode curves,
+:func:`parity_fringes_figure` every parity fringe (S8),
+:func:`time_scans_figure` the population time scans (S7); each returns a
+Figure and :func:`gate_figures` draws the set ``dpdfit analyze`` writes.
+:func:`merged_parity_figure` draws Fig. S8 from merged parity counts alone
+(``dpdfit fidelity --plot``).  :func:`plot_gate_figures` and
+:func:`plot_parity_only` (deprecated) write them as PNG files.
 """
 
 from __future__ import annotations
@@ -13,10 +17,11 @@ import numpy as np
 from dpdfit.analyses.sweep import eta_corr
 from dpdfit.fits.alignment import K_DB
 from dpdfit.models.fidelity import cardioid_populations
-from dpdfit.recordings.outputs import staged_outputs
-from dpdfit.report.figure_io import pyplot, save_png
+from dpdfit.report.figure_io import deprecated_plot, panel_grid, save_figures, single_axes
 
-__all__ = ["plot_gate_figures", "plot_parity_only"]
+__all__ = ["fidelity_vs_rate_figure", "fidelity_vs_efficiency_figure", "parity_fringes_figure",
+           "time_scans_figure", "gate_figures", "merged_parity_figure", "plot_gate_figures",
+           "plot_parity_only"]
 
 #: marker style per DPD flag
 _STYLE = {1: dict(color="C0", marker="s", label="DPD"), 0: dict(color="C3", marker="o",
@@ -75,23 +80,36 @@ def _rate_panel(ax, gate, mean, fit, highlight):
     ax.legend(fontsize=7)
 
 
-def _fig3(plt, gate, mean, fit, parity, highlight):
-    """Fig. 3, with the highlighted pair's parity fringes beside it when given."""
+def _mean(sweep):
+    return sweep[sweep["sideband"] == "mean"]
+
+
+def fidelity_vs_rate_figure(gate, sweep, fit=None, parity=None, highlight=None, *, fig=None):
+    """Fig. 3: fidelity versus gate rate, with the aligned photodiode curves and their band.
+
+    With ``highlight`` (a pair of settings ``(A, dpd)``) and ``parity`` the
+    pair's parity fringes go into a second panel beside it.  Arguments as
+    :func:`gate_figures`; drawn into ``fig`` (an empty Figure or SubFigure)
+    when given; returns the Figure.
+    """
     ncols = 2 if (highlight and parity) else 1
-    fig, axes = plt.subplots(1, ncols, figsize=(5.2 * ncols, 4), constrained_layout=True)
-    _rate_panel(np.atleast_1d(axes)[0], gate, mean, fit, highlight)
+    fig, axes = panel_grid(fig, 1, ncols, (5.2 * ncols, 4))
+    _rate_panel(axes[0, 0], gate, _mean(sweep), fit, highlight)
     if ncols == 2:
-        ax2 = np.atleast_1d(axes)[1]
         for key in highlight:
             if key in parity:
-                _fringe(ax2, gate, parity, key, "highlighted pair: parity fringes")
+                _fringe(axes[0, 1], gate, parity, key, "highlighted pair: parity fringes")
     return fig
 
 
-def _fig4(plt, gate, sweep, mean, fit):
-    """Fig. 4: fidelity versus the time-averaged efficiency eta_bar."""
-    fig, ax = plt.subplots(figsize=(5.2, 4), constrained_layout=True)
+def fidelity_vs_efficiency_figure(gate, sweep, fit=None, *, ax=None):
+    """Fig. 4: fidelity versus the time-averaged efficiency eta_bar.
+
+    Arguments as :func:`gate_figures`; drawn into ``ax`` when given; returns the Figure.
+    """
+    fig, ax = single_axes(ax, (5.2, 4))
     ec = eta_corr(sweep)
+    mean = _mean(sweep)
     for d in (1, 0):
         c = mean[mean["dpd"] == d].sort_values("A")
         shift = fit.delta if fit is not None else 0.0
@@ -111,21 +129,26 @@ def _fig4(plt, gate, sweep, mean, fit):
     return fig
 
 
-def _grid_axes(plt, n_panels, min_rows=0):
-    """A grid of 4 columns for ``n_panels`` panels (axes beyond them switched off later)."""
+def _grid_axes(fig, n_panels, min_rows=0):
+    """``(figure, axes)``: a grid of 4 columns for ``n_panels`` panels (axes beyond them off)."""
     nr = max(min_rows, -(-n_panels // _N_COLUMNS_S8))
-    return plt.subplots(nr, _N_COLUMNS_S8, figsize=(3.2 * _N_COLUMNS_S8, 2.6 * nr),
-                        constrained_layout=True, squeeze=False)
+    fig, axes = panel_grid(fig, nr, _N_COLUMNS_S8, (3.2 * _N_COLUMNS_S8, 2.6 * nr))
+    for ax in list(axes.flat)[n_panels:]:
+        ax.axis("off")
+    return fig, axes
 
 
-def _figS8(plt, gate, parity):
-    """Fig. S8: every setting's parity fringe."""
+def parity_fringes_figure(gate, parity, *, fig=None):
+    """Fig. S8: every setting's parity fringe with its fitted contrast and phase.
+
+    ``parity``: ``{(A, dpd): (phases, n_even, shots)}``; the fits are drawn from
+    ``gate``'s ``contrast`` and ``phi0``.  Drawn into ``fig`` (an empty Figure
+    or SubFigure) when given; returns the Figure.
+    """
     keys = sorted(parity)
-    fig, axes = _grid_axes(plt, len(keys))
+    fig, axes = _grid_axes(fig, len(keys))
     for ax, key in zip(axes.flat, keys):
         _fringe(ax, gate, parity, key)
-    for ax in list(axes.flat)[len(keys):]:
-        ax.axis("off")
     return fig
 
 
@@ -152,20 +175,27 @@ def _time_scan_panel(ax, gate, ts, d, nbar):
     ax.legend(fontsize=7)
 
 
-def _figS7(plt, gate, time_scans, nbar):
-    """Fig. S7: the time scans, one panel per DPD flag."""
+def time_scans_figure(gate, time_scans, nbar: float = 0.1, *, fig=None):
+    """Fig. S7: the population time scans, one panel per DPD flag, with the ideal Cardioid
+    model at the setting's gate rate.
+
+    ``time_scans``: ``A, dpd, t_us, n00, n01_10, n11, shots``.  Drawn into
+    ``fig`` (an empty Figure or SubFigure) when given; returns the Figure.
+    """
     flags = sorted(time_scans["dpd"].unique(), reverse=True)
-    fig, axes = plt.subplots(1, len(flags), figsize=(5 * len(flags), 3.8),
-                             constrained_layout=True, squeeze=False)
+    fig, axes = panel_grid(fig, 1, len(flags), (5 * len(flags), 3.8))
     for ax, d in zip(axes.flat, flags):
         ts = time_scans[time_scans["dpd"] == d].sort_values("t_us")
         _time_scan_panel(ax, gate, ts, d, nbar)
     return fig
 
 
-def plot_gate_figures(gate, sweep, fit, outdir, parity=None, time_scans=None,
-                      highlight=None, nbar: float = 0.1) -> list[str]:
-    """Figures of the measured side (main-text Figs. 3, 4; Supplement Figs. S7, S8).
+def gate_figures(gate, sweep, fit, parity=None, time_scans=None, highlight=None,
+                 nbar: float = 0.1) -> dict:
+    """Figures of the measured side as ``dpdfit analyze`` writes them: ``{file stem: Figure}``.
+
+    ``fig3_fidelity_vs_rate``, ``fig4_fidelity_vs_eta``, ``figS8_parity_fringes``
+    (with ``parity``) and ``figS7_time_scans`` (with ``time_scans``).
 
     Parameters
     ----------
@@ -184,48 +214,57 @@ def plot_gate_figures(gate, sweep, fit, outdir, parity=None, time_scans=None,
     highlight : ((A, dpd), (A, dpd)), optional
         The pair whose parity fringes go into Fig. 3's side panel.
     """
-    plt = pyplot()
-    written: list[str] = []
-    mean = sweep[sweep["sideband"] == "mean"]
-    with staged_outputs() as stage:
-        written.append(save_png(_fig3(plt, gate, mean, fit, parity, highlight), stage, outdir,
-                                "fig3_fidelity_vs_rate.png"))
-        written.append(save_png(_fig4(plt, gate, sweep, mean, fit), stage, outdir,
-                                "fig4_fidelity_vs_eta.png"))
-        if parity:
-            written.append(save_png(_figS8(plt, gate, parity), stage, outdir,
-                                    "figS8_parity_fringes.png"))
-        if time_scans is not None and len(time_scans):
-            written.append(save_png(_figS7(plt, gate, time_scans, nbar), stage, outdir,
-                                    "figS7_time_scans.png"))
-    return written
+    figs = {"fig3_fidelity_vs_rate": fidelity_vs_rate_figure(gate, sweep, fit, parity, highlight),
+            "fig4_fidelity_vs_eta": fidelity_vs_efficiency_figure(gate, sweep, fit)}
+    if parity:
+        figs["figS8_parity_fringes"] = parity_fringes_figure(gate, parity)
+    if time_scans is not None and len(time_scans):
+        figs["figS7_time_scans"] = time_scans_figure(gate, time_scans, nbar)
+    return figs
 
 
-def plot_parity_only(gate, merged_parity, outdir) -> list[str]:
-    """Fig. S8 alone: merged parity fringes of every setting with their fits.
+def plot_gate_figures(gate, sweep, fit, outdir, parity=None, time_scans=None,
+                      highlight=None, nbar: float = 0.1) -> list[str]:
+    """Deprecated: write :func:`gate_figures` as PNG files into ``outdir``; returns the paths.
+
+    Use :func:`gate_figures` (or the single-figure functions) and
+    :func:`dpdfit.report.figure_io.save_figures`.
+    """
+    deprecated_plot("plot_gate_figures", "gate_figures")
+    return save_figures(gate_figures(gate, sweep, fit, parity, time_scans, highlight, nbar),
+                        outdir)
+
+
+def merged_parity_figure(gate, merged_parity, *, fig=None):
+    """Fig. S8 alone (``dpdfit fidelity --plot``): merged parity fringes of every setting
+    with their fits.
 
     ``merged_parity`` is the DataFrame of :func:`dpdfit.fits.counts.merge_parity`
-    (``A, dpd, phase_rad, n_even, shots``).
+    (``A, dpd, phase_rad, n_even, shots``); the fits come from ``gate``'s
+    ``contrast`` and ``phi0``.  Drawn into ``fig`` (an empty Figure or
+    SubFigure) when given; returns the Figure.
     """
     parity = {}
     for (A, d), g in merged_parity.groupby(["A", "dpd"]):
         parity[(float(A), int(d))] = (g["phase_rad"].to_numpy(), g["n_even"].to_numpy(),
                                       g["shots"].to_numpy())
-    plt = pyplot()
     keys = sorted(parity)
-    written: list[str] = []
-    with staged_outputs() as stage:
-        fig, axes = _grid_axes(plt, len(keys), min_rows=1)
-        for ax, key in zip(axes.flat, keys):
-            ph, k, n = parity[key]
-            row = _setting(gate, *key).iloc[0]
-            c = "C0" if key[1] else "C3"
-            _parity_points(ax, ph, k, n, c, "s" if key[1] else "o")
-            x = np.linspace(0, 2 * np.pi, 300)
-            ax.plot(x, row["contrast"] * np.cos(2 * x + row["phi0"]), color=c)
-            ax.set(title=f"A={key[0]:g} {'DPD' if key[1] else 'no DPD'}: C={row['contrast']:.3f}",
-                   ylim=(-1.1, 1.1), xlabel="$\\varphi$ (rad)", ylabel="$\\Pi$")
-        for ax in list(axes.flat)[len(keys):]:
-            ax.axis("off")
-        written.append(save_png(fig, stage, outdir, "figS8_parity_fringes.png"))
-    return written
+    fig, axes = _grid_axes(fig, len(keys), min_rows=1)
+    for ax, key in zip(axes.flat, keys):
+        ph, k, n = parity[key]
+        row = _setting(gate, *key).iloc[0]
+        c = "C0" if key[1] else "C3"
+        _parity_points(ax, ph, k, n, c, "s" if key[1] else "o")
+        x = np.linspace(0, 2 * np.pi, 300)
+        ax.plot(x, row["contrast"] * np.cos(2 * x + row["phi0"]), color=c)
+        ax.set(title=f"A={key[0]:g} {'DPD' if key[1] else 'no DPD'}: C={row['contrast']:.3f}",
+               ylim=(-1.1, 1.1), xlabel="$\\varphi$ (rad)", ylabel="$\\Pi$")
+    return fig
+
+
+def plot_parity_only(gate, merged_parity, outdir) -> list[str]:
+    """Deprecated: write :func:`merged_parity_figure` as ``figS8_parity_fringes.png`` into
+    ``outdir``; returns the paths."""
+    deprecated_plot("plot_parity_only", "merged_parity_figure")
+    return save_figures({"figS8_parity_fringes": merged_parity_figure(gate, merged_parity)},
+                        outdir)

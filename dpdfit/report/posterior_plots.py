@@ -1,62 +1,88 @@
-"""Corner plot of the amplitude-calibration posterior (:mod:`dpdfit.fits.posterior`)."""
+"""Corner plot of the amplitude-calibration posterior (:mod:`dpdfit.fits.posterior`), drawn
+with the ``corner`` package.
+
+:func:`corner_figure` returns the Figure; :func:`plot_corner` (deprecated)
+writes it as a PNG file at :data:`CORNER_DPI`.
+"""
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 
 from dpdfit.errors import InputError
 from dpdfit.fits.posterior import PosteriorResult
+from dpdfit.report.figure_io import deprecated_plot, new_figure, root_figure, save_figures
 
-__all__ = ["plot_corner"]
+__all__ = ["corner_figure", "plot_corner", "CORNER_DPI"]
+
+#: resolution of the corner plot
+CORNER_DPI = 110
 
 
-def plot_corner(result: PosteriorResult, path, params=None, bins: int = 40,
-                max_points: int = 4000) -> str:
-    """Corner plot (matplotlib only) of ``A_corr`` and selected ``a_k``.
-
-    ``params`` lists names among ``"A_corr"`` and ``"a2".."aK"`` (default:
-    ``A_corr, a2, a3, a4``).  Diagonal: histograms with the median and 68 %
-    interval; off-diagonal: scatter of up to ``max_points`` draws.
-    """
-    import matplotlib
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+def _columns(result: PosteriorResult) -> dict:
+    """``{name: draws}`` of ``A_corr`` and every ``a_k`` with k > 1."""
     cols = {"A_corr": np.asarray(result.A_corr_draws)}
     for i, p in enumerate(result.powers):
         if p > 1:
             cols[f"a{p}"] = np.asarray(result.a_draws)[:, i]
+    return cols
+
+
+def _label(name: str) -> str:
+    return "$A_{corr}$" if name == "A_corr" else f"$a_{{{name[1:]}}}$"
+
+
+def corner_figure(result: PosteriorResult, params=None, *, bins: int = 40, fig=None,
+                  **corner_kwargs):
+    """Corner plot of ``A_corr`` and selected ``a_k`` (:func:`corner.corner`).
+
+    ``params`` lists names among ``"A_corr"`` and ``"a2".."aK"`` (default:
+    ``A_corr`` and the next three coefficients).  Diagonal: histograms with the
+    median and 68 % interval (dashed); below it: the 2-d densities of the
+    draws.  The autocorrelation time and the number of independent draws are
+    written in the empty upper-right corner.  Drawn into ``fig`` (an empty
+    Figure or SubFigure) when given; further keywords go to :func:`corner.corner`.
+    Returns the Figure.
+    """
+    import corner  # with matplotlib: only when a corner plot is drawn
+
+    cols = _columns(result)
     params = list(params or ["A_corr"] + [f"a{p}" for p in result.powers[1:4]])
     for p in params:
         if p not in cols:
             raise InputError(f"unknown corner-plot parameter {p!r}; choose from {list(cols)}")
     X = np.column_stack([cols[p] for p in params])
-    rng = np.random.default_rng(0)
-    sel = rng.choice(X.shape[0], size=min(max_points, X.shape[0]), replace=False)
     k = len(params)
-    fig, axes = plt.subplots(k, k, figsize=(2.2 * k, 2.2 * k), squeeze=False)
-    for i in range(k):
-        for j in range(k):
-            ax = axes[i, j]
-            if j > i:
-                ax.set_visible(False)
-                continue
-            if i == j:
-                ax.hist(X[:, i], bins=bins, histtype="step", color="k")
-                for q, ls in ((0.5, "-"), (0.16, "--"), (0.84, "--")):
-                    ax.axvline(np.quantile(X[:, i], q), color="C0", ls=ls, lw=0.8)
-                ax.set_yticks([])
-            else:
-                ax.plot(X[sel, j], X[sel, i], ",", color="k", alpha=0.5)
-            if i == k - 1:
-                ax.set_xlabel(params[j])
-            else:
-                ax.set_xticklabels([])
-            if j == 0 and i > 0:
-                ax.set_ylabel(params[i])
-            elif j > 0:
-                ax.set_yticklabels([])
-    fig.suptitle(f"posterior, tau {result.tau_max:.1f}, {result.n_independent:.0f} indep.")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if fig is None:  # corner's own panel size: 2 in per panel, margins 1.4 in
+        fig = new_figure((2.0 * k + 0.1 * (k - 1) + 1.4,) * 2, layout=None)
+    options = dict(labels=[_label(p) for p in params], bins=bins, quantiles=[0.16, 0.5, 0.84],
+                   max_n_ticks=3, use_math_text=True)
+    corner.corner(X, fig=fig, **{**options, **corner_kwargs})
+    note = (f"posterior: {X.shape[0]} draws\nautocorrelation time {result.tau_max:.1f}\n"
+            f"{result.n_independent:.0f} independent")
+    if k > 1:
+        fig.text(0.97, 0.97, note, ha="right", va="top", fontsize=9)
+    else:
+        fig.suptitle(note.replace("\n", ", "), fontsize=8)
+    return root_figure(fig)
+
+
+def plot_corner(result: PosteriorResult, path, params=None, bins: int = 40,
+                max_points: int = 4000) -> str:
+    """Deprecated: write :func:`corner_figure` as the PNG file ``path``; returns the path.
+
+    ``max_points`` is ignored (``corner`` draws densities, not a thinned
+    scatter).  Use :func:`corner_figure` and
+    :func:`dpdfit.report.figure_io.save_figures` (with ``dpi=CORNER_DPI``).
+    """
+    deprecated_plot("plot_corner", "corner_figure")
+    path = os.fspath(path)
+    fig = corner_figure(result, params, bins=bins)
+    folder, name = os.path.split(path)
+    if name.lower().endswith(".png"):
+        save_figures({name[:-4]: fig}, folder or ".", dpi=CORNER_DPI)
+    else:  # another format, from the file name's extension (as before)
+        fig.savefig(path, dpi=CORNER_DPI)
     return str(path)

@@ -3,6 +3,11 @@
 Simulated curves are dashed, as in the paper; curves measured from the
 recorded spectra (the table of
 :func:`dpdfit.analyses.measured_spectra.measured_spectra`) are solid.
+
+:func:`spectral_figure` (Fig. 2), :func:`spectral_supplement_figure` (S6),
+:func:`infidelity_vs_efficiency_figure` (Fig. 5), :func:`phase_space_figure`
+(S4) each return a Figure; :func:`sweep_figures` draws the set ``dpdfit
+analyze`` writes; :func:`plot_sweep` (deprecated) writes it as PNG files.
 """
 
 from __future__ import annotations
@@ -15,10 +20,10 @@ import pandas as pd
 
 from dpdfit.analyses.sweep import thresholds
 from dpdfit.models.fidelity import calibrate_g, phase_space
-from dpdfit.recordings.outputs import staged_outputs
-from dpdfit.report.figure_io import pyplot, save_png
+from dpdfit.report.figure_io import deprecated_plot, panel_grid, save_figures, single_axes
 
-__all__ = ["plot_sweep"]
+__all__ = ["spectral_figure", "spectral_supplement_figure", "infidelity_vs_efficiency_figure",
+           "phase_space_figure", "sweep_figures", "plot_sweep"]
 
 #: simulated curve style per DPD flag
 _STYLE = {1: dict(color="C0", ls="--", label="DPD (sim.)"),
@@ -127,40 +132,86 @@ def _phase_space_panel(ax):
     ax.legend(fontsize=7)
 
 
-def plot_sweep(df, outdir: str | os.PathLike, measured=None) -> list[str]:
-    """Figures of the amplitude sweep, as PNG files in ``outdir``.
-
-    ``fig2_spectral.png`` (a: R10 vs A, b: dP_n vs A), ``figS6_spectral.png``
-    (a: R10, b: R23, c: dP_n), ``fig5_eps_vs_eta.png`` (eps_est vs eta_bar,
-    log-log, thresholds and eta_bar_corr) and ``figS4_phase_space.png``
-    (trajectory of Cardioid(1,2) with a 10 % n = 0 or n = 3 tone).
-    Simulations are dashed, as in the paper; ``measured`` (the table of
-    :func:`dpdfit.analyses.measured_spectra.measured_spectra` with columns
-    ``A, dpd, sideband, R10_dB, R23_dB, dP1_dB, dP2_dB, eta_bar, eps_est,
-    P0_valid, P3_valid``) adds the recorded curves as solid lines (ratios
-    only where the IM tone was above the noise floor).
-    """
-    plt = pyplot()
+def _curves(df, measured) -> _Curves:
+    """The sideband-mean curves of the simulated sweep ``df`` and of ``measured`` (or None)."""
     mean = df[df["sideband"] == "mean"]
-    c = _Curves(sim={d: mean[mean["dpd"] == d].sort_values("A") for d in (1, 0)},
-                meas=None if measured is None else measured[measured["sideband"] == "mean"],
-                A_corr=df.attrs.get("A_corr"))
-    th = thresholds(df)
-    figures = {
-        "fig2_spectral.png": [lambda ax: _ratio_panel(ax, c, "R10_dB", "(a) $R_{10}$"),
-                              lambda ax: _dp_panel(ax, c, "(b) gate-tone power change")],
-        "figS6_spectral.png": [lambda ax: _ratio_panel(ax, c, "R10_dB", "(a) $R_{10}$"),
-                               lambda ax: _ratio_panel(ax, c, "R23_dB", "(b) $R_{23}$"),
-                               lambda ax: _dp_panel(ax, c, "(c) $\\Delta P_n$")],
-        "fig5_eps_vs_eta.png": [lambda ax: _eps_panel(ax, c, th)],
-        "figS4_phase_space.png": [_phase_space_panel],
-    }
-    written = []
-    with staged_outputs() as stage:
-        for name, panels in figures.items():
-            fig, axes = plt.subplots(1, len(panels), figsize=(4.4 * len(panels), 3.6),
-                                     constrained_layout=True)
-            for ax, draw in zip(np.atleast_1d(axes), panels):
-                draw(ax)
-            written.append(save_png(fig, stage, outdir, name))
-    return written
+    return _Curves(sim={d: mean[mean["dpd"] == d].sort_values("A") for d in (1, 0)},
+                   meas=None if measured is None else measured[measured["sideband"] == "mean"],
+                   A_corr=df.attrs.get("A_corr"))
+
+
+def _row(fig, panels):
+    """The panels side by side in ``fig`` (or a new figure); returns the Figure."""
+    fig, axes = panel_grid(fig, 1, len(panels), (4.4 * len(panels), 3.6))
+    for ax, draw in zip(axes.flat, panels):
+        draw(ax)
+    return fig
+
+
+def spectral_figure(df, measured=None, *, fig=None):
+    """Fig. 2: (a) R10 versus A, (b) the gate-tone power changes dP_n versus A.
+
+    ``df``: the simulated sweep (:func:`dpdfit.analyses.sweep.run_sweep`);
+    ``measured``: the table of
+    :func:`dpdfit.analyses.measured_spectra.measured_spectra` (solid lines; the
+    ratios only where the IM tone was above the noise floor), or None.  Drawn
+    into ``fig`` (an empty Figure or SubFigure) when given; returns the Figure.
+    """
+    c = _curves(df, measured)
+    return _row(fig, [lambda ax: _ratio_panel(ax, c, "R10_dB", "(a) $R_{10}$"),
+                      lambda ax: _dp_panel(ax, c, "(b) gate-tone power change")])
+
+
+def spectral_supplement_figure(df, measured=None, *, fig=None):
+    """Fig. S6: (a) R10, (b) R23, (c) dP_n versus A (arguments as :func:`spectral_figure`)."""
+    c = _curves(df, measured)
+    return _row(fig, [lambda ax: _ratio_panel(ax, c, "R10_dB", "(a) $R_{10}$"),
+                      lambda ax: _ratio_panel(ax, c, "R23_dB", "(b) $R_{23}$"),
+                      lambda ax: _dp_panel(ax, c, "(c) $\\Delta P_n$")])
+
+
+def infidelity_vs_efficiency_figure(df, measured=None, *, ax=None):
+    """Fig. 5: eps_est versus eta_bar, log-log, with the infidelity thresholds and eta_bar_corr.
+
+    Arguments as :func:`spectral_figure`; drawn into ``ax`` when given; returns the Figure.
+    """
+    fig, ax = single_axes(ax, (4.4, 3.6))
+    _eps_panel(ax, _curves(df, measured), thresholds(df))
+    return fig
+
+
+def phase_space_figure(*, ax=None):
+    """Fig. S4: trajectory of Cardioid(1,2), ideal and with a 10 % n = 0 or n = 3 tone.
+
+    Drawn into ``ax`` when given; returns the Figure.
+    """
+    fig, ax = single_axes(ax, (4.4, 3.6))
+    _phase_space_panel(ax)
+    return fig
+
+
+def sweep_figures(df, measured=None) -> dict:
+    """The figures of the amplitude sweep as ``dpdfit analyze`` writes them: ``{file stem: Figure}``.
+
+    ``fig2_spectral`` (:func:`spectral_figure`), ``figS6_spectral``
+    (:func:`spectral_supplement_figure`), ``fig5_eps_vs_eta``
+    (:func:`infidelity_vs_efficiency_figure`) and ``figS4_phase_space``
+    (:func:`phase_space_figure`).  ``df`` is the simulated sweep; ``measured``
+    (the table of :func:`dpdfit.analyses.measured_spectra.measured_spectra` with
+    columns ``A, dpd, sideband, R10_dB, R23_dB, dP1_dB, dP2_dB, eta_bar,
+    eps_est, P0_valid, P3_valid``) adds the recorded curves as solid lines.
+    """
+    return {"fig2_spectral": spectral_figure(df, measured),
+            "figS6_spectral": spectral_supplement_figure(df, measured),
+            "fig5_eps_vs_eta": infidelity_vs_efficiency_figure(df, measured),
+            "figS4_phase_space": phase_space_figure()}
+
+
+def plot_sweep(df, outdir: str | os.PathLike, measured=None) -> list[str]:
+    """Deprecated: write :func:`sweep_figures` as PNG files into ``outdir``; returns the paths.
+
+    Use :func:`sweep_figures` (or the single-figure functions) and
+    :func:`dpdfit.report.figure_io.save_figures`.
+    """
+    deprecated_plot("plot_sweep", "sweep_figures")
+    return save_figures(sweep_figures(df, measured), outdir)

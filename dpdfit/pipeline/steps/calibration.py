@@ -17,8 +17,8 @@ from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.calibration import Calibration, calibrate_amplitude, calibrate_phase
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
 from dpdfit.recordings.tables import list_runs, read_calibration
-from dpdfit.report.calibration_plots import plot_calibration
-from dpdfit.report.stability_plots import plot_stability
+from dpdfit.report.calibration_plots import calibration_figures
+from dpdfit.report.stability_plots import stability_figures
 
 from ..context import Context
 
@@ -122,7 +122,7 @@ def calibration_step(ctx: Context) -> CalibrationFits | None:
     runs_df = _runs_table(amp_fits, ph_fits)
     res.table("calibration_runs.csv", runs_df)
     res.summary["calibration"] = _summary(cal, runs_df, noise, ph_noise)
-    ctx.figure(plot_calibration, cal, ctx.figdir, amp_data, ph_data)
+    ctx.figure(calibration_figures, cal, amp_data, ph_data)
     res.status("calibration", "ok", f"amplitude run {amp.source.get('run')}, "
                                     f"{len(runs) or 1} amplitude / {len(ph_fits)} phase runs fitted")
     return CalibrationFits(calibration=cal, order=order, amplitude_runs=amp_fits,
@@ -152,7 +152,7 @@ def stability_step(ctx: Context, fits: CalibrationFits | None):
         res.summary.setdefault("stability", {})[kind] = {
             k: d[k] for k in ("mean", "std", "relative_std", "n_runs", "span_days",
                               "trend_per_day", "trend_per_day_err")}
-        ctx.figure(plot_stability, st, ctx.figdir)
+        ctx.figure(stability_figures, st)
         done.append(f"{kind}: {st.n_runs} runs, sd {st.std:.3g}, trend "
                     f"{st.trend_per_day:+.2e} +/- {st.trend_per_day_err:.1e} /day")
     if not done:

@@ -22,7 +22,7 @@ def diagnosis_step(ctx: Context, fits=None):
         res.status("diagnosis", "skipped", "spectra.csv not found")
         return None
     from dpdfit.analyses.diagnosis.diagnose import diagnose
-    from dpdfit.report.diagnosis_plots import plot_diagnosis
+    from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
     order = int(ctx.meta["order"])
     d = diagnose(folder, run_fits=None if fits is None else fits.amplitude_fits(order))
     dd = d.to_dict()
@@ -31,6 +31,6 @@ def diagnosis_step(ctx: Context, fits=None):
                                                    "baseline_p_value", "chosen")}
     res.summary["diagnosis"]["mismatches"] = dd["mismatches"][:10]
     res.summary["diagnosis"]["ranking"] = dd["ranking"][:5]
-    ctx.figure(plot_diagnosis, d, folder, ctx.figdir)
+    ctx.figure(diagnosis_figures, d, dpi=DIAGNOSIS_DPI)
     res.status("diagnosis", "ok", f"verdict: {d.verdict}")
     return d

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dpdfit.fits.alignment import align
 from dpdfit.fits.counts import gate_fidelities, merge_parity
-from dpdfit.report.gate_plots import plot_gate_figures
+from dpdfit.report.gate_plots import gate_figures
 
 from ..context import Context
 
@@ -71,7 +71,7 @@ def gates_step(ctx: Context, sweep):
                   f"delta = {fit.delta:+.4f} +/- {fit.delta_err:.4f}"
     ts = cf.time_scans
     if ctx.figures is not None and sweep is not None and "xi0_khz" in tab.columns:
-        ctx.figure(plot_gate_figures, tab, sweep, fit, ctx.figdir, _parity_by_setting(par), ts,
+        ctx.figure(gate_figures, tab, sweep, fit, _parity_by_setting(par), ts,
                    closest_pair(tab), ctx.meta["nbar_assumed"])
     res.status("gates", "ok", detail)
     return tab

@@ -11,14 +11,12 @@ posterior is drawn in the corner plot.  -> ``propagation.json``.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from dpdfit.analyses.propagation import propagate, threshold_distribution
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.drift import calibration_uncertainty
 from dpdfit.fits.posterior import sample_amplitude_posterior
 from dpdfit.recordings.tables import list_runs
-from dpdfit.report.posterior_plots import plot_corner
+from dpdfit.report.posterior_plots import CORNER_DPI, corner_figure
 
 from ..context import Context
 from .calibration import CalibrationFits
@@ -47,6 +45,11 @@ def _corner_posterior(df, fits: CalibrationFits, posterior):
         sub["A"].to_numpy(float), sub["power"].to_numpy(float),
         sub["power_err"].to_numpy(float) if "power_err" in sub.columns else None,
         amp.order, seed=_SEED)
+
+
+def _corner(posterior) -> dict:
+    """The corner plot as ``analyze`` writes it: ``figS_posterior_corner.png``."""
+    return {"figS_posterior_corner": corner_figure(posterior)}
 
 
 def _propagate(ctx: Context, unc, phase, A, stale_days, draws) -> dict:
@@ -92,8 +95,7 @@ def propagation_step(ctx: Context, fits: CalibrationFits | None, A=0.5,
     unc = calibration_uncertainty(df, AMPLITUDE_ORDER, fits.calibration.amplitude.source.get("run"),
                                   seed=_SEED, fits=fits.amplitude_fits(AMPLITUDE_ORDER))
     if ctx.figures is not None:
-        ctx.figure(plot_corner, _corner_posterior(df, fits, unc.posterior),
-                   Path(ctx.figdir) / "figS_posterior_corner.png")
+        ctx.figure(_corner, _corner_posterior(df, fits, unc.posterior), dpi=CORNER_DPI)
     out = _propagate(ctx, unc, fits.calibration.phase, A, stale_days, draws)
     res.json_file("propagation.json", out)
     res.summary["propagation"] = _summary(out, A, draws, stale_days)
