@@ -46,7 +46,13 @@ def progress_bar(iterable=None, *, total=None, desc: str | None = None,
                  progress: bool | None = None, disable: bool | None = None, **kws):
     """A ``tqdm.auto.tqdm`` bar on stderr (``leave=False`` unless given), shown when
     :func:`progress_enabled` says so (``disable=True`` hides it whatever ``progress``)."""
-    from tqdm.auto import tqdm
+    import warnings
+    from tqdm import TqdmExperimentalWarning, TqdmWarning
+    with warnings.catch_warnings():
+        # tqdm.auto warns when a notebook lacks ipywidgets, then falls back to the
+        # text bar, which is what we want there: no warning for the user to chase
+        warnings.simplefilter("ignore", (TqdmWarning, TqdmExperimentalWarning))
+        from tqdm.auto import tqdm
     off = (not progress_enabled(progress)) or bool(disable)
     kws.setdefault("leave", False)
     kws.setdefault("file", sys.stderr)
