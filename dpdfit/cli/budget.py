@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 
+from dpdfit.cli.options import finite_float, nonneg_float
 from dpdfit.analyses.budget import (error_budget, load_budget_config, read_gate_rates,
                                     validate_budget_config)
 from dpdfit.errors import InputError
@@ -42,8 +43,8 @@ def add_budget_command(subparsers) -> argparse.ArgumentParser:
                     "detection with Monte-Carlo uncertainties, compared with the fitted "
                     "offset delta (Supplement S8, Table S3).")
     s.add_argument("--config", help="budget TOML file (all keys optional; see dpdfit.analyses.budget)")
-    s.add_argument("--delta", type=float, help="fitted fidelity offset delta (e.g. -0.018)")
-    s.add_argument("--delta-err", type=float, help="1-sigma error of delta (e.g. 0.003)")
+    s.add_argument("--delta", type=finite_float, help="fitted fidelity offset delta (e.g. -0.018)")
+    s.add_argument("--delta-err", type=nonneg_float, help="1-sigma error of delta (e.g. 0.003)")
     s.add_argument("--gate-rates", metavar="CSV",
                    help="gate rates (columns A, dpd, xi0_khz): gate times 1/xi0")
     s.add_argument("--no-paper", action="store_true", help="report without the paper column")

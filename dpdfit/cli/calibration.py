@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.version import __version__
 from dpdfit.errors import DpdfitError, InputError
@@ -171,13 +172,13 @@ def add_calibrate_command(subparsers) -> argparse.ArgumentParser:
                    help="columns A, power[, power_err, run, timestamp]")
     c.add_argument("--phase", metavar="PHASE.csv",
                    help="columns A, phase_rad[, phase_err, run, timestamp]")
-    c.add_argument("--order", type=int, default=AMPLITUDE_ORDER,
+    c.add_argument("--order", type=positive_int, default=AMPLITUDE_ORDER,
                    help=f"amplitude polynomial order K ({AMPLITUDE_ORDER})")
-    c.add_argument("--phase-order", type=int, default=PHASE_ORDER,
+    c.add_argument("--phase-order", type=positive_int, default=PHASE_ORDER,
                    help=f"phase polynomial order K ({PHASE_ORDER})")
-    c.add_argument("--phase-min-A", type=float, default=PHASE_MIN_A,
+    c.add_argument("--phase-min-A", type=unit_interval, default=PHASE_MIN_A,
                    help=f"lower end of the phase fit window ({PHASE_MIN_A})")
-    c.add_argument("--phase-max-A", type=float, default=1.0,
+    c.add_argument("--phase-max-A", type=unit_interval, default=1.0,
                    help="upper end of the phase fit window (1.0)")
     c.add_argument("--run", help="amplitude run to fit (label, or 'latest')")
     c.add_argument("--phase-run", help="phase run to fit (label, or 'latest')")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from dpdfit.cli.options import nonneg_int
 from dpdfit.core.defaults import FORMULA
 from dpdfit.errors import InputError
 
@@ -32,7 +33,7 @@ def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
     c = subparsers.add_parser("simulate-campaign",
                               help="simulate a complete synthetic measurement campaign")
     c.add_argument("outdir", help="new folder to write the campaign into")
-    c.add_argument("--seed", type=int, default=20260329, help="random seed (20260329)")
+    c.add_argument("--seed", type=nonneg_int, default=20260329, help="random seed (20260329)")
     c.add_argument("--effects", metavar="NAME=STRENGTH,...",
                    help="effects to conceal (see dpdfit.simulation.campaign.SIMULATOR_EFFECTS)")
     c.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,

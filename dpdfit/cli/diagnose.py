@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 
+from dpdfit.cli.options import nonneg_int
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
@@ -40,7 +41,7 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("campaign", metavar="CAMPAIGN_DIR")
     s.add_argument("--json", action="store_true", help="print JSON instead of a report")
     s.add_argument("--plot", metavar="DIR", help="write before/after residual plots into DIR")
-    s.add_argument("--pairs", type=int, default=DEFAULT_PAIRS,
+    s.add_argument("--pairs", type=nonneg_int, default=DEFAULT_PAIRS,
                    help="fit pairs of this many best single effects when there is a mismatch "
                         f"({DEFAULT_PAIRS})")
     s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,

@@ -11,6 +11,7 @@ import argparse
 import json
 import sys
 
+from dpdfit.cli.options import positive_float
 from dpdfit.recordings.outputs import read_csv_header, refuse_overwriting_inputs, to_jsonable
 from dpdfit.recordings.tables import read_table
 
@@ -124,7 +125,7 @@ def add_align_command(subparsers) -> argparse.ArgumentParser:
         "align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
     al.add_argument("--gate", required=True, help="A, dpd, xi0_khz, xi0_err_khz, F, F_err")
     al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")
-    al.add_argument("--sigma-db", type=float, default=0.2,
+    al.add_argument("--sigma-db", type=positive_float, default=0.2,
                     help="laser-power fluctuation, dB (0.2)")
     al.add_argument("--json", action="store_true")
     al.add_argument("--plot", metavar="DIR", help="write Figs. 3 and 4 (PNG)")

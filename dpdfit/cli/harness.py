@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from dpdfit.cli.options import nonneg_int, positive_int
 from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.simulation.harness import (CONCEALED, NULLS, PER_EFFECT, PLAN_SEED, report,
@@ -60,14 +61,14 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
         description="Simulate campaigns with each catalog effect concealed at realistic "
                     "strengths plus null campaigns, diagnose each, and report the confusion "
                     "matrix, false-alarm rate, parameter recovery and fit improvement.")
-    s.add_argument("--per-effect", type=int, default=PER_EFFECT,
+    s.add_argument("--per-effect", type=nonneg_int, default=PER_EFFECT,
                    help=f"campaigns per effect ({PER_EFFECT})")
-    s.add_argument("--nulls", type=int, default=NULLS,
+    s.add_argument("--nulls", type=nonneg_int, default=NULLS,
                    help=f"campaigns with nothing concealed ({NULLS})")
-    s.add_argument("--workers", type=int, default=None, help="local processes (all cores)")
+    s.add_argument("--workers", type=positive_int, default=None, help="local processes (all cores)")
     s.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address")
     s.add_argument("--effects", help="comma-separated subset of concealed effects")
-    s.add_argument("--seed", type=int, default=PLAN_SEED,
+    s.add_argument("--seed", type=nonneg_int, default=PLAN_SEED,
                    help=f"seed of the injection plan ({PLAN_SEED})")
     s.add_argument("--output", "-o", metavar="FILE.json", help="write the full report (all runs)")
     s.add_argument("--log", metavar="FILE.jsonl",

@@ -43,9 +43,23 @@ Also runnable as 'python -m dpdfit'.  In Python: dpdfit.analyze(folder) returns 
 result and table in memory; see the README."""
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An argparse parser whose usage errors are one line: ``dpdfit: error: ...``, exit 2.
+
+    ``argument --nbar: must be >= 0, got -1`` becomes ``option --nbar: must be >= 0,
+    got -1``; the sub-parsers of the commands are of this class too.
+    """
+
+    def error(self, message: str):
+        if message.startswith("argument -"):
+            message = "option " + message[len("argument "):]
+        message = " ".join(str(message).split())
+        self.exit(2, f"dpdfit: error: {message}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``dpdfit`` parser: each command registered by its module in ``dpdfit.cli``."""
-    p = argparse.ArgumentParser(
+    p = _OneLineParser(
         prog="dpdfit", description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="version", version=f"dpdfit {__version__}")

@@ -7,6 +7,7 @@ import json
 
 import pandas as pd
 
+from dpdfit.cli.options import fraction, nonneg_float, nonneg_int, positive_int
 from dpdfit.analyses.propagation import propagate, threshold_distribution
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.calibration import calibrate_phase
@@ -65,19 +66,19 @@ def add_propagate_command(subparsers) -> argparse.ArgumentParser:
                     "for both DPD flags: quantiles of F_est, R10 and eta_bar.")
     s.add_argument("--calibration-runs", required=True, metavar="RUNS.csv",
                    help="amplitude calibration runs: run, timestamp, A, power[, power_err]")
-    s.add_argument("--A", type=float, required=True, help="RF-envelope peak amplitude (0..1]")
-    s.add_argument("--stale-days", type=float, default=0.0,
+    s.add_argument("--A", type=fraction, required=True, help="RF-envelope peak amplitude (0..1]")
+    s.add_argument("--stale-days", type=nonneg_float, default=0.0,
                    help="age of the calibration, days (0)")
-    s.add_argument("--draws", type=int, default=10000, help="predictive draws (10000)")
+    s.add_argument("--draws", type=positive_int, default=10000, help="predictive draws (10000)")
     s.add_argument("--run", help="run used as the calibration (default: latest)")
     s.add_argument("--phase", metavar="PHASE.csv", help="phase calibration (latest run; "
                    "default: AM-only forward model)")
-    s.add_argument("--order", type=int, default=AMPLITUDE_ORDER,
+    s.add_argument("--order", type=positive_int, default=AMPLITUDE_ORDER,
                    help=f"amplitude polynomial order ({AMPLITUDE_ORDER})")
-    s.add_argument("--walkers", type=int, default=32, help="emcee walkers (32)")
-    s.add_argument("--steps", type=int, default=400, help="emcee steps per walker (400)")
-    s.add_argument("--seed", type=int, default=0, help="random seed (0)")
-    s.add_argument("--loss", type=float, default=1e-4,
+    s.add_argument("--walkers", type=positive_int, default=32, help="emcee walkers (32)")
+    s.add_argument("--steps", type=positive_int, default=400, help="emcee steps per walker (400)")
+    s.add_argument("--seed", type=nonneg_int, default=0, help="random seed (0)")
+    s.add_argument("--loss", type=fraction, default=1e-4,
                    help="fidelity loss for the recalibration answer (1e-4)")
     s.add_argument("--thresholds", action="store_true",
                    help="also the distribution of the threshold efficiencies (40-point sweep "

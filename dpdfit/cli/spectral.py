@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.cli.options import fraction, nonneg_float, positive_float
 from dpdfit.core.defaults import ETA_REF, FORMULA, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
@@ -86,15 +87,15 @@ def add_sweep_command(subparsers) -> argparse.ArgumentParser:
     w.add_argument("calibration", help="calibration.json")
     w.add_argument("--amplitudes", metavar="START:STOP:N",
                    help="inclusive amplitude grid (default 0.05:1:100)")
-    w.add_argument("--nbar", type=float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
+    w.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
     w.add_argument("--am-only", action="store_true", help="forward model without AM-to-PM")
-    w.add_argument("--xi0", type=float, default=XI0_SPECTRA_HZ, help="gate detuning, Hz (20e3)")
-    w.add_argument("--nu", type=float, default=NU_HZ, help="sideband detuning, Hz (1.84e6)")
+    w.add_argument("--xi0", type=positive_float, default=XI0_SPECTRA_HZ, help="gate detuning, Hz (20e3)")
+    w.add_argument("--nu", type=positive_float, default=NU_HZ, help="sideband detuning, Hz (1.84e6)")
     w.add_argument("--formula", choices=_FORMULAS, default=FORMULA,
                    help=f"Bell-fidelity expression (default {FORMULA}; see README)")
-    w.add_argument("--eta-ref", type=float, default=ETA_REF,
+    w.add_argument("--eta-ref", type=fraction, default=ETA_REF,
                    help=f"peak diffraction efficiency ({ETA_REF:.2f})")
-    w.add_argument("--anchor-A", type=float, default=0.4, help="r_rel anchor amplitude (0.4)")
+    w.add_argument("--anchor-A", type=fraction, default=0.4, help="r_rel anchor amplitude (0.4)")
     w.add_argument("--anchor-dpd", type=int, choices=[0, 1], default=0,
                    help="r_rel anchor DPD flag (0)")
     w.add_argument("-o", "--output", required=True, help="sweep table (CSV)")
@@ -149,7 +150,7 @@ def add_estimate_command(subparsers) -> argparse.ArgumentParser:
                               help="fidelity estimate from tone powers of one sideband (S5)")
     e.add_argument("--powers-db", required=True, metavar="n:dB,...",
                    help='tone powers, e.g. "0:-40,1:0,2:0,3:-30"')
-    e.add_argument("--nbar", type=float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
+    e.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
     e.add_argument("--formula", choices=_FORMULAS, default=FORMULA)
     e.add_argument("--json", action="store_true")
     e.set_defaults(func=cmd_estimate)
@@ -178,7 +179,7 @@ def cmd_im_table(args) -> int:
 def add_im_table_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit im-table`` on an argparse sub-parsers object."""
     m = subparsers.add_parser("im-table", help="required gate-to-IM power ratios (Table S2)")
-    m.add_argument("--nbar", type=float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
+    m.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
     m.add_argument("--formula", choices=_FORMULAS, default=FORMULA)
     m.add_argument("--as-printed", action="store_true",
                    help="use the assumptions that reproduce the printed Table S2")
@@ -218,7 +219,7 @@ def add_thresholds_command(subparsers) -> argparse.ArgumentParser:
     h = subparsers.add_parser("thresholds",
                               help="eta_bar_corr and threshold efficiencies of a sweep")
     h.add_argument("sweep", help="sweep.csv written by 'dpdfit sweep'")
-    h.add_argument("--A-corr", type=float, dest="A_corr",
+    h.add_argument("--A-corr", type=fraction, dest="A_corr",
                    help="A_corr if the sweep file's header lacks it")
     h.add_argument("--json", action="store_true")
     h.set_defaults(func=cmd_thresholds)

@@ -12,6 +12,7 @@ import argparse
 import json
 import sys
 
+from dpdfit.cli.options import finite_float, nonneg_float, positive_float
 from dpdfit.analyses.trace_estimate import delta_powers, trace_estimate
 from dpdfit.core.defaults import FORMULA, NBAR
 from dpdfit.errors import InputError
@@ -108,27 +109,27 @@ def add_spectrum_command(subparsers) -> argparse.ArgumentParser:
         description="Gate and intermodulation tone powers (dB re a unit-amplitude sinusoid) "
                     "from a flat-top periodogram of a heterodyne beat trace (Supplement S4).")
     s.add_argument("trace", help=".npy (1-D), .npz (keys trace[, scale]) or one-column .csv")
-    s.add_argument("--fs", type=float, required=True, help="sample rate, Hz")
-    s.add_argument("--fdet", type=float, required=True, help="reference offset f_det, Hz")
-    s.add_argument("--nu", type=float, required=True, help="motional sideband nu, Hz")
-    s.add_argument("--xi0", type=float, required=True, help="harmonic spacing xi0, Hz")
+    s.add_argument("--fs", type=positive_float, required=True, help="sample rate, Hz")
+    s.add_argument("--fdet", type=finite_float, required=True, help="reference offset f_det, Hz")
+    s.add_argument("--nu", type=positive_float, required=True, help="motional sideband nu, Hz")
+    s.add_argument("--xi0", type=positive_float, required=True, help="harmonic spacing xi0, Hz")
     s.add_argument("--harmonics", default="0,1,2,3",
                    help="harmonics n to measure (0,1,2,3); negative values need '=', "
                         "e.g. --harmonics=-1,0,1,2,3,4")
     s.add_argument("--gate", default="1,2", help="gate-tone harmonics (1,2)")
-    s.add_argument("--search-hz", type=float, default=5e3,
+    s.add_argument("--search-hz", type=positive_float, default=5e3,
                    help="gate-tone peak search half-width, Hz (5000)")
-    s.add_argument("--max-freq-error-hz", type=float, default=1e3,
+    s.add_argument("--max-freq-error-hz", type=positive_float, default=1e3,
                    help="gate-tone frequency tolerance, Hz (1000)")
-    s.add_argument("--min-snr-db", type=float, default=20.0,
+    s.add_argument("--min-snr-db", type=finite_float, default=20.0,
                    help="gate-tone minimum SNR over the median noise floor, dB (20)")
-    s.add_argument("--im-min-snr-db", type=float, default=10.0,
+    s.add_argument("--im-min-snr-db", type=finite_float, default=10.0,
                    help="IM tones below this SNR are upper limits, dB (10)")
     s.add_argument("--swap-sidebands", action="store_true",
                    help="blue group at f_det - (nu + n xi0), red at f_det + ...")
     s.add_argument("--estimate", action="store_true",
                    help="add the spectrum-based fidelity estimate F_est (S5)")
-    s.add_argument("--nbar", type=float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
+    s.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
     s.add_argument("--formula", choices=list(FORMULAS), default=FORMULA,
                    help=f"Bell-fidelity expression for --estimate ({FORMULA})")
     s.add_argument("--compare", metavar="REF_TRACE",

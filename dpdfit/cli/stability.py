@@ -8,6 +8,7 @@ import sys
 
 import pandas as pd
 
+from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.analyses.stability import stability
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.recordings.outputs import to_jsonable
@@ -64,9 +65,9 @@ def add_stability_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--kind", choices=["amplitude", "phase"], default=None,
                    help="amplitude (default) or phase; phase is chosen automatically when "
                         "the file has phase_rad and no power column")
-    s.add_argument("--order", type=int, default=None,
+    s.add_argument("--order", type=positive_int, default=None,
                    help=f"polynomial order K ({AMPLITUDE_ORDER} amplitude, {PHASE_ORDER} phase)")
-    s.add_argument("--phase-min-A", type=float, default=PHASE_MIN_A, dest="A_min",
+    s.add_argument("--phase-min-A", type=unit_interval, default=PHASE_MIN_A, dest="A_min",
                    help=f"lower end of the phase fit window ({PHASE_MIN_A:g})")
     s.add_argument("--json", action="store_true", help="print the JSON instead of a report")
     s.add_argument("--plot", metavar="DIR", help="write Figs. S2 and S3 (PNG) into DIR")

@@ -19,7 +19,11 @@ from dpdfit.errors import InputError
 from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
 from dpdfit.fits.calibration.phase import PhaseCalibration
 
-__all__ = ["Calibration", "load_calibration"]
+__all__ = ["Calibration", "load_calibration", "check_calibration_dict"]
+
+#: Arrays of ``calibration.json`` that must be present and finite, per section.
+_FINITE_KEYS = {"amplitude": ("coefficients", "covariance", "raw_coefficients", "raw_covariance"),
+                "phase": ("coefficients", "covariance")}
 
 
 @dataclass(frozen=True, repr=False)
@@ -82,8 +86,49 @@ def load_calibration(path: str | os.PathLike) -> Calibration:
             d = json.load(fh)
     except json.JSONDecodeError as exc:
         raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
+    check_calibration_dict(d, name)
     try:
         return Calibration.from_dict(d)
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"not a dpdfit calibration file (missing or bad key: {exc})",
                          file=name) from None
+
+
+def _finite_array(value, key: str, name: str):
+    import numpy as np
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"key '{key}': not an array of numbers", file=name) from None
+    if arr.size == 0 or not np.all(np.isfinite(arr)):
+        raise InputError(f"key '{key}': must be a non-empty array of finite numbers",
+                         file=name)
+    return arr
+
+
+def check_calibration_dict(d, name: str) -> None:
+    """Raise :class:`InputError` unless the fitted arrays of ``d`` are finite and consistent.
+
+    Checks ``amplitude`` (and ``phase`` if present): coefficients and covariance
+    finite, one coefficient per power, a square covariance of that size.
+    """
+    if not isinstance(d, dict) or not isinstance(d.get("amplitude"), dict):
+        raise InputError("not a dpdfit calibration file (missing or bad key: 'amplitude')",
+                         file=name)
+    for section, keys in _FINITE_KEYS.items():
+        sec = d.get(section)
+        if section == "phase" and not sec:
+            continue
+        if not isinstance(sec, dict):
+            raise InputError(f"key '{section}': not an object", file=name)
+        n = len(sec.get("powers") or [])
+        for key in keys:
+            if key not in sec and key.startswith("raw_"):
+                continue
+            if key not in sec:
+                raise InputError(f"key '{section}.{key}': missing", file=name)
+            arr = _finite_array(sec[key], f"{section}.{key}", name)
+            shape = (n, n) if "covariance" in key else (n,)
+            if arr.shape != shape:
+                raise InputError(f"key '{section}.{key}': shape {arr.shape}, expected {shape} "
+                                 f"for {n} powers", file=name)
