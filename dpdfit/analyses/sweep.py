@@ -32,7 +32,8 @@ from dpdfit.models.spectrum import field_tone_powers, simulate_field
 from dpdfit.models.transfer import TransferFunction
 from dpdfit.models.waveforms import ToneSet, cardioid, sample_grid
 
-__all__ = ["SweepConfig", "run_sweep", "eta_bar", "efficiency_spline", "eta_corr", "thresholds",
+__all__ = ["SweepConfig", "run_sweep", "check_sweep_size", "MAX_SWEEP_SAMPLES", "eta_bar",
+           "efficiency_spline", "eta_corr", "thresholds",
            "first_crossing", "first_crossing_rows", "parse_amplitudes", "COLUMNS",
            "THRESHOLD_LEVELS", "SWEEP_HARMONICS"]
 
@@ -41,6 +42,10 @@ COLUMNS = ["A", "dpd", "sideband", "P0_dB", "P1_dB", "P2_dB", "P3_dB", "R10_dB",
 THRESHOLD_LEVELS = {"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}
 #: Harmonics n of the tones whose powers P0..P3 the sweep reads (carrier n = 0 first).
 SWEEP_HARMONICS = (0, 1, 2, 3)
+
+#: Largest sweep ``run_sweep`` will build: samples per record times (amplitudes + 1 anchor);
+#: 2e7 complex samples are 320 MB per array (the default sweep uses 1.7e5).
+MAX_SWEEP_SAMPLES = 20_000_000
 
 
 def parse_amplitudes(spec: str) -> np.ndarray:
@@ -124,6 +129,26 @@ def _spectra(transfer, cfg, grid, A, dpd):
     return spec.P_dB("red"), spec.P_dB("blue"), eta_bar(rf, transfer, cfg.eta_ref)
 
 
+def check_sweep_size(cfg: SweepConfig, names=("nu", "xi0", "amplitudes")):
+    """The sample grid of ``cfg``, refused before anything is allocated if it is too large.
+
+    The sweep holds ``n_samples`` complex samples per amplitude; above
+    :data:`MAX_SWEEP_SAMPLES` in total (``n_samples * len(amplitudes)``) an
+    :class:`~dpdfit.errors.InputError` names ``names`` (the settings, or the
+    command-line options) and the size.
+    """
+    grid = sample_grid(cfg.nu, cfg.xi0, cfg.tones)
+    total = int(grid.n_samples) * (len(cfg.amplitudes) + 1)
+    if total > MAX_SWEEP_SAMPLES:
+        nu, xi0, amps = names
+        raise InputError(
+            f"{nu}, {xi0}: nu = {cfg.nu:g} Hz, xi0 = {cfg.xi0:g} Hz need {grid.n_samples} "
+            f"samples per record x {len(cfg.amplitudes) + 1} records = {total:.3g} samples, "
+            f"above the limit of {MAX_SWEEP_SAMPLES:.3g} (MAX_SWEEP_SAMPLES); lower {nu}, "
+            f"raise {xi0} or give fewer {amps}")
+    return grid
+
+
 def run_sweep(transfer: TransferFunction, cfg: SweepConfig = SweepConfig()) -> pd.DataFrame:
     """Run the amplitude sweep; returns the long table (columns :data:`COLUMNS`).
 
@@ -133,7 +158,7 @@ def run_sweep(transfer: TransferFunction, cfg: SweepConfig = SweepConfig()) -> p
     tones = cfg.tones
     if not {1, 2} <= set(tones.n):
         raise InputError("the sweep's fidelity estimate needs gate tones n = 1 and 2")
-    grid = sample_grid(cfg.nu, cfg.xi0, tones)
+    grid = check_sweep_size(cfg)
     A = cfg.amplitudes
     res = {d: _spectra(transfer, cfg, grid, A, bool(d)) for d in (0, 1)}
     ar, ab, _ = _spectra(transfer, cfg, grid, [cfg.anchor[0]], bool(cfg.anchor[1]))

@@ -48,7 +48,8 @@ def _float_arg(name, value, positive=True):
 
 
 def cmd_sweep(args) -> int:
-    from dpdfit.analyses.sweep import SweepConfig, parse_amplitudes, run_sweep, thresholds
+    from dpdfit.analyses.sweep import (SweepConfig, check_sweep_size, parse_amplitudes,
+                                       run_sweep, thresholds)
     out = Path(args.output)
     refuse_overwriting_inputs([out], [args.calibration])
     cal = load_calibration(args.calibration)
@@ -59,6 +60,7 @@ def cmd_sweep(args) -> int:
     cfg = SweepConfig(nu=_float_arg("--nu", args.nu), xi0=_float_arg("--xi0", args.xi0),
                       nbar=args.nbar, am_only=args.am_only, formula=args.formula,
                       eta_ref=args.eta_ref, anchor=(args.anchor_A, args.anchor_dpd), **kw)
+    check_sweep_size(cfg, names=("option --nu", "--xi0", "--amplitudes points"))
     df = run_sweep(tf, cfg)
     th = thresholds(df)
     meta = {"dpdfit_version": __version__,
