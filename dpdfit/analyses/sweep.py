@@ -31,9 +31,11 @@ from dpdfit.models.fidelity import FORMULAS, estimate
 from dpdfit.models.spectrum import field_tone_powers, simulate_field
 from dpdfit.models.transfer import TransferFunction
 from dpdfit.models.waveforms import ToneSet, cardioid, sample_grid
+from dpdfit.recordings.outputs import read_csv_header
+from dpdfit.recordings.tables import read_table
 
 __all__ = ["SweepConfig", "run_sweep", "check_sweep_size", "MAX_SWEEP_SAMPLES", "eta_bar",
-           "efficiency_spline", "eta_corr", "thresholds",
+           "efficiency_spline", "eta_corr", "thresholds", "read_sweep_table",
            "first_crossing", "first_crossing_rows", "parse_amplitudes", "COLUMNS",
            "THRESHOLD_LEVELS", "SWEEP_HARMONICS"]
 
@@ -276,3 +278,29 @@ def thresholds(df: pd.DataFrame) -> dict:
         out["eta_th"][key] = {name: first_crossing(sub["eta_bar"], sub["eps_est"], lev)
                               for name, lev in THRESHOLD_LEVELS.items()}
     return out
+
+
+def read_sweep_table(path) -> pd.DataFrame:
+    """Read a ``sweep.csv`` written by ``dpdfit sweep``, validated.
+
+    Columns :data:`COLUMNS`, finite numbers, ``A`` in [0, 1], ``dpd`` 0/1,
+    ``sideband`` red/blue/mean and no (A, dpd, sideband) twice; an
+    :class:`~dpdfit.errors.InputError` names file, column and row.  The
+    header's ``A_corr`` (or None) goes into ``df.attrs["A_corr"]``.
+    """
+    name = str(path)
+    df = read_table(path, COLUMNS, numeric=[c for c in COLUMNS if c != "sideband"],
+                    ranges={"A": (0.0, 1.0), "dpd": (0, 1)}, unique=["A", "dpd", "sideband"])
+    bad = ~df["sideband"].isin(["red", "blue", "mean"])
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise InputError(f"sideband must be red, blue or mean, got '{df['sideband'].iloc[i]}'",
+                         file=name, column="sideband", row=i + 1)
+    frac = df["dpd"] != np.round(df["dpd"])
+    if frac.any():
+        i = int(np.flatnonzero(frac.to_numpy())[0])
+        raise InputError(f"dpd must be 0 or 1, got {df['dpd'].iloc[i]:g}", file=name,
+                         column="dpd", row=i + 1)
+    df["dpd"] = df["dpd"].astype(int)
+    df.attrs["A_corr"] = read_csv_header(path).get("A_corr")
+    return df

@@ -12,7 +12,7 @@ import json
 import sys
 
 from dpdfit.cli.options import positive_float
-from dpdfit.recordings.outputs import read_csv_header, refuse_overwriting_inputs, to_jsonable
+from dpdfit.recordings.outputs import refuse_overwriting_inputs, to_jsonable
 from dpdfit.recordings.tables import read_table
 
 __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_align"]
@@ -24,13 +24,16 @@ __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_ali
 def _gate_table(pop_path, par_path, interval, rates_path=None):
     from dpdfit.fits.counts import gate_fidelities
     from dpdfit.recordings.counts import read_parity, read_populations
+    rates = None
+    if rates_path:  # read (and validated) first: before the count files' fits and warnings
+        rates = read_table(rates_path, ["A", "dpd", "xi0_khz", "xi0_err_khz"],
+                           ranges={"A": (0.0, 1.0), "dpd": (0, 1)}, positive=["xi0_khz"],
+                           unique=["A", "dpd"])
+        rates["dpd"] = rates["dpd"].astype(int)
     pop = read_populations(pop_path)
     par = read_parity(par_path)
     tab = gate_fidelities(pop, par, interval=interval)
-    if rates_path:
-        rates = read_table(rates_path, ["A", "dpd", "xi0_khz", "xi0_err_khz"],
-                           ranges={"dpd": (0, 1)})
-        rates["dpd"] = rates["dpd"].astype(int)
+    if rates is not None:
         tab = tab.merge(rates[["A", "dpd", "xi0_khz", "xi0_err_khz"]], on=["A", "dpd"],
                         how="left")
     return tab
@@ -96,15 +99,13 @@ def add_fidelity_command(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_align(args) -> int:
-    from dpdfit.analyses.sweep import COLUMNS
+    from dpdfit.analyses.sweep import read_sweep_table
     from dpdfit.fits.alignment import align
     gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
                       numeric=["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
-                      ranges={"dpd": (0, 1)})
-    sweep = read_table(args.sweep, COLUMNS, numeric=[c for c in COLUMNS if c != "sideband"])
-    sweep["dpd"] = sweep["dpd"].astype(int)
-    meta = read_csv_header(args.sweep)
-    sweep.attrs["A_corr"] = meta.get("A_corr")
+                      ranges={"A": (0.0, 1.0), "dpd": (0, 1), "F": (0.0, 1.0)},
+                      positive=["xi0_khz"], unique=["A", "dpd"])
+    sweep = read_sweep_table(args.sweep)
     fit = align(gate, sweep, args.sigma_db)
     if args.json:
         print(json.dumps(to_jsonable(fit.to_dict()), indent=2))

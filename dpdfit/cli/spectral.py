@@ -21,7 +21,7 @@ from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration import load_calibration
 from dpdfit.models.transfer import TransferFunction
-from dpdfit.recordings.outputs import (read_csv_header, refuse_overwriting_inputs, sha256_file,
+from dpdfit.recordings.outputs import (refuse_overwriting_inputs, sha256_file,
                                        to_jsonable, write_csv_with_header)
 from dpdfit.recordings.tables import read_table
 
@@ -194,16 +194,9 @@ def add_im_table_command(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_thresholds(args) -> int:
-    from dpdfit.analyses.sweep import COLUMNS, thresholds
-    df = read_table(args.sweep, COLUMNS, numeric=[c for c in COLUMNS if c != "sideband"])
-    bad = ~df["sideband"].isin(["red", "blue", "mean"])
-    if bad.any():
-        i = int(np.flatnonzero(bad.to_numpy())[0])
-        raise InputError(f"sideband must be red, blue or mean, got '{df['sideband'].iloc[i]}'",
-                         file=str(args.sweep), column="sideband", row=i + 1)
-    df["dpd"] = df["dpd"].astype(int)
-    meta = read_csv_header(args.sweep)
-    A_corr = args.A_corr if args.A_corr is not None else meta.get("A_corr")
+    from dpdfit.analyses.sweep import read_sweep_table, thresholds
+    df = read_sweep_table(args.sweep)
+    A_corr = args.A_corr if args.A_corr is not None else df.attrs.get("A_corr")
     if A_corr is None:
         raise InputError("no A_corr in the sweep file's header; give --A-corr", file=str(args.sweep))
     df.attrs["A_corr"] = float(A_corr)

@@ -44,7 +44,7 @@ def _row(index: int) -> int:
 def read_table(path: str | os.PathLike, required: list[str],
                optional: list[str] = (), *, numeric: list[str] | None = None,
                ranges: dict[str, tuple[float, float]] | None = None,
-               positive: list[str] = ()) -> pd.DataFrame:
+               positive: list[str] = (), unique: list[str] = ()) -> pd.DataFrame:
     """Read and validate a CSV file.
 
     Parameters
@@ -62,6 +62,8 @@ def read_table(path: str | os.PathLike, required: list[str],
         ``{column: (lo, hi)}`` inclusive bounds.
     positive : list of str
         Columns whose values must be strictly positive (uncertainties).
+    unique : list of str
+        Key columns: no two rows may hold the same combination of their values.
 
     Returns
     -------
@@ -86,6 +88,8 @@ def read_table(path: str | os.PathLike, required: list[str],
     for col in positive:
         if col in out.columns:
             _check_positive(out[col], name, col)
+    if unique:
+        _check_unique_keys(out, list(unique), name)
     if "run" in out.columns:
         out["run"] = _run_labels(out["run"], name)
     if "timestamp" in out.columns:
@@ -152,6 +156,27 @@ def _check_bounds(column: pd.Series, name: str, col: str, lo: float, hi: float) 
         i = int(np.flatnonzero(bad)[0])
         raise InputError(f"value {arr[i]:g} is outside [{lo:g}, {hi:g}]", file=name,
                          column=col, row=_row(i))
+
+
+def _check_unique_keys(df: pd.DataFrame, keys: list[str], name: str) -> None:
+    """No two rows with the same values of ``keys`` (InputError at the second one)."""
+    dup = df.duplicated(keys, keep="first").to_numpy()
+    if dup.any():
+        i = int(np.flatnonzero(dup)[0])
+        first = int(np.flatnonzero(
+            (df[keys] == df[keys].iloc[i]).all(axis=1).to_numpy())[0])
+        label = ", ".join(f"{k}={_plain(df[k].iloc[i])}" for k in keys)
+        raise InputError(f"{label} repeats row {_row(first)}: a duplicated line?",
+                         file=name, column=keys[-1], row=_row(i))
+
+
+def _plain(value) -> str:
+    """A table value as plain text (``0.5``, not ``np.float64(0.5)``)."""
+    if isinstance(value, (float, np.floating)):
+        return f"{float(value):g}"
+    if isinstance(value, (np.integer,)):
+        return str(int(value))
+    return str(value)
 
 
 def _check_positive(column: pd.Series, name: str, col: str) -> None:
