@@ -6,9 +6,9 @@ import argparse
 import json
 import math
 
-from dpdfit.cli.options import finite_float, nonneg_float
 from dpdfit.analyses.budget import (error_budget, load_budget_config, read_gate_rates,
                                     validate_budget_config)
+from dpdfit.cli.options import finite_float, nonneg_float
 from dpdfit.errors import InputError
 
 __all__ = ["add_budget_command", "cmd_budget"]

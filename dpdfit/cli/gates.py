@@ -27,8 +27,8 @@ def _gate_table(pop_path, par_path, interval, rates_path=None):
     rates = None
     if rates_path:  # read (and validated) first: before the count files' fits and warnings
         rates = read_table(rates_path, ["A", "dpd", "xi0_khz", "xi0_err_khz"],
-                           ranges={"A": (0.0, 1.0), "dpd": (0, 1)}, positive=["xi0_khz"],
-                           unique=["A", "dpd"])
+                           ranges={"A": (0.0, 1.0), "dpd": (0, 1)},
+                           positive=["xi0_khz", "xi0_err_khz"], unique=["A", "dpd"])
         rates["dpd"] = rates["dpd"].astype(int)
     pop = read_populations(pop_path)
     par = read_parity(par_path)

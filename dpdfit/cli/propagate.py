@@ -7,8 +7,8 @@ import json
 
 import pandas as pd
 
-from dpdfit.cli.options import fraction, nonneg_float, nonneg_int, positive_int
 from dpdfit.analyses.propagation import propagate, threshold_distribution
+from dpdfit.cli.options import fraction, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.calibration import calibrate_phase
 from dpdfit.recordings.outputs import to_jsonable

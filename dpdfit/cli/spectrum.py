@@ -12,8 +12,8 @@ import argparse
 import json
 import sys
 
-from dpdfit.cli.options import finite_float, nonneg_float, positive_float
 from dpdfit.analyses.trace_estimate import delta_powers, trace_estimate
+from dpdfit.cli.options import finite_float, nonneg_float, positive_float
 from dpdfit.core.defaults import FORMULA, NBAR
 from dpdfit.errors import InputError
 from dpdfit.fits.tones import trace_tone_powers

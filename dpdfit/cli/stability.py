@@ -8,8 +8,8 @@ import sys
 
 import pandas as pd
 
-from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.analyses.stability import stability
+from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
