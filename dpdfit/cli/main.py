@@ -96,7 +96,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run one ``dpdfit`` command; returns its exit status (2 on any input or file error)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a usage error (one line printed, status 2), --help, --version
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     try:
         with cli_logging():
             return args.func(args)

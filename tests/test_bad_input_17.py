@@ -1,0 +1,240 @@
+"""Bad input (round 17): one line 'dpdfit: error: ...', exit status 2, inputs untouched.
+
+NaN calibration coefficients, a sweep grid too large to allocate, NaN and
+out-of-range numeric options, duplicated or out-of-range rows of sweep, gate
+and gate-rate tables, time-scan counts above the shots in ``diagnose``.
+"""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from dpdfit.analyses.sweep import MAX_SWEEP_SAMPLES, SweepConfig, check_sweep_size
+from dpdfit.cli.main import main
+from dpdfit.errors import InputError
+from dpdfit.fits.calibration import load_calibration
+
+ROOT = Path(__file__).resolve().parents[1]
+AMP = ROOT / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
+CAMP = ROOT / "datasets" / "synthetic_campaign"
+
+
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _bad(capsys, argv, needles, inputs=()):
+    """Exit 2, one stderr line naming ``needles``, every input file unchanged."""
+    inputs = [Path(p) for p in inputs]
+    before = {p: p.read_bytes() for p in inputs}
+    code, out, err = _run(argv, capsys)
+    lines = err.strip().splitlines()
+    assert code == 2, (code, out, err)
+    assert len(lines) == 1 and lines[0].startswith("dpdfit: error:"), err
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    assert "Traceback" not in err and "np.float64" not in lines[0]
+    for p, b in before.items():
+        assert p.read_bytes() == b
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    """calibration.json, sweep.csv and gate.csv of the bundled data (made once)."""
+    d = tmp_path_factory.mktemp("made17")
+    cal, sweep, gate = d / "c.json", d / "s.csv", d / "g.csv"
+    assert main(["calibrate", "--amplitude", str(AMP), "-o", str(cal),
+                 "--order-scan", "none"]) == 0
+    assert main(["sweep", str(cal), "-o", str(sweep), "--amplitudes", "0.05:1:40"]) == 0
+    assert main(["fidelity", "--populations", str(CAMP / "populations.csv"),
+                 "--parity", str(CAMP / "parity.csv"),
+                 "--gate-rates", str(CAMP / "gate_rates.csv"), "-o", str(gate)]) == 0
+    return {"cal": cal, "sweep": sweep, "gate": gate}
+
+
+# ----------------------------------------------------------------------------- 1. calibration
+
+
+@pytest.mark.parametrize("key", ["coefficients", "covariance"])
+def test_nan_in_calibration_json_is_named_by_file_and_key(made, tmp_path, capsys, key):
+    d = json.loads(made["cal"].read_text())
+    if key == "coefficients":
+        d["amplitude"][key][3] = float("nan")
+    else:
+        d["amplitude"][key][2][2] = float("nan")
+    p = tmp_path / "nan_cal.json"
+    p.write_text(json.dumps(d))
+    for argv in (["lut", p, "-o", tmp_path / "lut.csv"], ["sweep", p, "-o", tmp_path / "s.csv"]):
+        _bad(capsys, argv, [str(p), f"key 'amplitude.{key}'", "finite"], [p])
+    assert not (tmp_path / "lut.csv").exists() and not (tmp_path / "s.csv").exists()
+    with pytest.raises(InputError) as exc:
+        load_calibration(p)
+    assert exc.value.file == str(p)
+
+
+def test_calibration_coefficients_of_the_wrong_length(made, tmp_path, capsys):
+    d = json.loads(made["cal"].read_text())
+    d["amplitude"]["coefficients"] = d["amplitude"]["coefficients"][:-1]
+    p = tmp_path / "short_cal.json"
+    p.write_text(json.dumps(d))
+    _bad(capsys, ["lut", p, "-o", tmp_path / "lut.csv"],
+         [str(p), "key 'amplitude.coefficients'", "shape"], [p])
+
+
+# ----------------------------------------------------------------------------- 2. sweep size
+
+
+def test_sweep_refuses_a_sample_grid_too_large(made, tmp_path, capsys):
+    out = tmp_path / "s.csv"
+    line = _bad(capsys, ["sweep", made["cal"], "--nu", "1e12", "-o", out],
+                ["option --nu", "--xi0", "samples", "limit"], [made["cal"]])
+    assert "9.0" in line or "900169200" in line
+    assert not out.exists()
+    with pytest.raises(InputError, match="MAX_SWEEP_SAMPLES"):
+        check_sweep_size(SweepConfig(nu=1e12))
+    assert check_sweep_size(SweepConfig()).n_samples * 101 < MAX_SWEEP_SAMPLES
+
+
+# ----------------------------------------------------------------------------- 3. options
+
+
+def _option_cases(made, tmp):
+    cal, sweep, gate = made["cal"], made["sweep"], made["gate"]
+    runs = CAMP / "calibration_amplitude.csv"
+    return [
+        (["sweep", cal, "--nbar", "nan", "-o", tmp / "x.csv"], "--nbar"),
+        (["sweep", cal, "--nbar", "-1", "-o", tmp / "x.csv"], "--nbar"),
+        (["sweep", cal, "--xi0", "inf", "-o", tmp / "x.csv"], "--xi0"),
+        (["sweep", cal, "--eta-ref", "1.5", "-o", tmp / "x.csv"], "--eta-ref"),
+        (["estimate", "--powers-db", "0:-40,1:0,2:0,3:-30", "--nbar", "nan"], "--nbar"),
+        (["propagate", "--calibration-runs", runs, "--A", "0.5", "--stale-days", "nan"],
+         "--stale-days"),
+        (["propagate", "--calibration-runs", runs, "--A", "0.5", "--draws", "0"], "--draws"),
+        (["propagate", "--calibration-runs", runs, "--A", "1.5"], "--A"),
+        (["im-table", "--nbar", "nan"], "--nbar"),
+        (["align", "--gate", gate, "--sweep", sweep, "--sigma-db", "nan"], "--sigma-db"),
+        (["align", "--gate", gate, "--sweep", sweep, "--sigma-db", "0"], "--sigma-db"),
+        (["thresholds", sweep, "--A-corr", "2"], "--A-corr"),
+        (["thresholds", sweep, "--A-corr", "nan"], "--A-corr"),
+        (["lut", cal, "--points", "many", "-o", tmp / "l.csv"], "--points"),
+        (["calibrate", "--amplitude", AMP, "--order", "0"], "--order"),
+        (["budget", "--delta-err", "nan"], "--delta-err"),
+        (["diagnose", CAMP, "--pairs", "-1"], "--pairs"),
+    ]
+
+
+@pytest.mark.parametrize("case", range(17))
+def test_bad_numeric_option_is_one_line_naming_it(made, tmp_path, capsys, case):
+    argv, opt = _option_cases(made, tmp_path)[case]
+    inputs = [a for a in argv if isinstance(a, Path) and a.is_file()]
+    _bad(capsys, argv, [f"option {opt}:"], inputs)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_help_and_good_options_still_work(made, capsys):
+    assert main(["im-table", "--nbar", "0"]) == 0
+    assert main(["thresholds", str(made["sweep"]), "--A-corr", "1"]) == 0
+    assert main(["estimate", "--powers-db", "0:-40,1:0,2:0,3:-30", "--nbar", "0.1"]) == 0
+    assert main(["im-table", "--help"]) == 0
+    capsys.readouterr()
+
+
+# ----------------------------------------------------------------------------- 4. sweep table
+
+
+def _edit_csv(src, dst, edit):
+    """Copy ``src`` to ``dst`` keeping its '#' header, with ``edit(df)`` applied."""
+    text = Path(src).read_text().splitlines(True)
+    header = "".join(line for line in text if line.startswith("#"))
+    df = pd.read_csv(src, comment="#")
+    df = edit(df)
+    Path(dst).write_text(header + df.to_csv(index=False))
+    return dst
+
+
+def test_duplicated_mean_row_of_a_sweep(made, tmp_path, capsys):
+    def dup(df):
+        return pd.concat([df, df[df["sideband"] == "mean"].iloc[[5]]], ignore_index=True)
+    p = _edit_csv(made["sweep"], tmp_path / "dup.csv", dup)
+    n = len(pd.read_csv(p, comment="#"))
+    for argv in (["thresholds", p], ["align", "--gate", made["gate"], "--sweep", p]):
+        _bad(capsys, argv, [str(p), "column 'sideband'", f"row {n}", "duplicated"],
+             [p, made["gate"]])
+
+
+def test_sweep_row_with_A_above_one(made, tmp_path, capsys):
+    def big(df):
+        i = int(np.flatnonzero(df["sideband"] == "mean")[2])
+        df.loc[i, "A"] = 1.5
+        return df
+    p = _edit_csv(made["sweep"], tmp_path / "bigA.csv", big)
+    _bad(capsys, ["thresholds", p], [str(p), "column 'A'", "1.5"], [p])
+
+
+# ----------------------------------------------------------------------------- 5. gate tables
+
+
+def _fidelity(rates, out):
+    return ["fidelity", "--populations", CAMP / "populations.csv",
+            "--parity", CAMP / "parity.csv", "--gate-rates", rates, "-o", out]
+
+
+def test_duplicated_gate_rate_row(tmp_path, capsys):
+    p = _edit_csv(CAMP / "gate_rates.csv", tmp_path / "rates.csv",
+                  lambda df: pd.concat([df, df.iloc[[1]]], ignore_index=True))
+    n = len(pd.read_csv(p))
+    _bad(capsys, _fidelity(p, tmp_path / "g.csv"), [str(p), f"row {n}", "duplicated"], [p])
+    assert not (tmp_path / "g.csv").exists()
+
+
+@pytest.mark.parametrize("col, value", [("A", 1.5), ("xi0_khz", 0.0), ("xi0_khz", -3.0)])
+def test_gate_rate_out_of_range(tmp_path, capsys, col, value):
+    def edit(df):
+        df.loc[0, col] = value
+        return df
+    p = _edit_csv(CAMP / "gate_rates.csv", tmp_path / "rates.csv", edit)
+    _bad(capsys, _fidelity(p, tmp_path / "g.csv"), [str(p), f"column '{col}'", "row 1"], [p])
+    assert not (tmp_path / "g.csv").exists()
+
+
+@pytest.mark.parametrize("col, value", [("F", 1.7), ("A", 1.5), ("xi0_khz", 0.0)])
+def test_align_gate_table_out_of_range(made, tmp_path, capsys, col, value):
+    def edit(df):
+        df.loc[1, col] = value
+        return df
+    p = _edit_csv(made["gate"], tmp_path / "gate.csv", edit)
+    _bad(capsys, ["align", "--gate", p, "--sweep", made["sweep"]],
+         [str(p), f"column '{col}'", "row 2"], [p, made["sweep"]])
+
+
+def test_align_gate_table_duplicated_row(made, tmp_path, capsys):
+    p = _edit_csv(made["gate"], tmp_path / "gate.csv",
+                  lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True))
+    n = len(pd.read_csv(p))
+    _bad(capsys, ["align", "--gate", p, "--sweep", made["sweep"]],
+         [str(p), f"row {n}", "duplicated"], [p, made["sweep"]])
+
+
+# ----------------------------------------------------------------------------- 7. time scans
+
+
+@pytest.mark.parametrize("with_n01_10", [True, False])
+def test_diagnose_refuses_time_scan_counts_above_shots(tmp_path, capsys, with_n01_10):
+    camp = tmp_path / "camp"
+    shutil.copytree(CAMP, camp)
+    ts = camp / "time_scans.csv"
+    df = pd.read_csv(ts)
+    if not with_n01_10:
+        df = df.drop(columns="n01_10")
+    df.loc[0, "n00"] = 900
+    df.loc[0, "shots"] = 625
+    df.to_csv(ts, index=False)
+    for argv in (["diagnose", camp, "--pairs", "0"], ["analyze", camp, "-o", tmp_path / "r"]):
+        _bad(capsys, argv, [str(ts), "column 'shots'", "row 1", "900", "625"], [ts])
