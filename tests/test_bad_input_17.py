@@ -236,5 +236,8 @@ def test_diagnose_refuses_time_scan_counts_above_shots(tmp_path, capsys, with_n0
     df.loc[0, "n00"] = 900
     df.loc[0, "shots"] = 625
     df.to_csv(ts, index=False)
-    for argv in (["diagnose", camp, "--pairs", "0"], ["analyze", camp, "-o", tmp_path / "r"]):
-        _bad(capsys, argv, [str(ts), "column 'shots'", "row 1", "900", "625"], [ts])
+    needles = [str(ts), "column 'shots'", "row 1", "900", "625"]
+    _bad(capsys, ["diagnose", camp, "--pairs", "0"], needles, [ts])
+    # analyze (which logs its steps on stderr) refuses the same file by the same rule
+    code, _, err = _run(["analyze", camp, "-o", tmp_path / "r", "--no-plots"], capsys)
+    assert code == 2 and all(n in err for n in needles), err
