@@ -134,7 +134,7 @@ def test_im_table_cli(capsys):
     (["estimate", "--powers-db", "0:-40,1:0,3:-30"], "gate tone n=2 is missing"),
     (["estimate", "--powers-db", "0=-40,1:0,2:0"], "'0=-40' is not 'n:dB'"),
     (["estimate", "--powers-db", "0:-40,1:0,2:nan"], "finite"),
-    (["estimate", "--powers-db", "1:0,2:0", "--nbar", "-1"], "nbar must be >= 0"),
+    (["estimate", "--powers-db", "1:0,2:0", "--nbar", "-1"], "option --nbar: must be >= 0"),
 ])
 def test_estimate_bad_input(tmp_path, capsys, argv, needle):
     _bad(capsys, argv, needle, tmp_path)
@@ -148,7 +148,7 @@ def test_sweep_bad_input(bundled, tmp_path, capsys):  # noqa: F811
     for argv, needle in [
         (["--amplitudes", "0:1.5:10"], "0 <= START < STOP <= 1"),
         (["--xi0", "5.6e3", "--nu", "1.8400001e6"], "not a ratio of integers"),
-        (["--xi0", "-1"], "--xi0 must be a positive number"),
+        (["--xi0", "-1"], "option --xi0: must be > 0"),
     ]:
         code, out, err = run(["sweep", cal, "-o", tmp_path / "s.csv"] + argv, capsys)
         assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, err
