@@ -19,7 +19,7 @@ import numpy as np
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.version import __version__
-from dpdfit.errors import DpdfitError, InputError
+from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.fits.calibration import (Calibration, calibrate_amplitude, calibrate_phase,
                                      load_calibration)
 from dpdfit.fits.polyfit import parse_powers, polyfit
@@ -40,8 +40,11 @@ def cmd_polyfit(args) -> int:
     df = read_table(args.file, cols + ([args.sigma] if args.sigma else []),
                     positive=[args.sigma] if args.sigma else [])
     powers = parse_powers(args.powers)
-    res = polyfit(df[args.x].to_numpy(), df[args.y].to_numpy(), powers,
-                  sigma=df[args.sigma].to_numpy() if args.sigma else None)
+    try:
+        res = polyfit(df[args.x].to_numpy(), df[args.y].to_numpy(), powers,
+                      sigma=df[args.sigma].to_numpy() if args.sigma else None)
+    except FitError as exc:
+        raise FitError(f"{args.file}: {exc}") from None
     d = res.to_dict()
     if args.output:
         refuse_overwriting_inputs([args.output], [args.file])

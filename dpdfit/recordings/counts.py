@@ -54,6 +54,13 @@ def fringe_points(phases, tol=1e-9, period=math.pi) -> int:
     return max(int(np.sum(gaps > tol)), 1)
 
 
+def _plain(value) -> str:
+    """A cell as plain text: ``623.5``, not ``np.float64(623.5)``; text quoted."""
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return f"{float(value):g}"
+    return repr(str(value))
+
+
 def check_counts(df: pd.DataFrame, cols, file) -> None:
     """Check the count columns ``cols`` (with ``shots``) of ``df``: integer, non-negative,
     ``shots > 0``, counts <= shots; InputError naming ``file``, column and row (position + 1)."""
@@ -63,8 +70,8 @@ def check_counts(df: pd.DataFrame, cols, file) -> None:
         bad = ~(arr == np.round(arr))                 # also NaN and non-numbers
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise InputError(f"count {df[c].iloc[i]!r} is not an integer", file=file, column=c,
-                             row=i + 1)
+            raise InputError(f"count {_plain(df[c].iloc[i])} is not an integer", file=file,
+                             column=c, row=i + 1)
         bad = arr < 0
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
