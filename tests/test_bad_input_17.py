@@ -241,3 +241,20 @@ def test_diagnose_refuses_time_scan_counts_above_shots(tmp_path, capsys, with_n0
     # analyze (which logs its steps on stderr) refuses the same file by the same rule
     code, _, err = _run(["analyze", camp, "-o", tmp_path / "r", "--no-plots"], capsys)
     assert code == 2 and all(n in err for n in needles), err
+
+
+# ----------------------------------------------------------------------------- 8. messages
+
+
+def test_count_message_has_plain_numbers(tmp_path, capsys):
+    pop = tmp_path / "pop.csv"
+    pop.write_text("A,dpd,scan,n00,n11,shots,n_even\n0.5,0,a,623.5,1,625,624\n")
+    _bad(capsys, ["fidelity", "--populations", pop, "--parity", CAMP / "parity.csv"],
+         [str(pop), "column 'n00'", "row 1", "count 623.5 is not an integer"], [pop])
+
+
+def test_polyfit_too_few_points_names_the_file(tmp_path, capsys):
+    p = tmp_path / "one.csv"
+    p.write_text("A,power\n0.5,0.3\n")
+    _bad(capsys, ["polyfit", p, "--x", "A", "--y", "power", "--powers", "1:8"],
+         [f"{p}: 1 points for 8 coefficients"], [p])
