@@ -258,3 +258,10 @@ def test_polyfit_too_few_points_names_the_file(tmp_path, capsys):
     p.write_text("A,power\n0.5,0.3\n")
     _bad(capsys, ["polyfit", p, "--x", "A", "--y", "power", "--powers", "1:8"],
          [f"{p}: 1 points for 8 coefficients"], [p])
+
+
+def test_budget_gate_rates_duplicated_row(tmp_path, capsys):
+    p = _edit_csv(CAMP / "gate_rates.csv", tmp_path / "rates.csv",
+                  lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True))
+    n = len(pd.read_csv(p))
+    _bad(capsys, ["budget", "--gate-rates", p], [str(p), f"row {n}", "duplicated"], [p])

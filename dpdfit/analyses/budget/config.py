@@ -46,10 +46,8 @@ import math
 import tomllib
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
 from dpdfit.errors import InputError
+from dpdfit.recordings.tables import read_table
 
 from .losses import DEPHASING_COEFFICIENT
 
@@ -164,21 +162,11 @@ def load_budget_config(path) -> dict:
 
 
 def read_gate_rates(path) -> list[float]:
-    """Gate rates ``xi0`` [kHz] from a CSV with columns ``A, dpd, xi0_khz``."""
-    try:
-        df = pd.read_csv(path, comment="#")
-    except FileNotFoundError:
-        raise InputError("file not found", file=str(path)) from None
-    except Exception as exc:  # noqa: BLE001 - pandas raises many types
-        raise InputError(f"cannot read CSV: {exc}", file=str(path)) from None
-    for col in ("A", "dpd", "xi0_khz"):
-        if col not in df.columns:
-            raise InputError("missing column", file=str(path), column=col)
-    if len(df) == 0:
-        raise InputError("no data rows", file=str(path))
-    v = pd.to_numeric(df["xi0_khz"], errors="coerce").to_numpy(float)
-    bad = np.flatnonzero(~(np.isfinite(v) & (v > 0)))
-    if bad.size:
-        raise InputError("xi0_khz must be a positive number", file=str(path),
-                         column="xi0_khz", row=int(bad[0]) + 1)
-    return [float(x) for x in v]
+    """Gate rates ``xi0`` [kHz] from a CSV with columns ``A, dpd, xi0_khz``.
+
+    Validated like every gate-rate table: A in [0, 1], dpd 0/1, xi0_khz > 0,
+    no (A, dpd) twice; an :class:`InputError` names file, column and row.
+    """
+    df = read_table(path, ["A", "dpd", "xi0_khz"], ranges={"A": (0.0, 1.0), "dpd": (0, 1)},
+                    positive=["xi0_khz"], unique=["A", "dpd"])
+    return [float(x) for x in df["xi0_khz"]]
