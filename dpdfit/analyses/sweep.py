@@ -109,8 +109,8 @@ class SweepConfig:
             raise InputError(f"eta_ref must lie in (0, 1], got {self.eta_ref}")
         if not 0 <= self.anchor[0] <= 1 or self.anchor[1] not in (0, 1):
             raise InputError(f"anchor must be (A in [0,1], dpd 0/1), got {self.anchor}")
-        if self.nbar < 0:
-            raise InputError(f"nbar must be >= 0, got {self.nbar}")
+        if not (np.isfinite(self.nbar) and self.nbar >= 0):
+            raise InputError(f"nbar must be a finite number >= 0, got {self.nbar}")
         object.__setattr__(self, "amplitudes", A)
 
 

@@ -173,8 +173,8 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
         raise FitError(f"alignment needs at least 2 measured points, got {len(g)}")
     if (g["xi0_err_khz"] < 0).any() or (g["F_err"] <= 0).any():
         raise InputError("xi0_err_khz must be >= 0 and F_err > 0")
-    if sigma_db < 0:
-        raise InputError(f"sigma_db must be >= 0, got {sigma_db}")
+    if not np.isfinite(sigma_db) or sigma_db < 0:
+        raise InputError(f"sigma_db must be a finite number >= 0, got {sigma_db}")
     cv = curves(sweep)
     r = np.empty(len(g))
     Fpd = np.empty(len(g))

@@ -205,8 +205,8 @@ def bell_fidelity(F, G, Phi, nbar=NBAR, formula: str = FORMULA):
     G = np.asarray(G, dtype=float)
     Phi = np.asarray(Phi, dtype=float)
     nbar = np.asarray(nbar, dtype=float)
-    if np.any(nbar < 0):
-        raise InputError(f"nbar must be >= 0, got {nbar}")
+    if not np.all(np.isfinite(nbar)) or np.any(nbar < 0):
+        raise InputError(f"nbar must be a finite number >= 0, got {nbar}")
     R2 = (nbar + 0.5) * (F ** 2 + G ** 2)
     phase = Phi + 0.5 * F * G
     if formula == "paper":

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -67,6 +68,8 @@ def propagate(posterior_or_runs, A: float, stale_days: float = 0.0, draws: int =
         raise InputError(f"A must lie in (0, 1], got {A}")
     if draws < 1:
         raise InputError(f"draws must be >= 1, got {draws}")
+    if not (math.isfinite(stale_days) and stale_days >= 0):
+        raise InputError(f"stale_days must be a finite number >= 0, got {stale_days}")
     post, fit0, drift = resolve_calibration(posterior_or_runs, order, run, seed, n_walkers,
                                             n_steps, force, progress, fits=fits, drift=drift)
     lut_fit = lut_fit or fit0
