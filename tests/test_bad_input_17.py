@@ -265,3 +265,23 @@ def test_budget_gate_rates_duplicated_row(tmp_path, capsys):
                   lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True))
     n = len(pd.read_csv(p))
     _bad(capsys, ["budget", "--gate-rates", p], [str(p), f"row {n}", "duplicated"], [p])
+
+
+# ----------------------------------------------------------------------------- the API
+
+
+def test_api_refuses_nan_settings():
+    from dpdfit.fits.alignment import align
+    from dpdfit.models.fidelity import estimate
+    from dpdfit.models.im_requirements import im_requirements
+    nan = float("nan")
+    with pytest.raises(InputError, match="nbar"):
+        SweepConfig(nbar=nan)
+    with pytest.raises(InputError, match="nbar"):
+        estimate(np.array([-40.0, 0.0, 0.0, -30.0]), (0, 1, 2, 3), nbar=nan)
+    with pytest.raises(InputError, match="nbar"):
+        im_requirements(nbar=nan)
+    gate = pd.DataFrame({"A": [0.4, 0.6], "dpd": [0, 0], "xi0_khz": [3.0, 4.0],
+                         "xi0_err_khz": [0.1, 0.1], "F": [0.9, 0.95], "F_err": [0.01, 0.01]})
+    with pytest.raises(InputError, match="sigma_db"):
+        align(gate, pd.DataFrame(), nan)

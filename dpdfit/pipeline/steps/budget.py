@@ -7,8 +7,7 @@ from the alignment fit of the ``gates`` step.  -> ``budget.json``.
 
 from __future__ import annotations
 
-from dpdfit.analyses.budget import error_budget, load_budget_config
-from dpdfit.recordings.tables import read_table
+from dpdfit.analyses.budget import error_budget, load_budget_config, read_gate_rates
 
 from ..context import Context
 
@@ -30,9 +29,8 @@ def _budget_config(ctx: Context):
         cfg["delta"] = {"value": al["delta"], "error": al["delta_err"], "enabled": True}
     rates = folder / "gate_rates.csv"
     if rates.exists():
-        g = read_table(rates, ["A", "dpd", "xi0_khz"])
         cfg = dict(cfg or {})
-        cfg["gate"] = {**(cfg.get("gate") or {}), "rates_khz": [float(v) for v in g["xi0_khz"]]}
+        cfg["gate"] = {**(cfg.get("gate") or {}), "rates_khz": read_gate_rates(rates)}
     return cfg
 
 
