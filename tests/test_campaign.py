@@ -152,3 +152,24 @@ def test_gate_power_offset_reaches_the_time_scans(tmp_path):
     assert (ta.loc[start, "n00"] == tb.loc[start, "n00"]).all()
     assert (ta.loc[late, ["n00", "n11"]] != tb.loc[late, ["n00", "n11"]]).any(axis=None)
     assert (a / "spectra.csv").read_bytes() == (b / "spectra.csv").read_bytes()
+
+
+def test_analyze_text_in_spectra_amplitude_with_traces_present(small_campaign, tmp_path, capsys):
+    """Text in spectra.csv's A column: the spectra step fails with the one line; the
+    traces check (which reads the file as recorded) runs on, no traceback (issue #17)."""
+    camp = tmp_path / "camp"
+    shutil.copytree(small_campaign, camp)
+    sp = (camp / "spectra.csv").read_text().splitlines()
+    cells = sp[5].split(",")
+    cells[0] = "abc"
+    sp[5] = ",".join(cells)
+    (camp / "spectra.csv").write_text("\n".join(sp) + "\n")
+    out = tmp_path / "res"
+    code = main(["analyze", str(camp), "-o", str(out), "--no-plots", "--no-diagnosis"])
+    captured = capsys.readouterr()
+    assert code == 2
+    assert "Traceback" not in captured.err
+    assert "spectra.csv, column 'A', row 5: 'abc' is not a number" in captured.err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["analyses"]["spectra"]["status"] == "failed"
+    assert s["analyses"]["traces"]["status"] == "ok"

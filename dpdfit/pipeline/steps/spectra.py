@@ -90,6 +90,10 @@ def traces_step(ctx: Context):
     raw = None
     if (folder / "spectra.csv").exists():
         raw = pd.read_csv(folder / "spectra.csv", comment="#")
+        # a value that is not a number matches no trace (the spectra step reports it)
+        for col in ("A", "dpd", "n", "P_dB"):
+            if col in raw.columns:
+                raw[col] = pd.to_numeric(raw[col], errors="coerce")
     rows = [row for i, r in idx.iterrows() for row in _trace_rows(folder, i, r, idx_path, raw)]
     chk = pd.DataFrame(rows)
     res.table("traces_check.csv", chk)
