@@ -3,6 +3,7 @@
 import hashlib
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -247,3 +248,21 @@ def test_zero_dof_calibration_round_trips(tmp_path, capsys):
     assert load_calibration(out).amplitude.dof == 0
     code, _, err = run(["lut", out, "--points", 5, "-o", tmp_path / "lut.csv"], capsys)
     assert code == 0, err
+
+
+def test_ctrl_c_exits_130_with_one_line_and_leaves_outputs(tmp_path, capsys, monkeypatch):
+    """Ctrl-C during a command: one line, exit 130, no traceback, the output untouched."""
+    import dpdfit.cli.calibration as calcli
+    out = tmp_path / "c.json"
+    out.write_text("previous")
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(calcli, "calibrate_amplitude", interrupted)
+    amp = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
+    code = main(["calibrate", "--amplitude", str(amp), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 130
+    assert err == ["dpdfit: interrupted"]
+    assert out.read_text() == "previous"

@@ -109,6 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         print(f"dpdfit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # each output is written atomically (staged), so no file is left half-written
+        print("dpdfit: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover
