@@ -34,7 +34,7 @@ def cmd_harness(args) -> int:
         print(json.dumps(to_jsonable({k: v for k, v in s.items() if k != "runs"}), indent=2))
     else:
         print(report(s))
-    return 0
+    return 1 if s["n_failed"] else 0        # failed runs are in the report (and the log)
 
 
 def _cmd_external(args) -> int:

@@ -4,6 +4,12 @@ Each job is one campaign simulation and/or diagnosis of tens of seconds, so
 the jobs themselves are the parallelism: one job per local process (spawned,
 one BLAS thread each), or one per Dask worker (``scheduler="tcp://..."``,
 ``pip install dpdfit[dask]``).  Results are handed over as the jobs finish.
+
+A job that raises, or whose worker dies, is handed to ``failed(job, error)``
+when given (else its error is raised): Dask first runs the job again on
+another worker (``distributed.scheduler.allowed-failures``, 3 by default) and
+gives up with ``KilledWorker``; a local process that dies breaks the pool, and
+every job not finished by then is handed to ``failed``.  No job is dropped.
 """
 
 from __future__ import annotations
@@ -17,13 +23,26 @@ from dpdfit.errors import InputError
 __all__ = ["run_jobs"]
 
 
-def run_jobs(fn, jobs: list, workers: int | None, scheduler: str | None, finished) -> None:
+def run_jobs(fn, jobs: list, workers: int | None, scheduler: str | None, finished,
+             failed=None) -> None:
     """Call ``finished(fn(job))`` for every job, in the order the jobs finish.
 
     ``scheduler``: address of a dask.distributed scheduler (the jobs run
     there); else ``workers`` local processes (1: one after the other in this
-    process).
+    process).  ``failed(job, error)``: called for each job that raised or
+    whose worker died (after Dask's own retries); without it the first such
+    error is raised.
     """
+    def result(f, job):
+        try:
+            r = f.result() if f is not None else fn(job)
+        except Exception as e:                    # noqa: BLE001 - handed over, not lost
+            if failed is None:
+                raise
+            failed(job, e)
+        else:
+            finished(r)
+
     if scheduler:
         try:
             from dask.distributed import Client
@@ -31,13 +50,14 @@ def run_jobs(fn, jobs: list, workers: int | None, scheduler: str | None, finishe
         except ImportError:
             raise InputError("--scheduler needs dask.distributed: pip install 'dpdfit[dask]'"
                              ) from None
-        client = Client(scheduler)
-        for f in dask_completed(client.map(fn, jobs, pure=False)):
-            finished(f.result())
-        client.close()
+        with Client(scheduler) as client:
+            futures = client.map(fn, jobs, pure=False)
+            job_of = {f.key: j for f, j in zip(futures, jobs)}
+            for f in dask_completed(futures):
+                result(f, job_of[f.key])
     elif workers == 1:
         for j in jobs:
-            finished(fn(j))
+            result(None, j)
     else:
         # one BLAS thread per worker: the runs are the parallelism.  The
         # variables must be set before numpy loads in the worker, so the
@@ -48,5 +68,6 @@ def run_jobs(fn, jobs: list, workers: int | None, scheduler: str | None, finishe
             os.environ.setdefault(var, "1")
         ctx = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
-            for f in as_completed([ex.submit(fn, j) for j in jobs]):
-                finished(f.result())
+            job_of = {ex.submit(fn, j): j for j in jobs}
+            for f in as_completed(job_of):
+                result(f, job_of[f])

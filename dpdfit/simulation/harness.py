@@ -190,7 +190,8 @@ def _read_log(path: Path) -> dict:
                 continue
             try:
                 r = json.loads(line)
-                done[_job_key(r)] = r
+                if "error" not in r:              # a failed run is run again
+                    done[_job_key(r)] = r
             except (ValueError, KeyError, TypeError):
                 if line.lstrip().startswith("{") and not line.rstrip().endswith("}"):
                     # a record cut by a stop mid-write: that run is simply done again
@@ -263,7 +264,10 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
                 _append_log(log, r)
             update(len(results), len(jobs))
 
-        run_jobs(run_one, todo, n_workers, scheduler, finished)
+        def failed(job, e):                 # reported as a run record, never dropped
+            finished({**job, "error": f"{type(e).__name__}: {e}"})
+
+        run_jobs(run_one, todo, n_workers, scheduler, finished, failed)
     # plan order, whatever order the runs finished in
     order = {_job_key(j): i for i, j in enumerate(jobs)}
     results.sort(key=lambda r: order[_job_key(r)])
@@ -289,7 +293,9 @@ def _within_2sigma(r: dict) -> bool:
 
 
 def summarise(results: list) -> dict:
-    """Confusion matrix, false-alarm rate, recovery (bias, coverage) and fit improvement."""
+    """Confusion matrix, false-alarm rate, recovery (bias, coverage) and fit improvement;
+    failed runs (records with ``error``) are counted apart and kept in ``runs``."""
+    every, results = results, [r for r in results if "error" not in r]
     labels = sorted({r["concealed"] for r in results})
     confusion = {c: {} for c in labels}
     for r in results:
@@ -332,7 +338,7 @@ def summarise(results: list) -> dict:
         recovery[c] = {"params": per, "n_named": len(rs),
                        "all_params_within_2sigma": float(np.mean(within2)) if within2 else None}
     conc = [r for r in results if r["concealed"] != "none"]
-    return {"n_runs": len(results), "confusion": confusion, "false_alarm_rate": far,
+    return {"n_runs": len(results), "n_failed": len(every) - len(results), "confusion": confusion, "false_alarm_rate": far,
             "named_correctly": named,
             "named_correctly_overall": (sum(r["verdict"] == r["concealed"] for r in conc)
                                         / len(conc)) if conc else None,
@@ -344,7 +350,7 @@ def summarise(results: list) -> dict:
             "median_seconds_per_run": float(np.median([r["seconds_simulation"]
                                                        + r["seconds_diagnosis"]
                                                        for r in results])) if results else None,
-            "runs": results}
+            "runs": every}
 
 
 def write_report(summary: dict, path) -> None:
@@ -365,6 +371,8 @@ def report(s: dict) -> str:
              f"  false-alarm rate (nulls): {num(s['false_alarm_rate'])}",
              f"  median reduced chi2 before -> after: {num(s['median_redchi_before'])} -> "
              f"{num(s['median_redchi_after'])}", "", "  confusion (concealed -> named):"]
+    for r in (r for r in s["runs"] if "error" in r):
+        lines.insert(1, f"  FAILED: {r['concealed']} seed {r['seed']}: {r['error']}")
     for c, row in s["confusion"].items():
         lines.append(f"    {c:>26s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
     lines += ["", "  recovery (named cases):"]
