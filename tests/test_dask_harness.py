@@ -69,6 +69,7 @@ def _same(a, b, path="run"):
         assert a == b, f"{path}: {a!r} != {b!r}"
 
 
+@pytest.mark.cluster
 def test_harness_on_a_dask_cluster_equals_the_process_pool(tmp_path, capsys):
     """``dpdfit harness --scheduler ADDR`` on a LocalCluster: same runs, verdicts and fitted
     parameters as ``--workers 2`` (one concealed AM-to-PM effect and one null)."""
