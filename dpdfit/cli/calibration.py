@@ -150,6 +150,12 @@ def cmd_calibrate(args) -> int:
         ph_data = read_calibration(args.phase, "phase", args.phase_run)
         ph = calibrate_phase(ph_data, args.phase_order, args.phase_min_A, args.phase_max_A)
     cal = Calibration(amplitude=amp, phase=ph)
+    figures = {}
+    if args.plot:  # drawn before anything is written: a failing figure writes nothing
+        from dpdfit.report.calibration_plots import calibration_figures
+        from dpdfit.report.figure_io import use_noninteractive_backend
+        use_noninteractive_backend()
+        figures = calibration_figures(cal, amp_data, ph_data)
     if args.output:
         atomic_write_json(args.output, cal.to_dict())
     if args.json:
@@ -158,11 +164,9 @@ def cmd_calibrate(args) -> int:
         print(cal.report())
         if args.output:
             print(f"wrote {args.output}", file=sys.stderr)
-    if args.plot:
-        from dpdfit.report.calibration_plots import calibration_figures
-        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
-        use_noninteractive_backend()
-        for p in save_figures(calibration_figures(cal, amp_data, ph_data), args.plot):
+    if figures:
+        from dpdfit.report.figure_io import save_figures
+        for p in save_figures(figures, args.plot):
             print(f"wrote {p}", file=sys.stderr)
     return 0
 

@@ -13,7 +13,6 @@ from pathlib import Path
 
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.defaults import FORMULA
-from dpdfit.errors import InputError
 
 __all__ = ["add_simulate_campaign_command", "add_analyze_command", "cmd_simulate_campaign",
            "cmd_analyze"]
@@ -49,8 +48,6 @@ def cmd_analyze(args) -> int:
         use_noninteractive_backend()
     out = Path(args.output)
     folder = Path(args.folder)
-    if folder.resolve() == out.resolve():
-        raise InputError("results folder must differ from the campaign folder", file=str(out))
     summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
                       diagnosis=not args.no_diagnosis, progress=args.progress)
     for name, st in summary["analyses"].items():

@@ -25,8 +25,9 @@ from dpdfit.cli.spectral import (add_estimate_command, add_im_table_command, add
                                  add_thresholds_command)
 from dpdfit.core.version import __version__
 from dpdfit.errors import DpdfitError
+from dpdfit.recordings.outputs import check_output_file, check_output_folder, staged_outputs
 
-__all__ = ["main", "build_parser", "DESCRIPTION", "EPILOG"]
+__all__ = ["main", "build_parser", "check_outputs", "DESCRIPTION", "EPILOG"]
 
 #: The top of ``dpdfit --help`` (plain text).
 DESCRIPTION = ("dpdfit: analysis of digitally predistorted (DPD) trapped-ion entangling-gate "
@@ -93,6 +94,33 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def check_outputs(args) -> None:
+    """Check every output path of a command before it starts work (one line, exit 2).
+
+    ``-o``/``--output`` and ``--log`` must be writable files (``analyze -o`` a
+    results folder), ``--plot`` and ``simulate-campaign``'s folder writable folders.
+    """
+    folders = {"plot": "--plot folder"}
+    if args.command == "analyze":
+        folders["output"] = "results folder (-o)"
+    if args.command == "simulate-campaign":
+        folders["outdir"] = "campaign folder"
+    for attr, what in folders.items():
+        if getattr(args, attr, None):
+            check_output_folder(getattr(args, attr), what)
+    for attr, what in (("output", "output file (-o)"), ("log", "log file (--log)")):
+        if attr not in folders and isinstance(getattr(args, attr, None), str):
+            check_output_file(getattr(args, attr), what)
+
+
+def _run(args) -> int:
+    """The command; one with ``--plot`` publishes its output file and figures together."""
+    if getattr(args, "plot", None) is None:
+        return args.func(args)
+    with staged_outputs():
+        return args.func(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one ``dpdfit`` command; returns its exit status (2 on any input or file error)."""
     parser = build_parser()
@@ -101,8 +129,9 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # a usage error (one line printed, status 2), --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     try:
+        check_outputs(args)
         with cli_logging():
-            return args.func(args)
+            return _run(args)
     except DpdfitError as exc:
         print(f"dpdfit: error: {exc}", file=sys.stderr)
         return 2

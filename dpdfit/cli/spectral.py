@@ -67,6 +67,12 @@ def cmd_sweep(args) -> int:
             "calibration_file": str(args.calibration),
             "calibration_sha256": sha256_file(args.calibration),
             **{k: v for k, v in df.attrs.items()}}
+    figures = {}
+    if args.plot:  # drawn before anything is written: a failing figure writes nothing
+        from dpdfit.report.figure_io import use_noninteractive_backend
+        from dpdfit.report.sweep_plots import sweep_figures
+        use_noninteractive_backend()
+        figures = sweep_figures(df)
     write_csv_with_header(out, df, meta)
     print(f"sweep: {len(cfg.amplitudes)} amplitudes x 2 DPD flags x 3 rows "
           f"({'AM only' if cfg.am_only else 'AM+PM'}, formula {cfg.formula}, nbar {cfg.nbar:g})")
@@ -74,11 +80,9 @@ def cmd_sweep(args) -> int:
           f"no DPD {th['eta_corr']['no_dpd']}")
     _print_thresholds(th)
     print(f"wrote {out}", file=sys.stderr)
-    if args.plot:
-        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
-        from dpdfit.report.sweep_plots import sweep_figures
-        use_noninteractive_backend()
-        for p in save_figures(sweep_figures(df), args.plot):
+    if figures:
+        from dpdfit.report.figure_io import save_figures
+        for p in save_figures(figures, args.plot):
             print(f"wrote {p}", file=sys.stderr)
     return 0
 

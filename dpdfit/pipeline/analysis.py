@@ -16,7 +16,6 @@ from __future__ import annotations
 import functools
 import json
 import logging
-import shutil
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -24,20 +23,58 @@ from pathlib import Path
 import pandas as pd
 
 from dpdfit.fits.alignment import AlignmentFit
-from dpdfit.recordings.outputs import staged_outputs, to_jsonable
+from dpdfit.recordings.outputs import check_output_folder, staged_outputs, to_jsonable
 from dpdfit.report.figure_io import DPI
 from dpdfit.report.summary import summary_markdown
 from dpdfit.report.sweep_plots import sweep_figures
 
-from .context import write_figure_jobs
+from .context import draw_figure_jobs
 
-__all__ = ["Analysis", "write_outputs"]
+__all__ = ["Analysis", "write_outputs", "previous_outputs", "LEGACY_OUTPUTS"]
 
 log = logging.getLogger(__name__)
 
 
-def write_outputs(files: dict, summary: dict, out: Path, folder: Path, formula: str) -> None:
-    """Publish every output, ``summary.json`` and ``summary.md`` together (staged)."""
+#: What ``analyze`` wrote into a results folder before ``summary.json`` listed its
+#: ``outputs``: cleared by a rerun when the new run does not write them.
+LEGACY_OUTPUTS = ("calibration.json", "calibration_runs.csv", "sweep.csv", "spectra_measured.csv",
+                  "traces_check.csv", "stability_amplitude.json", "stability_phase.json",
+                  "gate.csv", "alignment_points.csv", "propagation.json", "budget.json",
+                  "diagnosis.json")
+
+
+def previous_outputs(out: Path) -> set[str]:
+    """The files an earlier ``analyze`` wrote into ``out`` (``summary.json``'s ``outputs``).
+
+    Only plain relative names inside ``out`` count; a folder without a dpdfit
+    ``summary.json`` owns nothing (nothing of the user's is ever deleted).
+    """
+    try:
+        old = json.loads((out / "summary.json").read_text())
+    except (OSError, ValueError):
+        return set()
+    if not isinstance(old, dict) or "analyses" not in old:
+        return set()
+    names = old.get("outputs", LEGACY_OUTPUTS)
+    if not isinstance(names, (list, tuple)):
+        return set()
+    return {n for n in names if isinstance(n, str) and n and not Path(n).is_absolute()
+            and ".." not in Path(n).parts}
+
+
+def write_outputs(files: dict, summary: dict, out: Path, folder: Path, formula: str,
+                  figures: dict | None = None) -> list[str]:
+    """Publish every output, the figures (``{stem: (Figure, dpi)}`` -> ``figures/stem.png``),
+    ``summary.json`` and ``summary.md`` together (one staging: all or nothing).
+
+    What the previous run into ``out`` wrote and this one does not is deleted in
+    the same step; ``summary.json`` lists this run's ``outputs``.  Returns them.
+    """
+    figures = figures or {}
+    owned = previous_outputs(out)
+    names = sorted([*files, *(f"figures/{stem}.png" for stem in figures),
+                    "summary.json", "summary.md"])
+    summary = {**summary, "outputs": names}
     with staged_outputs() as stage:
         for name, obj in files.items():
             path = stage(out / name)
@@ -47,8 +84,13 @@ def write_outputs(files: dict, summary: dict, out: Path, folder: Path, formula: 
                 path.write_text(text + df.to_csv(index=False, float_format="%.10g"))
             else:
                 path.write_text(obj)
+        for stem, (fig, dpi) in figures.items():
+            fig.savefig(stage(out / "figures" / f"{stem}.png"), dpi=dpi, format="png")
         stage(out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=2) + "\n")
         stage(out / "summary.md").write_text(summary_markdown(summary, folder, formula))
+        for name in sorted(owned - set(names)):
+            stage.remove(out / name)
+    return names
 
 
 class Analysis(Mapping):
@@ -86,7 +128,6 @@ class Analysis(Mapping):
         self._figures = figures
         self._figdir = figdir
         self._sweep, self._measured = sweep, measured
-        self._drawn = False
         self._keep = None
 
     # ------------------------------------------------------------ old dict access
@@ -181,33 +222,32 @@ class Analysis(Mapping):
 
     # ------------------------------------------------------------ writing
     def keep_alive(self, obj) -> None:
-        """Keep ``obj`` (the temporary figure folder) as long as this result lives."""
+        """Keep ``obj`` alive as long as this result lives (kept for old callers)."""
         self._keep = obj
 
-    def _draw_figures(self) -> None:
-        """Draw the queued figures into their folder, once."""
-        if self._drawn or self._figures is None:
-            return
+    def draw_figures(self) -> dict:
+        """Draw every figure of this analysis: ``{file stem: (Figure, dpi)}`` (none when
+        made with ``plots=False``)."""
+        if self._figures is None:
+            return {}
         jobs = list(self._figures)
         if self._sweep is not None:
             jobs.append((functools.partial(sweep_figures, self._sweep, self._measured), DPI))
-        write_figure_jobs(jobs, self._figdir)
-        self._drawn = True
+        return draw_figure_jobs(jobs)
 
     def save(self, outdir, *, plots: bool = True) -> Path:
         """Write every output into ``outdir`` -- the files ``dpdfit analyze -o`` writes:
-        tables, JSON files, ``summary.json``, ``summary.md`` (staged, published together)
-        and, when figures were made (``analyze(plots=True)``) and ``plots``, ``figures/``."""
+        tables, JSON files, ``summary.json``, ``summary.md`` and, when figures were made
+        (``analyze(plots=True)``) and ``plots``, ``figures/*.png`` -- staged and published
+        together.  What an earlier run wrote into ``outdir`` and this one does not (e.g.
+        ``gate.csv`` when the gates were skipped this time) is deleted in the same step;
+        other files are left alone.  Interrupted (Ctrl-C) or failed, it leaves ``outdir``
+        as it was."""
         out = Path(outdir)
-        out.mkdir(parents=True, exist_ok=True)
+        check_output_folder(out, "results folder")
         t0 = time.perf_counter()
         log.info("[analyze] writing results ...")
-        write_outputs(self.files, self.summary, out, self.folder, self.formula)
-        if plots and self._figures is not None:
-            self._draw_figures()
-            target = out / "figures"
-            if self._figdir is not None and self._figdir.is_dir() and (
-                    not target.exists() or not target.samefile(self._figdir)):
-                shutil.copytree(self._figdir, target, dirs_exist_ok=True)
+        figures = self.draw_figures() if plots else {}
+        write_outputs(self.files, self.summary, out, self.folder, self.formula, figures)
         log.info(f"[analyze]   done in {time.perf_counter() - t0:.1f} s")
         return out

@@ -3,8 +3,10 @@
 Each analysis reads only the files it needs; a missing file skips that
 analysis (with the reason in the summary), a malformed file stops that
 analysis with the one-line error naming file, column and row, and the others
-go on.  All outputs are staged and published together at the end, so a
-previous results folder is never half-overwritten.
+go on.  The results folder is checked before any work; all outputs, figures
+included, are staged and published together at the end (Ctrl-C leaves a
+previous results folder exactly as it was), and what a previous run wrote
+there and this one does not is deleted in the same step.
 
 Analyses (in order):
 
@@ -58,7 +60,6 @@ from __future__ import annotations
 
 import logging
 import os
-import tempfile
 import time
 from pathlib import Path
 
@@ -66,6 +67,7 @@ from dpdfit.core.defaults import FORMULA
 from dpdfit.core.progress import progress_bar, progress_scope
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.recordings.outputs import check_output_folder
 from dpdfit.report.summary import PAPER, realism_table
 
 from .analysis import Analysis
@@ -189,16 +191,16 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, 
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError("campaign folder not found", file=str(folder))
-    tmp = None
-    if outdir is not None:
-        figdir = Path(outdir) / "figures"
-    else:  # figures are drawn on save: into a folder of the result's own, then copied
-        tmp = tempfile.TemporaryDirectory(prefix="dpdfit-figures-") if plots else None
-        figdir = Path(tmp.name if tmp else tempfile.gettempdir()) / "figures"
+    if outdir is not None:  # checked before any work, not after minutes of it
+        check_output_folder(outdir, "results folder")
+        if Path(outdir).resolve() == folder.resolve():
+            raise InputError("results folder must differ from the campaign folder",
+                             file=str(outdir))
+        check_output_folder(Path(outdir) / "figures", "figures folder")
+    figdir = Path(outdir if outdir is not None else ".") / "figures"
     n = len(STEPS) + (outdir is not None)
     with progress_scope(progress), progress_bar(total=n, desc="analyze") as bar:
         result = _analysis(folder, figdir, formula, plots, diagnosis, bar)
-        result.keep_alive(tmp)
         if outdir is not None:
             bar.set_postfix_str("writing", refresh=False)
             result.save(outdir)

@@ -4,8 +4,8 @@
 analysis's status); :func:`dpdfit.pipeline.analyze.analyze` writes them
 atomically at the end.  :class:`Context` is handed to every step: the
 campaign folder (read once, :class:`~dpdfit.recordings.campaign_folder.CampaignFolder`),
-the results, the fidelity formula and the queue of figures (drawn after the
-results are written, so that a figure never delays or breaks a result).
+the results, the fidelity formula and the queue of figures (drawn when the
+results are saved and published together with them).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.report.figure_io import DPI, save_figures
 
-__all__ = ["Results", "Context", "write_figure_jobs"]
+__all__ = ["Results", "Context", "write_figure_jobs", "draw_figure_jobs"]
 
 
 class Results:
@@ -83,15 +83,23 @@ class Context:
         return write_figure_jobs(self.figures, self.figdir)
 
 
-def write_figure_jobs(jobs, figdir) -> list[str]:
-    """Draw the figure jobs ``[(job, dpi)]`` (``job()`` -> ``{file stem: Figure}``) and
-    write them all together as PNG into ``figdir``; returns the paths."""
-    if not jobs:
-        return []
-    figures, dpi = {}, {}
-    for job, res in jobs:
+def draw_figure_jobs(jobs) -> dict:
+    """Draw the figure jobs ``[(job, dpi)]`` (``job()`` -> ``{file stem: Figure}``):
+    ``{file stem: (Figure, dpi)}``."""
+    figures: dict = {}
+    for job, res in jobs or ():
         for name, fig in job().items():
             if name in figures:
                 raise ValueError(f"two figures named {name!r}")
-            figures[name], dpi[name] = fig, res
-    return save_figures(figures, figdir, dpi=dpi)
+            figures[name] = (fig, res)
+    return figures
+
+
+def write_figure_jobs(jobs, figdir) -> list[str]:
+    """Draw the figure jobs ``[(job, dpi)]`` (``job()`` -> ``{file stem: Figure}``) and
+    write them all together as PNG into ``figdir``; returns the paths."""
+    figures = draw_figure_jobs(jobs)
+    if not figures:
+        return []
+    return save_figures({k: f for k, (f, _) in figures.items()}, figdir,
+                        dpi={k: d for k, (_, d) in figures.items()})

@@ -12,10 +12,13 @@ one of them.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import hashlib
 import json
 import os
+import signal
 import tempfile
+import threading
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
@@ -23,7 +26,8 @@ import numpy as np
 
 from dpdfit.errors import InputError
 
-__all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "refuse_overwriting_inputs", "staged_outputs",
+__all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "refuse_overwriting_inputs", "staged_outputs", "Stage",
+           "check_output_folder", "check_output_file",
            "atomic_write_text", "atomic_write_json", "to_jsonable"]
 
 
@@ -46,35 +50,161 @@ def refuse_overwriting_inputs(outputs: Iterable[str | os.PathLike],
                              file=str(out))
 
 
-@contextlib.contextmanager
-def staged_outputs() -> Iterator[Callable[[str | os.PathLike], Path]]:
-    """Stage several output files and publish them together.
+def check_output_folder(path: str | os.PathLike, what: str = "output folder") -> None:
+    """Raise :class:`InputError` now, before any work, if ``path`` cannot become a folder of outputs.
 
-    Yields a function ``stage(final_path) -> temp_path``; write each output to
-    the returned temporary path.  On normal exit every staged file is moved to
-    its final path; on an exception all temporaries are removed and no final
-    path is touched.
+    It must be a folder or not exist yet, and its nearest existing parent must be
+    a folder we may write into.
     """
-    staged: list[tuple[Path, Path]] = []
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise InputError(f"{what} is an existing file, not a folder", file=str(path))
+    _check_writable_parent(p if p.exists() else p.parent, path, what)
 
-    def stage(final: str | os.PathLike) -> Path:
+
+def check_output_file(path: str | os.PathLike, what: str = "output file") -> None:
+    """Raise :class:`InputError` now, before any work, if ``path`` cannot be written as a file."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{what} is an existing folder; give a file name", file=str(path))
+    _check_writable_parent(p.parent, path, what)
+
+
+def _check_writable_parent(folder: Path, path, what: str) -> None:
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise InputError(f"cannot create the {what}: {folder} is a file", file=str(path))
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"cannot create the {what}: no permission to write in {folder}",
+                         file=str(path))
+
+
+class Stage:
+    """The files of one publication: ``stage(final) -> temp path``; ``stage.remove(path)``.
+
+    Made by :func:`staged_outputs`.  Each staged file is a temporary file in its
+    final directory, created with the permissions the umask gives a new file
+    (``0o666 & ~umask``, as ``open`` would, not :func:`tempfile.mkstemp`'s 0600).
+    ``remove(path)`` schedules an old output for deletion when the others are
+    published (a rerun clearing what it owned).
+    """
+
+    def __init__(self):
+        self.staged: list[tuple[Path, Path]] = []
+        self.removals: list[Path] = []
+        self.made_dirs: list[Path] = []
+        self._mode = _new_file_mode()
+
+    def __call__(self, final: str | os.PathLike) -> Path:
         final = Path(final)
-        final.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".part",
-                                   dir=final.parent)
+        self._makedirs(final.parent)
+        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".part", dir=final.parent)
         os.close(fd)
-        staged.append((Path(tmp), final))
+        os.chmod(tmp, self._mode)
+        self.staged.append((Path(tmp), final))
         return Path(tmp)
 
+    def remove(self, path: str | os.PathLike) -> None:
+        """Delete ``path`` (if it exists) when the staged files are published."""
+        self.removals.append(Path(path))
+
+    @property
+    def finals(self) -> list[Path]:
+        return [final for _, final in self.staged]
+
+    def _makedirs(self, folder: Path) -> None:
+        missing = []
+        while not folder.exists():
+            missing.append(folder)
+            folder = folder.parent
+        for d in reversed(missing):
+            d.mkdir(exist_ok=True)
+            self.made_dirs.append(d)
+
+    def discard(self) -> None:
+        """Remove every temporary file and every folder made for them (now empty)."""
+        for tmp, _ in self.staged:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
+        for d in reversed(self.made_dirs):
+            with contextlib.suppress(OSError):
+                d.rmdir()
+
+    def publish(self) -> None:
+        """Move every staged file into place, then delete the scheduled removals.
+
+        Ctrl-C (SIGINT) is held back until all of them are done, so an interrupt
+        leaves either the previous outputs or the new ones, never a mixture.
+        """
+        with _sigint_deferred():
+            keep = {final.resolve() for final in self.finals}
+            for tmp, final in self.staged:
+                os.replace(tmp, final)
+            for old in self.removals:
+                if old.resolve() not in keep:
+                    with contextlib.suppress(FileNotFoundError):
+                        old.unlink()
+
+
+#: The publication in progress, joined by nested :func:`staged_outputs` calls.
+_ACTIVE: contextvars.ContextVar[Stage | None] = contextvars.ContextVar("dpdfit_stage",
+                                                                      default=None)
+
+
+@contextlib.contextmanager
+def staged_outputs() -> Iterator[Stage]:
+    """Stage several output files and publish them together.
+
+    Yields a :class:`Stage` ``stage``: ``stage(final_path) -> temp_path``; write
+    each output to the returned temporary path.  On normal exit every staged
+    file is moved to its final path (and ``stage.remove``-d files deleted);
+    on an exception, Ctrl-C included, all temporaries are removed and no final
+    path is touched.  Nested calls join the outermost one, so a command that
+    writes a table with one helper and figures with another publishes both
+    together, at the end.
+    """
+    outer = _ACTIVE.get()
+    if outer is not None:
+        yield outer
+        return
+    stage = Stage()
+    token = _ACTIVE.set(stage)
     try:
         yield stage
     except BaseException:
-        for tmp, _ in staged:
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
+        stage.discard()
         raise
-    for tmp, final in staged:
-        os.replace(tmp, final)
+    finally:
+        _ACTIVE.reset(token)
+    stage.publish()
+
+
+def _new_file_mode() -> int:
+    """The mode a new file gets under the current umask (``0o666 & ~umask``)."""
+    mask = os.umask(0)  # there is no way to read the umask without setting it
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+@contextlib.contextmanager
+def _sigint_deferred():
+    """Hold back SIGINT (Ctrl-C) while the block runs; raise it after (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is None:  # a handler not installed from Python: leave it alone
+        yield
+        return
+    signal.signal(signal.SIGINT, lambda *a: caught.append(a))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
