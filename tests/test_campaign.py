@@ -173,3 +173,22 @@ def test_analyze_text_in_spectra_amplitude_with_traces_present(small_campaign, t
     s = json.loads((out / "summary.json").read_text())
     assert s["analyses"]["spectra"]["status"] == "failed"
     assert s["analyses"]["traces"]["status"] == "ok"
+
+
+def test_analyze_rerun_clears_what_the_previous_run_wrote(small_campaign, tmp_path):
+    """A rerun into a used results folder: the old spectra tables go when spectra are skipped."""
+    out = tmp_path / "res"
+    analyze(small_campaign, out, plots=False, diagnosis=False)
+    assert (out / "spectra_measured.csv").exists() and (out / "traces_check.csv").exists()
+    (out / "my_notes.txt").write_text("kept")
+    camp = tmp_path / "camp"
+    shutil.copytree(small_campaign, camp)
+    (camp / "spectra.csv").unlink()
+    (camp / "traces.csv").unlink()
+    s = analyze(camp, out, plots=False, diagnosis=False)
+    assert s["analyses"]["spectra"]["status"] == "skipped"
+    assert not (out / "spectra_measured.csv").exists()
+    assert not (out / "traces_check.csv").exists()
+    assert (out / "my_notes.txt").read_text() == "kept"
+    written = json.loads((out / "summary.json").read_text())["outputs"]
+    assert sorted(p.name for p in out.iterdir() if p.name != "my_notes.txt") == sorted(written)
