@@ -3,8 +3,9 @@
 Every CSV that enters dpdfit passes through :func:`read_table`, which checks
 it once and completely, so that the fitting code never sees a malformed value.
 A problem is reported as one :class:`~dpdfit.errors.InputError` line naming the
-file, the column and the data row (row 1 is the first line after the header,
-i.e. line 2 of the file).
+file, the column and the data row (row 1 is the first line after the header;
+``#`` comment lines and blank lines are not counted) and, through
+:class:`~dpdfit.errors.InputError`, the file's line number of that row.
 
 Calibration files
 -----------------
