@@ -34,6 +34,9 @@ class Calibration(Displayable):
     phase: PhaseCalibration | None = None
     created: str = field(default_factory=lambda: _dt.datetime.now(_dt.timezone.utc)
                          .isoformat(timespec="seconds"))
+    #: The ``calibration.json`` it was read from (:func:`load_calibration`), for messages;
+    #: not written by :meth:`to_dict`.
+    file: str | None = field(default=None, compare=False)
 
     @property
     def A_corr(self) -> float:
@@ -64,10 +67,10 @@ class Calibration(Displayable):
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Calibration":
+    def from_dict(cls, d: dict, file: str | None = None) -> "Calibration":
         amp = AmplitudeCalibration.from_dict(d["amplitude"])
         ph = PhaseCalibration.from_dict(d["phase"]) if d.get("phase") else None
-        return cls(amplitude=amp, phase=ph, created=d.get("created", ""))
+        return cls(amplitude=amp, phase=ph, created=d.get("created", ""), file=file)
 
     def report(self) -> str:
         parts = [self.amplitude.report()]
@@ -88,7 +91,7 @@ def load_calibration(path: str | os.PathLike) -> Calibration:
         raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
     check_calibration_dict(d, name)
     try:
-        return Calibration.from_dict(d)
+        return Calibration.from_dict(d, file=name)
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"not a dpdfit calibration file (missing or bad key: {exc})",
                          file=name) from None
