@@ -92,7 +92,7 @@ def _order_range(spec: str):
 def _amplitude_runs(args) -> list[dict]:
     """Fit every amplitude run of ``--amplitude``; print one line per run."""
     amp_df = read_table(args.amplitude, ["A", "power"], ["power_err", "run", "timestamp"],
-                        ranges={"A": (0, 1)}, positive=["power_err"])
+                        ranges={"A": (0, 1)}, positive=["power_err"], distinct_rows=True)
     out = []
     print(f"{'run':>12s}  {'timestamp':25s}  {'A_corr':>10s}  {'stderr':>9s}  monotone  red.chi2")
     for r in list_runs(amp_df) or [None]:
@@ -112,7 +112,7 @@ def _amplitude_runs(args) -> list[dict]:
 def _phase_runs(args) -> list[dict]:
     """Fit every phase run of ``--phase``; print one line per run."""
     ph_df = read_table(args.phase, ["A", "phase_rad"], ["phase_err", "run", "timestamp"],
-                       ranges={"A": (0, 1)}, positive=["phase_err"])
+                       ranges={"A": (0, 1)}, positive=["phase_err"], distinct_rows=True)
     out = []
     print(f"{'phase run':>12s}  {'timestamp':25s}  {'phi(1)':>10s}  {'stderr':>9s}")
     for r in list_runs(ph_df) or [None]:

@@ -31,10 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from dpdfit.errors import InputError
+from dpdfit.errors import InputError, data_line
 
 __all__ = ["read_table", "CalibrationData", "read_calibration", "select_run",
-           "list_runs", "check_duplicates"]
+           "list_runs", "check_duplicates", "check_repeated_rows"]
 
 
 def _row(index: int) -> int:
@@ -45,7 +45,8 @@ def _row(index: int) -> int:
 def read_table(path: str | os.PathLike, required: list[str],
                optional: list[str] = (), *, numeric: list[str] | None = None,
                ranges: dict[str, tuple[float, float]] | None = None,
-               positive: list[str] = (), unique: list[str] = ()) -> pd.DataFrame:
+               positive: list[str] = (), unique: list[str] = (),
+               distinct_rows: bool = False) -> pd.DataFrame:
     """Read and validate a CSV file.
 
     Parameters
@@ -65,6 +66,9 @@ def read_table(path: str | os.PathLike, required: list[str],
         Columns whose values must be strictly positive (uncertainties).
     unique : list of str
         Key columns: no two rows may hold the same combination of their values.
+    distinct_rows : bool
+        Refuse a row identical in every column to an earlier one (a line
+        pasted twice); see :func:`check_repeated_rows`.
 
     Returns
     -------
@@ -91,6 +95,8 @@ def read_table(path: str | os.PathLike, required: list[str],
             _check_positive(out[col], name, col)
     if unique:
         _check_unique_keys(out, list(unique), name)
+    if distinct_rows:
+        check_repeated_rows(out, name)
     if "run" in out.columns:
         out["run"] = _run_labels(out["run"], name)
     if "timestamp" in out.columns:
@@ -169,6 +175,26 @@ def _check_unique_keys(df: pd.DataFrame, keys: list[str], name: str) -> None:
         label = ", ".join(f"{k}={_plain(df[k].iloc[i])}" for k in keys)
         raise InputError(f"{label} repeats row {_row(first)}: a duplicated line?",
                          file=name, column=keys[-1], row=_row(i))
+
+
+def check_repeated_rows(df: pd.DataFrame, name: str) -> None:
+    """Refuse a row equal in every column to an earlier row: a line pasted twice.
+
+    Only exact copies are refused (numbers compared as numbers, so ``0.5`` and
+    ``0.50`` are equal); repeated ``A`` values with different readings are
+    legitimate repeated measurements and pass.  ``df``'s positions are the
+    data rows of file ``name`` (as :func:`read_table` returns them).
+    """
+    dup = df.duplicated(keep="first").to_numpy()
+    if not dup.any():
+        return
+    j = int(np.flatnonzero(dup)[0])
+    same = (df == df.iloc[j]).all(axis=1).to_numpy()
+    i = int(np.flatnonzero(same)[0])
+    line = data_line(name, _row(i))
+    first = f"row {_row(i)}" + (f" (line {line})" if line is not None else "")
+    raise InputError(f"repeats {first} in every column: a line pasted twice?", file=name,
+                     row=_row(j))
 
 
 def _plain(value) -> str:
@@ -330,7 +356,7 @@ def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
     value_col, err_col = {"amplitude": ("power", "power_err"),
                           "phase": ("phase_rad", "phase_err")}[kind]
     df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
-                    ranges={"A": (0.0, 1.0)}, positive=[err_col])
+                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
     sub, label = select_run(df, run)
     rows = sub.index.to_numpy() + 1
     ts = None
