@@ -13,6 +13,7 @@ here so that they are written once.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 
@@ -23,11 +24,19 @@ from dpdfit.errors import InputError
 
 from .tables import read_table
 
-__all__ = ["PHASE_GRID_RAD", "read_populations", "read_parity", "check_counts", "grid_keys",
+__all__ = ["PHASE_GRID_RAD", "DEGREES_SPAN_RAD", "read_populations", "read_parity", "check_counts", "grid_keys",
            "fringe_points", "setting_label"]
 
 #: Phase grid (rad) on which repeated parity scans are compared and merged (S7.4).
 PHASE_GRID_RAD = 0.01
+#: A scan whose analysis phases span more than this (rad) looks like degrees: a fringe
+#: (period pi in phi) is fully sampled by a span of pi, a scan over one 2*pi turn of the
+#: analysis pulse's phase is the usual design, and twice that (4*pi, four fringe periods)
+#: leaves room for over-scanned radian scans; a degree scan of even a quarter fringe
+#: (45 deg) already spans 45 > 4*pi = 12.6.
+DEGREES_SPAN_RAD = 4 * math.pi
+
+log = logging.getLogger(__name__)
 
 
 def setting_label(A, dpd) -> str:
@@ -224,6 +233,19 @@ def _check_fringe_design(df, grid, file):
                 column="phase_rad", row=int(g.index[0]) + 1)
 
 
+def _warn_degrees(df, file) -> None:
+    """Log a warning when a scan's phases span more than :data:`DEGREES_SPAN_RAD`."""
+    phases = df.groupby(["A", "dpd", "scan"], sort=False)["phase_rad"]
+    span = phases.max() - phases.min()
+    if span.empty or not span.max() > DEGREES_SPAN_RAD:
+        return
+    (A, dpd, scan), widest = span.idxmax(), float(span.max())
+    log.warning("%s, column 'phase_rad': the phases of setting %s, scan %s span %g, more than "
+                "4*pi = %.4g: they look like degrees (radians expected; convert with "
+                "phase_rad = phase_deg * pi / 180)", file, setting_label(A, dpd), scan, widest,
+                DEGREES_SPAN_RAD)
+
+
 def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.DataFrame:
     """Read and validate a parity-fringe file ``A, dpd, scan, phase_rad, n_even, shots``.
 
@@ -250,6 +272,7 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
     check_counts(df, ["n_even", "shots"], name)
     _check_phase_duplicates(df, grid, name)
     _check_fringe_design(df, grid, name)
+    _warn_degrees(df, name)
     if not float(grid) > 0:                       # as merge_parity requires
         raise InputError(f"phase grid {float(grid):g} must be > 0")
     df.attrs["source"] = name
