@@ -188,7 +188,8 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, 
     """
     folder = Path(folder)
     if not folder.is_dir():
-        raise InputError("campaign folder not found", file=str(folder))
+        raise InputError("is a file, not a campaign folder" if folder.is_file()
+                         else "campaign folder not found", file=str(folder))
     tmp = None
     if outdir is not None:
         figdir = Path(outdir) / "figures"

@@ -34,7 +34,7 @@ import pandas as pd
 from dpdfit.errors import InputError, data_line
 
 __all__ = ["read_table", "CalibrationData", "read_calibration", "select_run",
-           "list_runs", "check_duplicates", "check_repeated_rows"]
+           "list_runs", "check_duplicates", "check_repeated_rows", "require_file"]
 
 
 def _row(index: int) -> int:
@@ -105,15 +105,28 @@ def read_table(path: str | os.PathLike, required: list[str],
     return out
 
 
-def _read_csv(path, name: str) -> pd.DataFrame:
-    """The file as a table of strings (InputError when absent, empty or not a CSV)."""
+def require_file(path: str | os.PathLike) -> str:
+    """``str(path)``, or InputError naming it: not found, a directory, not readable."""
+    name = str(path)
     if not os.path.exists(path):
         raise InputError("file not found", file=name)
+    if os.path.isdir(path):
+        raise InputError("is a directory, not a file", file=name)
+    if not os.access(path, os.R_OK):
+        raise InputError("file is not readable (permission denied)", file=name)
+    return name
+
+
+def _read_csv(path, name: str) -> pd.DataFrame:
+    """The file as a table of strings (InputError when absent, empty or not a CSV)."""
+    require_file(path)
     try:
         df = pd.read_csv(path, comment="#", skipinitialspace=True, dtype=str,
                          keep_default_na=False)
     except pd.errors.EmptyDataError:
         raise InputError("file is empty (no header, no data)", file=name) from None
+    except OSError as exc:
+        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
         raise InputError(f"not a readable CSV file ({msg})", file=name) from None

@@ -18,6 +18,7 @@ from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
 from dpdfit.fits.calibration.phase import PhaseCalibration
+from dpdfit.recordings.tables import require_file
 
 __all__ = ["Calibration", "load_calibration", "check_calibration_dict"]
 
@@ -81,14 +82,16 @@ class Calibration(Displayable):
 
 def load_calibration(path: str | os.PathLike) -> Calibration:
     """Read a ``calibration.json`` written by ``dpdfit calibrate``."""
-    name = str(path)
-    if not os.path.exists(path):
-        raise InputError("file not found", file=name)
+    name = require_file(path)
     try:
-        with open(path) as fh:
+        with open(path, encoding="utf-8") as fh:
             d = json.load(fh)
     except json.JSONDecodeError as exc:
         raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
+    except UnicodeDecodeError:
+        raise InputError("not a text (UTF-8 JSON) file", file=name) from None
+    except OSError as exc:
+        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
     check_calibration_dict(d, name)
     try:
         return Calibration.from_dict(d, file=name)
