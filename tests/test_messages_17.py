@@ -317,3 +317,12 @@ def test_load_calibration_with_a_missing_key_names_file_and_key(tmp_path):
         dpdfit.load_calibration(p)
     assert exc.value.file == str(p)
 
+
+
+def test_align_names_the_gate_row_outside_the_sweep(made, tmp_path, capsys):
+    narrow = tmp_path / "narrow.csv"
+    assert main(["sweep", str(made["cal"]), "-o", str(narrow), "--amplitudes", "0.5:1:11"]) == 0
+    capsys.readouterr()
+    _bad(capsys, ["align", "--gate", made["gate"], "--sweep", narrow],
+         [str(made["gate"]), "column 'A', row 1", "A=0.4 is outside the sweep's range [0.5, 1]",
+          "(line 2)"], [made["gate"], narrow])

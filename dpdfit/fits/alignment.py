@@ -194,9 +194,12 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
             continue
         lo, hi = cv[d]["range"]
         A = g.loc[m, "A"].to_numpy()
-        if np.any((A < lo) | (A > hi)):
-            raise InputError(f"measured amplitudes outside the sweep's range [{lo:g}, {hi:g}] "
-                             f"for dpd={d}")
+        out = (A < lo) | (A > hi)
+        if np.any(out):
+            i = int(np.flatnonzero(m)[np.flatnonzero(out)[0]])
+            raise InputError(f"measured amplitude A={A[out][0]:g} is outside the sweep's range "
+                             f"[{lo:g}, {hi:g}] for dpd={d}", file=gate.attrs.get("source"),
+                             column="A", row=i + 1)
         r[m], Fpd[m], eta[m] = cv[d]["r_rel"](A), cv[d]["F_est"](A), cv[d]["eta_bar"](A)
     xi, sx = g["xi0_khz"].to_numpy(), g["xi0_err_khz"].to_numpy()
     F, sF = g["F"].to_numpy(), g["F_err"].to_numpy()

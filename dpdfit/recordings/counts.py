@@ -24,8 +24,8 @@ from dpdfit.errors import InputError
 
 from .tables import read_table
 
-__all__ = ["PHASE_GRID_RAD", "DEGREES_SPAN_RAD", "read_populations", "read_parity", "check_counts", "grid_keys",
-           "fringe_points", "setting_label"]
+__all__ = ["PHASE_GRID_RAD", "DEGREES_SPAN_RAD", "read_populations", "read_parity",
+           "check_counts", "grid_keys", "fringe_points", "setting_label"]
 
 #: Phase grid (rad) on which repeated parity scans are compared and merged (S7.4).
 PHASE_GRID_RAD = 0.01
@@ -256,7 +256,9 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
     ``phi`` and ``phi + pi`` measure the same fringe point), or with all its
     phases on one fringe axis (equal modulo pi/2).  Scans whose phases jitter
     around a common set are accepted (see
-    :func:`dpdfit.fits.counts.merge_parity`).
+    :func:`dpdfit.fits.counts.merge_parity`).  Phases spanning more than
+    :data:`DEGREES_SPAN_RAD` in one scan are logged as a warning (they look
+    like degrees; radians are expected).
 
     Returns
     -------
