@@ -170,8 +170,11 @@ def test_align_and_budget_refuse_a_line_pasted_twice(made, tmp_path, capsys):
     _bad(capsys, ["align", "--gate", g, "--sweep", made["sweep"]],
          [str(g), "row 3", "repeats row 2", "duplicated line"], [g])
     s = _with_line_repeated(made["sweep"], tmp_path / "sweep.csv", 6)
+    l6, l7 = data_line(s, 6), data_line(s, 7)      # sweep.csv starts with '#' header lines
+    text = s.read_text().splitlines()
+    assert l7 == l6 + 1 and l6 > 7 and text[l6 - 1] == text[l7 - 1]
     _bad(capsys, ["align", "--gate", made["gate"], "--sweep", s],
-         [str(s), "row 7", "repeats row 6", "duplicated line"], [s])
+         [str(s), "row 7", f"repeats row 6 (line {l6})", "duplicated line", f"(line {l7})"], [s])
     r = _with_line_repeated(CAMP / "gate_rates.csv", tmp_path / "rates.csv", 1)
     _bad(capsys, ["budget", "--gate-rates", r],
          [str(r), "row 2", "repeats row 1", "duplicated line"], [r])

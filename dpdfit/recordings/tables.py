@@ -186,7 +186,7 @@ def _check_unique_keys(df: pd.DataFrame, keys: list[str], name: str) -> None:
         first = int(np.flatnonzero(
             (df[keys] == df[keys].iloc[i]).all(axis=1).to_numpy())[0])
         label = ", ".join(f"{k}={_plain(df[k].iloc[i])}" for k in keys)
-        raise InputError(f"{label} repeats row {_row(first)}: a duplicated line?",
+        raise InputError(f"{label} repeats {_row_ref(name, first)}: a duplicated line?",
                          file=name, column=keys[-1], row=_row(i))
 
 
@@ -204,10 +204,14 @@ def check_repeated_rows(df: pd.DataFrame, name: str) -> None:
     j = int(np.flatnonzero(dup)[0])
     same = (df == df.iloc[j]).all(axis=1).to_numpy()
     i = int(np.flatnonzero(same)[0])
-    line = data_line(name, _row(i))
-    first = f"row {_row(i)}" + (f" (line {line})" if line is not None else "")
-    raise InputError(f"repeats {first} in every column: a line pasted twice?", file=name,
-                     row=_row(j))
+    raise InputError(f"repeats {_row_ref(name, i)} in every column: a line pasted twice?",
+                     file=name, row=_row(j))
+
+
+def _row_ref(name: str, index: int) -> str:
+    """``"row 3 (line 5)"``: another row named in a message, with its line when known."""
+    line = data_line(name, _row(index))
+    return f"row {_row(index)}" + (f" (line {line})" if line is not None else "")
 
 
 def _plain(value) -> str:
