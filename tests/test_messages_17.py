@@ -329,3 +329,13 @@ def test_align_names_the_gate_row_outside_the_sweep(made, tmp_path, capsys):
     _bad(capsys, ["align", "--gate", made["gate"], "--sweep", narrow],
          [str(made["gate"]), "column 'A', row 1", "A=0.4 is outside the sweep's range [0.5, 1]",
           "(line 2)"], [made["gate"], narrow])
+
+
+def test_campaign_folder_refuses_a_calibration_line_pasted_twice(tmp_path):
+    from dpdfit.recordings.campaign_folder import CampaignFolder
+    camp = tmp_path / "camp"
+    camp.mkdir()
+    (camp / "campaign.json").write_text((CAMP / "campaign.json").read_text())
+    _with_line_repeated(CAMP / "calibration_amplitude.csv", camp / "calibration_amplitude.csv", 3)
+    with pytest.raises(InputError, match="row 4: repeats row 3 .*in every column"):
+        CampaignFolder(camp).amplitude_runs

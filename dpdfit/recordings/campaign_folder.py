@@ -147,7 +147,7 @@ class CampaignFolder:
         """Every amplitude calibration run (validated table)."""
         return read_table(self.require("calibration_amplitude.csv", "the calibration"),
                           ["A", "power"], ["power_err", "run", "timestamp"],
-                          ranges={"A": (0, 1)}, positive=["power_err"])
+                          ranges={"A": (0, 1)}, positive=["power_err"], distinct_rows=True)
 
     @functools.cached_property
     def amplitude_model(self) -> CalibrationData:
@@ -162,7 +162,7 @@ class CampaignFolder:
             return None
         return read_table(self.file("calibration_phase.csv"), ["A", "phase_rad"],
                           ["phase_err", "run", "timestamp"], ranges={"A": (0, 1)},
-                          positive=["phase_err"])
+                          positive=["phase_err"], distinct_rows=True)
 
     @functools.cached_property
     def phase_model(self) -> CalibrationData | None:
