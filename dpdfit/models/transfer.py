@@ -67,7 +67,7 @@ class TransferFunction:
     am_coefficients: tuple
     pm_powers: tuple = ()
     pm_coefficients: tuple = ()
-    source: str | None = field(default=None, compare=False)
+    source: str | None = field(default=None, compare=False, repr=False)
     _branch_top: tuple | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
