@@ -339,3 +339,16 @@ def test_campaign_folder_refuses_a_calibration_line_pasted_twice(tmp_path):
     _with_line_repeated(CAMP / "calibration_amplitude.csv", camp / "calibration_amplitude.csv", 3)
     with pytest.raises(InputError, match="row 4: repeats row 3 .*in every column"):
         CampaignFolder(camp).amplitude_runs
+
+
+def test_count_files_name_the_lines_of_both_repeated_rows(tmp_path):
+    par = _with_line_repeated(CAMP / "parity.csv", tmp_path / "parity.csv", 2)
+    with pytest.raises(InputError) as exc:
+        read_parity(par)
+    assert exc.value.row == 3 and exc.value.line == data_line(par, 3)
+    assert f"rows 2, 3 (lines {data_line(par, 2)}, {data_line(par, 3)})" in str(exc.value)
+    text = par.read_text().splitlines()
+    assert text[data_line(par, 2) - 1] == text[data_line(par, 3) - 1]
+    pop = _with_line_repeated(CAMP / "populations.csv", tmp_path / "populations.csv", 2)
+    with pytest.raises(InputError, match=r"rows 2, 3 \(lines \d+, \d+\)"):
+        dpdfit.read_populations(pop)

@@ -20,7 +20,7 @@ import os
 import numpy as np
 import pandas as pd
 
-from dpdfit.errors import InputError
+from dpdfit.errors import InputError, data_line
 
 from .tables import read_table
 
@@ -124,9 +124,18 @@ def _check_unique(df, keys, file, what):
         first = df.iloc[idx[0]]
         same = [int(i) + 1 for i in idx if all(df.iloc[i][k] == first[k] for k in keys)]
         label = ", ".join(f"{k}={first[k]}" for k in keys)
-        raise InputError(f"{what} {label} appears in more than one row (rows "
-                         f"{', '.join(map(str, same[:6]))}): a duplicated line?",
+        raise InputError(f"{what} {label} appears in more than one row "
+                         f"({_rows_text(file, same[:6])}): a duplicated line?",
                          file=file, column=keys[-1], row=same[1])
+
+
+def _rows_text(file, rows) -> str:
+    """``"rows 2, 5 (lines 4, 7)"``: data rows named in a message, with their file lines."""
+    lines = [data_line(file, r) for r in rows] if file is not None else [None]
+    text = f"rows {', '.join(map(str, rows))}"
+    if None in lines:
+        return text
+    return text + f" (lines {', '.join(map(str, lines))})"
 
 
 def _header(path) -> list[str]:
@@ -210,8 +219,8 @@ def _check_phase_duplicates(df, grid, file):
                 if (df["A"].iloc[i], df["dpd"].iloc[i], df["scan"].iloc[i], key.iloc[i]) == ref]
         raise InputError(
             f"setting {setting_label(ref[0], ref[1])}, scan {ref[2]}: phase "
-            f"{df['phase_rad'].iloc[idx[0]]:.6g} rad appears twice (rows {same[0]} and "
-            f"{same[1]}, same {grid:g}-rad grid point): a duplicated line?", file=file,
+            f"{df['phase_rad'].iloc[idx[0]]:.6g} rad appears twice ({_rows_text(file, same[:2])}"
+            f", same {grid:g}-rad grid point): a duplicated line?", file=file,
             column="phase_rad", row=same[1])
 
 
