@@ -3,11 +3,70 @@
 Every error a user can trigger with bad input is a :class:`DpdfitError`; its
 message is one line that says what is wrong and where (file, column, row).
 The command line prints that line and exits with a non-zero status.
+
+Rows are data rows: row 1 is the first line after the CSV header, not counting
+``#`` comment lines and blank lines (which the readers skip).  When the file is
+a text table on disk, the message also gives the line of the file that holds
+the row, ``(line N)``, so that an editor can jump there (:func:`data_line`).
 """
 
 from __future__ import annotations
 
-__all__ = ["DpdfitError", "InputError", "FitError", "NotInvertibleError"]
+import os
+
+__all__ = ["DpdfitError", "InputError", "FitError", "NotInvertibleError", "data_line"]
+
+#: Files larger than this are not scanned for a row's line number (the message keeps the row).
+_MAX_SCAN_BYTES = 200_000_000
+
+
+def _skipped(line: str) -> bool:
+    """A line the CSV readers skip: a ``#`` comment at column 1, or blank (spaces only)."""
+    return line.startswith("#") or not line.strip()
+
+
+def _is_number_line(line: str) -> bool:
+    """All comma-separated fields are numbers: a headerless table's first data line."""
+    try:
+        for field in line.split("#", 1)[0].split(","):
+            float(field)
+    except ValueError:
+        return False
+    return True
+
+
+def data_line(path, row: int) -> int | None:
+    """The 1-based line of text file ``path`` that holds data row ``row`` (or None).
+
+    Counts lines as the CSV readers do (``pandas.read_csv(comment="#")``):
+    lines starting with ``#`` and blank lines are skipped, the first remaining
+    line is the header unless all its fields are numbers (a headerless trace).
+    None when ``path`` is not a readable text file or has fewer rows.
+    """
+    try:
+        row = int(row)
+        if row < 1 or not os.path.isfile(path) or os.path.getsize(path) > _MAX_SCAN_BYTES:
+            return None
+        with open(path, "rb") as fh:
+            if b"\0" in fh.read(4096):
+                return None          # binary (.npy, .npz): rows are sample indices
+        n, header = 0, None
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            for lineno, line in enumerate(fh, 1):
+                if lineno == 1:
+                    line = line.lstrip("\ufeff")
+                if _skipped(line):
+                    continue
+                if header is None:
+                    header = not _is_number_line(line)
+                    if header:
+                        continue
+                n += 1
+                if n == row:
+                    return lineno
+    except (OSError, ValueError, TypeError):
+        return None
+    return None
 
 
 class DpdfitError(ValueError):
@@ -23,12 +82,17 @@ class InputError(DpdfitError):
         What is wrong.
     file, column : str, optional
         Where. ``row`` is the 1-based data row (row 1 is the first line after
-        the CSV header, i.e. line 2 of the file).
+        the CSV header; ``#`` comment lines and blank lines are not counted).
+        When ``file`` is a text file on disk the message ends with the file's
+        line number of that row, ``(line N)``; it is also the attribute ``line``.
     """
 
     def __init__(self, message: str, *, file: str | None = None,
                  column: str | None = None, row: int | None = None):
         self.file, self.column, self.row = file, column, row
+        self.line = None if file is None or row is None else data_line(file, row)
+        if self.line is not None:
+            message = f"{message} (line {self.line})"
         where = []
         if file is not None:
             where.append(f"{file}")

@@ -19,7 +19,7 @@ import numpy as np
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.version import __version__
-from dpdfit.errors import DpdfitError, FitError, InputError
+from dpdfit.errors import DpdfitError, FitError, InputError, NotInvertibleError
 from dpdfit.fits.calibration import (Calibration, calibrate_amplitude, calibrate_phase,
                                      load_calibration)
 from dpdfit.fits.polyfit import parse_powers, polyfit
@@ -92,7 +92,7 @@ def _order_range(spec: str):
 def _amplitude_runs(args) -> list[dict]:
     """Fit every amplitude run of ``--amplitude``; print one line per run."""
     amp_df = read_table(args.amplitude, ["A", "power"], ["power_err", "run", "timestamp"],
-                        ranges={"A": (0, 1)}, positive=["power_err"])
+                        ranges={"A": (0, 1)}, positive=["power_err"], distinct_rows=True)
     out = []
     print(f"{'run':>12s}  {'timestamp':25s}  {'A_corr':>10s}  {'stderr':>9s}  monotone  red.chi2")
     for r in list_runs(amp_df) or [None]:
@@ -112,7 +112,7 @@ def _amplitude_runs(args) -> list[dict]:
 def _phase_runs(args) -> list[dict]:
     """Fit every phase run of ``--phase``; print one line per run."""
     ph_df = read_table(args.phase, ["A", "phase_rad"], ["phase_err", "run", "timestamp"],
-                       ranges={"A": (0, 1)}, positive=["phase_err"])
+                       ranges={"A": (0, 1)}, positive=["phase_err"], distinct_rows=True)
     out = []
     print(f"{'phase run':>12s}  {'timestamp':25s}  {'phi(1)':>10s}  {'stderr':>9s}")
     for r in list_runs(ph_df) or [None]:
@@ -137,6 +137,20 @@ def _all_runs(args) -> int:
     return 0
 
 
+def _check_invertible(amp, data) -> None:
+    """Refuse (before anything is written) a fit with no inverse on [0, A_corr].
+
+    A curve that rolls off after peaking above ``A_corr`` is invertible and kept
+    (``lut`` reports it, ``lut --strict`` refuses it); see the README.
+    """
+    where = str(data.source) + (f", run {data.run}" if data.run else "")
+    try:
+        TransferFunction(amp.powers, tuple(amp.coefficients), source=where).invertibility()
+    except NotInvertibleError as exc:
+        raise NotInvertibleError(f"{exc}; no predistortion table can be built from it, "
+                                 "nothing written", exc.amplitude) from None
+
+
 def cmd_calibrate(args) -> int:
     inputs = [args.amplitude] + ([args.phase] if args.phase else [])
     refuse_overwriting_inputs([args.output], inputs)
@@ -145,6 +159,7 @@ def cmd_calibrate(args) -> int:
     scan = _order_range(args.order_scan)
     amp_data = read_calibration(args.amplitude, "amplitude", args.run)
     amp = calibrate_amplitude(amp_data, args.order, order_scan=scan)
+    _check_invertible(amp, amp_data)
     ph_data = ph = None
     if args.phase:
         ph_data = read_calibration(args.phase, "phase", args.phase_run)

@@ -151,6 +151,16 @@ class AlignmentFit(ModelAdequacy, Displayable):
         return alignment_report(self, **kws)
 
 
+def _check_errors(g: pd.DataFrame, file) -> None:
+    """``xi0_err_khz >= 0`` and ``F_err > 0`` (InputError naming file, column, row)."""
+    for col, bad in (("xi0_err_khz", g["xi0_err_khz"] < 0), ("F_err", g["F_err"] <= 0)):
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            need = ">= 0" if col == "xi0_err_khz" else "> 0"
+            raise InputError(f"uncertainty {g[col].iloc[i]:g} must be {need}",
+                             file=file or "gate table", column=col, row=i + 1)
+
+
 def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> AlignmentFit:
     """Fit ``alpha`` and ``delta`` (see module docstring).
 
@@ -171,8 +181,7 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
     g["dpd"] = g["dpd"].astype(int)
     if len(g) < 2:
         raise FitError(f"alignment needs at least 2 measured points, got {len(g)}")
-    if (g["xi0_err_khz"] < 0).any() or (g["F_err"] <= 0).any():
-        raise InputError("xi0_err_khz must be >= 0 and F_err > 0")
+    _check_errors(g, gate.attrs.get("source"))
     if not np.isfinite(sigma_db) or sigma_db < 0:
         raise InputError(f"sigma_db must be a finite number >= 0, got {sigma_db}")
     cv = curves(sweep)
@@ -185,9 +194,12 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
             continue
         lo, hi = cv[d]["range"]
         A = g.loc[m, "A"].to_numpy()
-        if np.any((A < lo) | (A > hi)):
-            raise InputError(f"measured amplitudes outside the sweep's range [{lo:g}, {hi:g}] "
-                             f"for dpd={d}")
+        out = (A < lo) | (A > hi)
+        if np.any(out):
+            i = int(np.flatnonzero(m)[np.flatnonzero(out)[0]])
+            raise InputError(f"measured amplitude A={A[out][0]:g} is outside the sweep's range "
+                             f"[{lo:g}, {hi:g}] for dpd={d}", file=gate.attrs.get("source"),
+                             column="A", row=i + 1)
         r[m], Fpd[m], eta[m] = cv[d]["r_rel"](A), cv[d]["F_est"](A), cv[d]["eta_bar"](A)
     xi, sx = g["xi0_khz"].to_numpy(), g["xi0_err_khz"].to_numpy()
     F, sF = g["F"].to_numpy(), g["F_err"].to_numpy()
@@ -206,7 +218,11 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
     if not sol.success:
         raise FitError(f"alignment fit did not converge: {sol.message}")
     J = sol.jac
-    cov = np.linalg.inv(J.T @ J)
+    try:
+        cov = np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        raise FitError("alignment fit has a singular design (alpha and delta cannot both be "
+                       "determined from these points)") from None
     err = np.sqrt(np.diag(cov))
     chi2 = float(np.sum(sol.fun ** 2))
     dof = 2 * len(g) - 2

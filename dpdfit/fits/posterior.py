@@ -55,7 +55,7 @@ import numpy as np
 
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.core.display import Displayable
-from dpdfit.errors import DpdfitError, InputError
+from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.fits.calibration import AmplitudeCalibration, fit_amplitude
 from dpdfit.fits.draws import quantile_summary, read_only, shift_y1
 
@@ -273,7 +273,11 @@ def _run_chain(log_prob, mean, cov, n_walkers, n_steps, moves, rng, progress):
     import emcee
     from dpdfit.core.progress import progress_bar
     ndim = mean.size
-    L = np.linalg.cholesky(cov)
+    try:
+        L = np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        raise FitError("the least-squares covariance is not positive definite (a degenerate "
+                       "fit): no Laplace start for the sampler") from None
     p0 = mean + rng.standard_normal((n_walkers, ndim)) @ L.T
     p0[:, 0] = np.abs(p0[:, 0])
     if moves == "laplace":

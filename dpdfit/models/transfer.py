@@ -58,12 +58,16 @@ class TransferFunction:
         Normalised amplitude polynomial ``y(A) = sum a_k A^k`` (unit slope).
     pm_powers, pm_coefficients : sequence, optional
         Phase polynomial ``phi(A)`` in rad; absent means no AM-to-PM.
+    source : str, optional
+        Where the fit comes from (the calibration file, or the recorded CSV
+        and run); it starts the message of a :class:`NotInvertibleError`.
     """
 
     am_powers: tuple
     am_coefficients: tuple
     pm_powers: tuple = ()
     pm_coefficients: tuple = ()
+    source: str | None = field(default=None, compare=False, repr=False)
     _branch_top: tuple | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -74,11 +78,20 @@ class TransferFunction:
         object.__setattr__(self, "_branch_top", None)
 
     @classmethod
-    def from_calibration(cls, cal: Calibration) -> "TransferFunction":
+    def from_calibration(cls, cal: Calibration, source: str | None = None
+                         ) -> "TransferFunction":
+        """The transfer function of a calibration; ``source`` names it in messages
+        (default: the ``calibration.json`` it was loaded from, else the fitted CSV)."""
         ph = cal.phase
+        if source is None:
+            source = cal.file or cal.amplitude.source.get("file")
         return cls(cal.amplitude.powers, tuple(cal.amplitude.coefficients),
                    () if ph is None else ph.powers,
-                   () if ph is None else tuple(ph.coefficients))
+                   () if ph is None else tuple(ph.coefficients), source=source)
+
+    def _where(self) -> str:
+        """``"c.json: "``, the prefix of a message (empty without a source)."""
+        return f"{self.source}: " if self.source else ""
 
     # ------------------------------------------------------------------ forward
     @property
@@ -136,15 +149,15 @@ class TransferFunction:
         Ac = self.A_corr
         bad = nonmonotone_intervals(self.am_coefficients, self.am_powers)
         if Ac <= 0:
-            raise NotInvertibleError(f"fitted y(1) = {Ac:.6g} <= 0: the amplitude fit is not "
-                                     "a usable transfer function", 1.0)
+            raise NotInvertibleError(f"{self._where()}fitted y(1) = {Ac:.6g} <= 0: the "
+                                     "amplitude fit is not a usable transfer function", 1.0)
         if not bad:
             top = (1.0, [])
         else:
             a0 = bad[0][0]   # first amplitude where dy/dA turns negative
             if self.y(a0) < Ac:
                 raise NotInvertibleError(
-                    f"amplitude fit is not invertible on [0, A_corr={Ac:.6f}]: dy/dA <= 0 at "
+                    f"{self._where()}amplitude fit is not invertible on [0, A_corr={Ac:.6f}]: dy/dA <= 0 at "
                     f"A = {a0:.6f} (y has a local maximum {float(self.y(a0)):.6f} below A_corr; "
                     f"dy/dA < 0 on " + ", ".join(f"[{a:.4f}, {b:.4f}]" for a, b in bad) + ")",
                     a0)
@@ -176,7 +189,7 @@ class TransferFunction:
         if strict and rolloff:
             a0 = rolloff[0][0]
             raise NotInvertibleError(
-                f"amplitude fit is not monotone on [0, 1]: dy/dA <= 0 at A = {a0:.6f} "
+                f"{self._where()}amplitude fit is not monotone on [0, 1]: dy/dA <= 0 at A = {a0:.6f} "
                 f"(rolls off after its peak; strict inversion requested)", a0)
         t = np.asarray(target, dtype=float)
         mag = np.abs(t)

@@ -190,7 +190,8 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, 
     """
     folder = Path(folder)
     if not folder.is_dir():
-        raise InputError("campaign folder not found", file=str(folder))
+        raise InputError("is a file, not a campaign folder" if folder.is_file()
+                         else "campaign folder not found", file=str(folder))
     if outdir is not None:  # checked before any work, not after minutes of it
         check_output_folder(outdir, "results folder")
         if Path(outdir).resolve() == folder.resolve():

@@ -80,13 +80,18 @@ class CampaignFolder:
 
     def __init__(self, folder):
         self.path = Path(folder)
+        if self.path.is_file():
+            raise InputError("is a file, not a campaign folder", file=str(self.path))
         if not self.path.is_dir():
             raise InputError("campaign folder not found", file=str(self.path))
         p = self.path / "campaign.json"
         if not p.exists():
             raise InputError("not a campaign folder: campaign.json missing", file=str(self.path))
         try:
-            raw = json.loads(p.read_text())
+            raw = json.loads(p.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError) as exc:
+            why = getattr(exc, "strerror", None) or "not UTF-8 text"
+            raise InputError(f"campaign.json cannot be read ({why})", file=str(p)) from None
         except json.JSONDecodeError as exc:
             raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
                              file=str(p)) from None
@@ -142,7 +147,7 @@ class CampaignFolder:
         """Every amplitude calibration run (validated table)."""
         return read_table(self.require("calibration_amplitude.csv", "the calibration"),
                           ["A", "power"], ["power_err", "run", "timestamp"],
-                          ranges={"A": (0, 1)}, positive=["power_err"])
+                          ranges={"A": (0, 1)}, positive=["power_err"], distinct_rows=True)
 
     @functools.cached_property
     def amplitude_model(self) -> CalibrationData:
@@ -157,7 +162,7 @@ class CampaignFolder:
             return None
         return read_table(self.file("calibration_phase.csv"), ["A", "phase_rad"],
                           ["phase_err", "run", "timestamp"], ranges={"A": (0, 1)},
-                          positive=["phase_err"])
+                          positive=["phase_err"], distinct_rows=True)
 
     @functools.cached_property
     def phase_model(self) -> CalibrationData | None:

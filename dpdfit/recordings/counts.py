@@ -13,21 +13,30 @@ here so that they are written once.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 
 import numpy as np
 import pandas as pd
 
-from dpdfit.errors import InputError
+from dpdfit.errors import InputError, data_line
 
 from .tables import read_table
 
-__all__ = ["PHASE_GRID_RAD", "read_populations", "read_parity", "check_counts", "grid_keys",
-           "fringe_points", "setting_label"]
+__all__ = ["PHASE_GRID_RAD", "DEGREES_SPAN_RAD", "read_populations", "read_parity",
+           "check_counts", "grid_keys", "fringe_points", "setting_label"]
 
 #: Phase grid (rad) on which repeated parity scans are compared and merged (S7.4).
 PHASE_GRID_RAD = 0.01
+#: A scan whose analysis phases span more than this (rad) looks like degrees: a fringe
+#: (period pi in phi) is fully sampled by a span of pi, a scan over one 2*pi turn of the
+#: analysis pulse's phase is the usual design, and twice that (4*pi, four fringe periods)
+#: leaves room for over-scanned radian scans; a degree scan of even a quarter fringe
+#: (45 deg) already spans 45 > 4*pi = 12.6.
+DEGREES_SPAN_RAD = 4 * math.pi
+
+log = logging.getLogger(__name__)
 
 
 def setting_label(A, dpd) -> str:
@@ -115,9 +124,18 @@ def _check_unique(df, keys, file, what):
         first = df.iloc[idx[0]]
         same = [int(i) + 1 for i in idx if all(df.iloc[i][k] == first[k] for k in keys)]
         label = ", ".join(f"{k}={first[k]}" for k in keys)
-        raise InputError(f"{what} {label} appears in more than one row (rows "
-                         f"{', '.join(map(str, same[:6]))}): a duplicated line?",
+        raise InputError(f"{what} {label} appears in more than one row "
+                         f"({_rows_text(file, same[:6])}): a duplicated line?",
                          file=file, column=keys[-1], row=same[1])
+
+
+def _rows_text(file, rows) -> str:
+    """``"rows 2, 5 (lines 4, 7)"``: data rows named in a message, with their file lines."""
+    lines = [data_line(file, r) for r in rows] if file is not None else [None]
+    text = f"rows {', '.join(map(str, rows))}"
+    if None in lines:
+        return text
+    return text + f" (lines {', '.join(map(str, lines))})"
 
 
 def _header(path) -> list[str]:
@@ -201,8 +219,8 @@ def _check_phase_duplicates(df, grid, file):
                 if (df["A"].iloc[i], df["dpd"].iloc[i], df["scan"].iloc[i], key.iloc[i]) == ref]
         raise InputError(
             f"setting {setting_label(ref[0], ref[1])}, scan {ref[2]}: phase "
-            f"{df['phase_rad'].iloc[idx[0]]:.6g} rad appears twice (rows {same[0]} and "
-            f"{same[1]}, same {grid:g}-rad grid point): a duplicated line?", file=file,
+            f"{df['phase_rad'].iloc[idx[0]]:.6g} rad appears twice ({_rows_text(file, same[:2])}"
+            f", same {grid:g}-rad grid point): a duplicated line?", file=file,
             column="phase_rad", row=same[1])
 
 
@@ -224,6 +242,19 @@ def _check_fringe_design(df, grid, file):
                 column="phase_rad", row=int(g.index[0]) + 1)
 
 
+def _warn_degrees(df, file) -> None:
+    """Log a warning when a scan's phases span more than :data:`DEGREES_SPAN_RAD`."""
+    phases = df.groupby(["A", "dpd", "scan"], sort=False)["phase_rad"]
+    span = phases.max() - phases.min()
+    if span.empty or not span.max() > DEGREES_SPAN_RAD:
+        return
+    (A, dpd, scan), widest = span.idxmax(), float(span.max())
+    log.warning("%s, column 'phase_rad': the phases of setting %s, scan %s span %g, more than "
+                "4*pi = %.4g: they look like degrees (radians expected; convert with "
+                "phase_rad = phase_deg * pi / 180)", file, setting_label(A, dpd), scan, widest,
+                DEGREES_SPAN_RAD)
+
+
 def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.DataFrame:
     """Read and validate a parity-fringe file ``A, dpd, scan, phase_rad, n_even, shots``.
 
@@ -234,7 +265,9 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
     ``phi`` and ``phi + pi`` measure the same fringe point), or with all its
     phases on one fringe axis (equal modulo pi/2).  Scans whose phases jitter
     around a common set are accepted (see
-    :func:`dpdfit.fits.counts.merge_parity`).
+    :func:`dpdfit.fits.counts.merge_parity`).  Phases spanning more than
+    :data:`DEGREES_SPAN_RAD` in one scan are logged as a warning (they look
+    like degrees; radians are expected).
 
     Returns
     -------
@@ -250,6 +283,7 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
     check_counts(df, ["n_even", "shots"], name)
     _check_phase_duplicates(df, grid, name)
     _check_fringe_design(df, grid, name)
+    _warn_degrees(df, name)
     if not float(grid) > 0:                       # as merge_parity requires
         raise InputError(f"phase grid {float(grid):g} must be > 0")
     df.attrs["source"] = name

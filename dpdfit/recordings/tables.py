@@ -3,8 +3,9 @@
 Every CSV that enters dpdfit passes through :func:`read_table`, which checks
 it once and completely, so that the fitting code never sees a malformed value.
 A problem is reported as one :class:`~dpdfit.errors.InputError` line naming the
-file, the column and the data row (row 1 is the first line after the header,
-i.e. line 2 of the file).
+file, the column and the data row (row 1 is the first line after the header;
+``#`` comment lines and blank lines are not counted) and, through
+:class:`~dpdfit.errors.InputError`, the file's line number of that row.
 
 Calibration files
 -----------------
@@ -30,10 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from dpdfit.errors import InputError
+from dpdfit.errors import InputError, data_line
 
 __all__ = ["read_table", "CalibrationData", "read_calibration", "select_run",
-           "list_runs", "check_duplicates"]
+           "list_runs", "check_duplicates", "check_repeated_rows", "require_file"]
 
 
 def _row(index: int) -> int:
@@ -44,7 +45,8 @@ def _row(index: int) -> int:
 def read_table(path: str | os.PathLike, required: list[str],
                optional: list[str] = (), *, numeric: list[str] | None = None,
                ranges: dict[str, tuple[float, float]] | None = None,
-               positive: list[str] = (), unique: list[str] = ()) -> pd.DataFrame:
+               positive: list[str] = (), unique: list[str] = (),
+               distinct_rows: bool = False) -> pd.DataFrame:
     """Read and validate a CSV file.
 
     Parameters
@@ -64,6 +66,9 @@ def read_table(path: str | os.PathLike, required: list[str],
         Columns whose values must be strictly positive (uncertainties).
     unique : list of str
         Key columns: no two rows may hold the same combination of their values.
+    distinct_rows : bool
+        Refuse a row identical in every column to an earlier one (a line
+        pasted twice); see :func:`check_repeated_rows`.
 
     Returns
     -------
@@ -90,6 +95,8 @@ def read_table(path: str | os.PathLike, required: list[str],
             _check_positive(out[col], name, col)
     if unique:
         _check_unique_keys(out, list(unique), name)
+    if distinct_rows:
+        check_repeated_rows(out, name)
     if "run" in out.columns:
         out["run"] = _run_labels(out["run"], name)
     if "timestamp" in out.columns:
@@ -98,15 +105,28 @@ def read_table(path: str | os.PathLike, required: list[str],
     return out
 
 
-def _read_csv(path, name: str) -> pd.DataFrame:
-    """The file as a table of strings (InputError when absent, empty or not a CSV)."""
+def require_file(path: str | os.PathLike) -> str:
+    """``str(path)``, or InputError naming it: not found, a directory, not readable."""
+    name = str(path)
     if not os.path.exists(path):
         raise InputError("file not found", file=name)
+    if os.path.isdir(path):
+        raise InputError("is a directory, not a file", file=name)
+    if not os.access(path, os.R_OK):
+        raise InputError("file is not readable (permission denied)", file=name)
+    return name
+
+
+def _read_csv(path, name: str) -> pd.DataFrame:
+    """The file as a table of strings (InputError when absent, empty or not a CSV)."""
+    require_file(path)
     try:
         df = pd.read_csv(path, comment="#", skipinitialspace=True, dtype=str,
                          keep_default_na=False)
     except pd.errors.EmptyDataError:
         raise InputError("file is empty (no header, no data)", file=name) from None
+    except OSError as exc:
+        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
         raise InputError(f"not a readable CSV file ({msg})", file=name) from None
@@ -166,8 +186,32 @@ def _check_unique_keys(df: pd.DataFrame, keys: list[str], name: str) -> None:
         first = int(np.flatnonzero(
             (df[keys] == df[keys].iloc[i]).all(axis=1).to_numpy())[0])
         label = ", ".join(f"{k}={_plain(df[k].iloc[i])}" for k in keys)
-        raise InputError(f"{label} repeats row {_row(first)}: a duplicated line?",
+        raise InputError(f"{label} repeats {_row_ref(name, first)}: a duplicated line?",
                          file=name, column=keys[-1], row=_row(i))
+
+
+def check_repeated_rows(df: pd.DataFrame, name: str) -> None:
+    """Refuse a row equal in every column to an earlier row: a line pasted twice.
+
+    Only exact copies are refused (numbers compared as numbers, so ``0.5`` and
+    ``0.50`` are equal); repeated ``A`` values with different readings are
+    legitimate repeated measurements and pass.  ``df``'s positions are the
+    data rows of file ``name`` (as :func:`read_table` returns them).
+    """
+    dup = df.duplicated(keep="first").to_numpy()
+    if not dup.any():
+        return
+    j = int(np.flatnonzero(dup)[0])
+    same = (df == df.iloc[j]).all(axis=1).to_numpy()
+    i = int(np.flatnonzero(same)[0])
+    raise InputError(f"repeats {_row_ref(name, i)} in every column: a line pasted twice?",
+                     file=name, row=_row(j))
+
+
+def _row_ref(name: str, index: int) -> str:
+    """``"row 3 (line 5)"``: another row named in a message, with its line when known."""
+    line = data_line(name, _row(index))
+    return f"row {_row(index)}" + (f" (line {line})" if line is not None else "")
 
 
 def _plain(value) -> str:
@@ -329,7 +373,7 @@ def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
     value_col, err_col = {"amplitude": ("power", "power_err"),
                           "phase": ("phase_rad", "phase_err")}[kind]
     df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
-                    ranges={"A": (0.0, 1.0)}, positive=[err_col])
+                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
     sub, label = select_run(df, run)
     rows = sub.index.to_numpy() + 1
     ts = None

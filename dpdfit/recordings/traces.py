@@ -17,6 +17,8 @@ import pandas as pd
 
 from dpdfit.errors import InputError
 
+from .tables import require_file
+
 __all__ = ["load_trace", "as_trace"]
 
 
@@ -73,6 +75,8 @@ def _load_csv(path: Path) -> np.ndarray:
     try:
         df = pd.read_csv(path, dtype=np.float64, **kw)
         col = None if header is None else str(df.columns[0]).strip()
+    except UnicodeDecodeError:
+        raise InputError("not a text (UTF-8 CSV) file", file=name) from None
     except (ValueError, pd.errors.ParserError) as exc:
         if isinstance(exc, pd.errors.ParserError):
             msg = str(exc).strip().splitlines()[-1]
@@ -148,9 +152,7 @@ def load_trace(path: str | os.PathLike) -> np.ndarray:
         the file and, for a value, the 1-based row / sample number).
     """
     p = Path(path)
-    name = str(path)
-    if not p.exists():
-        raise InputError("file not found", file=name)
+    name = require_file(path)
     ext = p.suffix.lower()
     if ext in (".csv", ".txt"):
         return _load_csv(p)

@@ -47,7 +47,7 @@ import tomllib
 from pathlib import Path
 
 from dpdfit.errors import InputError
-from dpdfit.recordings.tables import read_table
+from dpdfit.recordings.tables import read_table, require_file
 
 from .losses import DEPHASING_COEFFICIENT
 
@@ -148,13 +148,16 @@ def validate_budget_config(config: dict | None) -> dict:
 def load_budget_config(path) -> dict:
     """Read and validate a budget TOML file; returns the full config (defaults filled in)."""
     path = Path(path)
+    require_file(path)
     try:
         with open(path, "rb") as fh:
             raw = tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError("file not found", file=str(path)) from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"invalid TOML: {exc}", file=str(path)) from None
+    except UnicodeDecodeError:
+        raise InputError("not a text (UTF-8 TOML) file", file=str(path)) from None
+    except OSError as exc:
+        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=str(path)) from None
     try:
         return validate_budget_config(raw)
     except InputError as exc:

@@ -8,7 +8,7 @@ import pandas as pd
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
-from dpdfit.recordings.tables import list_runs, read_table
+from dpdfit.recordings.tables import check_repeated_rows, list_runs, read_table
 
 from .result import StabilityResult
 from .timeseries import allan_deviation, drift_test
@@ -49,6 +49,7 @@ def _check_frame(df: pd.DataFrame, kind: str) -> tuple[pd.DataFrame, str]:
                              "8601, e.g. 2026-03-01T09:30:00)", file=name,
                              column="timestamp", row=i + 1)
         df["timestamp"] = ts
+    check_repeated_rows(df, name)
     return df, name
 
 
@@ -57,7 +58,7 @@ def _load(df_or_path, kind: str) -> tuple[pd.DataFrame, str]:
         return _check_frame(df_or_path, kind)
     value_col, err_col = _COLUMNS[kind]
     df = read_table(df_or_path, ["A", value_col], [err_col, "run", "timestamp"],
-                    ranges={"A": (0.0, 1.0)}, positive=[err_col])
+                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
     return df, str(df_or_path)
 
 

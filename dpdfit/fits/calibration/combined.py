@@ -18,6 +18,7 @@ from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
 from dpdfit.fits.calibration.phase import PhaseCalibration
+from dpdfit.recordings.tables import require_file
 
 __all__ = ["Calibration", "load_calibration", "check_calibration_dict"]
 
@@ -34,6 +35,9 @@ class Calibration(Displayable):
     phase: PhaseCalibration | None = None
     created: str = field(default_factory=lambda: _dt.datetime.now(_dt.timezone.utc)
                          .isoformat(timespec="seconds"))
+    #: The ``calibration.json`` it was read from (:func:`load_calibration`), for messages;
+    #: not written by :meth:`to_dict`.
+    file: str | None = field(default=None, compare=False)
 
     @property
     def A_corr(self) -> float:
@@ -64,10 +68,10 @@ class Calibration(Displayable):
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Calibration":
+    def from_dict(cls, d: dict, file: str | None = None) -> "Calibration":
         amp = AmplitudeCalibration.from_dict(d["amplitude"])
         ph = PhaseCalibration.from_dict(d["phase"]) if d.get("phase") else None
-        return cls(amplitude=amp, phase=ph, created=d.get("created", ""))
+        return cls(amplitude=amp, phase=ph, created=d.get("created", ""), file=file)
 
     def report(self) -> str:
         parts = [self.amplitude.report()]
@@ -78,17 +82,19 @@ class Calibration(Displayable):
 
 def load_calibration(path: str | os.PathLike) -> Calibration:
     """Read a ``calibration.json`` written by ``dpdfit calibrate``."""
-    name = str(path)
-    if not os.path.exists(path):
-        raise InputError("file not found", file=name)
+    name = require_file(path)
     try:
-        with open(path) as fh:
+        with open(path, encoding="utf-8") as fh:
             d = json.load(fh)
     except json.JSONDecodeError as exc:
         raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
+    except UnicodeDecodeError:
+        raise InputError("not a text (UTF-8 JSON) file", file=name) from None
+    except OSError as exc:
+        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
     check_calibration_dict(d, name)
     try:
-        return Calibration.from_dict(d)
+        return Calibration.from_dict(d, file=name)
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"not a dpdfit calibration file (missing or bad key: {exc})",
                          file=name) from None
