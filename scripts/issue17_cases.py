@@ -22,6 +22,7 @@ import io
 import json
 import logging
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -279,8 +280,26 @@ def _location_cases(tmp, cal, sweep, gate, o):
         df.loc[hi, "power"] = df.loc[hi, "power"].max() * (1.8 - df.loc[hi, "A"])
         return df
     bent = edit_csv(AMP, tmp / "bent_amp.csv", bend)
-    yield "8", "calibrate: non-invertible fit", *classify(
-        ["calibrate", "--amplitude", bent, "-o", o / "bent.json"], "bent_amp.csv", [bent])
+
+    def used_range_invertible(out, err):
+        """Accepted (README): the fit falls only above A_corr, where no table is built."""
+        a_corr = json.loads((o / "bent.json").read_text())["A_corr"]
+        m = re.search(r"dy/dA < 0 on \[([0-9.]+), ([0-9.]+)\]", out)
+        if m is None:
+            return "no monotonicity report"
+        return True if float(m.group(1)) > a_corr else f"falls at {m.group(1)} < A_corr {a_corr}"
+    yield "8", "calibrate: fit falling above A_corr", *classify(
+        ["calibrate", "--amplitude", bent, "-o", o / "bent.json"], "bent_amp.csv", [bent],
+        check=used_range_invertible)
+
+    def dip(df):  # the response falls inside [0, A_corr]: refused, nothing written
+        df = df.copy()
+        m = (df["A"] > 0.3) & (df["A"] < 0.5)
+        df.loc[m, "power"] = df.loc[df["A"] <= 0.3, "power"].iloc[-1] - (df.loc[m, "A"] - 0.3) / 2
+        return df
+    dipped = edit_csv(AMP, tmp / "dip_amp.csv", dip)
+    yield "8", "calibrate: fit falling below A_corr", *classify(
+        ["calibrate", "--amplitude", dipped, "-o", o / "dip.json"], "dip_amp.csv", [dipped])
     neg = edit_csv(gate, tmp / "negerr_gate.csv",
                    lambda df: df.assign(xi0_err_khz=[-1.0] + list(df["xi0_err_khz"][1:])))
     yield "8", "align: xi0_err_khz < 0", *classify(["align", "--gate", neg, "--sweep", sweep],
