@@ -32,7 +32,8 @@ import pandas as pd
 
 from dpdfit.errors import InputError
 
-__all__ = ["read_table", "CalibrationData", "read_calibration", "select_run",
+__all__ = ["read_table", "CalibrationData", "read_calibration", "read_calibration_runs",
+           "select_run",
            "list_runs", "check_duplicates"]
 
 
@@ -314,6 +315,27 @@ def check_duplicates(A: np.ndarray, value: np.ndarray, error: np.ndarray | None,
                 f"{', '.join(map(str, r))}", file=file, column=column, row=r[0])
 
 
+def _calibration_table(path: str | os.PathLike, kind: str) -> tuple[pd.DataFrame, str, str]:
+    """The whole calibration file, validated, and its value and error columns."""
+    value_col, err_col = {"amplitude": ("power", "power_err"),
+                          "phase": ("phase_rad", "phase_err")}[kind]
+    df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
+                    ranges={"A": (0.0, 1.0)}, positive=[err_col])
+    return df, value_col, err_col
+
+
+def _calibration_data(sub: pd.DataFrame, label, path, value_col: str, err_col: str
+                      ) -> CalibrationData:
+    """One run's rows (``sub``, indexed by file position) as :class:`CalibrationData`."""
+    ts = None
+    if "timestamp" in sub.columns:
+        ts = sub["timestamp"].min().isoformat()
+    return CalibrationData(
+        A=sub["A"].to_numpy(dtype=float), value=sub[value_col].to_numpy(dtype=float),
+        error=sub[err_col].to_numpy(dtype=float) if err_col in sub.columns else None,
+        rows=sub.index.to_numpy() + 1, source=str(path), run=label, timestamp=ts)
+
+
 def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
                      ) -> CalibrationData:
     """Read one run of an amplitude or phase calibration file.
@@ -326,16 +348,21 @@ def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
     run : str, optional
         Run label, or ``"latest"``; required if the file holds several runs.
     """
-    value_col, err_col = {"amplitude": ("power", "power_err"),
-                          "phase": ("phase_rad", "phase_err")}[kind]
-    df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
-                    ranges={"A": (0.0, 1.0)}, positive=[err_col])
+    df, value_col, err_col = _calibration_table(path, kind)
     sub, label = select_run(df, run)
-    rows = sub.index.to_numpy() + 1
-    ts = None
-    if "timestamp" in sub.columns:
-        ts = sub["timestamp"].min().isoformat()
-    return CalibrationData(
-        A=sub["A"].to_numpy(dtype=float), value=sub[value_col].to_numpy(dtype=float),
-        error=sub[err_col].to_numpy(dtype=float) if err_col in sub.columns else None,
-        rows=rows, source=str(path), run=label, timestamp=ts)
+    return _calibration_data(sub, label, path, value_col, err_col)
+
+
+def read_calibration_runs(path: str | os.PathLike, kind: str) -> dict:
+    """Every run of a calibration file, ``{label: CalibrationData}`` in file order.
+
+    The same data as :func:`read_calibration` per run (label ``None`` for a
+    file without a ``run`` column), but the file is read and validated once:
+    linear, not quadratic, in the number of runs.
+    """
+    df, value_col, err_col = _calibration_table(path, kind)
+    if not list_runs(df):
+        return {None: _calibration_data(df, None, path, value_col, err_col)}
+    groups = df.groupby("run", sort=False).indices
+    return {str(r): _calibration_data(df.iloc[pos], str(r), path, value_col, err_col)
+            for r, pos in groups.items()}
