@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.memory import TABLE_BYTES_PER_FILE_BYTE, check_memory
 from dpdfit.errors import InputError
 
 __all__ = ["read_table", "CalibrationData", "read_calibration", "read_calibration_runs",
@@ -73,6 +74,9 @@ def read_table(path: str | os.PathLike, required: list[str],
         parsed to timezone-aware UTC datetimes and ``run`` as strings.
     """
     name = str(path)
+    if os.path.isfile(path):
+        check_memory(os.path.getsize(path) * TABLE_BYTES_PER_FILE_BYTE, "reading this table",
+                     file=name, hint="split the file or set DPDFIT_MAX_MEMORY_GB")
     df = _read_csv(path, name)
     _check_columns(df, required, name)
     present_opt = [c for c in optional if c in df.columns]
