@@ -153,6 +153,8 @@ def _child_analyze(folder: str, diagnosis: bool, trace_mem: bool) -> dict:
     total = time.perf_counter() - t0
     out = {"stages": stages, "total_s": total,
            "maxrss_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+           # the largest worker process (the diagnosis fits in a process pool)
+           "workers_maxrss_bytes": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024,
            "status": {k: v.get("status") if isinstance(v, dict) else v
                       for k, v in res.summary.get("analyses", {}).items()},
            "failures": res.summary.get("failures", [])}
@@ -231,6 +233,8 @@ def campaign_series(sizes, cache: Path, diagnosis: bool, repeat: int, diag_sizes
                   "peak_bytes": _median_runs(mems, "peak_bytes"),
                   "total_s": float(np.median([r["total_s"] for r in times])),
                   "maxrss_bytes": float(np.median([r["maxrss_bytes"] for r in times])),
+                  "workers_maxrss_bytes": float(np.median([r.get("workers_maxrss_bytes", 0)
+                                                           for r in times])),
                   "maxrss_traced_run_bytes": float(np.median([r["maxrss_bytes"] for r in mems])),
                   "traced_peak_bytes": float(np.median([r["traced_peak_bytes"] for r in mems])),
                   "status": times[0]["status"], "failures": times[0]["failures"]}
