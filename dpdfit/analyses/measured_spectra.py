@@ -49,15 +49,24 @@ def _tone_tables(spectra: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     return P, V
 
 
-def _sideband_tones(P, V, A, d, grp, nbar, formula) -> dict:
-    """``{sideband: (powers, valid, (F_est, F_est with the paper's formula))}`` of one setting."""
+def _validity(V: pd.DataFrame) -> dict:
+    """``{(A, dpd, sideband): validity flags of the harmonics}`` (one lookup per setting)."""
+    return dict(zip(V[_KEY].itertuples(index=False, name=None),
+                    V[list(_HARMONICS)].to_numpy()))
+
+
+def _sideband_tones(valid, A, d, grp, nbar, formula) -> dict:
+    """``{sideband: (powers, valid, (F_est, F_est with the paper's formula))}`` of one setting.
+
+    ``valid``: :func:`_validity` of the flags table.
+    """
     vals = {}
     for sb in ("red", "blue"):
         g = grp[grp.sideband == sb]
         if len(g) != 1:
             continue
         p = g[list(_HARMONICS)].to_numpy(dtype=float)[0]
-        v = V[(V.A == A) & (V.dpd == d) & (V.sideband == sb)][list(_HARMONICS)].to_numpy()[0]
+        v = valid[(A, d, sb)]
         F = (float(estimate(p, _HARMONICS, nbar=nbar, formula=formula).F_est),
              float(estimate(p, _HARMONICS, nbar=nbar, formula="paper").F_est)
              ) if v[1] and v[2] else (np.nan, np.nan)
@@ -146,9 +155,9 @@ def measured_spectra(spectra: pd.DataFrame, sweep: pd.DataFrame | None = None, *
         "R10_gain_dB_below_A_corr", "thresholds_measured"}``.
     """
     P, V = _tone_tables(spectra)
-    rows = []
+    rows, valid = [], _validity(V)
     for (A, d), grp in P.groupby(["A", "dpd"]):
-        for sb, (p, v, F) in _sideband_tones(P, V, A, d, grp, nbar, formula).items():
+        for sb, (p, v, F) in _sideband_tones(valid, A, d, grp, nbar, formula).items():
             rows.append(_row(A, d, sb, p, v, F))
     m = pd.DataFrame(rows)
     _add_power_changes(m)

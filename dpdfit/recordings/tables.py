@@ -31,10 +31,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.memory import TABLE_BYTES_PER_FILE_BYTE, check_memory
 from dpdfit.errors import InputError, data_line
+from dpdfit.recordings.repeats import check_duplicates
 
-__all__ = ["read_table", "CalibrationData", "read_calibration", "select_run",
-           "list_runs", "check_duplicates", "check_repeated_rows", "require_file"]
+__all__ = ["read_table", "CalibrationData", "read_calibration", "read_calibration_runs",
+           "select_run", "list_runs", "check_duplicates", "check_repeated_rows", "require_file"]
 
 
 def _row(index: int) -> int:
@@ -77,6 +79,9 @@ def read_table(path: str | os.PathLike, required: list[str],
         parsed to timezone-aware UTC datetimes and ``run`` as strings.
     """
     name = str(path)
+    if os.path.isfile(path):
+        check_memory(os.path.getsize(path) * TABLE_BYTES_PER_FILE_BYTE, "reading this table",
+                     file=name, hint="split the file or set DPDFIT_MAX_MEMORY_GB")
     df = _read_csv(path, name)
     _check_columns(df, required, name)
     present_opt = [c for c in optional if c in df.columns]
@@ -319,43 +324,25 @@ def select_run(df: pd.DataFrame, run: str | None) -> tuple[pd.DataFrame, str | N
     return df[df["run"] == str(run)], str(run)
 
 
-def check_duplicates(A: np.ndarray, value: np.ndarray, error: np.ndarray | None,
-                     rows: np.ndarray, *, file: str, column: str,
-                     noise_scale: float | None = None, z_max: float = 6.0) -> None:
-    """Refuse repeated amplitudes whose values contradict each other.
+def _calibration_table(path: str | os.PathLike, kind: str) -> tuple[pd.DataFrame, str, str]:
+    """The whole calibration file, validated, and its value and error columns."""
+    value_col, err_col = {"amplitude": ("power", "power_err"),
+                          "phase": ("phase_rad", "phase_err")}[kind]
+    df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
+                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
+    return df, value_col, err_col
 
-    Repeated measurements at the same ``A`` are legitimate and kept.  They
-    contradict each other when their spread is inconsistent with the noise:
-    the largest deviation from the group's weighted mean exceeds ``z_max``
-    standard deviations (``error`` if given, else ``noise_scale``, a robust
-    estimate of the per-point scatter supplied by the caller).  ``z_max = 6``
-    makes a false alarm on honest Gaussian data practically impossible
-    (two-sided p ~ 2e-9 per pair).
-    """
-    order = np.argsort(A, kind="stable")
-    As = A[order]
-    same = np.flatnonzero(np.diff(As) == 0)
-    if same.size == 0:
-        return
-    starts = np.unique(np.searchsorted(As, As[same], side="left"))
-    for s in starts:
-        idx = order[s:np.searchsorted(As, As[s], side="right")]
-        v = value[idx]
-        if error is not None:
-            sig = error[idx]
-        elif noise_scale is not None and noise_scale > 0:
-            sig = np.full(v.shape, noise_scale)
-        else:
-            continue  # no noise scale to judge by; the fit's chi-square will tell
-        w = 1 / sig**2
-        mean = np.sum(w * v) / np.sum(w)
-        z = np.abs(v - mean) / sig * np.sqrt(len(v) / max(len(v) - 1, 1))
-        if z.max() > z_max:
-            r = sorted(int(x) for x in rows[idx])
-            raise InputError(
-                f"duplicate A={As[s]:g} with contradicting values "
-                f"({', '.join(f'{x:.6g}' for x in v)}; {z.max():.1f} sigma apart) in rows "
-                f"{', '.join(map(str, r))}", file=file, column=column, row=r[0])
+
+def _calibration_data(sub: pd.DataFrame, label, path, value_col: str, err_col: str
+                      ) -> CalibrationData:
+    """One run's rows (``sub``, indexed by file position) as :class:`CalibrationData`."""
+    ts = None
+    if "timestamp" in sub.columns:
+        ts = sub["timestamp"].min().isoformat()
+    return CalibrationData(
+        A=sub["A"].to_numpy(dtype=float), value=sub[value_col].to_numpy(dtype=float),
+        error=sub[err_col].to_numpy(dtype=float) if err_col in sub.columns else None,
+        rows=sub.index.to_numpy() + 1, source=str(path), run=label, timestamp=ts)
 
 
 def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
@@ -370,16 +357,21 @@ def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
     run : str, optional
         Run label, or ``"latest"``; required if the file holds several runs.
     """
-    value_col, err_col = {"amplitude": ("power", "power_err"),
-                          "phase": ("phase_rad", "phase_err")}[kind]
-    df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
-                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
+    df, value_col, err_col = _calibration_table(path, kind)
     sub, label = select_run(df, run)
-    rows = sub.index.to_numpy() + 1
-    ts = None
-    if "timestamp" in sub.columns:
-        ts = sub["timestamp"].min().isoformat()
-    return CalibrationData(
-        A=sub["A"].to_numpy(dtype=float), value=sub[value_col].to_numpy(dtype=float),
-        error=sub[err_col].to_numpy(dtype=float) if err_col in sub.columns else None,
-        rows=rows, source=str(path), run=label, timestamp=ts)
+    return _calibration_data(sub, label, path, value_col, err_col)
+
+
+def read_calibration_runs(path: str | os.PathLike, kind: str) -> dict:
+    """Every run of a calibration file, ``{label: CalibrationData}`` in file order.
+
+    The same data as :func:`read_calibration` per run (label ``None`` for a
+    file without a ``run`` column), but the file is read and validated once:
+    linear, not quadratic, in the number of runs.
+    """
+    df, value_col, err_col = _calibration_table(path, kind)
+    if not list_runs(df):
+        return {None: _calibration_data(df, None, path, value_col, err_col)}
+    groups = df.groupby("run", sort=False).indices
+    return {str(r): _calibration_data(df.iloc[pos], str(r), path, value_col, err_col)
+            for r, pos in groups.items()}

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.memory import TRACE_BYTES_PER_SAMPLE, check_memory
 from dpdfit.errors import InputError
 
 from .tables import require_file
@@ -44,6 +45,8 @@ def as_trace(trace, *, file: str | None = None) -> np.ndarray:
         raise InputError(f"trace must hold real numbers, got dtype {arr.dtype}", file=file)
     if arr.size == 0:
         raise InputError("trace contains no samples", file=file)
+    check_memory(arr.size * TRACE_BYTES_PER_SAMPLE, f"a trace of {arr.size} samples", file=file,
+                 hint="analyse a shorter record or set DPDFIT_MAX_MEMORY_GB")
     x = np.asarray(arr, dtype=np.float64)   # float32/int16 -> float64 (never compute in single)
     if not np.isfinite(x).all():
         i = int(np.flatnonzero(~np.isfinite(x))[0])

@@ -168,7 +168,8 @@ def stability(df_or_path, kind: str = "amplitude", order: int | None = None,
     labels = _run_labels(df, name)
     grid = np.linspace(0.0 if kind == "amplitude" else A_min, 1.0, grid_points)
     fits = fits or {}
-    fitted = [_fit_run(df[df["run"] == lab], kind, K, A_min, grid, name, lab, fits.get(lab))
+    rows = df.groupby("run", sort=False).indices        # one pass, not one per run
+    fitted = [_fit_run(df.iloc[rows[lab]], kind, K, A_min, grid, name, lab, fits.get(lab))
               for lab in labels]
     recs, curves = _in_time_order([r for r, _ in fitted], [c for _, c in fitted])
     days = np.array([r["day"] for r in recs])

@@ -16,7 +16,7 @@ from dpdfit.analyses.stability import stability
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.calibration import Calibration, calibrate_amplitude, calibrate_phase
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
-from dpdfit.recordings.tables import list_runs, read_calibration
+from dpdfit.recordings.tables import list_runs, read_calibration_runs
 from dpdfit.report.calibration_plots import calibration_figures
 from dpdfit.report.stability_plots import stability_figures
 
@@ -51,16 +51,14 @@ class CalibrationFits:
 
 def _amplitude_run_fits(cf, order) -> dict:
     """Every amplitude run's fit at ``order``, ``{label: fit}`` (label None: a single run)."""
-    path = cf.file("calibration_amplitude.csv")
-    return {r: calibrate_amplitude(read_calibration(path, "amplitude", r), order)
-            for r in list_runs(cf.amplitude_runs) or [None]}
+    runs = read_calibration_runs(cf.file("calibration_amplitude.csv"), "amplitude")
+    return {r: calibrate_amplitude(data, order) for r, data in runs.items()}
 
 
 def _phase_run_fits(cf) -> dict:
     """Every phase run's fit (default order and window), ``{label: fit}``."""
-    path = cf.file("calibration_phase.csv")
-    return {r: calibrate_phase(read_calibration(path, "phase", r))
-            for r in list_runs(cf.phase_runs) or [None]}
+    runs = read_calibration_runs(cf.file("calibration_phase.csv"), "phase")
+    return {r: calibrate_phase(data) for r, data in runs.items()}
 
 
 def _runs_table(amp_fits: dict, ph_fits: dict) -> pd.DataFrame:
