@@ -90,6 +90,9 @@ class CampaignFolder:
         except json.JSONDecodeError as exc:
             raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
                              file=str(p)) from None
+        except UnicodeDecodeError as exc:
+            raise InputError(f"campaign.json is not UTF-8 text (byte {exc.start + 1})",
+                             file=str(p)) from None
         if not isinstance(raw, dict):
             raise InputError("campaign.json must hold a JSON object", file=str(p))
         self.raw_meta = raw

@@ -73,6 +73,8 @@ def _load_csv(path: Path) -> np.ndarray:
     try:
         df = pd.read_csv(path, dtype=np.float64, **kw)
         col = None if header is None else str(df.columns[0]).strip()
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
     except (ValueError, pd.errors.ParserError) as exc:
         if isinstance(exc, pd.errors.ParserError):
             msg = str(exc).strip().splitlines()[-1]

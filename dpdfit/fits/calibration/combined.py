@@ -86,6 +86,8 @@ def load_calibration(path: str | os.PathLike) -> Calibration:
             d = json.load(fh)
     except json.JSONDecodeError as exc:
         raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
     check_calibration_dict(d, name)
     try:
         return Calibration.from_dict(d)
