@@ -313,8 +313,9 @@ def outcome(name: str, path, call, check) -> str:
         return _fail(name, f"{type(exc).__name__}: {exc}", exc)
     try:
         check(result)
-    except AssertionError as exc:
-        return _fail(name, f"invalid result presented as valid: {exc}")
+    except Exception as exc:  # noqa: BLE001 - an assertion, or a result that breaks on use
+        return _fail(name, f"invalid result presented as valid: {type(exc).__name__}: {exc}",
+                     exc)
     TALLY[name]["ok"] += 1
     return "ok"
 

@@ -302,5 +302,8 @@ def read_sweep_table(path) -> pd.DataFrame:
         raise InputError(f"dpd must be 0 or 1, got {df['dpd'].iloc[i]:g}", file=name,
                          column="dpd", row=i + 1)
     df["dpd"] = df["dpd"].astype(int)
-    df.attrs["A_corr"] = read_csv_header(path).get("A_corr")
+    try:
+        df.attrs["A_corr"] = read_csv_header(path).get("A_corr")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
     return df

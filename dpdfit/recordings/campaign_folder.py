@@ -101,10 +101,18 @@ class CampaignFolder:
         for k in META_DEFAULTS:
             try:
                 self.meta[k] = float(self.meta[k])
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise InputError(f"key '{k}' must be a number, got {self.meta[k]!r}",
                                  file=str(p)) from None
+            if not np.isfinite(self.meta[k]):
+                raise InputError(f"key '{k}' must be a finite number, got {self.meta[k]}",
+                                 file=str(p))
+        if not (self.meta["order"] >= 1 and self.meta["order"] == int(self.meta["order"])):
+            raise InputError(f"key 'order' must be an integer >= 1, got {self.meta['order']:g}",
+                             file=str(p))
         self.meta["order"] = int(self.meta["order"])
+        if not isinstance(raw.get("predistortion_table") or {}, dict):
+            raise InputError("key 'predistortion_table' must be a JSON object", file=str(p))
 
     # ------------------------------------------------------------------ basics
     def file(self, name: str) -> Path:

@@ -75,6 +75,8 @@ def _load_csv(path: Path) -> np.ndarray:
         col = None if header is None else str(df.columns[0]).strip()
     except UnicodeDecodeError as exc:
         raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
+    except pd.errors.EmptyDataError:
+        raise InputError("file is empty (no samples)", file=name) from None
     except (ValueError, pd.errors.ParserError) as exc:
         if isinstance(exc, pd.errors.ParserError):
             msg = str(exc).strip().splitlines()[-1]
@@ -90,8 +92,6 @@ def _load_csv(path: Path) -> np.ndarray:
         t = text.iloc[i]
         what = "value is empty" if t == "" else f"'{t}' is not a number"
         raise InputError(what, file=name, column=col, row=i + 1) from None
-    except pd.errors.EmptyDataError:
-        raise InputError("file is empty (no samples)", file=name) from None
     if df.shape[1] != 1:
         raise InputError(f"{df.shape[1]} columns; expected one column of samples", file=name)
     if df.shape[0] == 0:
