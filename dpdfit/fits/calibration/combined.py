@@ -19,7 +19,7 @@ from dpdfit.errors import InputError
 from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
 from dpdfit.fits.calibration.phase import PhaseCalibration
 
-__all__ = ["Calibration", "load_calibration", "check_calibration_dict"]
+__all__ = ["Calibration", "load_calibration", "check_calibration_dict", "MAX_POWER"]
 
 #: Arrays of ``calibration.json`` that must be present and finite, per section.
 #: highest polynomial power a calibration file may hold
