@@ -105,11 +105,26 @@ def _run_reader(reader, data: bytes, name=None):
     return result
 
 
+#: minimal failing examples found by these tests (each fixed at its source)
+_FOUND = {
+    # non-UTF-8 bytes: UnicodeDecodeError; a BOM-only one-column file: EmptyDataError
+    "trace file (.csv)": [[("not_utf8", 0, 0, None)],
+                          [("drop_col", 0, 0, None), ("bom", 0, 0, None)]],
+    # non-UTF-8 bytes in the '#' header of a sweep table: UnicodeDecodeError
+    "sweep.csv": [[("not_utf8", 0, 1, None)]],
+    # a quoted cell spanning lines: a message of two lines
+    "spectra.csv": [[("cell", 0, 0, '"')]],
+    "time_scans.csv": [[("cell", 0, 0, '"')]],
+}
+
+
 def _csv_property(reader):
     @given(ops=csv_mutations())
     def test(ops):
         _run_reader(reader, mutate_csv(base_texts()[READERS[reader][0]], ops))
     test.__name__ = f"test_mutated_{READERS[reader][0]}"
+    for ops in _FOUND.get(reader, []):
+        test = example(ops=ops)(test)
     return test
 
 
@@ -161,6 +176,9 @@ def _canonical(res):
 
 
 @given(ops=json_mutations())
+@example(ops=[("not_utf8", 0, None)])          # UnicodeDecodeError
+@example(ops=[("set", 3, float("nan"))])       # 'powers' a number: TypeError
+@example(ops=[("set", 7, 10**400)])            # OverflowError
 def test_mutated_calibration_json(ops):
     data = mutate_json(json.loads(base_texts()["calibration"]), ops)
 
@@ -176,12 +194,15 @@ def test_mutated_calibration_json(ops):
 
 
 @given(ops=json_mutations())
+@example(ops=[("not_utf8", 0, None)])          # UnicodeDecodeError
+@example(ops=[("del", 0, None), ("set", 0, float("nan"))])   # NaN accepted as a constant
+@example(ops=[("set", 2250, 1.8446744073709552e+19)])        # order 1.8e19 accepted
 def test_mutated_campaign_json(ops):
     data = mutate_json(json.loads(base_texts()["campaign"]), ops)
 
     def check(folder):
         for k in ("nu_hz", "xi0_spectra_hz", "nbar_assumed", "eta_ref", "eta_ld", "order"):
-            assert np.isfinite(folder.meta[k]), f"campaign.json {k} = {folder.meta[k]}"
+            assert np.isfinite(float(folder.meta[k])), f"campaign.json {k} = {folder.meta[k]}"
         folder.table_run, folder.phase_run, folder.left_out()
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / "campaign.json"

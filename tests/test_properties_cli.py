@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 from prop_mutations import (TALLY, Traceback, base_texts, csv_mutations, json_mutations,
                             mutate_csv, mutate_json, number_texts, _fail)
@@ -29,6 +29,14 @@ from prop_mutations import (TALLY, Traceback, base_texts, csv_mutations, json_mu
 from dpdfit.cli.main import main
 
 _NONFINITE = re.compile(r"(?<![\w.])-?(nan|inf)(?![\w])", re.IGNORECASE)
+
+
+def valid(key) -> bytes:
+    return base_texts()[key].encode()
+
+
+def json_edit(key, *ops) -> bytes:
+    return mutate_json(json.loads(base_texts()[key]), list(ops))
 
 
 def maybe_csv(key):
@@ -132,6 +140,8 @@ def _nonfinite_output(p: Path):
        order=opt("--order", small_ints(-1, 12)), phase_order=opt("--phase-order", small_ints(-1, 8)),
        lo=opt("--phase-min-A"), hi=opt("--phase-max-A"),
        scan=st.sampled_from(["none", "3:5", "5:3", "0:2", "x"]))
+@example(amp=valid("amplitude"), phase=None, order=[], phase_order=[], lo=[], hi=[],
+         scan="0:2")                                   # 'no powers given': no option named
 def test_calibrate(amp, phase, order, phase_order, lo, hi, scan):
     files = {"amp.csv": amp, **({} if phase is None else {"phase.csv": phase})}
     run_cli("calibrate", files, lambda d: [
@@ -148,6 +158,10 @@ _GRIDS = st.one_of(st.sampled_from(["0.2:1:5", "0:1:4", "1:0.2:4", "0.2:1:0", "0
 
 @given(cal=maybe_json("calibration"), grid=_GRIDS, nbar=opt("--nbar"), xi0=opt("--xi0"),
        nu=opt("--nu"), eta=opt("--eta-ref"), anchor=opt("--anchor-A"), am_only=st.booleans())
+@example(cal=valid("calibration"), grid="0.2:1:5", nbar=[], xi0=[], nu=["--nu", "1e308"],
+         eta=[], anchor=[], am_only=False)             # OverflowError
+@example(cal=valid("calibration"), grid="0.2:1:5", nbar=[], xi0=[], nu=["--nu", "1"],
+         eta=[], anchor=[], am_only=False)             # 'nu/xi0 ... not a ratio': no option named
 def test_sweep(cal, grid, nbar, xi0, nu, eta, anchor, am_only):
     run_cli("sweep", {"cal.json": cal}, lambda d: [
         "sweep", d / "cal.json", "--amplitudes", grid, *nbar, *xi0, *nu, *eta, *anchor,
@@ -156,6 +170,10 @@ def test_sweep(cal, grid, nbar, xi0, nu, eta, anchor, am_only):
 
 @given(cal=maybe_json("calibration"), points=opt("--points", small_ints(-3, 3000)),
        strict=st.booleans())
+@example(cal=json_edit("calibration", ("set", 4, float("inf"))), points=[], strict=False)
+@example(cal=json_edit("calibration", ("set", 4, 0)), points=[], strict=False)
+@example(cal=json_edit("calibration", ("set", 4, 1e308)), points=[], strict=False)
+@example(cal=json_edit("calibration", ("set", 7, 10**400)), points=[], strict=False)
 def test_lut(cal, points, strict):
     run_cli("lut", {"cal.json": cal}, lambda d: [
         "lut", d / "cal.json", *points, *(["--strict"] if strict else []), "-o", d / "l.csv"],
@@ -186,6 +204,8 @@ def test_fidelity(which, ops, interval, rates):
 
 
 @given(sweep=maybe_csv("sweep"), a_corr=opt("--A-corr"), as_json=st.booleans())
+@example(sweep=mutate_csv(base_texts()["sweep"], [("one_row", 0, 0, None)]), a_corr=[],
+         as_json=False)                                # 'sweep table has 0 amplitudes': no file
 def test_thresholds(sweep, a_corr, as_json):
     run_cli("thresholds", {"sweep.csv": sweep}, lambda d: [
         "thresholds", d / "sweep.csv", *a_corr, *(["--json"] if as_json else [])])
@@ -193,6 +213,8 @@ def test_thresholds(sweep, a_corr, as_json):
 
 @given(which=st.sampled_from(["gate", "sweep"]), ops=st.one_of(st.just([]), csv_mutations()),
        sigma=opt("--sigma-db"))
+@example(which="gate", ops=[], sigma=["--sigma-db", "1e308"])     # LinAlgError
+@example(which="gate", ops=[("one_row", 0, 0, None)], sigma=[])   # no file named
 def test_align(which, ops, sigma):
     files = {k: base_texts()[k].encode() for k in ("gate", "sweep")}
     files[which] = mutate_csv(base_texts()[which], ops)
@@ -202,6 +224,7 @@ def test_align(which, ops, sigma):
 
 @given(runs=maybe_csv("runs"), kind=opt("--kind", st.sampled_from(["amplitude", "phase"])),
        order=opt("--order", small_ints(-1, 9)), a_min=opt("--phase-min-A"))
+@example(runs=valid("runs"), kind=[], order=["--order", "1"], a_min=[])  # nan, inf reported
 def test_stability(runs, kind, order, a_min):
     run_cli("stability", {"runs.csv": runs}, lambda d: [
         "stability", d / "runs.csv", *kind, *order, *a_min])
@@ -209,6 +232,7 @@ def test_stability(runs, kind, order, a_min):
 
 @given(rates=st.one_of(st.none(), maybe_csv("gate_rates")), delta=opt("--delta"),
        delta_err=opt("--delta-err"), no_paper=st.booleans())
+@example(rates=None, delta=[], delta_err=["--delta-err", "1e308"], no_paper=False)  # inf, nan
 def test_budget(rates, delta, delta_err, no_paper):
     files = {} if rates is None else {"rates.csv": rates}
     run_cli("budget", files, lambda d: [
@@ -220,6 +244,8 @@ def test_budget(rates, delta, delta_err, no_paper):
        draws=small_ints(-1, 200), walkers=small_ints(-1, 40), steps=small_ints(-1, 30),
        order=opt("--order", small_ints(-1, 9)), loss=opt("--loss"),
        seed=opt("--seed", small_ints(-2, 5)))
+@example(runs=valid("runs"), A="0.5", stale=[], draws="1", walkers="1", steps="1", order=[],
+         loss=[], seed=[])                             # 'n_walkers ...': no option named
 def test_propagate(runs, A, stale, draws, walkers, steps, order, loss, seed):
     run_cli("propagate", {"runs.csv": runs}, lambda d: [
         "propagate", "--calibration-runs", d / "runs.csv", "--A", A, *stale,

@@ -84,9 +84,12 @@ def _order_range(spec: str):
     if spec.lower() in ("none", "off", ""):
         return None
     try:
-        return parse_powers(spec)
+        orders = parse_powers(spec)
     except DpdfitError as exc:
         raise InputError(f"--order-scan: {exc}") from None
+    if min(orders) < 1:
+        raise InputError(f"--order-scan: orders must be >= 1, got {spec}")
+    return orders
 
 
 def _amplitude_runs(args) -> list[dict]:

@@ -10,6 +10,7 @@ import pandas as pd
 from dpdfit.analyses.propagation import propagate, threshold_distribution
 from dpdfit.cli.options import fraction, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.errors import InputError
 from dpdfit.fits.calibration import calibrate_phase
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.recordings.tables import read_calibration, read_table
@@ -29,10 +30,16 @@ def cmd_propagate(args) -> int:
     phase = None
     if args.phase:
         phase = calibrate_phase(read_calibration(args.phase, "phase", run="latest"))
-    res = propagate(df, args.A, stale_days=args.stale_days, draws=args.draws, phase=phase,
-                    order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
-                    n_steps=args.steps, force=args.force, progress=args.progress,
-                    recalibration_loss=args.loss)
+    try:
+        res = propagate(df, args.A, stale_days=args.stale_days, draws=args.draws, phase=phase,
+                        order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
+                        n_steps=args.steps, force=args.force, progress=args.progress,
+                        recalibration_loss=args.loss)
+    except InputError as exc:
+        for api, opt in (("n_walkers", "--walkers"), ("n_steps", "--steps")):
+            if str(exc).startswith(api):
+                raise InputError(f"option {opt}: {exc}") from None
+        raise
     d = res.to_dict()
     if args.thresholds:
         d["thresholds"] = threshold_distribution(

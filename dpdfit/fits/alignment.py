@@ -55,7 +55,8 @@ def curves(sweep: pd.DataFrame) -> dict:
     for d in (0, 1):
         sub = sweep[(sweep["dpd"] == d) & (sweep["sideband"] == "mean")].sort_values("A")
         if len(sub) < 4:
-            raise InputError(f"sweep table has {len(sub)} amplitudes for dpd={d}; need >= 4")
+            raise InputError(f"sweep table has {len(sub)} amplitudes for dpd={d}; need >= 4",
+                             file=sweep.attrs.get("source"))
         A = sub["A"].to_numpy(dtype=float)
         out[d] = {k: CubicSpline(A, sub[k].to_numpy(dtype=float))
                   for k in ("r_rel", "F_est", "eta_bar")}
@@ -170,7 +171,9 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
     g = gate[need].astype(float).copy()
     g["dpd"] = g["dpd"].astype(int)
     if len(g) < 2:
-        raise FitError(f"alignment needs at least 2 measured points, got {len(g)}")
+        src = gate.attrs.get("source")
+        raise FitError(f"{src + ': ' if src else ''}alignment needs at least 2 measured "
+                       f"points, got {len(g)}")
     if (g["xi0_err_khz"] < 0).any() or (g["F_err"] <= 0).any():
         raise InputError("xi0_err_khz must be >= 0 and F_err > 0")
     if not np.isfinite(sigma_db) or sigma_db < 0:
@@ -206,7 +209,11 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
     if not sol.success:
         raise FitError(f"alignment fit did not converge: {sol.message}")
     J = sol.jac
-    cov = np.linalg.inv(J.T @ J)
+    try:
+        cov = np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        raise FitError(f"alignment fit is singular: alpha and delta are not determined "
+                       f"(sigma_db = {sigma_db:g} dB)") from None
     err = np.sqrt(np.diag(cov))
     chi2 = float(np.sum(sol.fun ** 2))
     dof = 2 * len(g) - 2

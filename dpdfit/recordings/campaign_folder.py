@@ -107,9 +107,9 @@ class CampaignFolder:
             if not np.isfinite(self.meta[k]):
                 raise InputError(f"key '{k}' must be a finite number, got {self.meta[k]}",
                                  file=str(p))
-        if not (self.meta["order"] >= 1 and self.meta["order"] == int(self.meta["order"])):
-            raise InputError(f"key 'order' must be an integer >= 1, got {self.meta['order']:g}",
-                             file=str(p))
+        if not (1 <= self.meta["order"] <= 40 and self.meta["order"] == int(self.meta["order"])):
+            raise InputError(f"key 'order' must be an integer in 1..40, got "
+                             f"{self.meta['order']:g}", file=str(p))
         self.meta["order"] = int(self.meta["order"])
         if not isinstance(raw.get("predistortion_table") or {}, dict):
             raise InputError("key 'predistortion_table' must be a JSON object", file=str(p))

@@ -159,8 +159,9 @@ def stability(df_or_path, kind: str = "amplitude", order: int | None = None,
     if kind not in _COLUMNS:
         raise InputError(f"kind must be 'amplitude' or 'phase', got '{kind}'")
     K = _DEFAULT_ORDER[kind] if order is None else int(order)
-    if K < 1:
-        raise InputError(f"order must be >= 1, got {K}")
+    if K < 1 or (kind == "amplitude" and K < 2):
+        raise InputError(f"order must be >= {2 if kind == 'amplitude' else 1}, got {K}"
+                         + (" (K = 1 fixes y = A: nothing to track)" if K == 1 else ""))
     if kind == "phase" and not 0 <= A_min < 1:
         raise InputError(f"phase fit window needs 0 <= A_min < 1, got A_min = {A_min}")
     df, name = _load(df_or_path, kind)
