@@ -53,7 +53,8 @@ def maybe_json(key):
 
 def opt(name, values=None):
     """``[]`` or ``[name, value]`` for an optional option."""
-    return st.one_of(st.just([]), (values or number_texts()).map(lambda v: [name, v]))
+    values = number_texts() if values is None else values
+    return st.one_of(st.just([]), values.map(lambda v: [name, v]))
 
 
 def small_ints(lo=-3, hi=40):
