@@ -210,13 +210,13 @@ def mutate_json(obj, ops) -> bytes:
             path = paths[i % len(paths)]
             parent = functools.reduce(lambda o, k: o[k], path[:-1], obj)
             if op == "set":
-                parent[path[-1]] = value
+                parent[path[-1]] = copy.deepcopy(value)
             elif isinstance(parent, dict):
                 del parent[path[-1]]
             else:
                 parent.pop(path[-1])
         elif op == "not_object":
-            obj = value
+            obj = copy.deepcopy(value)
         else:
             tail.append((op, i, i))
     data = json.dumps(obj, indent=1).encode()

@@ -218,6 +218,7 @@ def test_mutated_campaign_json(ops):
                       shape=hnp.array_shapes(min_dims=0, max_dims=3, min_side=0, max_side=4)),
        ext=st.sampled_from([".npy", ".npz"]),
        scale=st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True)))
+@example(arr=np.array([4.8e291]), ext=".npz", scale=3.7e16)   # inf samples returned as valid
 def test_generated_binary_trace(arr, ext, scale):
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / f"trace{ext}"

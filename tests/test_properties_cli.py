@@ -187,6 +187,7 @@ _POWERS = st.lists(st.tuples(small_ints(-3, 6), number_texts()).map(":".join),
 
 @given(powers=st.one_of(st.just("0:-40,1:0,2:0,3:-30"), _POWERS), nbar=opt("--nbar"),
        formula=st.sampled_from(["exact", "paper"]))
+@example(powers="1:-3081,2:0.0", nbar=[], formula="exact")     # F_est = nan printed, exit 0
 def test_estimate(powers, nbar, formula):
     run_cli("estimate", {}, lambda d: ["estimate", "--powers-db", powers, *nbar,
                                        "--formula", formula])

@@ -173,4 +173,12 @@ def load_trace(path: str | os.PathLike) -> np.ndarray:
     else:
         arr = obj
     x = as_trace(arr, file=name)
-    return x * scale if scale != 1.0 else x
+    if scale == 1.0:
+        return x
+    with np.errstate(over="ignore"):
+        x = x * scale
+    if not np.isfinite(x).all():
+        i = int(np.flatnonzero(~np.isfinite(x))[0])
+        raise InputError(f"sample x 'scale' = {scale:g} overflows (not finite)", file=name,
+                         row=i + 1)
+    return x
