@@ -55,6 +55,8 @@ def main() -> None:
           f"{total[3]:10d}")
     print(f"({os.environ.get('PROPERTY_EXAMPLES', 150)} examples per test requested; "
           f"{time.perf_counter() - t0:.0f} s)")
+    for msg in sorted(set(m[:300] for m in prop_mutations.FAILURES)):
+        print("traceback:", msg)
 
 
 if __name__ == "__main__":

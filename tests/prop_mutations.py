@@ -48,6 +48,8 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 #: reader or command -> Counter of outcomes ("ok", "clean", "traceback")
 TALLY: dict[str, Counter] = defaultdict(Counter)
+#: the messages of the failures counted (PROPERTY_COUNT_ONLY=1)
+FAILURES: list[str] = []
 #: when true (benchmarks/property_counts.py), a traceback is counted, not raised
 COUNT_ONLY = os.environ.get("PROPERTY_COUNT_ONLY") == "1"
 
@@ -282,7 +284,8 @@ def _made_texts(t) -> dict:
         import contextlib
         import io
         for argv in argvs:
-            with contextlib.redirect_stdout(io.StringIO()):
+            with contextlib.redirect_stdout(io.StringIO()), \
+                    contextlib.redirect_stderr(io.StringIO()):
                 code = main([str(a) for a in argv])
             assert code == 0, argv
         return {"calibration": (d / "cal.json").read_text(),
@@ -322,6 +325,7 @@ def outcome(name: str, path, call, check) -> str:
 
 def _fail(name, message, cause=None):
     TALLY[name]["traceback"] += 1
+    FAILURES.append(f"{name}: {message}")
     if COUNT_ONLY:
         return "traceback"
     raise Traceback(f"{name}: {message}") from cause

@@ -17,6 +17,7 @@ import io
 import json
 import re
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -71,10 +72,14 @@ def run_cli(command, files: dict, argv_of, outputs=()):
         argv = [str(a) for a in argv_of(d)]
         out, err = io.StringIO(), io.StringIO()
         try:
-            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), \
+                    warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")          # as a user sees them: on stderr
                 code = main(argv)
         except Exception as exc:  # noqa: BLE001 - the failure being looked for
             return _fail(command, f"{type(exc).__name__}: {exc} (argv {argv})", exc)
+        err.write("".join(warnings.formatwarning(w.message, w.category, w.filename, w.lineno)
+                          for w in caught))
         for name, data in files.items():
             if (d / name).read_bytes() != data:
                 raise Traceback(f"{command} modified its input {name}")

@@ -141,7 +141,8 @@ def check_sweep_size(cfg: SweepConfig, names=("nu", "xi0", "amplitudes")):
     """
     nu, xi0, amps = names
     try:
-        grid = sample_grid(cfg.nu, cfg.xi0, cfg.tones)
+        with np.errstate(over="ignore"):        # an overflow is refused below
+            grid = sample_grid(cfg.nu, cfg.xi0, cfg.tones)
     except InputError as exc:
         raise InputError(f"{nu}, {xi0}: {exc}") from None
     except OverflowError:
