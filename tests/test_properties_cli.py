@@ -148,6 +148,8 @@ def _nonfinite_output(p: Path):
        scan=st.sampled_from(["none", "3:5", "5:3", "0:2", "x"]))
 @example(amp=valid("amplitude"), phase=None, order=[], phase_order=[], lo=[], hi=[],
          scan="0:2")                                   # 'no powers given': no option named
+@example(amp=valid("amplitude"), phase=valid("phase"), order=[], phase_order=[],
+         lo=["--phase-min-A", "1"], hi=[], scan="none")  # 'phase fit window': no option named
 def test_calibrate(amp, phase, order, phase_order, lo, hi, scan):
     files = {"amp.csv": amp, **({} if phase is None else {"phase.csv": phase})}
     run_cli("calibrate", files, lambda d: [

@@ -143,6 +143,9 @@ def _all_runs(args) -> int:
 def cmd_calibrate(args) -> int:
     inputs = [args.amplitude] + ([args.phase] if args.phase else [])
     refuse_overwriting_inputs([args.output], inputs)
+    if args.phase and not args.phase_min_A < args.phase_max_A:
+        raise InputError(f"option --phase-min-A: must be < --phase-max-A "
+                         f"({args.phase_max_A:g}), got {args.phase_min_A:g}")
     if args.all_runs:
         return _all_runs(args)
     scan = _order_range(args.order_scan)
