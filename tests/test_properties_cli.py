@@ -21,6 +21,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 import pandas as pd
 from hypothesis import example, given
 from hypothesis import strategies as st
@@ -268,3 +269,39 @@ def test_propagate(runs, A, stale, draws, walkers, steps, order, loss, seed):
         "propagate", "--calibration-runs", d / "runs.csv", "--A", A, *stale,
         "--draws", draws, "--walkers", walkers, "--steps", steps, *order, *loss, *seed,
         "--force", "--no-progress"])
+
+
+# ----------------------------------------------------------------------------- the baseline
+
+_VALID_RUNS = [
+    ("calibrate", {"amp.csv": "amplitude", "phase.csv": "phase"},
+     ["--amplitude", "@amp.csv", "--phase", "@phase.csv", "--order-scan", "none",
+      "-o", "@cal.json"], ["cal.json"]),
+    ("sweep", {"cal.json": "calibration"},
+     ["@cal.json", "--amplitudes", "0.2:1:5", "-o", "@s.csv"], ["s.csv"]),
+    ("lut", {"cal.json": "calibration"}, ["@cal.json", "--points", "50", "-o", "@l.csv"],
+     ["l.csv", "l.json"]),
+    ("estimate", {}, ["--powers-db", "0:-40,1:0,2:0,3:-30"], []),
+    ("fidelity", {"pop.csv": "populations", "par.csv": "parity", "rates.csv": "gate_rates"},
+     ["--populations", "@pop.csv", "--parity", "@par.csv", "--gate-rates", "@rates.csv",
+      "-o", "@g.csv"], ["g.csv"]),
+    ("thresholds", {"sweep.csv": "sweep"}, ["@sweep.csv"], []),
+    ("align", {"gate.csv": "gate", "sweep.csv": "sweep"},
+     ["--gate", "@gate.csv", "--sweep", "@sweep.csv"], []),
+    ("stability", {"runs.csv": "runs"}, ["@runs.csv", "--order", "4"], []),
+    ("budget", {"rates.csv": "gate_rates"},
+     ["--delta", "-0.01", "--delta-err", "0.003", "--gate-rates", "@rates.csv"], []),
+    ("propagate", {"runs.csv": "runs"},
+     ["--calibration-runs", "@runs.csv", "--A", "0.5", "--draws", "50", "--walkers", "16",
+      "--steps", "20", "--force", "--no-progress"], []),
+]
+
+
+@pytest.mark.parametrize("command, files, args, outputs", _VALID_RUNS,
+                         ids=[r[0] for r in _VALID_RUNS])
+def test_the_unmutated_inputs_give_a_valid_result(command, files, args, outputs):
+    """The files every property test mutates are valid: exit 0 with finite outputs."""
+    code = run_cli(f"{command} (valid)", {n: valid(k) for n, k in files.items()},
+                   lambda d: [command, *[d / a[1:] if a.startswith("@") else a for a in args]],
+                   outputs)
+    assert code == 0
