@@ -108,7 +108,7 @@ def _run_reader(reader, data: bytes, name=None):
 #: minimal failing examples found by these tests (each fixed at its source)
 _FOUND = {
     # non-UTF-8 bytes: UnicodeDecodeError; a BOM-only one-column file: EmptyDataError
-    "trace file (.csv)": [[("not_utf8", 0, 0, None)],
+    "trace file (.csv)": [[("not_utf8", 0, 0, None)], [("cell", 0, 0, '"')],
                           [("drop_col", 0, 0, None), ("bom", 0, 0, None)]],
     # non-UTF-8 bytes in the '#' header of a sweep table: UnicodeDecodeError
     "sweep.csv": [[("not_utf8", 0, 1, None)]],

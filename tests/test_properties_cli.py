@@ -245,6 +245,8 @@ def test_stability(runs, kind, order, a_min):
 @given(rates=st.one_of(st.none(), maybe_csv("gate_rates")), delta=opt("--delta"),
        delta_err=opt("--delta-err"), no_paper=st.booleans())
 @example(rates=None, delta=[], delta_err=["--delta-err", "1e308"], no_paper=False)  # inf, nan
+@example(rates=mutate_csv(base_texts()["gate_rates"], [("cell", 0, 2, "1e-320")]), delta=[],
+         delta_err=[], no_paper=False)                 # gate time inf: 'inf +/- nan' reported
 def test_budget(rates, delta, delta_err, no_paper):
     files = {} if rates is None else {"rates.csv": rates}
     run_cli("budget", files, lambda d: [
@@ -264,6 +266,8 @@ def usually(good, other):
        seed=opt("--seed", small_ints(-2, 5)))
 @example(runs=valid("runs"), A="0.5", stale=[], draws="1", walkers="1", steps="1", order=[],
          loss=[], seed=[])                             # 'n_walkers ...': no option named
+@example(runs=valid("runs"), A="0.5", stale=[], draws="50", walkers="16", steps="20", order=[],
+         loss=["--loss", "1"], seed=[])                # loss never reached: TypeError in report
 def test_propagate(runs, A, stale, draws, walkers, steps, order, loss, seed):
     run_cli("propagate", {"runs.csv": runs}, lambda d: [
         "propagate", "--calibration-runs", d / "runs.csv", "--A", A, *stale,

@@ -90,7 +90,8 @@ def _load_csv(path: Path) -> np.ndarray:
             raise InputError(f"not a readable CSV file ({exc})", file=name) from None
         i = int(bad[0])
         t = text.iloc[i]
-        what = "value is empty" if t == "" else f"'{t}' is not a number"
+        shown = repr(t[:60]) if ("\n" in t or "\r" in t or len(t) > 60) else f"'{t}'"
+        what = "value is empty" if t == "" else f"{shown} is not a number"
         raise InputError(what, file=name, column=col, row=i + 1) from None
     if df.shape[1] != 1:
         raise InputError(f"{df.shape[1]} columns; expected one column of samples", file=name)

@@ -46,6 +46,8 @@ import math
 import tomllib
 from pathlib import Path
 
+import numpy as np
+
 from dpdfit.errors import InputError
 from dpdfit.recordings.tables import read_table
 
@@ -169,4 +171,10 @@ def read_gate_rates(path) -> list[float]:
     """
     df = read_table(path, ["A", "dpd", "xi0_khz"], ranges={"A": (0.0, 1.0), "dpd": (0, 1)},
                     positive=["xi0_khz"], unique=["A", "dpd"])
+    with np.errstate(over="ignore", divide="ignore"):
+        long = ~np.isfinite(1.0 / df["xi0_khz"].to_numpy())
+    if long.any():                                  # e.g. 1e-320: the gate time 1/xi0 is inf
+        i = int(np.flatnonzero(long)[0])
+        raise InputError(f"xi0_khz = {df['xi0_khz'].iloc[i]:g} gives an infinite gate time "
+                         "1/xi0", file=str(path), column="xi0_khz", row=i + 1)
     return [float(x) for x in df["xi0_khz"]]
