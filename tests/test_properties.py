@@ -113,7 +113,7 @@ _FOUND = {
     # non-UTF-8 bytes in the '#' header of a sweep table: UnicodeDecodeError
     "sweep.csv": [[("not_utf8", 0, 1, None)]],
     # a quoted cell spanning lines: a message of two lines
-    "spectra.csv": [[("cell", 0, 0, '"')]],
+    "spectra.csv": [[("cell", 0, 0, '"')], [("cell", 0, 5, "inf")]],  # 'valid' inf: IntCasting
     "time_scans.csv": [[("cell", 0, 0, '"')]],
 }
 

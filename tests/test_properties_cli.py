@@ -235,6 +235,8 @@ def test_align(which, ops, sigma):
 @given(runs=maybe_csv("runs"), kind=opt("--kind", st.sampled_from(["amplitude", "phase"])),
        order=opt("--order", small_ints(-1, 9)), a_min=opt("--phase-min-A"))
 @example(runs=valid("runs"), kind=[], order=["--order", "1"], a_min=[])  # nan, inf reported
+@example(runs=valid("runs"), kind=["--kind", "phase"], order=[],
+         a_min=["--phase-min-A", "1"])                  # 'phase fit window': no option named
 @example(runs=b"".join(ln for ln in valid("runs").splitlines(True) if not ln.startswith(b"R003")),
          kind=[], order=["--order", "3"], a_min=[])   # 2 runs: 'trend ... +/- nan' reported
 def test_stability(runs, kind, order, a_min):
@@ -247,6 +249,8 @@ def test_stability(runs, kind, order, a_min):
 @example(rates=None, delta=[], delta_err=["--delta-err", "1e308"], no_paper=False)  # inf, nan
 @example(rates=mutate_csv(base_texts()["gate_rates"], [("cell", 0, 2, "1e-320")]), delta=[],
          delta_err=[], no_paper=False)                 # gate time inf: 'inf +/- nan' reported
+@example(rates=mutate_csv(base_texts()["gate_rates"], [("cell", 0, 2, "2.2e-306")]), delta=[],
+         delta_err=[], no_paper=False)                 # gate time 4e308 us: 'inf' reported
 def test_budget(rates, delta, delta_err, no_paper):
     files = {} if rates is None else {"rates.csv": rates}
     run_cli("budget", files, lambda d: [

@@ -36,8 +36,9 @@ def cmd_stability(args) -> int:
     try:
         res = stability(args.file, kind=kind, order=args.order, A_min=args.A_min)
     except InputError as exc:
-        if str(exc).startswith("order must"):
-            raise InputError(f"option --order: {exc}") from None
+        for api, opt in (("order must", "--order"), ("phase fit window", "--phase-min-A")):
+            if str(exc).startswith(api):
+                raise InputError(f"option {opt}: {exc}") from None
         raise
     written = []
     if args.plot:

@@ -204,8 +204,11 @@ class CampaignFolder:
             raise InputError(f"tone (A={df['A'].iloc[i]:g}, dpd={df['dpd'].iloc[i]}, "
                              f"{df['sideband'].iloc[i]}, n={df['n'].iloc[i]}) appears twice",
                              file=str(path), column="n", row=i + 1)
-        df["valid"] = (pd.to_numeric(df["valid"], errors="coerce").fillna(0).astype(int)
-                       if "valid" in df.columns else 1)
+        if "valid" in df.columns:      # a flag that is not a finite number: not valid (0)
+            v = pd.to_numeric(df["valid"], errors="coerce")
+            df["valid"] = v.where(np.isfinite(v), 0).astype(int)
+        else:
+            df["valid"] = 1
         if "snr_db" in df.columns:
             df["snr_db"] = pd.to_numeric(df["snr_db"], errors="coerce")
         df.attrs["source"] = str(path)
