@@ -272,6 +272,8 @@ def usually(good, other):
          loss=[], seed=[])                             # 'n_walkers ...': no option named
 @example(runs=valid("runs"), A="0.5", stale=[], draws="50", walkers="16", steps="20", order=[],
          loss=["--loss", "1"], seed=[])                # loss never reached: TypeError in report
+@example(runs=valid("runs"), A="0.5", stale=[], draws="50", walkers="16", steps="20",
+         order=["--order", "1"], loss=[], seed=[])    # K = 1: nothing sampled, 'tau nan' reported
 def test_propagate(runs, A, stale, draws, walkers, steps, order, loss, seed):
     run_cli("propagate", {"runs.csv": runs}, lambda d: [
         "propagate", "--calibration-runs", d / "runs.csv", "--A", A, *stale,

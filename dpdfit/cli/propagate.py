@@ -8,7 +8,7 @@ import json
 import pandas as pd
 
 from dpdfit.analyses.propagation import propagate, threshold_distribution
-from dpdfit.cli.options import fraction, nonneg_float, nonneg_int, positive_int
+from dpdfit.cli.options import fraction, int_at_least, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration import calibrate_phase
@@ -80,7 +80,7 @@ def add_propagate_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--run", help="run used as the calibration (default: latest)")
     s.add_argument("--phase", metavar="PHASE.csv", help="phase calibration (latest run; "
                    "default: AM-only forward model)")
-    s.add_argument("--order", type=positive_int, default=AMPLITUDE_ORDER,
+    s.add_argument("--order", type=int_at_least(2), default=AMPLITUDE_ORDER,
                    help=f"amplitude polynomial order ({AMPLITUDE_ORDER})")
     s.add_argument("--walkers", type=positive_int, default=32, help="emcee walkers (32)")
     s.add_argument("--steps", type=positive_int, default=400, help="emcee steps per walker (400)")
