@@ -237,6 +237,10 @@ def test_align(which, ops, sigma):
 @example(runs=valid("runs"), kind=[], order=["--order", "1"], a_min=[])  # nan, inf reported
 @example(runs=valid("runs"), kind=["--kind", "phase"], order=[],
          a_min=["--phase-min-A", "1"])                  # 'phase fit window': no option named
+@example(runs=mutate_csv(base_texts()["runs"], [("cell", 1, 63, "1e22")]), kind=[], order=[],
+         a_min=[])                                     # LinAlgError in the drift test
+@example(runs=mutate_csv(base_texts()["runs"], [("cell", 1, 63, "1e308")]), kind=[], order=[],
+         a_min=[])                                     # ValueError from least_squares
 @example(runs=b"".join(ln for ln in valid("runs").splitlines(True) if not ln.startswith(b"R003")),
          kind=[], order=["--order", "3"], a_min=[])   # 2 runs: 'trend ... +/- nan' reported
 def test_stability(runs, kind, order, a_min):
