@@ -139,10 +139,18 @@ def check_sweep_size(cfg: SweepConfig, names=("nu", "xi0", "amplitudes")):
     :class:`~dpdfit.errors.InputError` names ``names`` (the settings, or the
     command-line options) and the size.
     """
-    grid = sample_grid(cfg.nu, cfg.xi0, cfg.tones)
+    nu, xi0, amps = names
+    try:
+        with np.errstate(over="ignore"):        # an overflow is refused below
+            grid = sample_grid(cfg.nu, cfg.xi0, cfg.tones)
+    except InputError as exc:
+        raise InputError(f"{nu}, {xi0}: {exc}") from None
+    except OverflowError:
+        raise InputError(f"{nu}, {xi0}: nu = {cfg.nu:g} Hz, xi0 = {cfg.xi0:g} Hz need more "
+                         f"samples than can be counted, above the limit of "
+                         f"{MAX_SWEEP_SAMPLES:.3g} (MAX_SWEEP_SAMPLES)") from None
     total = int(grid.n_samples) * (len(cfg.amplitudes) + 1)
     if total > MAX_SWEEP_SAMPLES:
-        nu, xi0, amps = names
         raise InputError(
             f"{nu}, {xi0}: nu = {cfg.nu:g} Hz, xi0 = {cfg.xi0:g} Hz need {grid.n_samples} "
             f"samples per record x {len(cfg.amplitudes) + 1} records = {total:.3g} samples, "
@@ -200,7 +208,8 @@ def efficiency_spline(df: pd.DataFrame, dpd: int) -> CubicSpline:
     """Cubic spline ``A -> eta_bar`` for one DPD flag (S6.5)."""
     sub = df[(df["dpd"] == dpd) & (df["sideband"] == "mean")].sort_values("A")
     if len(sub) < 4:
-        raise InputError(f"sweep table has {len(sub)} amplitudes for dpd={dpd}; need >= 4")
+        raise InputError(f"sweep table has {len(sub)} amplitudes for dpd={dpd}; need >= 4",
+                         file=df.attrs.get("source"))
     return CubicSpline(sub["A"].to_numpy(), sub["eta_bar"].to_numpy())
 
 
@@ -302,5 +311,8 @@ def read_sweep_table(path) -> pd.DataFrame:
         raise InputError(f"dpd must be 0 or 1, got {df['dpd'].iloc[i]:g}", file=name,
                          column="dpd", row=i + 1)
     df["dpd"] = df["dpd"].astype(int)
-    df.attrs["A_corr"] = read_csv_header(path).get("A_corr")
+    try:
+        df.attrs["A_corr"] = read_csv_header(path).get("A_corr")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
     return df

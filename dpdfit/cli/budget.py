@@ -8,10 +8,18 @@ import math
 
 from dpdfit.analyses.budget import (error_budget, load_budget_config, read_gate_rates,
                                     validate_budget_config)
-from dpdfit.cli.options import finite_float, nonneg_float
+from dpdfit.cli.options import finite_float, unit_interval
 from dpdfit.errors import InputError
 
 __all__ = ["add_budget_command", "cmd_budget"]
+
+
+def _offset(text: str) -> float:
+    """A fidelity offset: a finite number in [-1, 1]."""
+    value = finite_float(text)
+    if not -1 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"must be in [-1, 1], got {value:g}")
+    return value
 
 
 def cmd_budget(args) -> int:
@@ -43,8 +51,8 @@ def add_budget_command(subparsers) -> argparse.ArgumentParser:
                     "detection with Monte-Carlo uncertainties, compared with the fitted "
                     "offset delta (Supplement S8, Table S3).")
     s.add_argument("--config", help="budget TOML file (all keys optional; see dpdfit.analyses.budget)")
-    s.add_argument("--delta", type=finite_float, help="fitted fidelity offset delta (e.g. -0.018)")
-    s.add_argument("--delta-err", type=nonneg_float, help="1-sigma error of delta (e.g. 0.003)")
+    s.add_argument("--delta", type=_offset, help="fitted fidelity offset delta (e.g. -0.018)")
+    s.add_argument("--delta-err", type=unit_interval, help="1-sigma error of delta (e.g. 0.003)")
     s.add_argument("--gate-rates", metavar="CSV",
                    help="gate rates (columns A, dpd, xi0_khz): gate times 1/xi0")
     s.add_argument("--no-paper", action="store_true", help="report without the paper column")

@@ -84,9 +84,12 @@ def _order_range(spec: str):
     if spec.lower() in ("none", "off", ""):
         return None
     try:
-        return parse_powers(spec)
+        orders = parse_powers(spec)
     except DpdfitError as exc:
         raise InputError(f"--order-scan: {exc}") from None
+    if min(orders) < 1:
+        raise InputError(f"--order-scan: orders must be >= 1, got {spec}")
+    return orders
 
 
 def _amplitude_runs(args) -> list[dict]:
@@ -154,6 +157,9 @@ def _check_invertible(amp, data) -> None:
 def cmd_calibrate(args) -> int:
     inputs = [args.amplitude] + ([args.phase] if args.phase else [])
     refuse_overwriting_inputs([args.output], inputs)
+    if args.phase and not args.phase_min_A < args.phase_max_A:
+        raise InputError(f"option --phase-min-A: must be < --phase-max-A "
+                         f"({args.phase_max_A:g}), got {args.phase_min_A:g}")
     if args.all_runs:
         return _all_runs(args)
     scan = _order_range(args.order_scan)

@@ -98,6 +98,14 @@ def add_fidelity_command(subparsers) -> argparse.ArgumentParser:
 # ----------------------------------------------------------------------------- align
 
 
+def _sigma_db(text: str) -> float:
+    """Laser-power fluctuation (1 sigma, dB): a finite number in (0, 10]."""
+    value = positive_float(text)
+    if value > 10:
+        raise argparse.ArgumentTypeError(f"must be in (0, 10] dB, got {value:g}")
+    return value
+
+
 def cmd_align(args) -> int:
     from dpdfit.analyses.sweep import read_sweep_table
     from dpdfit.fits.alignment import align
@@ -126,7 +134,7 @@ def add_align_command(subparsers) -> argparse.ArgumentParser:
         "align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
     al.add_argument("--gate", required=True, help="A, dpd, xi0_khz, xi0_err_khz, F, F_err")
     al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")
-    al.add_argument("--sigma-db", type=positive_float, default=0.2,
+    al.add_argument("--sigma-db", type=_sigma_db, default=0.2,
                     help="laser-power fluctuation, dB (0.2)")
     al.add_argument("--json", action="store_true")
     al.add_argument("--plot", metavar="DIR", help="write Figs. 3 and 4 (PNG)")

@@ -8,8 +8,9 @@ import json
 import pandas as pd
 
 from dpdfit.analyses.propagation import propagate, threshold_distribution
-from dpdfit.cli.options import fraction, nonneg_float, nonneg_int, positive_int
+from dpdfit.cli.options import fraction, int_at_least, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.errors import InputError
 from dpdfit.fits.calibration import calibrate_phase
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.recordings.tables import read_calibration, read_table
@@ -29,10 +30,16 @@ def cmd_propagate(args) -> int:
     phase = None
     if args.phase:
         phase = calibrate_phase(read_calibration(args.phase, "phase", run="latest"))
-    res = propagate(df, args.A, stale_days=args.stale_days, draws=args.draws, phase=phase,
-                    order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
-                    n_steps=args.steps, force=args.force, progress=args.progress,
-                    recalibration_loss=args.loss)
+    try:
+        res = propagate(df, args.A, stale_days=args.stale_days, draws=args.draws, phase=phase,
+                        order=args.order, run=args.run, seed=args.seed, n_walkers=args.walkers,
+                        n_steps=args.steps, force=args.force, progress=args.progress,
+                        recalibration_loss=args.loss)
+    except InputError as exc:
+        for api, opt in (("n_walkers", "--walkers"), ("n_steps", "--steps")):
+            if str(exc).startswith(api):
+                raise InputError(f"option {opt}: {exc}") from None
+        raise
     d = res.to_dict()
     if args.thresholds:
         d["thresholds"] = threshold_distribution(
@@ -73,7 +80,7 @@ def add_propagate_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--run", help="run used as the calibration (default: latest)")
     s.add_argument("--phase", metavar="PHASE.csv", help="phase calibration (latest run; "
                    "default: AM-only forward model)")
-    s.add_argument("--order", type=positive_int, default=AMPLITUDE_ORDER,
+    s.add_argument("--order", type=int_at_least(2), default=AMPLITUDE_ORDER,
                    help=f"amplitude polynomial order ({AMPLITUDE_ORDER})")
     s.add_argument("--walkers", type=positive_int, default=32, help="emcee walkers (32)")
     s.add_argument("--steps", type=positive_int, default=400, help="emcee steps per walker (400)")

@@ -139,8 +139,12 @@ def _parse_powers_db(spec: str) -> tuple[tuple, np.ndarray]:
 def cmd_estimate(args) -> int:
     from dpdfit.models.fidelity import estimate
     harm, P = _parse_powers_db(args.powers_db)
-    est = estimate(P, harm, nbar=args.nbar, formula=args.formula)
+    with np.errstate(all="ignore"):      # a non-finite estimate is refused below
+        est = estimate(P, harm, nbar=args.nbar, formula=args.formula)
     d = est.to_dict()
+    if not all(np.isfinite(d[k]) for k in ("F_est", "eps_est", "F", "G", "Phi")):
+        raise InputError(f"--powers-db: no finite estimate from '{args.powers_db}' (gate tones "
+                         "too weak for the other tones' powers?)")
     if args.json:
         print(json.dumps(to_jsonable(d), indent=2))
     else:

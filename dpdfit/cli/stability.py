@@ -11,6 +11,7 @@ import pandas as pd
 from dpdfit.analyses.stability import stability
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
+from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 from dpdfit.report.stability_plots import stability_figures
@@ -32,7 +33,13 @@ def _guess_kind(path) -> str:
 def cmd_stability(args) -> int:
     """``dpdfit stability``: calibration stability over runs (report or JSON)."""
     kind = args.kind or _guess_kind(args.file)
-    res = stability(args.file, kind=kind, order=args.order, A_min=args.A_min)
+    try:
+        res = stability(args.file, kind=kind, order=args.order, A_min=args.A_min)
+    except InputError as exc:
+        for api, opt in (("order must", "--order"), ("phase fit window", "--phase-min-A")):
+            if str(exc).startswith(api):
+                raise InputError(f"option {opt}: {exc}") from None
+        raise
     written = []
     if args.plot:
         use_noninteractive_backend()

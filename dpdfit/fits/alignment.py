@@ -55,7 +55,8 @@ def curves(sweep: pd.DataFrame) -> dict:
     for d in (0, 1):
         sub = sweep[(sweep["dpd"] == d) & (sweep["sideband"] == "mean")].sort_values("A")
         if len(sub) < 4:
-            raise InputError(f"sweep table has {len(sub)} amplitudes for dpd={d}; need >= 4")
+            raise InputError(f"sweep table has {len(sub)} amplitudes for dpd={d}; need >= 4",
+                             file=sweep.attrs.get("source"))
         A = sub["A"].to_numpy(dtype=float)
         out[d] = {k: CubicSpline(A, sub[k].to_numpy(dtype=float))
                   for k in ("r_rel", "F_est", "eta_bar")}
@@ -180,7 +181,9 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
     g = gate[need].astype(float).copy()
     g["dpd"] = g["dpd"].astype(int)
     if len(g) < 2:
-        raise FitError(f"alignment needs at least 2 measured points, got {len(g)}")
+        src = gate.attrs.get("source")
+        raise FitError(f"{src + ': ' if src else ''}alignment needs at least 2 measured "
+                       f"points, got {len(g)}")
     _check_errors(g, gate.attrs.get("source"))
     if not np.isfinite(sigma_db) or sigma_db < 0:
         raise InputError(f"sigma_db must be a finite number >= 0, got {sigma_db}")
@@ -221,8 +224,8 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
     try:
         cov = np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:
-        raise FitError("alignment fit has a singular design (alpha and delta cannot both be "
-                       "determined from these points)") from None
+        raise FitError(f"alignment fit is singular: alpha and delta are not determined "
+                       f"(sigma_db = {sigma_db:g} dB)") from None
     err = np.sqrt(np.diag(cov))
     chi2 = float(np.sum(sol.fun ** 2))
     dof = 2 * len(g) - 2

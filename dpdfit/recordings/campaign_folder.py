@@ -95,6 +95,9 @@ class CampaignFolder:
         except json.JSONDecodeError as exc:
             raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
                              file=str(p)) from None
+        except UnicodeDecodeError as exc:
+            raise InputError(f"campaign.json is not UTF-8 text (byte {exc.start + 1})",
+                             file=str(p)) from None
         if not isinstance(raw, dict):
             raise InputError("campaign.json must hold a JSON object", file=str(p))
         self.raw_meta = raw
@@ -103,10 +106,18 @@ class CampaignFolder:
         for k in META_DEFAULTS:
             try:
                 self.meta[k] = float(self.meta[k])
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise InputError(f"key '{k}' must be a number, got {self.meta[k]!r}",
                                  file=str(p)) from None
+            if not np.isfinite(self.meta[k]):
+                raise InputError(f"key '{k}' must be a finite number, got {self.meta[k]}",
+                                 file=str(p))
+        if not (1 <= self.meta["order"] <= 40 and self.meta["order"] == int(self.meta["order"])):
+            raise InputError(f"key 'order' must be an integer in 1..40, got "
+                             f"{self.meta['order']:g}", file=str(p))
         self.meta["order"] = int(self.meta["order"])
+        if not isinstance(raw.get("predistortion_table") or {}, dict):
+            raise InputError("key 'predistortion_table' must be a JSON object", file=str(p))
 
     # ------------------------------------------------------------------ basics
     def file(self, name: str) -> Path:
@@ -198,8 +209,11 @@ class CampaignFolder:
             raise InputError(f"tone (A={df['A'].iloc[i]:g}, dpd={df['dpd'].iloc[i]}, "
                              f"{df['sideband'].iloc[i]}, n={df['n'].iloc[i]}) appears twice",
                              file=str(path), column="n", row=i + 1)
-        df["valid"] = (pd.to_numeric(df["valid"], errors="coerce").fillna(0).astype(int)
-                       if "valid" in df.columns else 1)
+        if "valid" in df.columns:      # a flag that is not a finite number: not valid (0)
+            v = pd.to_numeric(df["valid"], errors="coerce")
+            df["valid"] = v.where(np.isfinite(v), 0).astype(int)
+        else:
+            df["valid"] = 1
         if "snr_db" in df.columns:
             df["snr_db"] = pd.to_numeric(df["snr_db"], errors="coerce")
         df.attrs["source"] = str(path)

@@ -163,7 +163,7 @@ def _numeric_column(raw: pd.Series, name: str, col: str) -> np.ndarray:
         text = raw.iloc[i]
         what = "value is empty" if text == "" else (
             "value is NaN" if text.lower() in ("nan", "na", "n/a", "null", "none")
-            else f"'{text}' is not a number")
+            else f"{_shown(text)} is not a number")
         raise InputError(what, file=name, column=col, row=_row(i))
     arr = vals.to_numpy(dtype=float)
     nonfinite = ~np.isfinite(arr)
@@ -172,6 +172,12 @@ def _numeric_column(raw: pd.Series, name: str, col: str) -> np.ndarray:
         raise InputError(f"value is {arr[i]} (must be finite)", file=name, column=col,
                          row=_row(i))
     return arr
+
+
+def _shown(text) -> str:
+    """A cell's text quoted for a one-line message (repr if it holds a line break)."""
+    text = str(text)
+    return repr(text[:60]) if ("\n" in text or "\r" in text or len(text) > 60) else f"'{text}'"
 
 
 def _check_bounds(column: pd.Series, name: str, col: str, lo: float, hi: float) -> None:
@@ -253,7 +259,7 @@ def _timestamps(column: pd.Series, name: str) -> pd.Series:
     bad = ts.isna()
     if bad.any():
         i = int(np.flatnonzero(bad.to_numpy())[0])
-        raise InputError(f"'{column.iloc[i]}' is not a date/time (use ISO 8601, "
+        raise InputError(f"{_shown(column.iloc[i])} is not a date/time (use ISO 8601, "
                          "e.g. 2026-03-01T09:30:00)", file=name, column="timestamp",
                          row=_row(i))
     return ts

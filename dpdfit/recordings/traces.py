@@ -78,8 +78,10 @@ def _load_csv(path: Path) -> np.ndarray:
     try:
         df = pd.read_csv(path, dtype=np.float64, **kw)
         col = None if header is None else str(df.columns[0]).strip()
-    except UnicodeDecodeError:
-        raise InputError("not a text (UTF-8 CSV) file", file=name) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
+    except pd.errors.EmptyDataError:
+        raise InputError("file is empty (no samples)", file=name) from None
     except (ValueError, pd.errors.ParserError) as exc:
         if isinstance(exc, pd.errors.ParserError):
             msg = str(exc).strip().splitlines()[-1]
@@ -93,10 +95,9 @@ def _load_csv(path: Path) -> np.ndarray:
             raise InputError(f"not a readable CSV file ({exc})", file=name) from None
         i = int(bad[0])
         t = text.iloc[i]
-        what = "value is empty" if t == "" else f"'{t}' is not a number"
+        shown = repr(t[:60]) if ("\n" in t or "\r" in t or len(t) > 60) else f"'{t}'"
+        what = "value is empty" if t == "" else f"{shown} is not a number"
         raise InputError(what, file=name, column=col, row=i + 1) from None
-    except pd.errors.EmptyDataError:
-        raise InputError("file is empty (no samples)", file=name) from None
     if df.shape[1] != 1:
         raise InputError(f"{df.shape[1]} columns; expected one column of samples", file=name)
     if df.shape[0] == 0:
@@ -176,4 +177,12 @@ def load_trace(path: str | os.PathLike) -> np.ndarray:
     else:
         arr = obj
     x = as_trace(arr, file=name)
-    return x * scale if scale != 1.0 else x
+    if scale == 1.0:
+        return x
+    with np.errstate(over="ignore"):
+        x = x * scale
+    if not np.isfinite(x).all():
+        i = int(np.flatnonzero(~np.isfinite(x))[0])
+        raise InputError(f"sample x 'scale' = {scale:g} overflows (not finite)", file=name,
+                         row=i + 1)
+    return x

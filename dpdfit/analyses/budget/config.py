@@ -46,12 +46,18 @@ import math
 import tomllib
 from pathlib import Path
 
+import numpy as np
+
 from dpdfit.errors import InputError
 from dpdfit.recordings.tables import read_table, require_file
 
 from .losses import DEPHASING_COEFFICIENT
 
-__all__ = ["DEFAULT_CONFIG", "validate_budget_config", "load_budget_config", "read_gate_rates"]
+__all__ = ["DEFAULT_CONFIG", "validate_budget_config", "load_budget_config", "read_gate_rates",
+           "MIN_GATE_RATE_KHZ"]
+
+#: Smallest gate rate read from a gate-rate table (gate time 1/xi0 at most 1e9 us)
+MIN_GATE_RATE_KHZ = 1e-6
 
 DEFAULT_CONFIG = {
     "state_preparation": {"rabi_amplitude": 0.997, "rabi_amplitude_err": 0.003},
@@ -172,4 +178,10 @@ def read_gate_rates(path) -> list[float]:
     """
     df = read_table(path, ["A", "dpd", "xi0_khz"], ranges={"A": (0.0, 1.0), "dpd": (0, 1)},
                     positive=["xi0_khz"], unique=["A", "dpd"])
+    long = df["xi0_khz"].to_numpy() < MIN_GATE_RATE_KHZ    # e.g. 1e-320: 1/xi0 overflows
+    if long.any():
+        i = int(np.flatnonzero(long)[0])
+        raise InputError(f"xi0_khz = {df['xi0_khz'].iloc[i]:g} gives a gate time 1/xi0 above "
+                         f"{1e3 / MIN_GATE_RATE_KHZ:g} us: not a gate rate", file=str(path),
+                         column="xi0_khz", row=i + 1)
     return [float(x) for x in df["xi0_khz"]]

@@ -78,8 +78,12 @@ class PropagationResult(Displayable):
         if self.recalibration:
             rc = self.recalibration
             days = rc["days_until"]
-            lines.append(f"    recalibrate : a drift of y(1) by {rc['delta_y1']:+.5f} costs "
-                         f"{rc['loss']:g} in F_est at A = {rc['A']:g} with DPD; expected after "
-                         + ("never (saturated drift smaller)" if days is None
-                            else f"{days:.2f} days"))
+            if rc["delta_y1"] is None:          # the loss is never reached (e.g. --loss 1)
+                lines.append(f"    recalibrate : no drift of y(1) within +/-0.2 costs "
+                             f"{rc['loss']:g} in F_est at A = {rc['A']:g} with DPD")
+            else:
+                lines.append(f"    recalibrate : a drift of y(1) by {rc['delta_y1']:+.5f} costs "
+                             f"{rc['loss']:g} in F_est at A = {rc['A']:g} with DPD; expected "
+                             "after " + ("never (saturated drift smaller)" if days is None
+                                         else f"{days:.2f} days"))
         return "\n".join(lines)

@@ -12,6 +12,11 @@ from dpdfit.core.display import Displayable
 __all__ = ["StabilityResult"]
 
 
+def _num(x, fmt: str) -> str:
+    """``x`` formatted, or ``n/a`` where it is not available (NaN, e.g. 2 runs: no trend error)."""
+    return format(x, fmt) if x is not None and np.isfinite(x) else "n/a"
+
+
 @dataclass(frozen=True, repr=False)
 class StabilityResult(Displayable):
     """Calibration stability over runs (Supplement S2).
@@ -111,11 +116,12 @@ class StabilityResult(Displayable):
                  f"    mean         : {self.mean:.6f}{unit}",
                  f"    std (ddof=1) : {self.std:.6f}{unit}   relative {100 * self.relative_std:.3f} %",
                  f"    fit error    : {np.mean(self.stderrs):.2e}{unit} (mean per-run stderr)",
-                 f"    trend        : {d['trend_per_day']:+.3e} +/- {d['trend_per_day_err']:.3e}"
-                 f"{unit}/day   95% CI [{d['trend_ci95'][0]:+.3e}, {d['trend_ci95'][1]:+.3e}]"
-                 f"   p(zero trend) = {d['trend_p_value']:.3g}",
-                 f"    excess scatter s = {d['excess_scatter']:.3e}{unit}; residual lag-1 "
-                 f"autocorrelation {d['residual_lag1_autocorr']:+.2f} "
+                 f"    trend        : {_num(d['trend_per_day'], '+.3e')} +/- "
+                 f"{_num(d['trend_per_day_err'], '.3e')}{unit}/day   95% CI "
+                 f"[{_num(d['trend_ci95'][0], '+.3e')}, {_num(d['trend_ci95'][1], '+.3e')}]"
+                 f"   p(zero trend) = {_num(d['trend_p_value'], '.3g')}",
+                 f"    excess scatter s = {_num(d['excess_scatter'], '.3e')}{unit}; residual "
+                 f"lag-1 autocorrelation {_num(d['residual_lag1_autocorr'], '+.2f')} "
                  "(drift test assumes independent runs)"]
         if self.allan:
             lines.append("    Allan deviation (window means):  tau [days]   adev   n_pairs")

@@ -85,14 +85,22 @@ def _fit_run(sub, kind, K, A_min, grid, name, lab, cal=None):
     ts = sub["timestamp"].min()
     src = {"file": name, "run": lab, "timestamp": ts.isoformat()}
     try:
-        if kind == "amplitude":
-            cal = cal or fit_amplitude(A, v, e, K, source=src)
-            val, se, curve = cal.A_corr, cal.A_corr_stderr, cal.y(grid)
-        else:
-            cal = cal or fit_phase(A, v, e, K, A_min=A_min, A_max=1.0, source=src)
-            val, se, curve = cal.phi_at_1, cal.phi_at_1_stderr, cal.phi(grid)
+        with np.errstate(over="ignore", invalid="ignore"):  # non-finite: refused below
+            if kind == "amplitude":
+                cal = cal or fit_amplitude(A, v, e, K, source=src)
+                val, se, curve = cal.A_corr, cal.A_corr_stderr, cal.y(grid)
+            else:
+                cal = cal or fit_phase(A, v, e, K, A_min=A_min, A_max=1.0, source=src)
+                val, se, curve = cal.phi_at_1, cal.phi_at_1_stderr, cal.phi(grid)
     except DpdfitError as exc:
         raise FitError(f"{name}: run '{lab}' ({len(A)} points): {exc}") from None
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:  # e.g. 1e300 values
+        raise FitError(f"{name}: run '{lab}' ({len(A)} points): the fit failed "
+                       f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+                       ) from None
+    if not (np.isfinite(val) and np.isfinite(se)):
+        raise FitError(f"{name}: run '{lab}' ({len(A)} points): fitted value {val:g} +/- "
+                       f"{se:g} is not finite")
     rec = {"run": lab, "timestamp": ts, "value": float(val), "stderr": float(se),
            "n_points": int(cal.n_points), "reduced_chi2": float(cal.reduced_chi2)}
     return rec, curve
@@ -160,8 +168,9 @@ def stability(df_or_path, kind: str = "amplitude", order: int | None = None,
     if kind not in _COLUMNS:
         raise InputError(f"kind must be 'amplitude' or 'phase', got '{kind}'")
     K = _DEFAULT_ORDER[kind] if order is None else int(order)
-    if K < 1:
-        raise InputError(f"order must be >= 1, got {K}")
+    if K < 1 or (kind == "amplitude" and K < 2):
+        raise InputError(f"order must be >= {2 if kind == 'amplitude' else 1}, got {K}"
+                         + (" (K = 1 fixes y = A: nothing to track)" if K == 1 else ""))
     if kind == "phase" and not 0 <= A_min < 1:
         raise InputError(f"phase fit window needs 0 <= A_min < 1, got A_min = {A_min}")
     df, name = _load(df_or_path, kind)
@@ -178,12 +187,19 @@ def stability(df_or_path, kind: str = "amplitude", order: int | None = None,
     mean = float(vals.mean())
     std = float(vals.std(ddof=1))
     allan = allan_deviation(days, vals)
+    try:
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            drift = drift_test(days, vals, ses)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:   # e.g. 1e22 values
+        raise FitError(f"{name}: the drift test across runs failed ({type(exc).__name__}); "
+                       f"fitted values {', '.join(f'{v:.6g}' for v in vals[:6])}: a run far "
+                       "off the others?") from None
     return StabilityResult(
         kind=kind, quantity="y(1) = A_corr" if kind == "amplitude" else "phi(1) [rad]",
         runs=recs, mean=mean, std=std,
         relative_std=float(std / abs(mean)) if mean != 0 else float("inf"),
         n_runs=len(recs), span_days=float(days[-1] - days[0]),
-        drift=drift_test(days, vals, ses), allan=allan,
+        drift=drift, allan=allan,
         grid=grid, curves=curves, mean_curve=curves.mean(axis=0),
         std_curve=curves.std(axis=0, ddof=1), order=K, A_min=float(A_min),
         source=name, notes=_notes(len(recs), allan, std, ses))

@@ -20,9 +20,11 @@ from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
 from dpdfit.fits.calibration.phase import PhaseCalibration
 from dpdfit.recordings.tables import require_file
 
-__all__ = ["Calibration", "load_calibration", "check_calibration_dict"]
+__all__ = ["Calibration", "load_calibration", "check_calibration_dict", "MAX_POWER"]
 
 #: Arrays of ``calibration.json`` that must be present and finite, per section.
+#: highest polynomial power a calibration file may hold
+MAX_POWER = 40
 _FINITE_KEYS = {"amplitude": ("coefficients", "covariance", "raw_coefficients", "raw_covariance"),
                 "phase": ("coefficients", "covariance")}
 
@@ -88,14 +90,14 @@ def load_calibration(path: str | os.PathLike) -> Calibration:
             d = json.load(fh)
     except json.JSONDecodeError as exc:
         raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
-    except UnicodeDecodeError:
-        raise InputError("not a text (UTF-8 JSON) file", file=name) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
     except OSError as exc:
         raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
     check_calibration_dict(d, name)
     try:
         return Calibration.from_dict(d, file=name)
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, OverflowError) as exc:
         raise InputError(f"not a dpdfit calibration file (missing or bad key: {exc})",
                          file=name) from None
 
@@ -104,12 +106,22 @@ def _finite_array(value, key: str, name: str):
     import numpy as np
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"key '{key}': not an array of numbers", file=name) from None
     if arr.size == 0 or not np.all(np.isfinite(arr)):
         raise InputError(f"key '{key}': must be a non-empty array of finite numbers",
                          file=name)
     return arr
+
+
+def _powers(value, key: str, name: str) -> list:
+    """The polynomial's powers: distinct integers 1..MAX_POWER (InputError otherwise)."""
+    ok = isinstance(value, list) and all(
+        isinstance(p, int) and not isinstance(p, bool) and 1 <= p <= MAX_POWER for p in value)
+    if not ok or len(set(value)) != len(value):
+        raise InputError(f"key '{key}': must be a list of distinct integers 1..{MAX_POWER}",
+                         file=name)
+    return value
 
 
 def check_calibration_dict(d, name: str) -> None:
@@ -127,7 +139,7 @@ def check_calibration_dict(d, name: str) -> None:
             continue
         if not isinstance(sec, dict):
             raise InputError(f"key '{section}': not an object", file=name)
-        n = len(sec.get("powers") or [])
+        n = len(_powers(sec.get("powers"), f"{section}.powers", name))
         for key in keys:
             if key not in sec and key.startswith("raw_"):
                 continue
