@@ -183,6 +183,7 @@ def test_sweep(cal, grid, nbar, xi0, nu, eta, anchor, am_only):
 @example(cal=json_edit("calibration", ("set", 4, 0)), points=[], strict=False)
 @example(cal=json_edit("calibration", ("set", 4, 1e308)), points=[], strict=False)
 @example(cal=json_edit("calibration", ("set", 7, 10**400)), points=[], strict=False)
+@example(cal=json_edit("calibration", ("set", 670833, 1e308)), points=[], strict=False)
 def test_lut(cal, points, strict):
     run_cli("lut", {"cal.json": cal}, lambda d: [
         "lut", d / "cal.json", *points, *(["--strict"] if strict else []), "-o", d / "l.csv"],

@@ -114,6 +114,16 @@ def _finite_array(value, key: str, name: str):
     return arr
 
 
+def _check_representable(coef, max_power: int, key: str, name: str) -> None:
+    """The polynomial, its derivative and its square must be finite on [0, 1] (no overflow)."""
+    import numpy as np
+    with np.errstate(over="ignore"):
+        bound = (np.abs(coef).sum() * max_power) ** 2
+    if not np.isfinite(bound):
+        raise InputError(f"key '{key}': values too large (the polynomial overflows on [0, 1])",
+                         file=name)
+
+
 def _powers(value, key: str, name: str) -> list:
     """The polynomial's powers: distinct integers 1..MAX_POWER (InputError otherwise)."""
     ok = isinstance(value, list) and all(
@@ -139,7 +149,8 @@ def check_calibration_dict(d, name: str) -> None:
             continue
         if not isinstance(sec, dict):
             raise InputError(f"key '{section}': not an object", file=name)
-        n = len(_powers(sec.get("powers"), f"{section}.powers", name))
+        powers = _powers(sec.get("powers"), f"{section}.powers", name)
+        n = len(powers)
         for key in keys:
             if key not in sec and key.startswith("raw_"):
                 continue
@@ -150,3 +161,5 @@ def check_calibration_dict(d, name: str) -> None:
             if arr.shape != shape:
                 raise InputError(f"key '{section}.{key}': shape {arr.shape}, expected {shape} "
                                  f"for {n} powers", file=name)
+            if key == "coefficients":
+                _check_representable(arr, max(powers), f"{section}.{key}", name)
