@@ -45,18 +45,6 @@ def _bad(capsys, argv, needles, inputs=()):
     return lines[0]
 
 
-@pytest.fixture(scope="module")
-def made(tmp_path_factory):
-    """calibration.json, sweep.csv and gate.csv of the bundled data (made once)."""
-    d = tmp_path_factory.mktemp("made17")
-    cal, sweep, gate = d / "c.json", d / "s.csv", d / "g.csv"
-    assert main(["calibrate", "--amplitude", str(AMP), "-o", str(cal),
-                 "--order-scan", "none"]) == 0
-    assert main(["sweep", str(cal), "-o", str(sweep), "--amplitudes", "0.05:1:40"]) == 0
-    assert main(["fidelity", "--populations", str(CAMP / "populations.csv"),
-                 "--parity", str(CAMP / "parity.csv"),
-                 "--gate-rates", str(CAMP / "gate_rates.csv"), "-o", str(gate)]) == 0
-    return {"cal": cal, "sweep": sweep, "gate": gate}
 
 
 # ----------------------------------------------------------------------------- 1. calibration

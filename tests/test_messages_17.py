@@ -101,18 +101,6 @@ def test_a_transfer_function_without_source_keeps_its_plain_message():
         tf.invertibility()
 
 
-@pytest.fixture(scope="module")
-def made(tmp_path_factory):
-    """calibration.json, sweep.csv and gate.csv of the bundled data (made once)."""
-    d = tmp_path_factory.mktemp("msg17")
-    cal, sweep, gate = d / "c.json", d / "s.csv", d / "g.csv"
-    assert main(["calibrate", "--amplitude", str(AMP), "-o", str(cal),
-                 "--order-scan", "none"]) == 0
-    assert main(["sweep", str(cal), "-o", str(sweep), "--amplitudes", "0.05:1:40"]) == 0
-    assert main(["fidelity", "--populations", str(CAMP / "populations.csv"),
-                 "--parity", str(CAMP / "parity.csv"),
-                 "--gate-rates", str(CAMP / "gate_rates.csv"), "-o", str(gate)]) == 0
-    return {"cal": cal, "sweep": sweep, "gate": gate}
 
 
 @pytest.mark.parametrize("col, value, need", [("F_err", 0.0, "> 0"),
