@@ -36,14 +36,17 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
         "diagnose", help="locate simulation/recording mismatches and name the missing physics",
         description="Standardised residuals of every observable against the simulation built "
                     "from the campaign's own calibration; interval scan with Bonferroni "
-                    "correction; catalog effects fitted and ranked by BIC and likelihood-ratio "
-                    "tests; verdict: an effect, 'none' or 'unexplained'.")
+                    "correction; every form of each catalog effect fitted and ranked by BIC "
+                    "and likelihood-ratio tests; further effects added while decisive; each "
+                    "named effect's size in a lab's terms with errors; verdict: the first "
+                    "named effect, 'none' or 'unexplained'.")
     s.add_argument("campaign", metavar="CAMPAIGN_DIR")
     s.add_argument("--json", action="store_true", help="print JSON instead of a report")
     s.add_argument("--plot", metavar="DIR", help="write before/after residual plots into DIR")
     s.add_argument("--pairs", type=nonneg_int, default=DEFAULT_PAIRS,
-                   help="fit pairs of this many best single effects when there is a mismatch "
-                        f"({DEFAULT_PAIRS})")
+                   help="after the first effect, try at most this many other effects (the "
+                        "best single ones) as an addition at each step; 0: name one effect "
+                        f"at most ({DEFAULT_PAIRS})")
     s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
     s.set_defaults(func=cmd_diagnose)

@@ -14,7 +14,7 @@ import json
 from dpdfit.cli.options import nonneg_int, positive_int
 from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import to_jsonable
-from dpdfit.simulation.harness import (CONCEALED, NULLS, PER_EFFECT, PLAN_SEED, report,
+from dpdfit.simulation.harness import (NULLS, PAIRS, PER_EFFECT, PLAN_SEED, report,
                                        run_harness, write_report)
 from dpdfit.simulation.harness_external import report_external, run_external
 
@@ -25,9 +25,9 @@ def cmd_harness(args) -> int:
     """``dpdfit harness``: run the harness (or the external mode) and print its summary."""
     if args.campaigns or args.truth:
         return _cmd_external(args)
-    effects = tuple(args.effects.split(",")) if args.effects else CONCEALED
+    effects = tuple(args.effects.split(",")) if args.effects else None
     s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
-                    effects, progress=args.progress, log=args.log)
+                    effects, progress=args.progress, log=args.log, pairs=args.pairs)
     if args.output:
         write_report(s, args.output)
     if args.json:
@@ -59,12 +59,15 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
         "harness", help="injection-recovery harness of the diagnosis (parallel)",
         description="Simulate campaigns with each catalog effect concealed at realistic "
-                    "strengths plus null campaigns, diagnose each, and report the confusion "
-                    "matrix, false-alarm rate, parameter recovery and fit improvement.")
+                    "strengths (and pairs of them, and null campaigns), diagnose each, and "
+                    "report the confusion matrix, false-alarm rate, recovery of each effect's "
+                    "size (pulls and their coverage) and fit improvement.")
     s.add_argument("--per-effect", type=nonneg_int, default=PER_EFFECT,
                    help=f"campaigns per effect ({PER_EFFECT})")
     s.add_argument("--nulls", type=nonneg_int, default=NULLS,
                    help=f"campaigns with nothing concealed ({NULLS})")
+    s.add_argument("--pairs", type=nonneg_int, default=PAIRS,
+                   help=f"campaigns with two effects concealed at once, random pairs ({PAIRS})")
     s.add_argument("--workers", type=positive_int, default=None, help="local processes (all cores)")
     s.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address")
     s.add_argument("--effects", help="comma-separated subset of concealed effects")

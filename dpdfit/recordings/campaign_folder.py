@@ -10,6 +10,9 @@ says what was left out and why.
 Required and optional (everything else in the layout is optional):
 
 * ``campaign.json`` -- required (a folder without it is not a campaign).
+  Optional ``spectra_recorded`` and ``gates_recorded``: when the spectra and the
+  gates were recorded (ISO 8601; no time zone = the calibration files'
+  convention), :attr:`CampaignFolder.recording_times`.
   Keys default to the paper's values when absent (``nu_hz`` 1.84 MHz,
   ``xi0_spectra_hz`` 20 kHz, ``nbar_assumed`` 0.1, ``eta_ref`` 0.8, ``order``
   8, the latest amplitude run for the table, the latest phase run for the
@@ -35,6 +38,7 @@ Nothing is ever written into the folder.
 
 from __future__ import annotations
 
+import datetime
 import functools
 import json
 import os
@@ -49,7 +53,12 @@ from dpdfit.errors import InputError
 from .counts import read_parity, read_populations
 from .tables import CalibrationData, list_runs, read_calibration, read_table
 
-__all__ = ["CampaignFolder", "META_DEFAULTS", "FILES"]
+__all__ = ["CampaignFolder", "META_DEFAULTS", "FILES", "RECORDING_KEYS", "MAX_FUTURE_DAYS"]
+
+#: campaign.json keys stating when the recordings were taken (optional, ISO 8601)
+RECORDING_KEYS = ("spectra_recorded", "gates_recorded")
+#: a recording time this far beyond the last calibration run is refused as a typo
+MAX_FUTURE_DAYS = 365.0
 
 #: campaign.json constants and their defaults (the paper's values) when absent
 META_DEFAULTS = {"nu_hz": NU_HZ, "xi0_spectra_hz": XI0_SPECTRA_HZ, "nbar_assumed": NBAR,
@@ -118,6 +127,26 @@ class CampaignFolder:
         self.meta["order"] = int(self.meta["order"])
         if not isinstance(raw.get("predistortion_table") or {}, dict):
             raise InputError("key 'predistortion_table' must be a JSON object", file=str(p))
+        self._recorded = _recording_times(raw, str(p))
+
+    @functools.cached_property
+    def recording_times(self) -> dict:
+        """``{"spectra_recorded": Timestamp, "gates_recorded": Timestamp}`` of the keys
+        present (UTC), checked against the calibration runs: a time more than
+        ``MAX_FUTURE_DAYS`` after the last run's timestamp is refused (InputError
+        naming the key)."""
+        out = dict(self._recorded)
+        if out and self.has("calibration_amplitude.csv"):
+            runs = self.amplitude_runs
+            if "timestamp" in runs.columns:
+                last = runs["timestamp"].max()
+                for k, t in out.items():
+                    if (t - last) / pd.Timedelta(days=1) > MAX_FUTURE_DAYS:
+                        raise InputError(
+                            f"key '{k}' ({t.isoformat()}) lies more than a year after the "
+                            f"last calibration run ({last.isoformat()})",
+                            file=str(self.path / "campaign.json"))
+        return out
 
     # ------------------------------------------------------------------ basics
     def file(self, name: str) -> Path:
@@ -305,3 +334,25 @@ class CampaignFolder:
 
     def __repr__(self) -> str:
         return f"CampaignFolder({os.fspath(self.path)!r})"
+
+
+def _recording_times(raw: dict, path: str) -> dict:
+    """The recording times of ``campaign.json`` (module doc), parsed and ordered."""
+    out = {}
+    for k in RECORDING_KEYS:
+        if raw.get(k) is None:
+            continue
+        v = raw[k]
+        try:
+            if not isinstance(v, str):
+                raise ValueError
+            t = pd.Timestamp(datetime.datetime.fromisoformat(v.strip()))
+        except (ValueError, TypeError, OverflowError):
+            raise InputError(f"key '{k}' must be an ISO 8601 date/time "
+                             f"(e.g. 2026-03-01T14:30:00), got {v!r}", file=path) from None
+        out[k] = t.tz_localize("UTC") if t.tzinfo is None else t.tz_convert("UTC")
+    if len(out) == 2 and out["gates_recorded"] < out["spectra_recorded"]:
+        raise InputError("key 'gates_recorded' lies before 'spectra_recorded' (the layout: "
+                         "the spectra characterise the drive, then the gates are recorded)",
+                         file=path)
+    return out

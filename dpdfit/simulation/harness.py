@@ -1,23 +1,23 @@
-"""Injection-recovery harness of the discrepancy diagnosis (issue #7).
+"""Injection-recovery harness of the discrepancy diagnosis.
 
-For each catalog effect, campaigns are simulated with the effect concealed at
-a realistic strength (strength, sign and seed drawn from a fixed seed), plus
-campaigns with nothing concealed; each is diagnosed as a lab would (the
-diagnosis reads only the recordings, never ``truth.json``) and the verdict and
-recovered parameters are compared with the truth.
+Campaigns are simulated with effects of the diagnosis's catalog injected --
+one (``per_effect`` campaigns per effect), two at once (``pairs`` campaigns,
+random pairs of distinct effects) or none (``nulls``) -- at realistic
+strengths (each effect's :attr:`~dpdfit.analyses.diagnosis.effects.Effect.harness`
+ranges, drawn by :meth:`~dpdfit.analyses.diagnosis.effects.Effect.draw` from a
+fixed seed), by the effects' own simulator hooks.  Each is diagnosed as a lab
+would (the diagnosis reads only the recordings, never ``truth.json``) and the
+named effects and their sizes are compared with the truth
+(:meth:`~dpdfit.analyses.diagnosis.effects.Effect.truth`): named correctly =
+the same set of effects; pulls ``(fitted - injected) / error`` of each
+effect's main size (:attr:`~dpdfit.analyses.diagnosis.effects.Effect.main`)
+and their 1-sigma coverage.
 
 Harness campaigns use :func:`harness_config`: the campaign simulator with the
 tone powers taken directly from the field (with the noise the heterodyne
 extraction would leave, :func:`dpdfit.simulation.campaign.direct_tones`), three gate
-amplitudes x two flags x three scans and two time scans, so that one
-injection (simulation + diagnosis) takes ~30 s on one core.
-
-Realistic strengths (:data:`STRENGTHS`, ``(lo, hi)`` of ``|strength|``; sign
-random where the effect has one) are chosen so that each effect changes the
-recordings at a level a lab would meet: e.g. AOM memory of 40-120 ns (RF
-bandwidth of a few MHz), a table 1-3 % stale in A_corr (1-3 sigma of the
-run-to-run drift of Supplement S2), 30-150 /s extra dephasing (T2 of 50 ms
-degraded to 6-20 ms), 0.05-0.2 quanta/ms heating.
+amplitudes x two flags x three scans, two time scans, and calibration runs
+before and after the recordings.
 
 Runs are independent: :func:`run_harness` spreads them over local processes
 (``concurrent.futures``) or over a Dask cluster (``scheduler="tcp://..."``,
@@ -36,91 +36,66 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.dispatch import run_jobs
 
-__all__ = ["harness_config", "STRENGTHS", "CONCEALED", "PER_EFFECT", "NULLS", "PLAN_SEED",
-           "truth_params", "plan", "run_one", "run_harness", "summarise", "write_report",
-           "report"]
+__all__ = ["harness_config", "concealed_effects", "PER_EFFECT", "NULLS", "PAIRS", "PLAN_SEED",
+           "plan", "run_one", "run_harness", "summarise", "write_report", "report"]
 
-#: Default size of the plan: campaigns per concealed effect, null campaigns.
+#: Default size of the plan: campaigns per concealed effect, null campaigns, pairs.
 PER_EFFECT = 20
 NULLS = 20
+PAIRS = 0
 #: Default seed of the injection plan.
 PLAN_SEED = 7
 
-#: concealed effect -> (campaign effects to set, |strength| range, signed?)
-STRENGTHS = {
-    "am_pm_omitted": ({"am_pm_omitted": (0.05, 0.15)}, True),
-    "aom_memory": ({"aom_memory": (40.0, 120.0), "aom_memory_offset": (1.0, 4.0)}, True),
-    "stale_calibration": ({"calibration_drift": (0.01, 0.03)}, True),
-    "higher_order_im": ({"higher_order_im": (0.01, 0.03)}, True),
-    "detector_nonlinearity": ({"detector_nonlinearity": (0.05, 0.15)}, True),
-    "motional_heating": ({"motional_heating": (0.05, 0.2)}, False),
-    "dephasing": ({"dephasing": (30.0, 150.0)}, False),
-    "spam_offset": ({"spam_offset": (0.005, 0.02)}, False),
-    "gate_rate_miscalibration": ({"gate_rate_miscalibration": (0.15, 0.4)}, True),
-}
-CONCEALED = tuple(STRENGTHS)
+
+def concealed_effects() -> tuple:
+    """The effects the harness conceals by default: the registry's default effects that
+    have harness strengths (derived from the registry)."""
+    return tuple(n for n in default_effects() if EFFECTS[n].harness)
 
 
 def harness_config(seed: int) -> CampaignConfig:
     """The reduced campaign of the harness (see module doc)."""
-    return CampaignConfig(seed=seed, spectra_mode="direct", n_amp_runs=3, amp_span_days=5.0,
-                          n_phase_runs=2, phase_span_hours=1.0, gate_amplitudes=(0.4, 0.6, 0.8),
+    return CampaignConfig(seed=seed, spectra_mode="direct", n_amp_runs=9, amp_span_days=14.0,
+                          runs_after_recordings=3, n_phase_runs=2, phase_span_hours=1.0,
+                          gate_amplitudes=(0.4, 0.6, 0.8),
                           scan_shots=((625, 625), (625, 625), (625, 625)),
                           time_scan_A=0.6, time_scan_points=13, bundled_traces=())
 
 
-def truth_params(effect: str, strengths: dict, truth: dict) -> dict:
-    """The concealed effect's true parameters in the catalog's units."""
-    cal = truth.get("calibration", {})
-    if effect == "am_pm_omitted":
-        return {"dphi": strengths["am_pm_omitted"]}
-    if effect == "aom_memory":
-        return {"tau": strengths["aom_memory"], "f_off": strengths["aom_memory_offset"]}
-    if effect == "stale_calibration":
-        return {"drift": cal["lut_relative_y05"]}
-    if effect == "higher_order_im":
-        return {"k5": strengths["higher_order_im"]}
-    if effect == "detector_nonlinearity":
-        return {"k_det": cal["detector_nonlinearity_rel_max"]}
-    if effect == "motional_heating":
-        return {"ndot": strengths["motional_heating"]}
-    if effect == "dephasing":
-        return {"gamma": strengths["dephasing"]}
-    if effect == "spam_offset":
-        return {"p_prep": strengths["spam_offset"]}
-    if effect == "gate_rate_miscalibration":
-        return {"eps": strengths["gate_rate_miscalibration"]}
-    return {}
-
-
 def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED,
-         effects=CONCEALED) -> list:
-    """The list of injections: dicts with ``concealed``, ``seed``, ``effects``."""
-    if per_effect < 0 or nulls < 0 or per_effect + nulls == 0:
-        raise InputError(f"need --per-effect >= 0 and --nulls >= 0, not both 0 "
-                         f"(got {per_effect} and {nulls})")
+         effects=None, pairs: int = PAIRS) -> list:
+    """The list of injections: dicts with ``concealed`` (an effect, ``a+b`` or
+    ``none``), ``seed`` and ``effects`` (``{name: injected values}``)."""
+    effects = concealed_effects() if effects is None else tuple(effects)
+    if per_effect < 0 or nulls < 0 or pairs < 0 or per_effect + nulls + pairs == 0:
+        raise InputError(f"need --per-effect, --nulls, --pairs >= 0, not all 0 "
+                         f"(got {per_effect}, {nulls}, {pairs})")
+    for e in effects:
+        if e not in EFFECTS or not EFFECTS[e].harness:
+            known = ", ".join(concealed_effects())
+            raise InputError(f"unknown concealed effect '{e}'; known: {known}")
+    if pairs and len(effects) < 2:
+        raise InputError("pairs need at least two effects")
     rng = np.random.default_rng(seed)
     jobs = []
     for e in effects:
-        if e not in STRENGTHS:
-            raise InputError(f"unknown concealed effect '{e}'; known: {', '.join(STRENGTHS)}")
-        spec, signed = STRENGTHS[e]
         for _ in range(per_effect):
-            sign = rng.choice([-1.0, 1.0]) if signed else 1.0
-            eff = {}
-            for name, (lo, hi) in spec.items():
-                v = float(rng.uniform(lo, hi))
-                # memory time is positive; its centre offset carries the sign
-                eff[name] = v if name == "aom_memory" else sign * v
-            jobs.append({"concealed": e, "seed": int(rng.integers(1, 2 ** 31)), "effects": eff})
+            jobs.append({"concealed": e, "seed": int(rng.integers(1, 2 ** 31)),
+                         "effects": {e: get(e).draw(rng)}})
     for _ in range(nulls):
         jobs.append({"concealed": "none", "seed": int(rng.integers(1, 2 ** 31)), "effects": {}})
+    for _ in range(pairs):
+        a, b = sorted(rng.choice(len(effects), size=2, replace=False))
+        ea, eb = effects[a], effects[b]
+        jobs.append({"concealed": f"{ea}+{eb}", "seed": int(rng.integers(1, 2 ** 31)),
+                     "effects": {ea: get(ea).draw(rng), eb: get(eb).draw(rng)}})
     return jobs
 
 
@@ -132,27 +107,42 @@ def run_one(job: dict, workdir: str | None = None) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="dpdfit-harness-", dir=workdir))
     try:
         folder = tmp / "campaign"
-        truth = simulate_campaign(folder, seed=job["seed"], effects=job["effects"],
-                                  config=harness_config(job["seed"]),
-                                  progress=False)
+        cfg = harness_config(job["seed"]).inject(job["effects"])
+        truth = simulate_campaign(folder, seed=job["seed"], config=cfg, progress=False)
         t_sim = time.perf_counter() - t0
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
         d = diagnose(folder, progress=False)          # the harness has its own bar
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    out = {**job, "verdict": d.verdict, "seconds_simulation": t_sim,
-           "seconds_diagnosis": d.seconds,
+    concealed = sorted(job["effects"])
+    out = {**job, "verdict": d.verdict, "named": d.named,
+           "named_correctly": sorted(d.named) == concealed if concealed
+           else d.verdict == "none",
+           "seconds_simulation": t_sim, "seconds_diagnosis": d.seconds,
            "redchi_before": _total_redchi(d.baseline), "redchi_after": _total_redchi(
                d.chosen or d.baseline),
            "ranking": [{k: r[k] for k in ("effect", "delta_bic", "p_value", "params",
                                           "params_err")} for r in d.ranking[:4]]}
-    if job["concealed"] != "none":
-        tp = truth_params(job["concealed"], job["effects"], truth)
-        out["truth_params"] = tp
-        fit = next((r for r in d.ranking if r["effect"] == job["concealed"]), None)
-        if fit is not None:
-            out["fit_params"] = fit["params"]
-            out["fit_params_err"] = fit["params_err"]
+    if concealed:
+        out["truth_sizes"] = {e: get(e).truth(get(e).injected(v), truth, ctx=d.context)
+                              for e, v in job["effects"].items()}
+        out["fit_sizes"] = {}
+        for e in concealed:
+            # the effect's own fit: as named, else its single fit in the ranking
+            named = next((x for x in d.effects if x["effect"] == e), None)
+            sizes = named["sizes"] if named else next(
+                (r.get("sizes") for r in d.ranking if r["effect"] == e), None)
+            if sizes:
+                out["fit_sizes"][e] = sizes
+        if len(concealed) == 1:
+            # the keys of earlier reports: the concealed effect's main size
+            e = concealed[0]
+            m = get(e).main
+            out["truth_params"] = {m: out["truth_sizes"][e].get(m)}
+            fs = out["fit_sizes"].get(e, {}).get(m)
+            if fs is not None:
+                out["fit_params"] = {m: fs["value"]}
+                out["fit_params_err"] = {m: fs["error"]}
     return out
 
 
@@ -237,8 +227,8 @@ def _append_log(log: Path, record: dict) -> None:
 
 
 def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int | None = None,
-                scheduler: str | None = None, seed: int = PLAN_SEED, effects=CONCEALED,
-                progress=None, log=None) -> dict:
+                scheduler: str | None = None, seed: int = PLAN_SEED, effects=None,
+                progress=None, log=None, pairs: int = PAIRS) -> dict:
     """Run the harness; returns the summary (see :func:`summarise`) with all runs.
 
     ``log``: path of a run log (JSON lines).  Every finished run is appended
@@ -247,7 +237,7 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     ``progress``: None (a bar when stderr is a terminal), True, False, or a
     callback ``progress(k_done, n_jobs)``.
     """
-    jobs = plan(per_effect, nulls, seed, effects)
+    jobs = plan(per_effect, nulls, seed, effects, pairs)
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
     t0 = time.perf_counter()
@@ -276,7 +266,8 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     out["workers"] = n_workers
     out["scheduler"] = scheduler
     out["seed"] = seed
-    out["strengths"] = {k: {n: list(r) for n, r in v[0].items()} for k, v in STRENGTHS.items()}
+    out["strengths"] = {k: {n: list(r) for n, r in EFFECTS[k].harness.items()}
+                        for k in concealed_effects()}
     return out
 
 
@@ -285,68 +276,82 @@ def _num(v) -> float:
     return float("nan") if v is None else float(v)
 
 
-def _within_2sigma(r: dict) -> bool:
-    """Every true parameter within 2 fitted sigma (parameters without an error are skipped)."""
-    errs = {k: _num(r["fit_params_err"].get(k)) for k in r["truth_params"]}
-    return all(abs((r["fit_params"][k] - t) / errs[k]) <= 2
-               for k, t in r["truth_params"].items() if np.isfinite(errs[k]))
+def _named_correctly(r: dict) -> bool:
+    if "named_correctly" in r:
+        return bool(r["named_correctly"])
+    return r["verdict"] == r["concealed"]
+
+
+def _pulls(rs: list, effect: str) -> dict:
+    """Pulls ``(fitted - injected) / error`` of ``effect``'s main size over runs ``rs``."""
+    m = get(effect).main
+    d, pulls = [], []
+    for r in rs:
+        t = (r.get("truth_sizes") or {}).get(effect, {}).get(m)
+        f = (r.get("fit_sizes") or {}).get(effect, {}).get(m)
+        if t is None or f is None or f.get("value") is None:
+            continue
+        v, e = _num(f["value"]), _num(f.get("error"))
+        d.append(v - t)
+        if np.isfinite(e) and e > 0:
+            pulls.append((v - t) / e)
+    pulls = np.asarray(pulls)
+    return {"quantity": m, "n": len(d), "bias": float(np.mean(d)) if d else None,
+            "median_abs_error": float(np.median(np.abs(d))) if d else None,
+            "pulls": [float(x) for x in pulls],
+            "coverage_1sigma": float(np.mean(np.abs(pulls) <= 1)) if pulls.size else None,
+            "coverage_2sigma": float(np.mean(np.abs(pulls) <= 2)) if pulls.size else None}
 
 
 def summarise(results: list) -> dict:
-    """Confusion matrix, false-alarm rate, recovery (bias, coverage) and fit improvement;
-    failed runs (records with ``error``) are counted apart and kept in ``runs``."""
+    """Confusion matrix, false-alarm rate, named correctly (singles, and both effects
+    of pairs), recovery of each effect's main size (bias, pulls, their 1-sigma
+    coverage, over the runs that named it) and fit improvement; failed runs
+    (records with ``error``) are counted apart and kept in ``runs``."""
     every, results = results, [r for r in results if "error" not in r]
     labels = sorted({r["concealed"] for r in results})
     confusion = {c: {} for c in labels}
     for r in results:
         row = confusion[r["concealed"]]
-        row[r["verdict"]] = row.get(r["verdict"], 0) + 1
+        key = "+".join(r.get("named") or []) if "+" in r["concealed"] else r["verdict"]
+        key = key or r["verdict"]
+        row[key] = row.get(key, 0) + 1
     nulls = [r for r in results if r["concealed"] == "none"]
     far = (sum(r["verdict"] != "none" for r in nulls) / len(nulls)) if nulls else None
+    singles = [r for r in results if r["concealed"] != "none" and "+" not in r["concealed"]]
+    pairs = [r for r in results if "+" in r["concealed"]]
     named = {}
     for c in labels:
         if c == "none":
             continue
         rs = [r for r in results if r["concealed"] == c]
-        named[c] = sum(r["verdict"] == c for r in rs) / len(rs)
+        named[c] = sum(_named_correctly(r) for r in rs) / len(rs)
     recovery = {}
-    for c in labels:
-        if c == "none":
-            continue
-        rs = [r for r in results if r["concealed"] == c and r["verdict"] == c
-              and "fit_params" in r]
-        per = {}
-        for name in (rs[0]["truth_params"] if rs else {}):
-            d, pulls = [], []
-            for r in rs:
-                v, e, t = (r["fit_params"].get(name), r["fit_params_err"].get(name),
-                           r["truth_params"].get(name))
-                if v is None or t is None:
-                    continue
-                # f_off's sign and tau are identified together; compare as fitted
-                d.append(v - t)
-                if e is not None and np.isfinite(e) and e > 0:
-                    pulls.append((v - t) / e)
-            pulls = np.asarray(pulls)
-            per[name] = {"n": len(d), "bias": float(np.mean(d)) if d else None,
-                         "median_abs_error": float(np.median(np.abs(d))) if d else None,
-                         "coverage_1sigma": float(np.mean(np.abs(pulls) <= 1)) if pulls.size
-                         else None,
-                         "coverage_2sigma": float(np.mean(np.abs(pulls) <= 2)) if pulls.size
-                         else None}
-        within2 = [_within_2sigma(r) for r in rs]
-        recovery[c] = {"params": per, "n_named": len(rs),
-                       "all_params_within_2sigma": float(np.mean(within2)) if within2 else None}
-    conc = [r for r in results if r["concealed"] != "none"]
-    return {"n_runs": len(results), "n_failed": len(every) - len(results), "confusion": confusion, "false_alarm_rate": far,
+    for e in sorted({e for r in singles + pairs for e in r.get("effects", {})}):
+        # the runs that named the effect (alone or among others)
+        rs = [r for r in singles + pairs if e in r.get("effects", {})
+              and e in (r.get("named") or [r["verdict"]])]
+        recovery[e] = {"n_named": len(rs), "main": _pulls(rs, e)}
+    conc = singles + pairs
+    return {"n_runs": len(results), "n_failed": len(every) - len(results),
+            "confusion": confusion, "false_alarm_rate": far,
             "named_correctly": named,
-            "named_correctly_overall": (sum(r["verdict"] == r["concealed"] for r in conc)
-                                        / len(conc)) if conc else None,
+            "named_correctly_overall": (sum(_named_correctly(r) for r in singles)
+                                        / len(singles)) if singles else None,
+            "pairs_both_named": (sum(_named_correctly(r) for r in pairs) / len(pairs))
+            if pairs else None,
+            "pairs_one_named": (sum(len(set(r.get("named") or []) & set(r["effects"])) >= 1
+                                    for r in pairs) / len(pairs)) if pairs else None,
             "recovery": recovery,
             "median_redchi_before": float(np.median([r["redchi_before"] for r in conc]))
             if conc else None,
             "median_redchi_after": float(np.median([r["redchi_after"] for r in conc]))
             if conc else None,
+            "median_seconds_diagnosis": float(np.median([r["seconds_diagnosis"]
+                                                         for r in results]))
+            if results else None,
+            "max_seconds_diagnosis": float(np.max([r["seconds_diagnosis"] for r in results]))
+            if results else None,
             "median_seconds_per_run": float(np.median([r["seconds_simulation"]
                                                        + r["seconds_diagnosis"]
                                                        for r in results])) if results else None,
@@ -367,19 +372,21 @@ def report(s: dict) -> str:
         return "n/a" if v is None else f"{v:.3g}"
 
     lines = [f"Injection-recovery harness: {s['n_runs']} campaigns in {s['seconds']:.0f} s",
-             f"  named correctly overall: {num(s['named_correctly_overall'])}",
+             f"  named correctly (single effects): {num(s['named_correctly_overall'])}",
+             f"  pairs, both named: {num(s.get('pairs_both_named'))}, at least one: "
+             f"{num(s.get('pairs_one_named'))}",
              f"  false-alarm rate (nulls): {num(s['false_alarm_rate'])}",
+             f"  diagnosis seconds: median {num(s.get('median_seconds_diagnosis'))}, max "
+             f"{num(s.get('max_seconds_diagnosis'))}",
              f"  median reduced chi2 before -> after: {num(s['median_redchi_before'])} -> "
              f"{num(s['median_redchi_after'])}", "", "  confusion (concealed -> named):"]
     for r in (r for r in s["runs"] if "error" in r):
         lines.insert(1, f"  FAILED: {r['concealed']} seed {r['seed']}: {r['error']}")
     for c, row in s["confusion"].items():
-        lines.append(f"    {c:>26s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
-    lines += ["", "  recovery (named cases):"]
+        lines.append(f"    {c:>40s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
+    lines += ["", "  recovery of each effect's main size (runs that named it):"]
     for c, r in s["recovery"].items():
-        for p, v in r["params"].items():
-            lines.append(f"    {c:>26s} {p:>7s}: n={v['n']} bias={num(v['bias'])} "
-                         f"cov1={num(v['coverage_1sigma'])} cov2={num(v['coverage_2sigma'])}")
-        lines.append(f"    {c:>26s} all params within 2 sigma: "
-                     f"{num(r['all_params_within_2sigma'])}")
+        m = r["main"]
+        lines.append(f"    {c:>26s} {m['quantity']:>20s}: n={m['n']} bias={num(m['bias'])} "
+                     f"cov1={num(m['coverage_1sigma'])} cov2={num(m['coverage_2sigma'])}")
     return "\n".join(lines)

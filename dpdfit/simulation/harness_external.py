@@ -5,7 +5,9 @@ in ``DIR`` (a sub-folder holding ``campaign.json``, in name order) exactly as a
 lab would -- the diagnosis reads the recordings only -- and compares each
 verdict with ``FILE``: JSON, campaign id (the folder's name) -> object with at
 least ``effect`` (``"none"`` for a campaign with nothing concealed; other keys
-are kept in the report as they are).  A campaign without a truth entry is
+are kept in the report as they are) and, for several concealed effects,
+``effects`` (their list): then named correctly = the diagnosis names the same
+set of effects.  A campaign without a truth entry is
 diagnosed and reported with truth ``"unknown"`` (it counts in neither rate).
 A diagnosis that refuses the campaign is recorded with verdict ``"refused"``
 and its one-line error, never a crash.  Nothing is written into ``DIR``.
@@ -14,7 +16,9 @@ Report keys (keep): ``confusion`` (truth -> verdict -> count),
 ``false_alarm_rate`` (nulls not called ``none``), ``named_correctly``
 (fraction of the concealed campaigns whose verdict is the truth's effect),
 ``n_campaigns``, ``runs`` (per campaign ``campaign``, ``truth``, ``verdict``,
-``seconds``, plus ``verdict_fit``, ``params``, ``params_err``, ``error``).
+``seconds``, plus ``named``, ``named_correctly``, ``verdict_fit``, ``params``,
+``params_err``, ``sizes``, ``error``); with several concealed effects also
+``pairs_both_named`` and ``pairs_one_named``.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from dpdfit.core.progress import job_progress
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.simulation.dispatch import run_jobs
 
-__all__ = ["read_truth", "campaign_folders", "run_external_one", "summarise_external",
+__all__ = ["read_truth", "truth_effects", "campaign_folders", "run_external_one", "summarise_external",
            "run_external", "report_external"]
 
 
@@ -50,7 +54,21 @@ def read_truth(path) -> dict:
         if not isinstance(v, dict) or not isinstance(v.get("effect"), str):
             raise InputError(f"campaign {cid!r}: needs an object with a string 'effect'",
                              file=str(path))
+        eff = v.get("effects")
+        if eff is not None and not (isinstance(eff, list) and eff
+                                    and all(isinstance(e, str) for e in eff)):
+            raise InputError(f"campaign {cid!r}: 'effects' must be a list of effect names",
+                             file=str(path))
     return truth
+
+
+def truth_effects(entry: dict) -> list:
+    """The concealed effects of a truth entry: its ``effects`` list, else ``[effect]``
+    (``[]`` for ``"none"``)."""
+    if entry.get("effects"):
+        return sorted(entry["effects"])
+    e = entry.get("effect", "unknown")
+    return [] if e == "none" else [e]
 
 
 def campaign_folders(directory) -> list[Path]:
@@ -70,13 +88,20 @@ def run_external_one(job: dict) -> dict:
     from dpdfit.analyses.diagnosis.diagnose import diagnose
     t0 = time.perf_counter()
     rec = {"campaign": job["campaign"], "truth": job["truth"]}
+    job = {**job, "effects": job.get("effects")}
     try:
         d = diagnose(job["folder"], progress=False)   # the harness has its own bar
     except DpdfitError as exc:
         return {**rec, "verdict": "refused", "error": str(exc),
                 "seconds": time.perf_counter() - t0}
     chosen = d.chosen
-    return {**rec, "verdict": d.verdict, "seconds": d.seconds,
+    want = job.get("effects")
+    return {**rec, "verdict": d.verdict, "seconds": d.seconds, "named": d.named,
+            "named_correctly": (None if want is None else
+                                sorted(d.named) == want if want else d.verdict == "none"),
+            "sizes": {e["effect"]: e["sizes"] for e in d.effects},
+            "fidelity_cost": {e["effect"]: [e["fidelity_cost"], e["fidelity_cost_err"]]
+                              for e in d.effects},
             "verdict_fit": d.extra.get("verdict_fit"),
             "explained_fraction": d.extra.get("explained_fraction"),
             "params": None if chosen is None else chosen.params,
@@ -89,20 +114,36 @@ def summarise_external(runs: list) -> dict:
     confusion: dict = {}
     for r in runs:
         row = confusion.setdefault(r["truth"], {})
-        row[r["verdict"]] = row.get(r["verdict"], 0) + 1
+        key = ("+".join(sorted(r.get("named") or [])) or r["verdict"]) if "+" in r["truth"] \
+            else r["verdict"]
+        row[key] = row.get(key, 0) + 1
     nulls = [r for r in runs if r["truth"] == "none"]
-    conc = [r for r in runs if r["truth"] not in ("none", "unknown")]
+    conc = [r for r in runs if r["truth"] not in ("none", "unknown") and "+" not in r["truth"]]
+    pairs = [r for r in runs if "+" in r["truth"]]
+
+    def ok(r):
+        return r["named_correctly"] if r.get("named_correctly") is not None \
+            else r["verdict"] == r["truth"]
+
     secs = [r["seconds"] for r in runs]
-    return {"n_campaigns": len(runs), "confusion": confusion,
+    out = {"n_campaigns": len(runs), "confusion": confusion,
             "false_alarm_rate": (sum(r["verdict"] != "none" for r in nulls) / len(nulls)
                                  if nulls else None),
-            "named_correctly": (sum(r["verdict"] == r["truth"] for r in conc) / len(conc)
+            "named_correctly": (sum(ok(r) for r in conc) / len(conc)
                                 if conc else None),
             "n_nulls": len(nulls), "n_concealed": len(conc),
             "n_refused": sum(r["verdict"] == "refused" for r in runs),
             "median_seconds": float(np.median(secs)) if secs else None,
             "max_seconds": float(np.max(secs)) if secs else None,
             "runs": runs}
+    if pairs:
+        out["n_pairs"] = len(pairs)
+        out["pairs_both_named"] = sum(ok(r) for r in pairs) / len(pairs)
+        out["pairs_one_named"] = sum(
+            len(set(r.get("named") or []) & set(r["truth"].split("+"))) >= 1
+            for r in pairs) / len(pairs)
+        out["pairs_called_none"] = sum(r["verdict"] == "none" for r in pairs)
+    return out
 
 
 def run_external(directory, truth_file, workers: int | None = None,
@@ -112,8 +153,14 @@ def run_external(directory, truth_file, workers: int | None = None,
     folders = campaign_folders(directory)
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
-    jobs = [{"campaign": p.name, "folder": str(p),
-             "truth": truth.get(p.name, {}).get("effect", "unknown")} for p in folders]
+    jobs = []
+    for p in folders:
+        entry = truth.get(p.name, {})
+        eff = truth_effects(entry) if entry else None
+        label = entry.get("effect", "unknown") if entry else "unknown"
+        if eff and len(eff) > 1:
+            label = "+".join(eff)
+        jobs.append({"campaign": p.name, "folder": str(p), "truth": label, "effects": eff})
     t0 = time.perf_counter()
     runs = []
 
@@ -143,18 +190,25 @@ def report_external(s: dict) -> str:
     lines = [f"External injection recovery: {s['n_campaigns']} campaigns from "
              f"{s['campaigns']} in {s['seconds']:.0f} s",
              f"  named correctly: {num(s['named_correctly'])} of {s['n_concealed']} concealed",
-             f"  false-alarm rate: {num(s['false_alarm_rate'])} of {s['n_nulls']} nulls",
-             f"  refused: {s['n_refused']}; seconds per campaign: median "
-             f"{num(s['median_seconds'])}, max {num(s['max_seconds'])}", "",
-             "  confusion (truth -> verdict):"]
+             f"  false-alarm rate: {num(s['false_alarm_rate'])} of {s['n_nulls']} nulls"]
+    if s.get("n_pairs"):
+        lines.append(f"  pairs: both named {num(s.get('pairs_both_named'))}, at least one "
+                     f"{num(s.get('pairs_one_named'))}, called none "
+                     f"{s.get('pairs_called_none')} of {s.get('n_pairs')}")
+    lines += [f"  refused: {s['n_refused']}; seconds per campaign: median "
+              f"{num(s['median_seconds'])}, max {num(s['max_seconds'])}", "",
+              "  confusion (truth -> named):"]
     for t, row in sorted(s["confusion"].items()):
         lines.append(f"    {t:>26s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
     lines += ["", "  runs:"]
     for r in s["runs"]:
-        mark = "ok" if r["verdict"] == r["truth"] else "--"
+        good = (r["named_correctly"] if r.get("named_correctly") is not None
+                else r["verdict"] == r["truth"])
+        mark = "ok" if good else "--"
         extra = f"  ({r['error']})" if r.get("error") else (
             f"  [{r['verdict_fit']}]" if r.get("verdict_fit") not in (None, "acceptable",
                                                                      "none") else "")
-        lines.append(f"    {mark} {r['campaign']:>8s}: truth {r['truth']:<26s} verdict "
-                     f"{r['verdict']:<26s} {r['seconds']:6.1f} s{extra}")
+        named = "+".join(r.get("named") or []) or r["verdict"]
+        lines.append(f"    {mark} {r['campaign']:>8s}: truth {r['truth']:<40s} named "
+                     f"{named:<40s} {r['seconds']:6.1f} s{extra}")
     return "\n".join(lines)

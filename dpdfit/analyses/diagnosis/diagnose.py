@@ -1,212 +1,344 @@
-"""Discrepancy diagnosis: locate, name, model and show the improvement (issue #7).
+"""Discrepancy diagnosis: locate, name, model, size and show the improvement.
 
 Steps (:func:`diagnose`):
 
 1. **Baseline.**  The simulation built from the campaign's own calibration
-   (:mod:`dpdfit.analyses.diagnosis.tone_model`,
-   :mod:`dpdfit.analyses.diagnosis.gate_model`) predicts every observable of
-   :mod:`dpdfit.analyses.diagnosis.observables`
-   (:class:`~dpdfit.analyses.diagnosis.problem.Problem`).  Its existing
-   parameters (nuisances) are refitted first, with Gaussian priors from the
-   calibration: if that absorbs the mismatch there is nothing to explain.
-2. **Locate.**  Standardised residuals ``z = (recorded - simulated)/sigma`` of
-   each series (observable x sideband x flag, ordered by A, xi0 or t) are
-   scanned for intervals of significant deviation (:func:`dpdfit.analyses.diagnosis.scan.scan_intervals`),
-   Bonferroni-corrected over all intervals and all series.
-3. **Name.**  Each catalog effect (:mod:`dpdfit.analyses.diagnosis.effects`)
-   and its variants, and pairs of the three best, is fitted jointly to all
-   observables (nuisances refitted with it) by ``scipy.optimize.least_squares``
-   (:mod:`dpdfit.analyses.diagnosis.fitting`); effects are ranked by
-   ``delta_bic = BIC(effect) - BIC(baseline)`` (negative favours the effect)
-   and a likelihood-ratio test (``p_value``: Wilks, chi2 with as many degrees
-   of freedom as the effect has parameters).  The best tone-side effect's
-   gates are re-predicted under both phase-sign conventions
-   (:mod:`dpdfit.analyses.diagnosis.phase_sign`).
-4. **Verdict** (:mod:`dpdfit.analyses.diagnosis.verdict`).  ``"none"`` when
-   there is no evidence of a mismatch: the baseline's global chi2 p-value,
-   every located interval and the targeted test (the best single effect's LRT
-   p-value times the number of effects tried, with ``delta_bic <
-   -BIC_DECISIVE``) are all above ``ALPHA`` (``mismatch_evidence`` lists which
-   fired); else the best effect if it is decisive (``delta_bic <
-   -BIC_DECISIVE``, LRT ``p < ALPHA``) *and* leaves an acceptable fit (chi2
-   p-value >= ``ALPHA_FIT``); a pair ``"a+b"`` when only a pair does that; else
-   ``"unexplained"``.
-
-Parameter errors are the Gauss-Newton ones, ``(J^T J)^-1`` of the standardised
-residuals at the optimum (1 sigma), with the calibration's error modes profiled
-out, so they include the calibration uncertainty; ``params_err`` is NaN when a
-parameter sits at its bound.
+   (:mod:`~dpdfit.analyses.diagnosis.tone_model`,
+   :mod:`~dpdfit.analyses.diagnosis.gate_model`) predicts every observable of
+   :mod:`~dpdfit.analyses.diagnosis.observables`
+   (:class:`~dpdfit.analyses.diagnosis.problem.Problem`).  Its nuisances (what
+   the lab does not know, learnt first) are refitted: if that absorbs the
+   mismatch there is nothing to explain.
+2. **Locate.**  Standardised residuals of each series are scanned for
+   intervals of significant deviation, Bonferroni-corrected over all intervals
+   and series (:func:`~dpdfit.analyses.diagnosis.verdict.locate_mismatches`).
+3. **Name.**  Every form of each catalog effect
+   (:mod:`~dpdfit.analyses.diagnosis.effects`) is fitted with the nuisances
+   (:func:`~dpdfit.analyses.diagnosis.fitting.fit_effect`; the better form by
+   BIC is the effect's fit), ranked by ``delta_bic = BIC(effect) -
+   BIC(baseline)`` and a likelihood-ratio test.  The tone-side effects' field
+   also re-predicts the gates, under both phase-sign conventions
+   (:mod:`~dpdfit.analyses.diagnosis.phase_sign`).
+4. **More than one.**  After the best single effect, every other effect is
+   tested as an addition to the named ones (fitted jointly, started from the
+   two fits) with the same criteria -- decisive BIC, likelihood-ratio test
+   Bonferroni-corrected over the candidates -- until none is decisive.
+5. **Verdict** (:mod:`~dpdfit.analyses.diagnosis.verdict`): ``"none"`` when
+   no test finds a mismatch; else the first named effect (``effects`` lists
+   all, best first) when the named effects leave an acceptable fit or the
+   first explains nearly all of the mismatch; else ``"unexplained"``, with the
+   located mismatches and a smooth generic discrepancy fitted in their place
+   (:mod:`~dpdfit.analyses.diagnosis.generic`).
+6. **How big.**  Each named effect's size in a laboratory's terms with 1-sigma
+   errors (Gauss-Newton, the calibration's error modes profiled out; profile
+   likelihood where the curvature is poor, e.g. at a bound) and its cost in
+   Bell fidelity.
 """
 
 from __future__ import annotations
 
-import itertools
 import time
 
 from threadpoolctl import threadpool_limits
 
+from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
+from dpdfit.analyses.diagnosis.fitting import (FitResult, combine_sides, fit_all, fit_effects,
+                                               fit_hypothesis, param_side)
+from dpdfit.analyses.diagnosis.gate_model import GATE_NUISANCES
+from dpdfit.analyses.diagnosis.generic import generic_discrepancy
+from dpdfit.analyses.diagnosis.observables import Campaign, load_campaign
+from dpdfit.analyses.diagnosis.phase_sign import refit_other_sign, repredict_gates, tone_held
+from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem
+from dpdfit.analyses.diagnosis.profile import profile_errors
+from dpdfit.analyses.diagnosis.result import Diagnosis
+from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
+                                               DOMINANT_FRACTION, EXPLAINED_FRACTION,
+                                               choose_first, decisive, explained_fraction,
+                                               fidelity_cost, locate_mismatches,
+                                               mismatch_evidence, rank_entry)
 from dpdfit.core.progress import progress_bar
 
-from dpdfit.analyses.diagnosis.effects import EFFECTS, VARIANTS, effect_form, form_key
-from dpdfit.analyses.diagnosis.fitting import FitResult, fit_all, fit_hypothesis
-from dpdfit.analyses.diagnosis.gate_model import GATE_NUISANCES
-from dpdfit.analyses.diagnosis.observables import load_campaign
-from dpdfit.analyses.diagnosis.phase_sign import refit_other_sign, repredict_gates
-from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem
-from dpdfit.analyses.diagnosis.result import Diagnosis
-from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE, choose_verdict,
-                                               explained_fraction, fidelity_impact,
-                                               locate_mismatches, mismatch_evidence,
-                                               rank_entry)
-
 __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE",
-           "DEFAULT_EFFECTS", "DEFAULT_PAIRS"]
+           "DEFAULT_PAIRS", "MAX_EFFECTS"]
 
-#: effects considered by default (in this order)
-DEFAULT_EFFECTS = ("am_pm_omitted", "aom_memory", "stale_calibration", "higher_order_im",
-                   "detector_nonlinearity", "motional_heating", "dephasing", "spam_offset",
-                   "gate_rate_miscalibration")
-#: pairs of this many best single effects are fitted when there is a mismatch
-DEFAULT_PAIRS = 3
+#: at most this many other effects are tried as an addition at each step, the best
+#: single effects first (``dpdfit diagnose --pairs``; 0: one effect only)
+DEFAULT_PAIRS = 8
+#: at most this many effects are named
+MAX_EFFECTS = 3
 
 
-def diagnose(folder, effects=DEFAULT_EFFECTS, pairs: int = DEFAULT_PAIRS,
+def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
              with_gates: bool = True, run_fits: dict | None = None,
              progress: bool | None = None) -> Diagnosis:
-    """Diagnose a campaign folder (see module doc).
+    """Diagnose a campaign (see module doc).
 
     Parameters
     ----------
-    folder : path-like
-        Campaign folder (``dpdfit simulate-campaign`` layout).
-    effects : iterable of str
-        Catalog effects to consider (:data:`dpdfit.analyses.diagnosis.effects.EFFECTS`).
+    campaign : path-like, CampaignFolder or Campaign
+        The campaign folder, its reader, or its recordings already read
+        (:func:`~dpdfit.analyses.diagnosis.observables.load_campaign`).
+    effects : iterable of str, optional
+        Catalog effects to consider (default: the registry's default effects,
+        :func:`~dpdfit.analyses.diagnosis.effects.default_effects`, read at the call).
     pairs : int
-        Fit the pairs of this many best single effects (0: none).
+        At most this many other effects are tried as an addition to the named
+        ones at each step (0: a single effect only).
     with_gates : bool
         Use the gate recordings (else the tone side alone, tone-side effects only).
     run_fits : dict, optional
         The amplitude runs' fits at the campaign's order, ``{run label: fit}``,
         when the caller has made them (``dpdfit analyze`` does): not refitted.
     progress : bool, optional
-        A bar over the stages (baseline, single effects, pairs, verdict); default:
-        when stderr is a terminal (:mod:`dpdfit.core.progress`).
+        A bar over the stages; default: when stderr is a terminal.
 
     BLAS runs single-threaded meanwhile: the engine's many small matrix products
-    are 1.5x slower with threaded BLAS (measured on the bundled campaign), and the
-    independent engine runs use the cores instead (:mod:`dpdfit.core.parallel`).
+    are 1.5x slower with threaded BLAS, and the independent fits and engine runs
+    use the cores instead (:mod:`dpdfit.core.parallel`).
     """
+    effects = tuple(default_effects() if effects is None else effects)
+    for e in effects:
+        get(e)                                            # a KeyError naming the known ones
     with (threadpool_limits(limits=1, user_api="blas"),
-          progress_bar(total=4, desc="diagnose", progress=progress) as bar):
-        return _diagnose(folder, effects, pairs, with_gates, run_fits, bar)
+          progress_bar(total=6, desc="diagnose", progress=progress) as bar):
+        return _diagnose(campaign, effects, pairs, with_gates, run_fits, bar)
 
 
-def _diagnose(folder, effects, pairs: int, with_gates: bool, run_fits, bar) -> Diagnosis:
+def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, bar) -> Diagnosis:
     t0 = time.perf_counter()
-    camp = load_campaign(folder, run_fits)
-    prob = Problem(camp, with_gates=with_gates)
-    effects = tuple(e for e in effects if with_gates or EFFECTS[e].side == "tones")
+    timing = {}
+
+    def lap(stage):
+        timing[stage] = time.perf_counter() - t0 - sum(timing.values())
+        bar.update()
+
+    camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign, run_fits)
+    effects = tuple(e for e in effects if (with_gates and camp.gates is not None)
+                    or EFFECTS[e].side == "tones")
+    prob = Problem(camp, with_gates=with_gates, effects=effects)
+    effects = tuple(e for e in effects if EFFECTS[e].supports(prob))
+    lap("null model")
     base = fit_hypothesis(prob, ())
-    mismatches = locate_mismatches(prob, {**base.nuisances})
-    bar.update()
-    fits = _fit_singles(prob, base, effects)
-    bar.update()
-    ranking = _rank_singles(prob, base, fits)
-    if prob.gate is not None and _carry_tone_best(prob, base, fits, ranking):
-        ranking = _rank_singles(prob, base, fits)
+    mismatches = locate_mismatches(prob, dict(base.nuisances))
+    lap("baseline")
+    fits, form_fits = _fit_singles(prob, base, effects)
+    ranking = _rank(prob, base, fits)
+    if prob.gate is not None:
+        ranking = _carry_tone_best(prob, base, fits, ranking)
+    lap("single effects")
     evidence = mismatch_evidence(base.p_fit, mismatches, ranking)
-    top = [r["effect"] for r in ranking[:pairs]]
-    pair_fits = {}
-    best_ok = bool(ranking) and ranking[0]["p_fit"] >= ALPHA_FIT
-    if evidence and pairs >= 2 and not best_ok:
-        pair_fits = _fit_pairs(prob, base, fits, top)
-        ranking = sorted(ranking + [rank_entry(base, f) for f in pair_fits.values()],
-                         key=lambda r: r["delta_bic"])
-    bar.update()
-    verdict, chosen, approximate = ("none", None, False) if not evidence else choose_verdict(
-        ranking, fits, pair_fits)
+    first, _ = (None, False) if not evidence else choose_first(ranking, len(ranking))
+    chosen, steps, chain = None, [], []
+    if first is not None:
+        chosen, chain = fits[first], [fits[first]]
+        if pairs > 0:
+            chosen, steps, chain = _add_effects(prob, base, chosen, fits, ranking, pairs)
+    lap("more effects")
+    named = [] if chosen is None else list(chosen.effects)
+    if (chosen is not None and chosen.p_fit < ALPHA_FIT
+            and (explained_fraction(base, chosen) or 0.0) < EXPLAINED_FRACTION):
+        # no acceptable fit and much left: what is missing is not in the catalog
+        unnamed = chosen
+        named, chosen = [], None
+    else:
+        unnamed = None
+    verdict = ("none" if not evidence else named[0] if named else "unexplained")
+    verdict_fit = ("none" if chosen is None else "approximate"
+                   if chosen.p_fit < ALPHA_FIT else "acceptable")
+    effects_out = (_named_effects(prob, base, chosen, named, chain)
+                   if chosen is not None else [])
+    lap("sizes")
     after = chosen or base
-    pb = {**base.nuisances}
-    pa = pb if chosen is None else {**chosen.nuisances, **chosen.params}
-    bar.update()
-    return Diagnosis(campaign=str(folder), mismatches=mismatches, ranking=ranking,
-                     verdict=verdict, redchi_before=base.redchi(), redchi_after=after.redchi(),
-                     baseline=base, chosen=chosen, baseline_p_value=base.p_fit,
-                     seconds=time.perf_counter() - t0,
-                     extra={"mismatch_evidence": evidence,
-                            "verdict_fit": ("none" if chosen is None else "approximate"
-                                            if approximate else "acceptable"),
-                            "explained_fraction": (None if chosen is None
-                                                   else explained_fraction(base, chosen)),
-                            "nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
-                                          **{k: v[0] for k, v in GATE_NUISANCES.items()}},
-                            "null_model": prob.null_model(base),
-                            "warnings": list(camp.warnings),
-                            "left_out": list(camp.left_out)},
-                     series_before=prob.series(pb), series_after=prob.series(pa))
+    pb = dict(base.nuisances)
+    pa = pb if chosen is None else chosen.all_params
+    generic = None
+    if verdict == "unexplained" or verdict_fit == "approximate":
+        # the located mismatches with a smooth generic term in their place: where the
+        # physics is missing, and how much of the excess chi2 it holds
+        generic = generic_discrepancy(prob, (chosen or unnamed or base).all_params)
+    one = fits[named[0]] if named else None
+    lap("report")
+    return Diagnosis(
+        campaign=str(camp.folder), mismatches=mismatches, ranking=ranking, verdict=verdict,
+        redchi_before=base.redchi(), redchi_after=after.redchi(), baseline=base,
+        chosen=chosen, baseline_p_value=base.p_fit, seconds=time.perf_counter() - t0,
+        effects=effects_out, steps=steps,
+        redchi_one=None if one is None else one.redchi(),
+        extra={"mismatch_evidence": evidence, "verdict_fit": verdict_fit,
+               "explained_fraction": (None if chosen is None
+                                      else explained_fraction(base, chosen)),
+               "nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
+                             **{k: v[0] for k, v in GATE_NUISANCES.items()}},
+               "null_model": prob.null_model(base),
+               "generic": generic,
+               "recording_times": {k: v.isoformat() for k, v in camp.recorded.items()},
+               "runs_after_recordings": (None if camp.runs_after is None
+                                         else list(camp.runs_after.runs)),
+               "timing_seconds": timing,
+               "warnings": list(camp.warnings), "left_out": list(camp.left_out)},
+        series_before=prob.series(pb), series_after=prob.series(pa), context=prob)
 
 
 def _side_nuisances(prob: Problem, base: FitResult, side: str) -> dict:
     """The baseline's optimum of the nuisances of one side (``"tones"`` or ``"gates"``)."""
     return {k: v for k, v in base.nuisances.items()
-            if (k in prob.tone_nuisances) == (side == "tones")}
+            if (k in prob.tone_nuisances) == (side == "tones") and k != "phase_sign"}
 
 
-def _held(prob: Problem, base: FitResult, keys) -> dict:
-    """Nuisances held at the baseline's optimum in the fit of effects ``keys``: the
+def _held(prob: Problem, base: FitResult, names) -> dict:
+    """Nuisances held at the baseline's optimum in the fit of effects ``names``: the
     other side's, when every effect acts on one side (the sides share no parameter)."""
-    sides = {effect_form(e).side for e in keys}
+    sides = {EFFECTS[e].side for e in names}
     if sides == {"tones"}:
-        return _side_nuisances(prob, base, "gates")
+        return _side_nuisances(prob, base, "gates") if prob.gate is not None else {}
     return _side_nuisances(prob, base, "tones") if sides == {"gates"} else {}
 
 
-def _fit_singles(prob: Problem, base: FitResult, effects: tuple) -> dict:
-    """Every single effect and every variant (a catalog effect's other form) the campaign
-    supports, fitted independently over the cores; the better form by BIC is the effect's
-    fit: catalog name -> FitResult."""
-    keys = list(effects) + [k for k, v in VARIANTS.items()
-                            if v.name in effects and v.for_campaign(prob.tone).params]
-    done = fit_all(prob, [((k,), dict(fixed=_held(prob, base, (k,)), init=base.nuisances))
-                          for k in keys])
-    fits = {}
-    for k, f in zip(keys, done):
-        name = k.split("@")[0]
-        if name not in fits or f.bic < fits[name].bic:
-            fits[name] = f
-    return fits
+def _fit_singles(prob: Problem, base: FitResult, effects: tuple):
+    """Every form of every effect, fitted independently over the cores; the better form
+    by BIC is the effect's fit: ``({name: FitResult}, {name: {form: FitResult}})``."""
+    done = fit_effects(prob, [(e, dict(fixed=_held(prob, base, (e,)), init=base.nuisances))
+                              for e in effects])
+    fits, forms = {}, {}
+    for e, by_form in zip(effects, done):
+        forms[e] = by_form
+        fits[e] = min(by_form.values(), key=lambda f: f.bic)
+    return fits, forms
 
 
-def _rank_singles(prob: Problem, base: FitResult, fits: dict) -> list:
-    return sorted((rank_entry(base, f, fidelity_impact(prob, f)) for f in fits.values()),
-                  key=lambda r: r["delta_bic"])
+def _rank(prob: Problem, base: FitResult, fits: dict) -> list:
+    return sorted((rank_entry(base, f) for f in fits.values()), key=lambda r: r["delta_bic"])
 
 
-def _carry_tone_best(prob: Problem, base: FitResult, fits: dict, ranking: list) -> bool:
+def _carry_tone_best(prob: Problem, base: FitResult, fits: dict, ranking: list) -> list:
     """The best tone-side effect also changes the gates' spectra: when it is decisive,
     its gates are re-predicted with its field and refitted (tone parameters held at their
-    fit), under the other phase sign too (refitted there when its spectra depend on
-    the sign).  Updates ``fits``; returns whether it did."""
+    fit), under the other phase sign too (refitted there when its spectra depend on the
+    sign).  Updates ``fits``; returns the new ranking."""
     tone_best = next((r["effect"] for r in ranking if EFFECTS[r["effect"]].side == "tones"),
                      None)
     if tone_best is None or not fits[tone_best].bic < base.bic - BIC_DECISIVE:
-        return False
+        return ranking
+    saved = prob.tone, prob.gate
     f = repredict_gates(prob, fits[tone_best])
-    if (prob.camp.phase is not None
-            and effect_form(form_key(f.effect, f.variant)).sign_sensitive):
+    if prob.camp.phase is not None and EFFECTS[tone_best].sign_sensitive:
         f = refit_other_sign(prob, f, _side_nuisances(prob, base, "gates"), base.nuisances)
     fits[tone_best] = f
-    return True
+    # the gate model stays rebased on that field only if the effect is named first
+    prob.carried = (tone_best, prob.tone, prob.gate)
+    prob.use_tone(saved[0])
+    prob.gate = saved[1]
+    return _rank(prob, base, fits)
 
 
-def _fit_pairs(prob: Problem, base: FitResult, fits: dict, top: list) -> dict:
-    """Every pair of the effects ``top``, each in its better form, started from the two
-    single fits: ``"a+b"`` -> FitResult."""
-    def key(e):
-        return form_key(e, fits[e].variant)
+def _use_field_of(prob: Problem, chosen: FitResult) -> None:
+    """The gate model of the named tone-side effect's field (carried, if it was)."""
+    carried = getattr(prob, "carried", None)
+    if carried is not None and carried[0] in chosen.effects:
+        prob.use_tone(carried[1])
+        prob.gate = carried[2]
 
-    combos = list(itertools.combinations(top, 2))
-    done = fit_all(prob, [((key(a), key(b)), dict(
-        starts=[{**fits[a].params, **fits[b].params}],
-        fixed=_held(prob, base, (key(a), key(b))), init=base.nuisances)) for a, b in combos])
-    return {f"{a}+{b}": f for (a, b), f in zip(combos, done)}
+
+def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
+                 ranking: list, pairs: int):
+    """Forward selection: add the decisive best of the other effects until none is.
+
+    Each candidate (the ``pairs`` best single effects not yet named) is fitted jointly
+    with the named ones in its best single form, started from both fits; it is added
+    when decisive against the named model (:func:`~dpdfit.analyses.diagnosis.verdict.decisive`,
+    Bonferroni over the candidates) and, on the side of an effect already named, when
+    it removes at least ``DOMINANT_FRACTION`` of what the named effects of that side
+    removed.  Returns the final fit and the steps (ranking entries of the candidates
+    tried, per step).
+    """
+    steps, chain = [], [chosen]
+    if prob.gate is not None:
+        _use_field_of(prob, chosen)
+    while len(chosen.effects) < MAX_EFFECTS:
+        named = set(chosen.effects)
+        cands = [r["effect"] for r in ranking
+                 if "+" not in r["effect"] and r["effect"] not in named][:pairs]
+        if not cands:
+            break
+        jobs, done = [], {}
+        for c in cands:
+            side = EFFECTS[c].side
+            if not any(EFFECTS[e].side == side for e in chosen.effects):
+                # the sides share no parameter: the joint optimum is the named effects'
+                # side of ``chosen`` and the candidate's side of its single fit
+                done[c] = combine_sides(prob, chosen, fits[c], side)
+                continue
+            hyp = chosen.hypothesis + ((c, fits[c].forms[0]),)
+            other = {k: v for k, v in chosen.all_params.items()
+                     if param_side(prob, k) != side and k in _fit_keys(prob, chosen)}
+            jobs.append((c, (hyp, dict(starts=[{**chosen.params, **fits[c].params}],
+                                       fixed=other,
+                                       init={**base.nuisances, **chosen.nuisances}))))
+        done.update(zip([c for c, _ in jobs], fit_all(prob, [j for _, j in jobs])))
+        done = [done[c] for c in cands]
+        entries = sorted(((rank_entry(chosen, f), f) for f in done),
+                         key=lambda ef: ef[0]["delta_bic"])
+        steps.append([e for e, _ in entries])
+        entry, f = entries[0]
+        if not (decisive(entry, len(cands)) and _not_a_refinement(base, chosen, f)):
+            break
+        chosen = f
+        chain.append(f)
+    tone_side = [e for e in chosen.effects if EFFECTS[e].side == "tones"]
+    if prob.gate is not None and tone_side and len(chosen.effects) > 1:
+        # the gates under the final field (the tone effects held at their joint fit)
+        chosen = repredict_gates(prob, chosen, keep_sign=True)
+        chain[-1] = chosen
+    return chosen, steps, chain
+
+
+def _fit_keys(prob: Problem, f: FitResult) -> set:
+    """Parameters of ``f`` a fit may hold: nuisances with a prior and effect parameters."""
+    return set(prob.prior) | set(f.params)
+
+
+def _not_a_refinement(base: FitResult, chosen: FitResult, f: FitResult) -> bool:
+    """The added effect is not merely refining the named effects of its side (see
+    DOMINANT_FRACTION): it removes enough chi2 on that side compared with them."""
+    added = f.effects[-1]
+    side = EFFECTS[added].side
+    same = [e for e in chosen.effects if EFFECTS[e].side == side]
+    if not same:
+        return True
+    prefix = "tones" if side == "tones" else None
+
+    def side_chi2(r: FitResult) -> float:
+        return sum(v for k, v in r.chi2_by_observable.items()
+                   if (k.startswith("tones:") or k.startswith("runs:")) == (prefix == "tones"))
+
+    named_gain = side_chi2(base) - side_chi2(chosen)
+    return side_chi2(chosen) - side_chi2(f) >= DOMINANT_FRACTION * max(named_gain, 0.0)
+
+
+def _group_chi2(f: FitResult) -> dict:
+    groups = {"tones": ("tones:", "runs:"), "gates": ("gates:", "time_scan:")}
+    return {g: sum(v for k, v in f.chi2_by_observable.items() if k.startswith(pre))
+            for g, pre in groups.items()}
+
+
+def _named_effects(prob: Problem, base: FitResult, chosen: FitResult, named: list,
+                   chain: list) -> list:
+    """Each named effect: its form, parameters, sizes (profile-likelihood errors where
+    the curvature error is poor), cost in Bell fidelity and the chi2 it removes per
+    observable group (against the named effects before it)."""
+    out = []
+    prev = [base] + chain[:-1]
+    for i, name in enumerate(named):
+        explains = None
+        if i < len(chain):
+            a, b = _group_chi2(prev[i]), _group_chi2(chain[i])
+            explains = {g: a[g] - b[g] for g in a}
+        sizes = profile_errors(prob, chosen, name)
+        cost = fidelity_cost(prob, chosen, name)
+        form = chosen.forms[chosen.effects.index(name)]
+        out.append({"effect": name, "form": form, "side": EFFECTS[name].side,
+                    "params": chosen.params_of(name), "params_err": chosen.errors_of(name),
+                    "sizes": {k: s.to_dict() for k, s in sizes.items()},
+                    "fidelity_cost": cost[0], "fidelity_cost_err": cost[1],
+                    "explains": explains, "meaning": EFFECTS[name].meaning})
+    return out

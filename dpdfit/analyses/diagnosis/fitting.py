@@ -17,17 +17,17 @@ parameter sits at its bound.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_dist
 
-from dpdfit.analyses.diagnosis.effects import effect_form
+from dpdfit.analyses.diagnosis.effects import effect_of_key, get
 from dpdfit.analyses.diagnosis.mode_profile import ModeProfile
 from dpdfit.core.parallel import pmap
 
-__all__ = ["FitResult", "fit_hypothesis", "fit_all", "MAX_NFEV", "PROFILE_RELIN", "PROFILE_TOL", "JACOBIAN_FD_STEP", "SCREEN_NFEV", "FAR_NUISANCE"]
+__all__ = ["FitResult", "fit_hypothesis", "fit_effect", "fit_all", "fit_effects", "form_chains", "make_result", "combine_sides", "param_side", "MAX_NFEV", "PROFILE_RELIN", "PROFILE_TOL", "JACOBIAN_FD_STEP", "SCREEN_NFEV", "FAR_NUISANCE"]
 
 #: cap on residual evaluations per least-squares start
 MAX_NFEV = 100
@@ -46,7 +46,15 @@ FAR_NUISANCE = 5.0
 
 @dataclass(frozen=True)
 class FitResult:
-    """Best fit of one hypothesis (baseline, an effect or a pair)."""
+    """Best fit of one hypothesis (the baseline, one effect or several).
+
+    ``params``/``params_err``: the effects' fitted parameters by the fits' names
+    (``"<effect>.<param>"``; :meth:`params_of` gives one effect's by its own
+    names); ``forms``: the form of each effect; ``sizes``: each effect's size in
+    a laboratory's terms (:meth:`dpdfit.analyses.diagnosis.effects.Effect.sizes`);
+    ``cov``/``free``: the covariance of the free parameters (nuisances and
+    effects, the profiled calibration modes excluded) in the order of ``free``.
+    """
 
     effect: str
     params: dict
@@ -57,8 +65,41 @@ class FitResult:
     n_par: int
     chi2_by_observable: dict
     n_by_observable: dict
-    #: which form of the effect fitted best (stale_calibration: "table" or "aom")
-    variant: str | None = None
+    forms: tuple = ()
+    sizes: dict = field(default_factory=dict, repr=False)
+    cov: np.ndarray | None = field(default=None, repr=False)
+    free: tuple = ()
+    at_bound: tuple = ()
+    scales: tuple = ()
+
+    @property
+    def effects(self) -> tuple:
+        """The effects of this hypothesis (empty for the baseline)."""
+        return () if self.effect == "baseline" else tuple(self.effect.split("+"))
+
+    @property
+    def variant(self) -> str | None:
+        """The forms joined by ``+`` (None for the baseline)."""
+        return "+".join(self.forms) or None
+
+    @property
+    def hypothesis(self) -> tuple:
+        """``((effect, form), ...)``: what :func:`fit_hypothesis` takes."""
+        return tuple(zip(self.effects, self.forms))
+
+    def params_of(self, name: str) -> dict:
+        """One effect's fitted parameters by its own names."""
+        pre = name + "."
+        return {k[len(pre):]: v for k, v in self.params.items() if k.startswith(pre)}
+
+    def errors_of(self, name: str) -> dict:
+        pre = name + "."
+        return {k[len(pre):]: v for k, v in self.params_err.items() if k.startswith(pre)}
+
+    @property
+    def all_params(self) -> dict:
+        """Nuisances and effect parameters: the parameter set of the model at its optimum."""
+        return {**self.nuisances, **self.params}
 
     @property
     def dof(self) -> int:
@@ -90,18 +131,37 @@ class _Objective:
     """The standardised residuals of one hypothesis over its free parameters.
 
     Free: every nuisance that is neither ``fixed`` nor a calibration mode
-    (those are profiled, :class:`ModeProfile`) nor an effect parameter, then the
-    effects' parameters (``forms``), with bounds, starting values and scales.
+    (those are profiled, :class:`ModeProfile`) nor replaced by a form, then the
+    effects' free parameters (``hyp``: ``((effect, form), ...)``), with bounds,
+    starting values and scales; the forms' fixed parameters are held.
     """
 
-    def __init__(self, prob, forms: list, fixed: dict):
-        self.prob, self.fixed = prob, fixed
+    def __init__(self, prob, hyp: tuple, fixed: dict):
+        self.prob = prob
+        held = dict(fixed)          # the caller's: nuisances, or effect parameters held
+        fixed = dict(fixed)
+        self.forms = []
+        effect_pars = []
+        n_replaced = 0
+        for name, form_name in hyp:
+            e = get(name)
+            form = e.form(form_name, prob)
+            self.forms.append((e, form))
+            pars = {par.name: par for par in e.parameters(prob)}
+            for k, v in form.fixed.items():
+                if k in pars:
+                    fixed[e.key(k)] = float(v)
+            for k in form.replaces:
+                if k in prob.prior:
+                    fixed[k] = prob.center[k]
+                    n_replaced += 1
+            effect_pars += [(e.key(k), pars[k]) for k in form.free if e.key(k) not in held]
+        self.fixed = fixed
+        self.n_replaced = n_replaced
         self.prof = [k for k in prob.tone.mode_names if k not in fixed]
-        effect_pars = [par for form in forms for par in form.params]
-        effect_names = {par.name for par in effect_pars}
         names, lo, hi, x0, scale = [], [], [], [], []
         for k, s in prob.prior.items():
-            if k in fixed or k in self.prof or k in effect_names:
+            if k in fixed or k in self.prof:
                 continue
             c = prob.center[k]
             names.append(k)
@@ -110,8 +170,8 @@ class _Objective:
             hi.append(b[1])
             x0.append(c)
             scale.append(s if np.isfinite(s) else 0.1 * (b[1] - b[0]))
-        for par in effect_pars:
-            names.append(par.name)
+        for key, par in effect_pars:
+            names.append(key)
             lo.append(par.lo)
             hi.append(par.hi)
             x0.append(par.start)
@@ -120,7 +180,7 @@ class _Objective:
         self.lo, self.hi = np.array(lo), np.array(hi)
         #: starting values: nuisances at their prior centre, effects at their start
         self.x_prior = x0
-        self.eff_params = [par.name for par in effect_pars]
+        self.eff_params = [k for k, _ in effect_pars]
 
     def params(self, x) -> dict:
         return {**self.fixed, **dict(zip(self.names, x))}
@@ -218,10 +278,11 @@ def _starts(obj: _Objective, forms: list, x0: np.ndarray, far: bool, starts, lin
     """
     prob, names = obj.prob, obj.names
     candidates = [np.array(x0)]
-    seeds = next((form.seed_grid for form in forms if form.seed_grid is not None), None)
+    seeds = next(((e, form.seed_grid) for e, form in forms if form.seed_grid is not None
+                  and all(e.key(k) in names for k in form.seed_grid[0])), None)
     if seeds is not None:
-        (pa, pb), (ga, gb) = seeds
-        ia, ib = names.index(pa), names.index(pb)
+        e, ((pa, pb), (ga, gb)) = seeds
+        ia, ib = names.index(e.key(pa)), names.index(e.key(pb))
         fun0 = obj.fun(lin0)
         grid = []
         for va in ga:
@@ -288,28 +349,39 @@ def _best_solution(obj: _Objective, candidates: list, lin0, d_init: dict):
     return best, best_lin
 
 
-def _result(obj: _Objective, forms: list, best: _Opt, best_lin) -> FitResult:
+def _result(obj: _Objective, best: _Opt, best_lin) -> FitResult:
     """The :class:`FitResult` of the solution ``best`` (modes profiled at ``best_lin``)."""
-    prob, names, eff_params = obj.prob, obj.names, obj.eff_params
+    names = obj.names
     x = best.x
     J = best.jac
     try:
         cov = np.linalg.pinv(J.T @ J)
-        err = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
         cov = np.full((x.size, x.size), np.nan)
-        err = np.full(x.size, np.nan)
     lo, hi = obj.lo, obj.hi
     at_bound = (np.isclose(x, lo, rtol=0, atol=1e-9 * np.maximum(1, np.abs(lo)))
                 | np.isclose(x, hi, rtol=0, atol=1e-9 * np.maximum(1, np.abs(hi))))
-    err = np.where(at_bound, np.nan, err)
     p = {**obj.params(x), **obj.modes_at(best_lin, x)}
+    fixed_eff = {k: float(v) for k, v in obj.fixed.items() if "." in k}
+    return make_result(obj.prob, [(e.name, f.name) for e, f in obj.forms], p, obj.eff_params,
+                       fixed_eff, cov, list(names), list(obj.scale),
+                       [k for k, b in zip(names, at_bound) if b], obj.n_replaced)
+
+
+def make_result(prob, hyp: list, p: dict, eff_params: list, fixed_eff: dict, cov, free: list,
+                scales: list, at_bound: list, n_replaced: int = 0) -> FitResult:
+    """The :class:`FitResult` of the model at parameters ``p`` (hypothesis ``hyp``, free
+    effect parameters ``eff_params``, the forms' fixed ones ``fixed_eff``), with the
+    covariance ``cov`` of the ``free`` parameters (scales ``scales``)."""
+    cov = None if cov is None else np.asarray(cov, dtype=float)
+    err = (np.sqrt(np.clip(np.diag(cov), 0, None)) if cov is not None and cov.size
+           else np.zeros(0))
     params_ = {k: float(p[k]) for k in eff_params}
-    perr = {k: float(err[names.index(k)]) for k in eff_params}
-    for form in forms:
-        # derived quantities (stale_calibration's drift) are reported first
-        value, value_err = form.derived(prob.tone, p, cov, names)
-        params_, perr = {**value, **params_}, {**value_err, **perr}
+    # the forms' fixed parameters too: the model is what the hooks saw
+    params_.update(fixed_eff)
+    perr = {k: (float(err[free.index(k)]) if k in free and k not in at_bound
+                else float("nan")) for k in params_}
+    sizes = {name: get(name).sizes(prob, p, cov, free, scales) for name, _ in hyp}
     # chi2 and counts of the model itself at the optimum (modes at their profiled values)
     n_data = int(np.isfinite(prob.residuals(p, with_prior=False)).sum())
     chi_obs, n_obs = {}, {}
@@ -320,58 +392,176 @@ def _result(obj: _Objective, forms: list, best: _Opt, best_lin) -> FitResult:
         n_obs[key] = int(z.size)
     z_all = prob.residuals(p)
     z_all = z_all[np.isfinite(z_all)]
-    return FitResult(effect="+".join(form.name for form in forms) if forms else "baseline",
-                     variant="+".join(form.form for form in forms if form.form) or None,
+    return FitResult(effect="+".join(name for name, _ in hyp) or "baseline",
+                     forms=tuple(form for _, form in hyp),
                      params=params_, params_err=perr,
-                     nuisances={k: float(p[k]) for k in p if k not in eff_params},
+                     nuisances={k: float(v) for k, v in p.items() if k not in params_},
                      chi2=float(np.sum(z_all ** 2)),
                      n_obs=n_data + sum(np.isfinite(v) for v in prob.prior.values()),
                      # every nuisance (fixed ones were fitted in the baseline) + tone offset
-                     n_par=len(prob.prior) + 1 + len(eff_params),
-                     chi2_by_observable=chi_obs, n_by_observable=n_obs)
+                     n_par=len(prob.prior) + 1 + len(eff_params) - n_replaced,
+                     chi2_by_observable=chi_obs, n_by_observable=n_obs, sizes=sizes,
+                     cov=cov, free=tuple(free), scales=tuple(scales),
+                     at_bound=tuple(at_bound))
 
 
-def fit_hypothesis(prob, effects: tuple, starts=None, fixed: dict | None = None,
+def combine_sides(prob, a: FitResult, b: FitResult, side: str, hyp=None) -> FitResult:
+    """Fit ``a`` with the ``side`` of fit ``b`` (whose effects on ``side`` are the
+    joint model's): the two sides of the model share no parameter, so the joint
+    optimum is ``a``'s other side and ``b``'s ``side``, the covariance block-diagonal.
+    ``hyp``: the joint hypothesis (default: ``a``'s effects, then ``b``'s)."""
+    def on_side(k):
+        return param_side(prob, k) == side
+
+    ka = [k for k in a.free if not on_side(k)]
+    kb = [k for k in b.free if on_side(k)]
+    ia, ib = [a.free.index(k) for k in ka], [b.free.index(k) for k in kb]
+    cov = np.zeros((len(ka) + len(kb),) * 2)
+    if a.cov is not None:
+        cov[:len(ka), :len(ka)] = a.cov[np.ix_(ia, ia)]
+    if b.cov is not None:
+        cov[len(ka):, len(ka):] = b.cov[np.ix_(ib, ib)]
+    p = {**{k: v for k, v in a.all_params.items() if not on_side(k)},
+         **{k: v for k, v in b.all_params.items() if on_side(k)}}
+    eff = ([k for k in a.params if k in a.free and not on_side(k)]
+           + [k for k in b.params if k in b.free and on_side(k)])
+    fixed_eff = {**{k: v for k, v in a.params.items() if k not in a.free and not on_side(k)},
+                 **{k: v for k, v in b.params.items() if k not in b.free and on_side(k)}}
+    scales = ([a.scales[i] for i in ia] if a.scales else []) + (
+        [b.scales[i] for i in ib] if b.scales else [])
+    # nuisances replaced by a form (held at their centre, not counted as parameters)
+    n_rep = sum(len(get(n).form(f, prob).replaces) for n, f in
+                (hyp if hyp is not None else list(a.hypothesis) + list(b.hypothesis))
+                if any(k in prob.prior for k in get(n).form(f, prob).replaces))
+    if hyp is None:
+        hyp = list(dict.fromkeys(list(a.hypothesis) + list(b.hypothesis)))
+    eff = [k for k in dict.fromkeys(eff) if k in ka + kb]
+    fixed_eff = {k: v for k, v in fixed_eff.items() if k not in eff}
+    return make_result(prob, list(hyp), p, eff, fixed_eff, cov,
+                       ka + kb, scales, [k for k in a.at_bound + b.at_bound if k in ka + kb],
+                       n_rep)
+
+
+def param_side(prob, k: str) -> str:
+    """``"tones"`` or ``"gates"``: the side of the model a parameter belongs to."""
+    e = effect_of_key(k)
+    if e is not None:
+        return e.side
+    return "tones" if k in prob.tone_nuisances else "gates"
+
+
+def fit_hypothesis(prob, hyp: tuple = (), starts=None, fixed: dict | None = None,
                    init: dict | None = None) -> FitResult:
     """Least-squares fit of the nuisances plus the effects' parameters.
 
-    ``effects``: keys of catalog effects or variants
-    (:func:`dpdfit.analyses.diagnosis.effects.effect_form`); none: the baseline.
-    ``fixed`` holds nuisances at given values (the baseline's): the tone and
+    ``hyp``: ``((effect name, form name or None), ...)``; empty: the baseline.
+    ``fixed`` holds nuisances (or effect parameters) at given values: the tone and
     gate sides of the model share no parameter, so an effect on one side is
     fitted with the other side's nuisances held at their baseline optimum,
     which is exact and saves the other side's model evaluations.  ``init``:
-    starting values of nuisances; ``starts``: further starting points.  The
-    calibration modes that are not held are profiled out linearly
-    (:class:`ModeProfile`), linearised first at the prior centre of the modes (an
-    effect that explains the recordings leaves them near it), then at the
-    optimum.
+    starting values of nuisances and effect parameters; ``starts``: further
+    starting points (dicts).  The calibration modes that are not held are
+    profiled out linearly (:class:`ModeProfile`), linearised first at the prior
+    centre of the modes (an effect that explains the recordings leaves them
+    near it), then at the optimum.
     """
     fixed = dict(fixed or {})
     init = dict(init or {})
-    forms = [effect_form(e).for_campaign(prob.tone) for e in effects]
-    obj = _Objective(prob, forms, fixed)
+    hyp = tuple((n, f) if isinstance(n, str) else tuple(n) for n, f in hyp)
+    obj = _Objective(prob, hyp, fixed)
     d_init = {k: 0.0 for k in obj.prof}
     x0, far = _initial(obj, init)
     lin0 = obj.linearise(x0, d_init)
-    candidates = _starts(obj, forms, x0, far, starts, lin0)
+    candidates = _starts(obj, obj.forms, x0, far, starts, lin0)
     best, best_lin = _best_solution(obj, candidates, lin0, d_init)
-    return _result(obj, forms, best, best_lin)
+    return _result(obj, best, best_lin)
+
+
+def form_chains(prob, name: str) -> list:
+    """Effect ``name``'s forms the campaign supports, grouped into chains: a form
+    that starts from a smaller one's optimum (``starts_from``) follows it; independent
+    chains can be fitted in parallel."""
+    forms = list(get(name).forms_for(prob))
+    names = {f.name for f in forms}
+    chains = []
+    for f in forms:
+        if f.starts_from in names:
+            chain = next(c for c in chains if f.starts_from in c)
+            chain.append(f.name)
+        else:
+            chains.append([f.name])
+    return chains
+
+
+def fit_effect(prob, name: str, fixed: dict | None = None, init: dict | None = None,
+               others: tuple = (), starts: dict | None = None, forms=None) -> dict:
+    """Every form the campaign supports of effect ``name`` (or those named in
+    ``forms``), nested forms started from the smaller form's optimum:
+    ``{form name: FitResult}``.
+
+    ``others``: further ``(effect, form)`` pairs fitted with it (an effect added to
+    named ones), their parameters started from ``starts``.
+    """
+    e = get(name)
+    out = {}
+    for form in e.forms_for(prob):
+        if forms is not None and form.name not in forms:
+            continue
+        st = [dict(starts or {})]
+        if form.starts_from in out:
+            prev = out[form.starts_from]
+            st = [{**prev.params, **(starts or {})}]
+            st += [{**prev.params, **(starts or {}), **{e.key(k): v for k, v in x.items()}}
+                   for x in form.extra_starts]
+        else:
+            st += [{**(starts or {}), **{e.key(k): v for k, v in x.items()}}
+                   for x in form.extra_starts]
+        out[form.name] = fit_hypothesis(prob, tuple(others) + ((name, form.name),),
+                                        starts=st, fixed=fixed, init=init)
+    return out
 
 
 #: the problem the parallel fits share (set before forking: children inherit it)
 _SHARED: dict = {}
 
 
-def _fit_job(effects: tuple, kw: dict) -> FitResult:
-    return fit_hypothesis(_SHARED["prob"], effects, **kw)
+def _fit_job(fn, args: tuple, kw: dict):
+    return fn(_SHARED["prob"], *args, **kw)
+
+
+def _pmap_prob(prob, fn, jobs: list) -> list:
+    _SHARED["prob"] = prob
+    try:
+        return pmap(_fit_job, [((fn, a, kw), {}) for a, kw in jobs])
+    finally:
+        _SHARED.clear()
 
 
 def fit_all(prob, jobs: list) -> list:
-    """``[fit_hypothesis(prob, effects, **kw) for effects, kw in jobs]`` over the cores
+    """``[fit_hypothesis(prob, hyp, **kw) for hyp, kw in jobs]`` over the cores
     (fork: only the job's arguments and result are pickled; same results in any order)."""
-    _SHARED["prob"] = prob
-    try:
-        return pmap(_fit_job, [((e, kw), {}) for e, kw in jobs])
-    finally:
-        _SHARED.clear()
+    return _pmap_prob(prob, fit_hypothesis, [((hyp,), kw) for hyp, kw in jobs])
+
+
+def fit_effects(prob, jobs: list) -> list:
+    """``[fit_effect(prob, name, **kw) for name, kw in jobs]`` over the cores: each
+    effect's chains of forms (:func:`form_chains`) are separate jobs, the costliest
+    first (tone-side before gate-side, more forms first), so that the cores stay busy."""
+    tasks = []
+    for i, (name, kw) in enumerate(jobs):
+        for chain in form_chains(prob, name):
+            cost = (get(name).side == "tones", len(chain),
+                    any(get(name).form(f, prob).seed_grid for f in chain))
+            tasks.append((cost, i, name, chain, kw))
+    tasks.sort(key=lambda t: t[0], reverse=True)
+    done = _pmap_prob(prob, fit_effect, [((name,), {**kw, "forms": chain})
+                                         for _, _, name, chain, kw in tasks])
+    out = [{} for _ in jobs]
+    for (_, i, name, _, _), res in zip(tasks, done):
+        out[i].update(res)
+    for (name, _), res in zip(jobs, out):
+        order = [f.name for f in get(name).forms_for(prob)]
+        res_sorted = {k: res[k] for k in order if k in res}
+        res.clear()
+        res.update(res_sorted)
+    return out

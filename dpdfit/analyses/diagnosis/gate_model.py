@@ -11,7 +11,7 @@ every preparation branch (:func:`dpdfit.models.gate_sim.setting_branches`: both 
 right, one a spectator, one flipped), so that preparation and detection enter
 exactly and analytically (:func:`dpdfit.models.gate_sim.mix_branches`,
 :func:`dpdfit.models.gate_sim.confusion`).  That makes what a lab does not know about
-them nuisances of the baseline at no cost (issue #14):
+them nuisances of the baseline at no cost:
 
 * ``prep_split`` in [0, 1] -- which part of the lab's known total preparation
   error per ion (``p_prep``, 0.3 % in the paper) is a *spectator* (a level that
@@ -21,18 +21,18 @@ them nuisances of the baseline at no cost (issue #14):
   bright): Gaussian priors centred on the lab's ``p_det`` (5e-5) with sigma
   ``DETECTION_PRIOR_SIGMA`` (1e-4), clipped at 0.
 
-Effects on the gates act on the two-ion branch through engine finite differences
-at every setting (and at the time scans' times): ``dephasing`` (extra rate,
-1/s), ``motional_heating`` (quanta/ms), ``higher_nbar`` (quanta) linearly,
-``gate_rate_miscalibration`` (power offset, dB) quadratically; ``spam_offset``
-adds to the total preparation error (split like the rest).  Contrasts are the
-``cos 2 phi`` amplitude of the predicted fringe on 16 phases (exact: the
-spectator branches add ``cos phi`` terms, orthogonal on that grid).
+Gate-side effects (:mod:`dpdfit.analyses.diagnosis.effects`) act through their
+hooks: the engine's linear responses to their *knobs* (finite differences of
+the two-ion branch at every setting and scan time) weighted per observation
+time, a power offset per setting (quadratic response, which also carries the
+lab's known per-scan jitter and rate-calibration scatter: the three
+observables of a setting share that error, :meth:`GateModel.predict`), and
+the preparation and detection errors.  Contrasts are the ``cos 2 phi``
+amplitude of the predicted fringe on 16 phases (exact: the spectator branches
+add ``cos phi`` terms, orthogonal on that grid).
 
-The known random power errors of a setting (per-scan laser jitter averaged over
-its scans, per-setting rate-calibration scatter) shift the expected values by
-``quad var`` and give the three observables of one setting a shared error
-(:meth:`GateModel.predict`).
+The engine runs at ``ENGINE_PRECISION``: probabilities to ~1e-5, two orders
+below the shot noise of a campaign's pooled scans.
 """
 
 from __future__ import annotations
@@ -41,16 +41,18 @@ import copy
 
 import numpy as np
 
-from dpdfit.models import gate_sim
+from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
 from dpdfit.core.parallel import pmap
+from dpdfit.models import gate_sim
 
-__all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES"]
+__all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES", "ENGINE_PRECISION",
+           "POWER_STEP_DB"]
 
-#: finite-difference steps of the gate-side responses
-_STEPS = {"gamma": 100.0, "gamma_c": 100.0, "ndot": 0.1, "eps": 0.3, "dnbar": 0.2}
-_LINEAR = ("gamma", "gamma_c", "ndot", "dnbar")
-#: engine tolerances for the diagnosis (probabilities to ~1e-6, far below shot noise)
-_TOL = {"rtol": 1e-7, "atol": 1e-9}
+#: finite-difference step of the power response (dB)
+POWER_STEP_DB = 0.3
+#: engine tolerances for the diagnosis: DOP853 tolerances and the population neglected
+#: in the thermal tail and above the Fock cutoff
+ENGINE_PRECISION = {"rtol": 1e-4, "atol": 1e-6, "fock_tol": 1e-6}
 _XI_STEP = 0.01
 #: analysis phases of the model's fringes (the contrast does not depend on them)
 PHASES = np.arange(16) * 2 * np.pi / 16
@@ -91,13 +93,15 @@ class GateModel:
         Gives each setting's gate tones.
     sig_jit : float
         Per-scan laser-power jitter (dB).
+    effects : iterable of str
+        The gate-side effects whose knobs get engine responses.
     """
 
-    def __init__(self, camp, tone, sig_jit: float, responses: bool = True):
+    def __init__(self, camp, tone, sig_jit: float, effects=(), responses: bool = True):
         em = camp.error_model
         self.em = em
         self.nominal = dict(nbar=float(em["nbar"]), T2=float(em["T2_s"]),
-                            ndot=float(em["heating_quanta_per_s"]))
+                            ndot=float(em["heating_quanta_per_s"]), T2_corr=np.inf)
         self.p_total = float(em["p_prep"])
         self.p_det = float(em["p_det"])
         self.sig_jit = float(sig_jit)
@@ -106,6 +110,11 @@ class GateModel:
         self.ts = camp.time_scans
         self.keys = [(float(r.A), int(r.dpd)) for r in g.itertuples()]
         self.xi = {k: float(x) for k, x in zip(self.keys, g.xi0_hz)}
+        self.A_settings = np.array([k[0] for k in self.keys])
+        #: reference amplitude and gate time of the effects' parametrisations
+        self.A_ref = float(np.mean(self.A_settings))
+        self.t_ref = float(np.median(1.0 / g.xi0_hz.to_numpy(dtype=float)))
+        self.T_gate = 1.0 / g.xi0_hz.to_numpy(dtype=float)
         # time scans: their settings (with the rate of the matching gate setting)
         self.ts_keys = []
         if self.ts is not None:
@@ -115,6 +124,14 @@ class GateModel:
                 if key not in self.xi:
                     # a time scan at a setting without gate data: its rate from the tones
                     self.xi[key] = None
+        self.effects = tuple(e for e in effects if EFFECTS[e].side == "gates")
+        knobs = {}
+        for name in self.effects:
+            for k in EFFECTS[name].knobs():
+                if k.key in knobs and knobs[k.key] != k:
+                    raise ValueError(f"two effects define knob {k.key!r} differently")
+                knobs[k.key] = k
+        self.knobs = knobs
         self.tone = tone
         self.base = self._base_runs(tone, {})
         self.resp = None
@@ -124,7 +141,8 @@ class GateModel:
             self.compute_responses()
 
     def compute_responses(self) -> None:
-        """Engine runs of every gate-side effect at every setting (the expensive part).
+        """Engine runs of every knob and of the power error at every setting (the
+        expensive part).
 
         Until they are computed the model predicts the baseline means only (no effects,
         no power-error variance): enough to choose among baselines.
@@ -135,11 +153,12 @@ class GateModel:
         key = self.ts_keys[0] if self.ts_keys else self.keys[0]
         n, b, c, eO, xi = self._tones[key]
         run = gate_sim.setting_branches(b, c, n, eO, xi * (1 + _XI_STEP), **self.nominal,
-                                        phases=PHASES, spectator=False, flip=False, **_TOL)
+                                        phases=PHASES, spectator=False, flip=False,
+                                        **ENGINE_PRECISION)
         base_imb = _collapse(self.base[key]["p2"][0])[1]
         d_xi = (_collapse(run["p2"][0])[1] - base_imb) / _XI_STEP
         lin = (_collapse(self.resp[key]["eps+"]["p2"][0])[1]
-               - _collapse(self.resp[key]["eps-"]["p2"][0])[1]) / (2 * _STEPS["eps"])
+               - _collapse(self.resp[key]["eps-"]["p2"][0])[1]) / (2 * POWER_STEP_DB)
         self.db_per_rel_xi = float(abs(d_xi / lin))
         self._tab = self._stk = None
 
@@ -151,8 +170,9 @@ class GateModel:
         t = self.ts.loc[sel, "t_s"].to_numpy()
         return t[t > 0] if (t > 0).any() else None
 
-    def _base_runs(self, tone, p: dict) -> dict:
-        """Raw branch outcomes at every setting for the field of tone parameters ``p``."""
+    def _base_runs(self, tone, p: dict, two_ion_only: bool = False) -> dict:
+        """Raw branch outcomes at every setting for the field of tone parameters ``p``
+        (``two_ion_only``: the two-ion branch, the others kept from the current runs)."""
         self._tones = getattr(self, "_tones", {})
         ref = self.keys[0]
         keys = list(dict.fromkeys(self.keys + self.ts_keys))
@@ -165,47 +185,41 @@ class GateModel:
                 xi = self._tones[ref][3] * unit
             self._tones[key] = (n, b, c, xi / unit, xi)
             calls.append(((b, c, n, xi / unit, xi), dict(
-                **self.nominal, phases=PHASES, scan_times=self._scan_times(key), **_TOL)))
-        return dict(zip(keys, pmap(gate_sim.setting_branches, calls)))
-
-    def _perturbed(self, name, step):
-        nm = dict(self.nominal)
-        if name == "gamma":
-            nm["T2"] = 1.0 / (1.0 / nm["T2"] + step)
-        elif name == "gamma_c":
-            nm["T2_corr"] = 1.0 / step
-        elif name == "ndot":
-            nm["ndot"] = nm["ndot"] + step * 1e3
-        elif name == "dnbar":
-            nm["nbar"] = nm["nbar"] + step
-        return nm
+                **self.nominal, phases=PHASES, scan_times=self._scan_times(key),
+                **({"spectator": False, "flip": False} if two_ion_only else {}),
+                **ENGINE_PRECISION)))
+        runs = dict(zip(keys, pmap(gate_sim.setting_branches, calls)))
+        if two_ion_only:
+            runs = {k: {**self.base[k], **r} for k, r in runs.items()}
+        return runs
 
     def _response_runs(self) -> dict:
-        """Two-ion branch at every setting with each gate-side effect stepped."""
+        """Two-ion branch at every setting with the power and each knob stepped."""
         calls, where = [], []
         for key in dict.fromkeys(self.keys + self.ts_keys):
             n, b, c, eO, xi = self._tones[key]
             kw = dict(phases=PHASES, scan_times=self._scan_times(key), spectator=False,
-                      flip=False, **_TOL)
+                      flip=False, **ENGINE_PRECISION)
             for name, sign in (("eps+", 1), ("eps-", -1)):
                 calls.append(((b, c, n, eO, xi), dict(**self.nominal, **kw,
-                                                      power_error_db=sign * _STEPS["eps"])))
+                                                      power_error_db=sign * POWER_STEP_DB)))
                 where.append((key, name))
-            for name in _LINEAR:
+            for knob in self.knobs.values():
                 calls.append(((b, c, n, eO, xi),
-                              dict(**self._perturbed(name, _STEPS[name]), **kw)))
-                where.append((key, name))
+                              dict(**knob.perturb(self.nominal, knob.step), **kw)))
+                where.append((key, knob.key))
         out = {}
         for (key, name), run in zip(where, pmap(gate_sim.setting_branches, calls)):
             out.setdefault(key, {})[name] = run
         return out
 
-    def rebased(self, tone, p: dict) -> "GateModel":
+    def rebased(self, tone, p: dict, two_ion_only: bool = False) -> "GateModel":
         """A copy whose baseline values use the field of tone-side parameters ``p``
-        (e.g. AOM memory changes every setting's spectrum); responses are kept."""
+        (e.g. AOM memory changes every setting's spectrum); responses are kept
+        (``two_ion_only``: only the two-ion branch is rerun, enough to compare fields)."""
         new = copy.copy(self)
         new._tones = dict(self._tones)
-        new.base = new._base_runs(tone, p)
+        new.base = new._base_runs(tone, p, two_ion_only)
         new._tab = new._stk = None
         return new
 
@@ -213,6 +227,11 @@ class GateModel:
     def _stack(self, keys, part):
         """Arrays over ``keys`` of the base branch outcomes and the two-ion responses."""
         sel = (lambda a: a[0]) if part == "gate" else (lambda a: a[1:])
+        qs = ("p2", "par2") if part == "gate" else ("p2",)
+
+        def get(run, q):
+            return sel(run[q]) if q == "p2" else run[q]
+
         base = {}
         for name in ("p2", "p1", "p2_01", "p1_1"):
             base[name] = np.stack([sel(self.base[key][name]) for key in keys])
@@ -220,23 +239,17 @@ class GateModel:
             for name in ("par2", "par1", "par2_01", "par1_1"):
                 base[name] = np.stack([self.base[key][name] for key in keys])
         if self.resp is None:
-            zero = {q: np.zeros_like(base[q]) for q in (("p2", "par2") if part == "gate"
-                                                        else ("p2",))}
-            return base, {name: zero for name in _LINEAR}, zero, zero
+            zero = {q: np.zeros_like(base[q]) for q in qs}
+            return base, {}, zero, zero
         d = {}
-        for name in _LINEAR:
-            d[name] = {q: np.stack([(sel(self.resp[key][name][q]) if q == "p2"
-                                     else self.resp[key][name][q]) - (
-                                        sel(self.base[key][q]) if q == "p2"
-                                        else self.base[key][q]) for key in keys]) / _STEPS[name]
-                       for q in (("p2", "par2") if part == "gate" else ("p2",))}
-        e = _STEPS["eps"]
+        for kk, knob in self.knobs.items():
+            d[kk] = {q: np.stack([get(self.resp[key][kk], q) - get(self.base[key], q)
+                                  for key in keys]) / knob.step for q in qs}
+        e = POWER_STEP_DB
         lin, quad = {}, {}
-        for q in (("p2", "par2") if part == "gate" else ("p2",)):
-            plus = np.stack([sel(self.resp[key]["eps+"][q]) if q == "p2"
-                             else self.resp[key]["eps+"][q] for key in keys])
-            minus = np.stack([sel(self.resp[key]["eps-"][q]) if q == "p2"
-                              else self.resp[key]["eps-"][q] for key in keys])
+        for q in qs:
+            plus = np.stack([get(self.resp[key]["eps+"], q) for key in keys])
+            minus = np.stack([get(self.resp[key]["eps-"], q) for key in keys])
             lin[q] = (plus - minus) / (2 * e)
             quad[q] = (plus + minus - 2 * base[q]) / (2 * e * e)
         return base, d, lin, quad
@@ -272,37 +285,69 @@ class GateModel:
 
     def _stacks(self):
         if self._stk is None or self._stk[0] is not self.base:
-            self._stk = (self.base, {"gate": self._stack(self.keys, "gate"),
-                                     "ts": [self._stack([key], "scan") for key in self.ts_keys]})
+            ts = []
+            for key in self.ts_keys:
+                ts.append((key, self._scan_times(key), self._stack([key], "scan")))
+            self._stk = (self.base, {"gate": self._stack(self.keys, "gate"), "ts": ts})
         return self._stk[1]
 
     # ------------------------------------------------------------------ predict
-    def _prep(self, p: dict):
-        total = self.p_total + float(p.get("p_prep", 0.0))
-        f = float(np.clip(p.get("prep_split", 0.5), 0.0, 1.0))
-        det = (max(float(p.get("e01", self.p_det)), 0.0), max(float(p.get("e10", self.p_det)), 0.0))
-        return f * total, (1 - f) * total, det
+    def _active(self, p: dict) -> list:
+        out = []
+        for name in self.effects:
+            v = EFFECTS[name].values(p)
+            if v is not None:
+                out.append((EFFECTS[name], v))
+        return out
 
-    def _observe(self, base, d, lin, quad, p, eps, v_mean, gate: bool):
-        """Measured probabilities at power error ``eps`` (dB) for parameters ``p``."""
-        ps, pf, det = self._prep(p)
+    def preparation(self, p: dict, active=None) -> Prep:
+        """Preparation and detection errors per ion at parameters ``p`` (nuisances and
+        effects)."""
+        f = float(np.clip(p.get("prep_split", 0.5), 0.0, 1.0))
+        prep = Prep(f * self.p_total, (1 - f) * self.p_total,
+                    max(float(p.get("e01", self.p_det)), 0.0),
+                    max(float(p.get("e10", self.p_det)), 0.0))
+        for e, v in (self._active(p) if active is None else active):
+            prep = e.preparation(self, v, prep)
+        return prep
+
+    def _observe(self, base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool):
+        """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
+        ``coefs`` (``{knob: array over the rows' times}``)."""
+        eps = np.asarray(eps, dtype=float)
         vm = np.asarray(v_mean, dtype=float)
 
         def two_ion(q):
-            v = base[q] + lin[q] * eps + quad[q] * (eps ** 2 + vm.reshape(
-                vm.shape + (1,) * (base[q].ndim - vm.ndim)))
-            for name in _LINEAR:
-                v = v + d[name][q] * float(p.get(name, 0.0))
+            shape = (-1,) + (1,) * (base[q].ndim - 1)
+            e = eps.reshape(shape) if eps.ndim else eps
+            v = base[q] + lin[q] * e + quad[q] * (e ** 2 + (vm.reshape(shape) if vm.ndim
+                                                            else vm))
+            for kk, c in coefs.items():
+                c = np.asarray(c, dtype=float)
+                if np.any(c):
+                    v = v + d[kk][q] * (c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
+                                        if c.ndim else c)
             return v
 
-        pop = gate_sim.mix_branches(two_ion("p2"), base["p1"], ps, pf, base["p2_01"], None,
-                                    base["p1_1"])
+        det = (prep.e01, prep.e10)
+        pop = gate_sim.mix_branches(two_ion("p2"), base["p1"], prep.spectator, prep.flip,
+                                    base["p2_01"], None, base["p1_1"])
         pop = gate_sim.confusion(pop, det)
         if not gate:
             return pop, None
-        par = gate_sim.mix_branches(two_ion("par2"), base["par1"], ps, pf, base["par2_01"],
-                                    None, base["par1_1"])
+        par = gate_sim.mix_branches(two_ion("par2"), base["par1"], prep.spectator, prep.flip,
+                                    base["par2_01"], None, base["par1_1"])
         return pop, gate_sim.confusion(par, det)
+
+    def _weights(self, active, t, A):
+        """Knob weights and power offsets of the active effects at times ``t``, amplitudes ``A``."""
+        coefs = {}
+        eps = np.zeros(np.shape(A))
+        for e, v in active:
+            for kk, c in e.knob_coefficients(self, v, t).items():
+                coefs[kk] = coefs.get(kk, 0.0) + np.broadcast_to(c, np.shape(t))
+            eps = eps + e.power_offset_db(self, v, A)
+        return coefs, eps
 
     def predict(self, p: dict) -> dict:
         """Predicted gate observables and their model-side variances.
@@ -316,16 +361,18 @@ class GateModel:
         model-side covariance is ``v_lin dlin dlin^T + v_quad dquad dquad^T``;
         and over the time-scan points (``t > 0``, concatenated over scans):
         ``P00_t, P11_t``.  Time scan ``k`` also takes ``eps_ts{k}``, its own
-        gate-rate error (dB), on top of ``eps``.
+        gate-rate error (dB).
         """
         tab = self._tables()
-        eps = float(p.get("eps", 0.0))
+        active = self._active(p)
+        prep = self.preparation(p, active)
+        coefs, eps = self._weights(active, self.T_gate, self.A_settings)
         v_mean, v_quad = tab["var"]
         base, d, lin, quad = tab["gate"]
-        h = _STEPS["eps"] / 3
+        h = POWER_STEP_DB / 3
         vals = {}
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
-            pop, par = self._observe(base, d, lin, quad, p, e, v_mean, True)
+            pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True)
             F, imb = _collapse(pop)
             vals[s] = {"F_pop": F, "imb": imb, "C": _contrast(par)}
         res = {}
@@ -338,15 +385,24 @@ class GateModel:
             res["var_" + q] = dl ** 2 * v_mean + dq ** 2 * v_quad
         res["v_lin"], res["v_quad"] = v_mean, v_quad
         acc = {"P00_t": [], "P11_t": []}
-        for k, (b, dd, li, qu) in enumerate(tab["ts"]):
-            e = eps + float(p.get(f"eps_ts{k}", 0.0))
-            pop, _ = self._observe(b, dd, li, qu, p, e, 0.0, False)
+        for k, (key, times, (b, dd, li, qu)) in enumerate(tab["ts"]):
+            c_t, e_t = self._weights(active, times, np.full(1, key[0]))
+            e = float(e_t[0]) + float(p.get(f"eps_ts{k}", 0.0))
+            pop, _ = self._observe(b, dd, li, qu, {kk: np.asarray(c)[None, :]
+                                                    if np.ndim(c) else c
+                                                    for kk, c in c_t.items()},
+                                   e, 0.0, prep, False)
             acc["P00_t"].append(pop[0, :, 0])
             acc["P11_t"].append(pop[0, :, 3])
         for q, v in acc.items():
             if v:
                 res[q] = np.concatenate(v)
         return res
+
+    def bell_fidelity(self, p: dict) -> np.ndarray:
+        """Predicted Bell fidelity ``(F_pop + C)/2`` at every gate setting."""
+        r = self.predict(p)
+        return (r["F_pop"] + r["C"]) / 2
 
     @property
     def n_time_scans(self) -> int:

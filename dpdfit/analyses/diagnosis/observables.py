@@ -42,7 +42,7 @@ from dpdfit.errors import DpdfitError, InputError
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
 from dpdfit.recordings.tables import list_runs
 
-__all__ = ["DEFAULT_ERROR_MODEL", "DRIFT_MODE_SIGNIFICANCE", "EXTRACTION_FLOOR_DB", "MAX_DRIFT_MODES", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
+__all__ = ["RunsAfter", "DEFAULT_ERROR_MODEL", "DRIFT_MODE_SIGNIFICANCE", "EXTRACTION_FLOOR_DB", "MAX_DRIFT_MODES", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
            "TONE_HARMONICS", "MIN_SNR_DB"]
 
 #: tones weaker than this above the (median) floor are not used
@@ -119,6 +119,12 @@ class Campaign:
     #: noise models learnt from the calibration runs when the files give no errors
     #: (``photodiode``: sigma(P) = sqrt(a^2 + (b P)^2); ``phase``: sqrt(c^2 + (d/A)^2))
     calibration_noise: dict = field(default_factory=dict)
+    #: when the spectra and the gates were recorded (``campaign.json``
+    #: ``spectra_recorded``, ``gates_recorded``; pandas Timestamps in UTC, or None)
+    recorded: dict = field(default_factory=dict)
+    #: the amplitude runs taken after the recordings, in the drift modes (None: no
+    #: recording times, or no run after them)
+    runs_after: "RunsAfter | None" = None
 
     @property
     def nu(self) -> float:
@@ -131,6 +137,28 @@ class Campaign:
     @property
     def has_imbalance(self) -> bool:
         return self.gates is not None and bool(np.isfinite(self.gates["imb"]).any())
+
+
+@dataclass(frozen=True)
+class RunsAfter:
+    """The amplitude calibration runs taken after the recordings, in the run-to-run drift
+    modes (each mode scaled to the runs' sd, :func:`_drift_modes`).
+
+    ``coords`` (n runs, n modes): their coordinates; ``mu``, ``sd``: mean and sd of
+    the runs taken before the recordings (the table's run among them), the null
+    expectation; ``days``: days after the recordings; ``runs``: their labels.
+    """
+
+    runs: tuple
+    days: np.ndarray
+    coords: np.ndarray
+    mu: np.ndarray
+    sd: np.ndarray
+
+    def residuals(self, shift=None) -> np.ndarray:
+        """Standardised residuals (n runs, n modes) against the null plus ``shift``."""
+        c = self.coords - self.mu[None, :] - (0.0 if shift is None else shift)
+        return c / self.sd[None, :]
 
 
 def _residual_frame(cal, A, value, err) -> pd.DataFrame:
@@ -160,9 +188,10 @@ MAX_DRIFT_MODES = 3
 DRIFT_MODE_SIGNIFICANCE = 2.0
 
 
-def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None
-                 ) -> np.ndarray | None:
-    """Principal components of the amplitude runs' normalised curves (see Campaign).
+def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None):
+    """Principal components of the amplitude runs' normalised curves (see Campaign), and
+    each run's coordinates along them with its start time: ``(modes, coords, labels,
+    starts)`` or ``(None, None, (), ())``.
 
     ``run_fits``: the runs' fits at ``order`` already made by the caller
     (``{run label: fit}``, as ``dpdfit analyze``'s calibration step makes them);
@@ -171,8 +200,8 @@ def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None
     df = cf.amplitude_runs
     runs = list_runs(df)
     if len(runs) < 3:
-        return None
-    C, err = [], []
+        return None, None, (), ()
+    C, err, labels, starts = [], [], [], []
     A = np.linspace(0.0, 1.0, 101)
     for r in runs:
         sub = df[df["run"] == r]
@@ -185,11 +214,13 @@ def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None
             continue
         C.append(np.asarray(f.coefficients)[1:])
         err.append(np.sqrt(np.mean(f.y_stderr(A) ** 2)))
+        labels.append(r)
+        starts.append(sub["timestamp"].min() if "timestamp" in sub.columns else None)
     if len(C) < 3:
-        return None
+        return None, None, (), ()
     C = np.array(C)
     V = A[:, None] ** np.arange(2, order + 1)[None, :]
-    _, sv, Vt = np.linalg.svd((C - C.mean(0)) @ V.T, full_matrices=False)
+    U, sv, Vt = np.linalg.svd((C - C.mean(0)) @ V.T, full_matrices=False)
     sd = sv / np.sqrt((len(C) - 1) * A.size)                  # rms over A of each mode
     keep = [i for i in range(min(MAX_DRIFT_MODES, sd.size))
             if sd[i] > DRIFT_MODE_SIGNIFICANCE * np.median(err)]
@@ -197,7 +228,25 @@ def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None
         keep = [0]
     # function-space direction -> coefficients (least squares on the grid), scaled to 1 sd
     coef = np.linalg.lstsq(V, Vt[keep].T * sd[keep] * np.sqrt(A.size), rcond=None)[0]
-    return coef.T
+    # each run's coordinate along a mode, in units of the mode (zero mean, unit sd)
+    coords = U[:, keep] * np.sqrt(len(C) - 1)
+    return coef.T, coords, tuple(labels), tuple(starts)
+
+
+def _runs_after(coords, labels, starts, recorded: dict, table_run) -> RunsAfter | None:
+    """The runs started after the recordings (:class:`RunsAfter`), or None."""
+    t_rec = recorded.get("spectra_recorded") or recorded.get("gates_recorded")
+    if t_rec is None or coords is None or any(s is None for s in starts):
+        return None
+    starts = pd.to_datetime(list(starts), utc=True)
+    after = np.asarray(starts > t_rec)
+    before = ~after
+    if not after.any() or before.sum() < 3:
+        return None
+    mu = coords[before].mean(axis=0)
+    sd = np.maximum(coords[before].std(axis=0, ddof=1), 1e-3)
+    days = np.asarray((starts[after] - t_rec) / pd.Timedelta(days=1), dtype=float)
+    return RunsAfter(tuple(np.asarray(labels)[after]), days, coords[after], mu, sd)
 
 
 def _tones(cf: CampaignFolder):
@@ -369,11 +418,24 @@ def load_campaign(folder, run_fits: dict | None = None) -> Campaign:
         left.append("populations.csv has no n00/n11: the imbalance P00 - P11 is not used")
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
+    recorded = cf.recording_times
+    modes, coords, labels, starts = _drift_modes(cf, int(cf.meta["order"]), run_fits)
+    after = _runs_after(coords, labels, starts, recorded, cf.table_run)
+    if not recorded:
+        left.append("campaign.json has no spectra_recorded/gates_recorded: the calibration "
+                    "runs cannot be placed relative to the recordings, so a stale "
+                    "calibration (a drifted AOM moves the runs taken after them) and a "
+                    "detector nonlinearity (it bends every run alike) are told apart by the "
+                    "spectra alone")
+    elif after is None:
+        left.append("no amplitude calibration run after the recordings (or fewer than 3 "
+                    "before them): a stale calibration is judged by the spectra alone")
     return Campaign(folder=cf.path, meta=cf.meta, amplitude=amp, phase=ph,
                     amp_residuals=amp_res, phase_residuals=ph_res, A_tones=A, P_dB=P,
                     sd_dB=sd, gates=gates, time_scans=_time_scans(cf), error_model=em,
                     warnings=tuple(warnings), P_raw=P_raw, snr_raw=snr, has_snr=has_snr,
                     has_error_model="error_model" in cf.raw_meta, left_out=tuple(left),
-                    drift_modes=_drift_modes(cf, int(cf.meta["order"]), run_fits),
+                    drift_modes=modes,
                     calibration_noise={k: None if v is None else v.to_dict()
-                                       for k, v in cal_noise.items()})
+                                       for k, v in cal_noise.items()},
+                    recorded=recorded, runs_after=after)

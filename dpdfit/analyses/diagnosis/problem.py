@@ -23,7 +23,7 @@ from contextlib import contextmanager
 import numpy as np
 import pandas as pd
 
-from dpdfit.analyses.diagnosis.effects import TONE_PARAMS
+from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, effect_of_key
 from dpdfit.analyses.diagnosis.gate_model import DETECTION_PRIOR_SIGMA, GateModel
 from dpdfit.analyses.diagnosis.null_model import learn_tone_noise
 from dpdfit.analyses.diagnosis.observables import Campaign, tone_features
@@ -33,15 +33,16 @@ from dpdfit.analyses.diagnosis.tone_model import ToneModel
 __all__ = ["Problem", "NUISANCES", "PM_PRIOR_RAD"]
 
 #: without a phase file the lab does not know its AOM's AM-to-PM: the baseline has it as a
-#: nuisance (the am_pm_omitted parameter dphi, rad at full drive) with a N(0, PM_PRIOR_RAD)
-#: prior.  0.02 rad: IM3 from such a PM stays below about -46 dB, where the fidelity
+#: nuisance ``pm_x`` (a phase ``pm_x |x|^2`` of the RF drive, rad at full drive) with a
+#: N(0, PM_PRIOR_RAD) prior.  0.02 rad: IM3 from such a PM stays below about -46 dB, where the fidelity
 #: estimate changes by < 1e-4 (Table S2, exact formula); only a larger PM is missing physics
 PM_PRIOR_RAD = 0.02
 
 #: existing parameters of the model, refitted first: name -> (unit, meaning)
-NUISANCES = {"cal_amp0..3": ("sigma", "largest error modes of the amplitude calibration "
-                                        "(forward model only; prior N(0, 1))"),
-             "cal_phase0..1": ("sigma", "largest error modes of the phase calibration"),
+NUISANCES = {"cal_amp*": ("sigma", "error modes of the amplitude calibration "
+                                     "(forward model only; prior N(0, 1))"),
+             "cal_phase*": ("sigma", "error modes of the phase calibration"),
+             "pm_x": ("rad", "the AOM's own AM-to-PM without a phase file (prior N(0, 0.02))"),
              "eps_ts*": ("dB", "each time scan's gate-rate error (prior: rate calibration)"),
              "gate_power_offset": ("dB", "absolute scale of the heterodyne tone powers")}
 
@@ -59,7 +60,9 @@ class Problem:
         What the null model learnt (:meth:`null_model`).
     """
 
-    def __init__(self, camp: Campaign, with_gates: bool = True):
+    def __init__(self, camp: Campaign, with_gates: bool = True, effects=None):
+        #: the effects this problem may be asked to fit (their gate knobs get responses)
+        self.effects = tuple(default_effects() if effects is None else effects)
         self.tone = ToneModel(camp)
         self._cache_key, self._cache_val = None, None
         # the tone-side noise (floor, repeatability, trace power jitter) learnt from the
@@ -74,8 +77,11 @@ class Problem:
         self.bounds = {}
         if camp.phase is None:
             # the AOM's own AM-to-PM (a phase ~ |x|^2 of the drive) is unknown to the lab
-            self.prior["dphi_x"], self.center["dphi_x"] = PM_PRIOR_RAD, 0.0
+            self.prior["pm_x"], self.center["pm_x"] = PM_PRIOR_RAD, 0.0
         self.tone_nuisances = set(self.prior)
+        #: the calibration runs taken after the recordings (a data block of every
+        #: hypothesis), or None
+        self.runs_after = camp.runs_after
         self.gate, self.ts = None, None
         self.phase_sign_chi2, self.rate_scatter = None, None
         if with_gates and camp.gates is not None:
@@ -86,7 +92,7 @@ class Problem:
         em = camp.error_model
         # per-scan laser jitter: the lab's own figure, else the one learnt on the spectra
         jit = float(em["power_jitter_db"]) if camp.has_error_model else self.sig_jit
-        self.gate = GateModel(camp, self.tone, jit, responses=False)
+        self.gate = GateModel(camp, self.tone, jit, effects=self.effects, responses=False)
         g = self.gate.gates
         self.g_obs = tuple(q for q in ("F_pop", "imb", "C") if np.isfinite(g[q]).any())
         self.g_meas = {q: g[q].to_numpy() for q in self.g_obs}
@@ -121,18 +127,21 @@ class Problem:
         """The sign convention of the recorded phase response, chosen by the gates.
 
         The tone powers are the same for both signs (:meth:`ToneModel.with_phase_sign`);
-        the gates are not.  Both baselines' means are evaluated (engine base runs for
-        each sign, before the effect responses, which are then computed once for the
-        chosen sign) and the one with the smaller gate chi2 is kept; both are reported.
+        the gates are not.  Both baselines' means are evaluated (the other sign's two-ion
+        branch only: the single-ion branches of the preparation errors weigh ~1e-3 and
+        are kept; all of them when that sign is kept; the effect responses are then
+        computed once for the chosen sign) and the one with the smaller gate chi2 is
+        kept; both are reported.
         """
         plus = self._gate_chi2()
         alt_tone = self.tone.with_phase_sign(-1)
         keep = self.gate
-        self.gate = keep.rebased(alt_tone, {})
+        self.gate = keep.rebased(alt_tone, {}, two_ion_only=True)
         minus = self._gate_chi2()
         self.phase_sign_chi2 = {"+1": plus, "-1": minus}
         if minus < plus:
             self.use_tone(alt_tone)
+            self.gate = keep.rebased(alt_tone, {})
         else:
             self.gate = keep
 
@@ -174,9 +183,12 @@ class Problem:
             self._cache_key = None
 
     # -------------------------------------------------------------- residuals
+    def _is_tone_key(self, k: str) -> bool:
+        e = effect_of_key(k)
+        return k in self.tone_nuisances if e is None else e.side == "tones"
+
     def _tone_features(self, p: dict) -> dict:
-        keys = TONE_PARAMS + tuple(self.tone.mode_names)
-        key = tuple(float(p.get(k, np.nan)) for k in keys)
+        key = tuple(sorted((k, float(v)) for k, v in p.items() if self._is_tone_key(k)))
         if key != self._cache_key:
             self._cache_key, self._cache_val = key, self.tone.features(p)
         return self._cache_val
@@ -209,6 +221,9 @@ class Problem:
         plots) each is standardised on its own.
         """
         out = self._tone_blocks(p) if with_tones else []
+        if with_tones and self.runs_after is not None:
+            out.append(({"kind": "runs", "observable": "calibration_after"},
+                        self._runs_after_z(p)))
         if self.gate is not None:
             out += self._gate_blocks(p, whiten)
         if with_prior:
@@ -216,6 +231,19 @@ class Problem:
                           for k, s in self.prior.items() if np.isfinite(s)])
             out.append(({"kind": "prior", "observable": "prior"}, z))
         return out
+
+    def _runs_after_z(self, p: dict) -> np.ndarray:
+        """Standardised residuals of the runs taken after the recordings: the null (the
+        runs before them) plus the drift the effects present predict."""
+        ra = self.runs_after
+        shift = np.zeros_like(ra.coords)
+        for e in EFFECTS.values():
+            v = e.values(p)
+            if v is not None:
+                s = e.run_drift(self, v, ra.days)
+                if s is not None:
+                    shift = shift + s
+        return ra.residuals(shift).ravel()
 
     def _tone_blocks(self, p: dict) -> list:
         out = []
@@ -233,6 +261,18 @@ class Problem:
         return out
 
     def _gate_blocks(self, p: dict, whiten: bool) -> list:
+        # cached on the gate side's parameters: a tone-side fit holds them, and then the
+        # gate residuals are the same at every one of its evaluations
+        g = self.gate
+        key = (id(g), id(g.base), getattr(g, "rate_rel", None), g.resp is None, whiten,
+               tuple(sorted((k, float(v)) for k, v in p.items() if not self._is_tone_key(k))))
+        if getattr(self, "_gate_key", None) == key:
+            return list(self._gate_val)
+        out = self._gate_blocks_uncached(p, whiten)
+        self._gate_key, self._gate_val = key, out
+        return list(out)
+
+    def _gate_blocks_uncached(self, p: dict, whiten: bool) -> list:
         out = []
         pr = self.gate.predict(p)
         qs = self.g_obs

@@ -14,21 +14,30 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from dpdfit.analyses.diagnosis.effects import forms_of
+from dpdfit.analyses.diagnosis.effects import EFFECTS
+from dpdfit.core.parallel import pmap
 
 __all__ = ["learn_rate_scatter", "RATE_SCATTER_MIN", "RATE_SCATTER_MAX_FACTOR",
-           "RATE_SCATTER_POINTS", "RATE_SCATTER_PRIOR_FACTOR", "PROFILE_SWEEPS",
-           "GATE_SIDE_FREE"]
+           "RATE_SCATTER_POINTS", "RATE_SCATTER_PRIOR_FACTOR", "PROFILE_SWEEPS", "widest_gate_forms"]
 
 RATE_SCATTER_MIN = 1e-4
 RATE_SCATTER_MAX_FACTOR = 2.0
-RATE_SCATTER_POINTS = 9
+RATE_SCATTER_POINTS = 7
 RATE_SCATTER_PRIOR_FACTOR = 2.0
 #: outward continuation sweeps of the rate-scatter profile, at most (another only when the
 #: best point moved)
 PROFILE_SWEEPS = 3
-#: gate-side effects whose parameters are free while the rate scatter is estimated
-GATE_SIDE_FREE = ("gate_rate_miscalibration", "dephasing", "motional_heating", "spam_offset")
+
+
+def widest_gate_forms(prob) -> list:
+    """``(effect, form)`` of every gate-side effect ``prob`` considers, each in its form
+    with the most free parameters: free while the rate scatter is estimated."""
+    out = []
+    for name in prob.effects:
+        e = EFFECTS[name]
+        if e.side == "gates" and e.default:
+            out.append((e, max(e.forms_for(prob), key=lambda f: len(f.free))))
+    return out
 
 
 def _gate_nll(prob, rel: float, start: dict | None = None):
@@ -42,16 +51,22 @@ def _gate_nll(prob, rel: float, start: dict | None = None):
     with every effect absent.
     """
     prob.set_rate_scatter(rel)
-    # the widest form of each (catalog form plus its variants' extra parameters)
-    eff = list({par.name: par for e in GATE_SIDE_FREE for form in forms_of(e)
-                for par in form.params}.values())
+    # the widest form of each gate-side effect (REML-like: the scatter is what no
+    # smooth gate-side effect explains)
+    eff, fixed = [], {}
+    for e, form in widest_gate_forms(prob):
+        pars = {par.name: par for par in e.parameters(prob)}
+        eff += [(e.key(k), pars[k]) for k in form.free]
+        fixed.update({e.key(k): v for k, v in form.fixed.items()})
+    keys = [k for k, _ in eff]
+    eff = [par for _, par in eff]
     ts = [f"eps_ts{k}" for k in range(prob.gate.n_time_scans)]
-    names = ["prep_split", "e01", "e10"] + [par.name for par in eff] + ts
+    names = ["prep_split", "e01", "e10"] + keys + ts
     lo = [0.0, 0.0, 0.0] + [par.lo for par in eff] + [-50 * prob.prior[n] for n in ts]
     hi = ([1.0, prob.bounds["e01"][1], prob.bounds["e10"][1]] + [par.hi for par in eff]
           + [50 * prob.prior[n] for n in ts])
     x0 = ([0.5, prob.gate.p_det, prob.gate.p_det]
-          + [float(np.clip(0.0, par.lo, par.hi)) for par in eff] + [0.0] * len(ts))
+          + [0.0 if par.lo <= 0.0 <= par.hi else par.start for par in eff] + [0.0] * len(ts))
     if start is not None:
         x0 = [start[n] for n in names]
     scale = [0.1, 1e-4, 1e-4] + [par.scale for par in eff] + [prob.prior[n] for n in ts]
@@ -60,17 +75,24 @@ def _gate_nll(prob, rel: float, start: dict | None = None):
     pad = 1e-9 * (np.array(hi) - np.array(lo))
 
     def fun(x):
-        p = dict(zip(names, x))
+        p = {**fixed, **dict(zip(names, x))}
         z = [np.ravel(zz) for _, zz in prob.blocks(p, with_prior=False, with_tones=False)]
         z = np.concatenate(z + [[(p[n] - prob.center[n]) / s for n, s in priors]])
         return np.where(np.isfinite(z), z, 0.0)
 
     r = least_squares(fun, np.clip(x0, np.array(lo) + pad, np.array(hi) - pad),
                       bounds=(lo, hi), x_scale=scale, max_nfev=200)
-    p = dict(zip(names, r.x))
+    p = {**fixed, **dict(zip(names, r.x))}
     _, ld = prob.gate_whitened(p, logdet=True)
     ld += sum(2 * np.log(s) for n, s in priors if n.startswith("eps_ts"))
     return float(2 * r.cost + ld), p
+
+
+_SHARED: dict = {}
+
+
+def _cold_fit(rel: float):
+    return _gate_nll(_SHARED["prob"], rel)
 
 
 def _profile(prob, grid: np.ndarray) -> np.ndarray:
@@ -83,7 +105,12 @@ def _profile(prob, grid: np.ndarray) -> np.ndarray:
     jumps of 5-10 units between neighbours on another simulator's campaigns),
     and the posterior then piles up on whichever point happened to converge.
     """
-    fits = [_gate_nll(prob, v) for v in grid]
+    _SHARED["prob"] = prob
+    try:
+        # the cold fits are independent: over the cores (the problem is inherited)
+        fits = pmap(_cold_fit, [((float(v),), {}) for v in grid])
+    finally:
+        _SHARED.clear()
     i0 = None
     for _ in range(PROFILE_SWEEPS):
         i1 = int(np.argmin([f[0] for f in fits]))
@@ -115,7 +142,7 @@ def learn_rate_scatter(prob) -> dict:
         # handful of settings pull the scatter far below it, and the gate-side
         # effects then fit the calibration's own scatter)
         k = RATE_SCATTER_PRIOR_FACTOR ** 3
-        grid = np.geomspace(stated / k, stated * k, 2 * RATE_SCATTER_POINTS - 1)
+        grid = np.geomspace(stated / k, stated * k, RATE_SCATTER_POINTS + 2)
         log_prior = -0.5 * (np.log(grid / stated) / np.log(RATE_SCATTER_PRIOR_FACTOR)) ** 2
     else:
         hi = max(RATE_SCATTER_MAX_FACTOR * stated, 2 * RATE_SCATTER_MIN)

@@ -16,18 +16,39 @@ from dpdfit.core.display import Displayable
 __all__ = ["CONVENTIONS", "Diagnosis"]
 
 #: what the JSON's quantities mean
-CONVENTIONS = {"delta_bic": "BIC(effect) - BIC(baseline); negative favours the effect",
+CONVENTIONS = {"delta_bic": "BIC(effect) - BIC(baseline); negative favours the effect "
+                            "(for an added effect: against the named ones before it)",
                "p_value": "likelihood-ratio test against the baseline "
                           "(Wilks, chi2 with the effect's parameter count)",
-               "params_err": "1 sigma, Gauss-Newton (J^T J)^-1",
+               "params_err": "1 sigma, Gauss-Newton (J^T J)^-1, calibration modes profiled "
+                             "out; NaN at a bound or for a form's fixed parameter",
+               "sizes": "the effect's size in a laboratory's terms, 1-sigma errors by the "
+                        "delta method (profile likelihood where a parameter sits at a bound)",
+               "fidelity_cost": "mean over the recorded gate settings of the Bell fidelity "
+                                "without the effect minus with it (gate side: (F_pop + C)/2 "
+                                "predicted; tone side: the spectral estimate F_est)",
                "significance_sigma": "two-sided Gaussian equivalent of the "
                                      "Bonferroni-corrected p-value"}
+
+
+def _chosen_dict(f: FitResult) -> dict:
+    single = len(f.effects) == 1
+    return {"effect": f.effect, "forms": list(f.forms),
+            "params": f.params_of(f.effect) if single else f.params,
+            "params_err": f.errors_of(f.effect) if single else f.params_err,
+            "chi2": f.chi2, "dof": f.dof, "p_fit": f.p_fit}
 
 
 @dataclass(frozen=True, repr=False)
 class Diagnosis(Displayable):
     """Result of :func:`~dpdfit.analyses.diagnosis.diagnose.diagnose` (JSON keys of
-    ``dpdfit diagnose --json``)."""
+    ``dpdfit diagnose --json``).
+
+    ``verdict`` is the first named effect, ``"none"`` or ``"unexplained"``;
+    ``effects`` lists every named effect, best first, each with its form,
+    parameters, sizes in a laboratory's terms and cost in Bell fidelity;
+    ``steps`` the candidates tried as an addition at each step.
+    """
 
     campaign: str
     mismatches: list
@@ -40,22 +61,36 @@ class Diagnosis(Displayable):
     baseline_p_value: float
     seconds: float
     extra: dict = field(default_factory=dict)
+    #: every named effect, best first (dicts: effect, form, params, sizes, fidelity_cost)
+    effects: list = field(default_factory=list)
+    #: ranking entries of the effects tried as additions, per step
+    steps: list = field(default_factory=list)
+    #: reduced chi2 per observable with the first named effect alone
+    redchi_one: dict | None = None
     #: residual series (``Problem.series``) of the baseline and the chosen fit, for plots
     series_before: list = field(default_factory=list, repr=False)
     series_after: list = field(default_factory=list, repr=False)
+    #: the problem the diagnosis solved (its forward models; not serialised)
+    context: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def named(self) -> list:
+        """Names of the named effects, best first."""
+        return [e["effect"] for e in self.effects]
 
     def to_dict(self) -> dict:
         return {"campaign": self.campaign, "verdict": self.verdict,
+                "effects": self.effects,
                 "mismatches": self.mismatches, "ranking": self.ranking,
-                "redchi_before": self.redchi_before, "redchi_after": self.redchi_after,
+                "redchi_before": self.redchi_before, "redchi_one": self.redchi_one,
+                "redchi_after": self.redchi_after,
                 "baseline_chi2": self.baseline.chi2, "baseline_dof": self.baseline.dof,
                 "baseline_p_value": self.baseline_p_value,
                 "baseline_nuisances": self.baseline.nuisances,
-                "chosen": None if self.chosen is None else {
-                    "effect": self.chosen.effect, "params": self.chosen.params,
-                    "params_err": self.chosen.params_err, "chi2": self.chosen.chi2,
-                    "dof": self.chosen.dof, "p_fit": self.chosen.p_fit},
-                "units": {p.name: p.unit for e in EFFECTS.values() for p in e.params},
+                "chosen": None if self.chosen is None else _chosen_dict(self.chosen),
+                "steps": self.steps,
+                "units": {e.key(p.name): p.unit for e in EFFECTS.values()
+                          for p in e.parameters()},
                 "conventions": dict(CONVENTIONS),
                 "alpha": ALPHA, "seconds": self.seconds, **self.extra}
 
@@ -63,29 +98,58 @@ class Diagnosis(Displayable):
         """The ranking of the hypotheses, one row per effect (best first)."""
         return pd.DataFrame(list(self.ranking))
 
+    def sizes_frame(self) -> pd.DataFrame:
+        """The named effects' sizes, one row per (effect, quantity)."""
+        rows = [{"effect": e["effect"], "quantity": k, **v}
+                for e in self.effects for k, v in e["sizes"].items()]
+        return pd.DataFrame(rows, columns=["effect", "quantity", "value", "error", "unit",
+                                           "meaning"])
+
     def _display_rows(self) -> list[tuple]:
         return ([("verdict", self.verdict, None, ""),
+                 ("effects", ", ".join(self.named) or "-", None, ""),
                  ("baseline p-value", self.baseline_p_value, None, "")]
                 + [(f"rank {i + 1}: {r['effect']}", r["delta_bic"], None, "delta BIC")
                    for i, r in enumerate(self.ranking[:5])])
 
     def report(self) -> str:
+        ex = self.extra or {}
         lines = [f"Diagnosis of {self.campaign}",
                  f"  baseline chi2 = {self.baseline.chi2:.1f} for {self.baseline.dof} dof "
                  f"(p = {self.baseline_p_value:.2g})",
-                 f"  verdict: {self.verdict}", "", "  mismatches located:"]
+                 f"  verdict: {self.verdict}"
+                 + (f"   (named: {', '.join(self.named)})" if len(self.named) > 1 else ""),
+                 "", "  mismatches located:"]
         lines += _mismatch_lines(self.mismatches)
-        lines += ["", "  ranking (delta_bic, LRT p):"]
+        lines += ["", "  ranking of single effects (delta_bic, LRT p):"]
         lines += _ranking_lines(self.ranking)
-        lines += ["", "  reduced chi2 per observable (before -> after):"]
+        for i, step in enumerate(self.steps):
+            lines += ["", f"  added to the named effects, step {i + 1} (delta_bic vs them):"]
+            lines += _ranking_lines(step[:4])
+        if self.effects:
+            lines += ["", "  named effects (size in a laboratory's terms, 1 sigma):"]
+            for e in self.effects:
+                cost = e["fidelity_cost"]
+                lines.append(f"    {e['effect']} (form {e['form']}): cost in Bell fidelity "
+                             f"{_pm(cost, e['fidelity_cost_err'])}")
+                for k, s in e["sizes"].items():
+                    lines.append(f"      {k:>24s} = {_pm(s['value'], s['error'])} {s['unit']}")
+        lines += ["", "  reduced chi2 per observable (baseline -> first effect -> final):"]
+        one = self.redchi_one or {}
         for k in self.redchi_before:
             lines.append(f"    {k:>28s} {self.redchi_before[k]:8.2f} -> "
+                         f"{one.get(k, float('nan')):8.2f} -> "
                          f"{self.redchi_after.get(k, float('nan')):8.2f}")
-        ex = self.extra or {}
+        if len(self.effects) > 1:
+            lines += ["", "  what each effect explains (chi2 removed per observable group):"]
+            lines += _explains_lines(self)
         if ex.get("verdict_fit") == "approximate":
-            lines += ["", f"  the named effect's catalog form is approximate: it removes "
+            lines += ["", f"  the named effects' forms are approximate: they remove "
                           f"{ex['explained_fraction']:.1%} of the baseline's excess chi2 but "
-                          "leaves an unacceptable fit"]
+                          "leave an unacceptable fit"]
+        if ex.get("generic"):
+            lines += ["", "  generic smooth discrepancy where the model fails:"]
+            lines += _generic_lines(ex["generic"])
         if ex.get("null_model"):
             lines += ["", "  null model (learnt from the campaign before any effect):"]
             lines += _null_model_lines(ex["null_model"])
@@ -95,10 +159,23 @@ class Diagnosis(Displayable):
         return "\n".join(lines)
 
 
+def _pm(v, e) -> str:
+    if v is None or not np.isfinite(v):
+        return "n/a"
+    return f"{v:.4g}" + ("" if e is None or not np.isfinite(e) else f" +/- {e:.2g}")
+
+
+def _explains_lines(d: Diagnosis) -> list:
+    """Chi2 each named effect removes, by observable group, in the order it was named."""
+    return [f"    {e['effect']:>26s}: " + ", ".join(f"{g} {v:10.1f}"
+                                                  for g, v in e["explains"].items())
+            for e in d.effects if e.get("explains")]
+
+
 def _mismatch_lines(mismatches: list) -> list:
     if not mismatches:
         return ["    none"]
-    return [f"    {m['observable']:>22s} {m['sideband']:>5s} dpd={m['dpd']:>2} "
+    return [f"    {m['observable']:>22s} {m['sideband']:>5s} dpd={m['dpd']!s:>4} "
             f"{m['x']}=[{m['range'][0]:.4g}, {m['range'][1]:.4g}] "
             f"{m['significance_sigma']:.1f} sigma, {m['shape']}" for m in mismatches[:12]]
 
@@ -106,10 +183,24 @@ def _mismatch_lines(mismatches: list) -> list:
 def _ranking_lines(ranking: list) -> list:
     lines = []
     for r in ranking[:8]:
-        par = ", ".join(f"{k}={v:.4g}+/-{r['params_err'][k]:.2g}" for k, v in
-                        r["params"].items())
-        lines.append(f"    {r['effect']:>40s} {r['delta_bic']:10.1f} {r['p_value']:9.2g}  "
-                     f"{par}")
+        par = ", ".join(f"{k}={v:.4g}+/-{r['params_err'].get(k, float('nan')):.2g}"
+                        for k, v in r["params"].items()
+                        if np.isfinite(r["params_err"].get(k, np.nan)))
+        form = f" [{r['variant']}]" if r.get("variant") else ""
+        lines.append(f"    {r['effect'] + form:>44s} {r['delta_bic']:10.1f} "
+                     f"{r['p_value']:9.2g}  {par}")
+    return lines
+
+
+def _generic_lines(g: dict) -> list:
+    frac = g.get("fraction_of_excess")
+    lines = [f"    {g['form']}: removes chi2 {g['chi2_removed']:.1f} with {g['dof_used']} "
+             f"dof" + ("" if frac is None else f" ({frac:.1%} of the excess chi2)")]
+    for r in g["series"][:10]:
+        lines.append(f"    {r['observable']:>22s} {r['sideband']:>5s} dpd={r['dpd']!s:>4} "
+                     f"{r['x']}=[{r['range'][0]:.4g}, {r['range'][1]:.4g}]: chi2 "
+                     f"{r['chi2_before']:.1f} -> {r['chi2_after']:.1f} ({r['n_points']} "
+                     f"points, {r['dof_used']} dof)")
     return lines
 
 

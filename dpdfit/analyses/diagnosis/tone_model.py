@@ -1,49 +1,71 @@
-"""The forward model of a campaign's tone powers (the tone side of the diagnosis, issue #7).
+"""The forward model of a campaign's tone powers (the tone side of the diagnosis).
 
-The *baseline* model is the simulation built from the campaign's own
-calibration: the AM/PM polynomials of the model runs, the predistortion table
-computed from the amplitude run that ``campaign.json`` names (4096 points,
-linear interpolation, as the AWG applies it) and the Cardioid(1,2) waveform;
-the gates' forward model is :mod:`dpdfit.analyses.diagnosis.gate_model`.  Its
-existing parameters, refitted first, are the calibration's largest error modes
-(``cal_amp*``, ``cal_phase*``: directions of the fit covariance that move
-y(A), phi(A) most, N(0, 1) priors, forward model only).
+The *baseline* is the simulation built from the campaign's own calibration:
+the AM/PM polynomials of the model runs, the predistortion table computed
+from the amplitude run that ``campaign.json`` names (4096 points, linear
+interpolation, as the AWG applies it) and the Cardioid(1,2) waveform.  Its
+nuisances are the calibration's error modes (``cal_amp*``, ``cal_phase*``:
+directions of the fit covariance that move y(A), phi(A) most, N(0, 1)
+priors) and, without a phase file, the AOM's own AM-to-PM ``pm_x``.  Effects
+(:mod:`dpdfit.analyses.diagnosis.effects`) change the field through their
+hooks: the transfer's coefficients, the table's calibration, a memoryless
+transfer after the static curve, a filter of the drive, a gain that follows
+the filtered drive power.
 
-The tone-side effects of the catalog (:mod:`dpdfit.analyses.diagnosis.effects`)
-enter :meth:`ToneModel.field` by their parameters' names:
+Two engines compute the tones, chosen by the effects present:
 
-* ``am_pm_omitted`` -- extra AM-to-PM, ``exp(i dphi r^2)``, ``r = |y|/y(1)``
-  (variant: ``dphi_x |x|^2`` of the RF drive, in the phase polynomial);
-* ``aom_memory`` -- single-pole response of the modulator to its drive
-  envelope, ``H(f) = 1/(1 + i 2 pi (f - f_off) tau)``, before the static
-  transfer (Wiener model) (variant: the slow, thermal gain change
-  ``(th_a + i th_p) s(t)``);
-* ``stale_calibration`` -- the table is rebuilt from the calibration moved
-  along its error modes ``st*`` (variant: today's transfer moved along the
-  run-to-run drift modes ``sa*``);
-* ``higher_order_im`` -- fifth-order field distortion ``y (1 + k5 r^4)``;
-* ``detector_nonlinearity`` -- the calibration photodiode read
-  ``P (1 + k (P/P_max)^q)``: the true transfer is the corrected one while the
-  table was built from the distorted one.
+* **Envelope** (every memoryless field, and the slow power memory).  The
+  Cardioid's drive is ``w(t) = 2 A Re[e^{i 2 pi nu t} eps(t)] / peak`` with a
+  slow complex envelope ``eps`` (period ``1/xi0``).  A memoryless odd
+  nonlinearity ``g`` of the real drive ``u cos theta`` has the Fourier series
+  ``sum_m G_m(u) cos(m theta)`` (odd m), so the band at ``+nu`` is
+  ``G_1(|2 A eps(t)|/peak) e^{i arg eps(t)} / 2``: its tones are the Fourier
+  coefficients of that slow signal (``M_SLOW`` samples per period) -- exact up
+  to the overlap of the band at ``3 nu`` (a hundred gate harmonics away).
+  ``G_m`` is tabulated on ``K_TABLE + 1`` amplitudes by Gauss-Legendre
+  quadrature over ``theta`` (``N_QUAD`` nodes on each side of the point where the
+  drive clips, which is the only non-smooth point) and interpolated (cubic).
+  A gain ``1 + c s(t)`` following the drive power ``s = h * |x|^2`` mixes the
+  harmonics of ``g`` and of ``|x|^2`` (DC, ``2 nu``, ``4 nu``), each filtered
+  at its own frequencies.  Against a 16x-oversampled time-domain field the
+  tones used agree to <= 0.004 dB at 60-80 dB below the gate tones, 20x faster
+  than the previous time-domain model (whose 4x grid was off by 0.02 dB there).
+* **Time domain** (a filter of the drive before the static transfer, the fast
+  acoustic memory, whose drive is no longer a real envelope times a carrier):
+  the field on the exact no-alias grid of :mod:`dpdfit.models.waveforms`,
+  ``OVERSAMPLE`` x beyond the single-nonlinearity rate.
 """
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
-from dpdfit.models import gate_sim
+from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
+from dpdfit.models import gate_sim
 from dpdfit.models.transfer import TransferFunction, predistortion_table
-from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
+from dpdfit.models.waveforms import _envelope, cardioid, sample_grid, synthesize
 
-__all__ = ["ToneModel", "OVERSAMPLE", "N_AMP_MODES", "N_PHASE_MODES", "NEWTON_DET"]
+__all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMONICS"]
+
+#: oversampling of the time-domain grid beyond the single-nonlinearity no-alias rate
+OVERSAMPLE = 4
+#: samples of the slow envelope per gate period (envelope engine)
+M_SLOW = 128
+#: amplitudes of the harmonic tables G_m(u) on [0, 1], and quadrature nodes per piece
+K_TABLE = 256
+N_QUAD = 16
+#: harmonics of the gate tones handed to the gate engine
+GATE_HARMONICS = tuple(range(-2, 6))
 
 
 def _uniform_interp(x, table):
     """Linear interpolation in a table on the uniform grid 0..1 (as the AWG applies it).
 
     Hand-written because ``np.interp`` bisects for every sample; on a uniform
-    grid the index is arithmetic (5-10x faster on the model's ~10^5 samples).
+    grid the index is arithmetic (5-10x faster).
     """
     n = table.size - 1
     u = np.clip(x, 0.0, 1.0) * n
@@ -52,15 +74,19 @@ def _uniform_interp(x, table):
     return table[i] + f * (table[i + 1] - table[i])
 
 
-#: Newton steps of the detector model's inversion for exponents q != 1
-NEWTON_DET = 5
-#: oversampling of the tone model's grid beyond the single-nonlinearity no-alias rate
-OVERSAMPLE = 4
-#: calibration-uncertainty modes refitted as nuisances (amplitude, phase): all of them
-#: (K = 8 with unit slope: 7; K = 5 through the origin: 5); the diagnosis profiles them
-#: out linearly, so they cost no Jacobian columns
-N_AMP_MODES = 7
-N_PHASE_MODES = 5
+def _cubic(table: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Cubic Lagrange interpolation of ``table`` (last axis: uniform grid on [0, 1]) at
+    ``x`` in [0, 1] (hand-written: vectorised over the leading table axis)."""
+    K = table.shape[-1] - 1
+    s = np.clip(x, 0.0, 1.0) * K
+    i = np.clip(np.floor(s).astype(np.intp) - 1, 0, K - 3)
+    f = s - i
+    l0 = -(f - 1) * (f - 2) * (f - 3) / 6
+    l1 = f * (f - 2) * (f - 3) / 2
+    l2 = -f * (f - 1) * (f - 3) / 2
+    l3 = f * (f - 1) * (f - 2) / 6
+    return (l0 * table[..., i] + l1 * table[..., i + 1] + l2 * table[..., i + 2]
+            + l3 * table[..., i + 3])
 
 
 def _modes(cov, powers, k):
@@ -77,11 +103,34 @@ def _modes(cov, powers, k):
     return np.array([L @ Vt[i] for i in range(min(k, n))])
 
 
+class _Active:
+    """The effects present in a parameter set, with their values, grouped by hook."""
+
+    def __init__(self, tm, p: dict):
+        self.items = []
+        for e in EFFECTS.values():
+            if e.side != "tones":
+                continue
+            v = e.values(p)
+            if v is not None:
+                self.items.append((e, v))
+        self.items.sort(key=lambda ev: ev[0].stage)
+        self.tm = tm
+
+    def filters(self, f):
+        out = [e.drive_filter(self.tm, v, f) for e, v in self.items]
+        return [h for h in out if h is not None]
+
+    def memories(self, f):
+        out = [e.power_memory(self.tm, v, f) for e, v in self.items]
+        return [m for m in out if m is not None]
+
+
 class ToneModel:
     """Predicted tone powers of every trace of the spectra grid (both flags).
 
-    The field is computed on the exact no-alias grid of :mod:`dpdfit.models.waveforms`
-    (one gate period), so each tone falls on one FFT bin.
+    Parameters of :meth:`P_dB` and friends are dicts: the nuisances by name,
+    effect parameters as ``"<effect>.<param>"``; missing = baseline.
     """
 
     def __init__(self, camp: Campaign, lut_points: int | None = None):
@@ -92,55 +141,65 @@ class ToneModel:
         pts = lut_points or int((camp.meta.get("predistortion_table") or {}).get("points", 4096))
         target, rf, _ = predistortion_table(self.tf, pts)
         self.lut_target, self.lut_rf = target, rf
-        self.A = camp.A_tones
-        tones = cardioid()
-        g0 = sample_grid(camp.nu, camp.xi0_spectra, tones, extra_harmonics=(-2, 0, 3, 5))
-        # oversampled: predistortion, memory and the static transfer compose to
-        # products beyond the order-9 no-alias bound of a single nonlinearity
-        self.grid = sample_grid(camp.nu, camp.xi0_spectra, tones, fs=g0.fs * OVERSAMPLE,
-                                extra_harmonics=(-2, 0, 3, 5))
-        self.w = synthesize(tones, self.grid, self.A)                 # (nA, N) real
-        self.freq = np.fft.fftfreq(self.grid.n_samples, 1.0 / self.grid.fs)
-        kb, kr = self.grid.tone_bins(TONE_HARMONICS)
-        self.kb, self.kr = kb, kr
-        # static transfer on a fine grid (linear interpolation error < 1e-8)
+        self.A = np.asarray(camp.A_tones, dtype=float)
+        self.nu, self.xi0 = camp.nu, camp.xi0_spectra
         # polynomial coefficient vectors (index = power) for direct evaluation
         self._cy = np.zeros(max(amp.powers) + 1)
         self._cy[list(amp.powers)] = amp.coefficients
         self._cp = np.zeros((max(ph.powers) + 1) if ph is not None else 1)
         if ph is not None:
             self._cp[list(ph.powers)] = ph.coefficients
-        self.xg = np.linspace(0.0, 1.0, 8001)           # grid of the stale table's inverse
+        self.xg = np.linspace(0.0, 1.0, 8001)           # grid of a rebuilt table's inverse
         self.A_corr = float(self.tf.A_corr)
         self.power_scale = float(amp.power_scale)
-        self.P_max = float(np.max(amp.power(np.linspace(0, 1, 201))))
         self._A_pmax = np.linspace(0.0, 1.0, 201)
+        self.P_max = float(np.max(amp.power(self._A_pmax)))
         self.has_phase = ph is not None
         # calibration uncertainty as nuisance modes: the coefficient errors
         # delta = L z (C = L L^T, z ~ N(0, I)) rotated so that the first modes
         # move y(A) (phi(A)) most on [0, 1]; each mode has a N(0, 1) prior
         self.amp_modes = _modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:],
-                                N_AMP_MODES)
-        self.phase_modes = (_modes(np.asarray(ph.covariance), ph.powers, N_PHASE_MODES)
+                                len(amp.powers) - 1)
+        self.phase_modes = (_modes(np.asarray(ph.covariance), ph.powers, len(ph.powers))
                             if ph is not None else np.zeros((0, 1)))
-        self.stale_modes = _modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:], 7)
         self.drift_modes = (np.zeros((0, len(amp.powers) - 1)) if camp.drift_modes is None
                             else np.asarray(camp.drift_modes))
         self.mode_names = ([f"cal_amp{i}" for i in range(len(self.amp_modes))]
                            + [f"cal_phase{i}" for i in range(len(self.phase_modes))])
         #: sign with which the recorded phase response enters the field (+1: exp(+i phi))
         self.phase_sign = 1
+        self._setup_envelope()
+        self._td = None
+        self._off_key = None
 
+    # ------------------------------------------------------------- set-up
+    def _setup_envelope(self):
+        tones = cardioid()
+        grid = sample_grid(self.nu, self.xi0, tones, extra_harmonics=(-2, 0, 3, 5))
+        self._grid0 = grid
+        # peak of the continuous drive (what synthesize normalises to A)
+        peak = np.max(np.abs(_envelope(tones, grid, np.arange(16 * grid.n_samples)
+                                       / (16 * grid.fs))))
+        t = np.arange(M_SLOW) / (M_SLOW * self.xi0)
+        eps = np.zeros(M_SLOW, dtype=complex)
+        for n, r, ph in zip(tones.n, tones.r_blue, tones.phi_blue):
+            eps += r * np.exp(1j * (2 * np.pi * n * self.xi0 * t + ph))
+        self._E_unit = 2 * np.abs(eps) / peak               # |drive| per unit A
+        self._rot = np.exp(1j * np.angle(eps))              # e^{i arg eps}
+        # quadrature on [0, pi/2], split at the clip point (per table amplitude)
+        self._Eg = np.linspace(0.0, 1.0, K_TABLE + 1)
+        self._gx, self._gw = np.polynomial.legendre.leggauss(N_QUAD)
+        self._k_slow = np.fft.fftfreq(M_SLOW, 1.0 / M_SLOW)   # slow harmonic index
+
+    # ------------------------------------------------------------- copies
     def with_phase_sign(self, sign: int) -> "ToneModel":
         """A copy in which the recorded phase response enters as ``exp(sign i phi)``.
 
         The sign convention of a lab's ``phase_rad`` relative to the field at
-        the ions (heterodyne reference above or below, engineering or physics
-        time convention) is not fixed by the recordings: the tone powers are
-        exactly the same for both signs (red and blue swap, and the
-        Cardioid's spectra are red/blue symmetric), only the gates tell.
+        the ions is not fixed by the recordings: the tone powers of a memoryless
+        field are the same for both signs (red and blue swap, and the Cardioid's
+        spectra are red/blue symmetric), only the gates tell.
         """
-        import copy
         new = copy.copy(self)
         flip = int(sign) * self.phase_sign
         new._cp = flip * self._cp
@@ -149,151 +208,222 @@ class ToneModel:
         new._off_key = None
         return new
 
+    # ------------------------------------------------------------- curves
     def y_calibrated(self, a: float) -> float:
         """y(a) of the campaign's amplitude calibration (no error modes applied)."""
         return float(np.polynomial.polynomial.polyval(a, self._cy))
 
-    def stale_dc(self, p: dict) -> np.ndarray:
-        """Coefficient changes dc_k (k = 2..8) of the stale table's calibration."""
-        v = np.array([float(p.get(f"st{i}", 0.0)) for i in range(len(self.stale_modes))])
-        return v @ self.stale_modes if v.size else np.zeros(0)
+    def y_max(self, cy) -> float:
+        """Largest field of the amplitude curve ``cy`` on 0 <= A <= 1 (P_max = its square)."""
+        return float(np.max(np.polynomial.polynomial.polyval(self._A_pmax, cy)))
 
-    def _coefficients(self, p: dict):
-        """Forward-model coefficient vectors with the calibration modes applied."""
+    def _coefficients(self, p: dict, act: _Active):
+        """Forward-model coefficient vectors with the calibration modes and effects applied."""
         cy, cp = self._cy, self._cp
         if any(p.get(f"cal_amp{i}", 0.0) for i in range(len(self.amp_modes))):
             cy = cy.copy()
             for i, m in enumerate(self.amp_modes):
                 cy[2:2 + m.size] += float(p.get(f"cal_amp{i}", 0.0)) * m
-        if any(p.get(f"sa{i}", 0.0) for i in range(len(self.drift_modes))):
-            cy = cy.copy()
-            for i, m in enumerate(self.drift_modes):
-                cy[2:2 + m.size] += float(p.get(f"sa{i}", 0.0)) * m
         if any(p.get(f"cal_phase{i}", 0.0) for i in range(len(self.phase_modes))):
             cp = cp.copy()
             for i, m in enumerate(self.phase_modes):
                 cp[1:1 + m.size] += float(p.get(f"cal_phase{i}", 0.0)) * m
-        if p.get("dphi_x", 0.0):
+        if p.get("pm_x", 0.0):
+            # the AOM's own AM-to-PM (a nuisance without a phase file)
             cp = np.concatenate([cp, np.zeros(max(3 - cp.size, 0))])
-            cp[2] += float(p["dphi_x"])
+            cp[2] += self.phase_sign * float(p["pm_x"])
+        for e, v in act.items:
+            cy, cp = e.coefficients(self, v, cy, cp)
         return cy, cp
 
-    def _y_max(self, cy) -> float:
-        """Largest field of the amplitude curve ``cy`` on 0 <= A <= 1 (P_max = its square)."""
-        return float(np.max(np.polynomial.polynomial.polyval(self._A_pmax, cy)))
+    def _table(self, act: _Active) -> np.ndarray:
+        """Table (RF amplitude per target on the uniform grid) the AWG applies."""
+        for e, v in act.items:
+            c = e.table_curve(self, v, self._cy)
+            if c is not None:
+                yt = np.polynomial.polynomial.polyval(self.xg, c)
+                # inverse by interpolation on the fine grid (monotone part), clamped to
+                # full drive as predistortion_table does for targets >= y(1)
+                top = int(np.argmax(yt))
+                inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
+                return np.where(self.lut_target >= yt[-1], 1.0, inv)
+        return self.lut_rf
 
-    def _static(self, x, k_det, coef, q_det=1.0):
+    def _static(self, mag, coef, act: _Active):
+        """Field (complex, phase of the drive not included) of drive magnitudes ``mag``."""
         cy, cp = coef
-        mag = np.minimum(np.abs(x), 1.0)
-        y = np.polynomial.polynomial.polyval(mag, cy)
-        if k_det:
-            # calibration read u_meas = u (1 + k u), u = P/P_max: the true u solves it,
-            # u_true / u = 2 / (1 + sqrt(1 + 4 k u)) (the rationalised root: no
-            # cancellation as k -> 0, where finite differences of the fit probe it).
-            # P/P_max of *this* curve (calibration modes applied): a scale frozen at
-            # the fitted curve would move k_det with every mode that moves y(1)
-            u = (y / self._y_max(cy)) ** 2
-            ratio = 2.0 / (1.0 + np.sqrt(np.maximum(1 + 4 * k_det * u, 0.0)))
-            if q_det != 1.0:
-                # u_meas = u_t (1 + k u_t^q): Newton from the q = 1 root (a fixed number of
-                # steps keeps the model smooth in k and q for the fits' differences)
-                um = np.maximum(u, 1e-300)
-                ut = ratio * um
-                for _ in range(NEWTON_DET):
-                    ut = np.maximum(ut - (ut + k_det * ut ** (q_det + 1) - um)
-                                    / (1 + k_det * (q_det + 1) * ut ** q_det), 0.0)
-                ratio = ut / um
-            y = y * np.sqrt(ratio)
-        if not np.any(cp):
-            return y * np.exp(1j * np.angle(x))
-        phi = np.polynomial.polynomial.polyval(mag, cp)
-        return y * np.exp(1j * (np.angle(x) + phi))
-
-    def field(self, p: dict) -> np.ndarray:
-        """Complex field, shape (nA, 2 dpd, N), for parameters ``p`` (missing = baseline)."""
-        return self._field(self.w, p)
-
-    def _field(self, w: np.ndarray, p: dict) -> np.ndarray:
-        """Field for waveforms ``w`` (shape (m, N)) without and with DPD: (m, 2, N)."""
-        x1 = np.sign(w) * _uniform_interp(np.abs(w), self._stale_table(p))
-        return np.stack([self._path(w, p), self._path(x1, p)], axis=1)
-
-    def _path(self, x: np.ndarray, p: dict) -> np.ndarray:
-        """Field of RF envelopes ``x`` (shape (m, N)): memory, static transfer, post-distortion."""
-        x = x.astype(complex)
-        tau = float(p.get("tau", 0.0)) * 1e-9
-        if tau > 0:
-            H = 1.0 / (1.0 + 2j * np.pi * (self.freq - float(p.get("f_off", 0.0)) * 1e6) * tau)
-            x = np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
-        y = self._static(x, float(p.get("k_det", 0.0)), self._coefficients(p),
-                         float(p.get("q_det", 1.0)))
-        dphi, k5 = float(p.get("dphi", 0.0)), float(p.get("k5", 0.0))
-        if dphi or k5:
-            # r = |y| / y(1) of the forward curve in use (calibration modes applied),
-            # not of the fitted one: the physical full-drive field sets the scale
-            cy = self._coefficients(p)[0]
-            r2 = (np.abs(y) / np.polynomial.polynomial.polyval(1.0, cy)) ** 2
-            y = y * (1 + k5 * r2 ** 2) * np.exp(1j * dphi * r2)
-        th_a, th_p = float(p.get("th_a", 0.0)), float(p.get("th_p", 0.0))
-        if th_a or th_p:
-            # slow (thermal) memory: a complex gain change driven by the drive power
-            # |x|^2 through a single-pole response of time constant th_tau (us)
-            t = max(float(p.get("th_tau", 0.0)), 0.0) * 1e-6
-            u = np.abs(x) ** 2
-            if t > 0:
-                u = np.fft.ifft(np.fft.fft(u, axis=-1) / (1.0 + 2j * np.pi * self.freq * t),
-                                axis=-1)
-            y = y * (1 + (th_a + 1j * th_p) * u)
+        m = np.minimum(mag, 1.0)
+        y = np.polynomial.polynomial.polyval(m, cy)
+        if np.any(cp):
+            y = y * np.exp(1j * np.polynomial.polynomial.polyval(m, cp))
+        else:
+            y = y.astype(complex)
+        for e, v in act.items:
+            y = e.transfer(self, v, y, cy)
         return y
 
-    def _stale_table(self, p: dict) -> np.ndarray:
-        """Table (RF amplitude per target on the uniform grid) of the table's calibration."""
-        if "st0" not in p:
-            return self.lut_rf
-        # rebuilt even at st = 0, so the model is smooth in st for the Jacobian
-        dc = self.stale_dc(p)
-        c = self._cy.copy()
-        c[2:2 + dc.size] += dc
-        yt = np.polynomial.polynomial.polyval(self.xg, c)
-        # inverse by interpolation on the fine grid (monotone part), clamped to full drive
-        top = int(np.argmax(yt))
-        inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
-        # as predistortion_table: targets at or above y(1) = A_corr drive full scale
-        return np.where(self.lut_target >= yt[-1], 1.0, inv)
+    # ------------------------------------------------------------- envelope engine
+    def _harmonics(self, coef, table, act: _Active, memory: bool):
+        """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field and ``S_m(u)`` (m = 0, 2, 4)
+        of the drive power, over ``u`` on [0, 1] (module doc)."""
+        Eg = self._Eg
+        if table is None:
+            u_c = 1.0
+        else:
+            sat = np.nonzero(table >= 1.0)[0]
+            u_c = sat[0] / (table.size - 1) if sat.size else 1.0 + 1e-12
+        thc = np.where(Eg > u_c, np.arccos(np.minimum(u_c / np.maximum(Eg, 1e-300), 1.0)), 0.0)
+        ms = (1, 3, 5) if memory else (1,)
+        G = np.zeros((len(ms), Eg.size), dtype=complex)
+        S = np.zeros((3, Eg.size)) if memory else None
+        for lo, hi in ((thc, np.full_like(Eg, np.pi / 2)), (np.zeros_like(Eg), thc)):
+            th = lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None]
+            w = self._gw[None, :] * (hi - lo)[:, None] / 2
+            u = Eg[:, None] * np.cos(th)
+            x = u if table is None else _uniform_interp(u, table)
+            g = self._static(x, coef, act)
+            for j, m in enumerate(ms):
+                G[j] += (4 / np.pi) * np.sum(g * np.cos(m * th) * w, axis=-1)
+            if memory:
+                pw = np.minimum(x, 1.0) ** 2
+                S[0] += (2 / np.pi) * np.sum(pw * w, axis=-1)
+                S[1] += (4 / np.pi) * np.sum(pw * np.cos(2 * th) * w, axis=-1)
+                S[2] += (4 / np.pi) * np.sum(pw * np.cos(4 * th) * w, axis=-1)
+        return G, S
+
+    def _bands(self, A, coef, table, act: _Active) -> tuple[np.ndarray, np.ndarray]:
+        """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
+        drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
+        mems = act.memories(np.zeros(1))
+        G, S = self._harmonics(coef, table, act, bool(mems))
+        E = np.asarray(A, dtype=float)[:, None] * self._E_unit[None, :]
+        rot = self._rot
+        g1 = _cubic(G[0], E) / 2
+        blue, red = g1 * rot, g1 * np.conj(rot)
+        if not mems:
+            return blue, red
+        g3, g5 = _cubic(G[1], E) / 2, _cubic(G[2], E) / 2
+        s0, s2, s4 = (_cubic(S[j], E) for j in range(3))
+        gm = {1: blue, -1: red, 3: g3 * rot ** 3, -3: g3 * np.conj(rot) ** 3,
+              5: g5 * rot ** 5, -5: g5 * np.conj(rot) ** 5}
+        f_slow = self._k_slow * self.xi0
+        out_b, out_r = blue.copy(), red.copy()
+        # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
+        # its own frequencies (every memory present adds its own term)
+        pc = {0: s0.astype(complex), 2: s2 * rot ** 2 / 2, -2: s2 * np.conj(rot) ** 2 / 2,
+              4: s4 * rot ** 4 / 2, -4: s4 * np.conj(rot) ** 4 / 2}
+        for e, v in act.items:
+            mem = e.power_memory(self, v, np.zeros(1))
+            if mem is None:
+                continue
+            gain = mem[0]
+            s = {}
+            for m, comp in pc.items():
+                H = e.power_memory(self, v, m * self.nu + f_slow)[1]
+                s[m] = np.fft.ifft(np.fft.fft(comp, axis=-1) * H, axis=-1)
+            out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
+                                    + gm[-3] * s[4] + gm[5] * s[-4])
+            out_r = out_r + gain * (gm[-1] * s[0] + gm[1] * s[-2] + gm[-3] * s[2]
+                                    + gm[3] * s[-4] + gm[-5] * s[4])
+        return out_b, out_r
+
+    def _tones_envelope(self, A, p, act, dpd_flags, harmonics):
+        coef = self._coefficients(p, act)
+        n = np.asarray(harmonics)
+        out = []
+        for d in dpd_flags:
+            blue, red = self._bands(A, coef, self._table(act) if d else None, act)
+            cb = np.fft.fft(blue, axis=-1) / M_SLOW
+            cr = np.fft.fft(red, axis=-1) / M_SLOW
+            out.append(np.stack([cr[:, (-n) % M_SLOW], cb[:, n % M_SLOW]], axis=1))
+        return np.stack(out, axis=1)                         # (nA, n flags, 2 sb, H)
+
+    # ------------------------------------------------------------- time-domain engine
+    def _time_domain(self):
+        if self._td is None:
+            tones = cardioid()
+            g0 = self._grid0
+            grid = sample_grid(self.nu, self.xi0, tones, fs=g0.fs * OVERSAMPLE,
+                               extra_harmonics=(-2, 0, 3, 5))
+            self._td = (grid, np.fft.fftfreq(grid.n_samples, 1.0 / grid.fs))
+        return self._td
+
+    def _drive_spectrum(self, A, d: int, table) -> np.ndarray:
+        """FFT of the drive (DPD by ``table`` when ``d``) at amplitudes ``A`` on the
+        time-domain grid, cached: a memory's fit changes only its filter."""
+        grid, _ = self._time_domain()
+        key = (tuple(np.round(A, 12)), d, id(table) if d else None)
+        cache = self.__dict__.setdefault("_drive_cache", {})
+        if key not in cache:
+            if len(cache) > 8:
+                cache.clear()
+            w = synthesize(cardioid(), grid, np.asarray(A, dtype=float))
+            w = w[None, :] if w.ndim == 1 else w
+            x = np.sign(w) * _uniform_interp(np.abs(w), table) if d else w
+            cache[key] = (table, np.fft.fft(x, axis=-1))      # table kept: its id stays valid
+        return cache[key][1]
+
+    def _tones_time_domain(self, A, p, act, dpd_flags, harmonics):
+        grid, freq = self._time_domain()
+        coef = self._coefficients(p, act)
+        kb, kr = grid.tone_bins(np.asarray(harmonics))
+        table = self._table(act)
+        H = np.ones(freq.size, dtype=complex)
+        for h in act.filters(freq):
+            H = H * h
+        out = []
+        for d in dpd_flags:
+            x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
+            mag = np.abs(x)
+            y = self._static(mag, coef, act) * (x / np.maximum(mag, 1e-300))
+            for e, v in act.items:
+                mem = e.power_memory(self, v, freq)
+                if mem is not None:
+                    s = np.fft.ifft(np.fft.fft(np.minimum(mag, 1.0) ** 2, axis=-1) * mem[1],
+                                    axis=-1).real
+                    y = y * (1 + mem[0] * s)
+            spec = np.fft.fft(y, axis=-1) / grid.n_samples
+            out.append(np.stack([spec[:, kr], spec[:, kb]], axis=1))
+        return np.stack(out, axis=1)
+
+    # ------------------------------------------------------------- public
+    def tone_amplitudes(self, A, p: dict, harmonics=TONE_HARMONICS, dpd_flags=(0, 1)):
+        """Complex tone amplitudes at drive amplitudes ``A``: shape (len(A), len(dpd_flags),
+        2 sideband [red, blue], len(harmonics)); the field's Fourier coefficients at
+        ``-(nu + n xi0)`` (red) and ``+(nu + n xi0)`` (blue)."""
+        act = _Active(self, p)
+        A = np.atleast_1d(np.asarray(A, dtype=float))
+        if act.filters(np.zeros(1)):
+            return self._tones_time_domain(A, p, act, dpd_flags, harmonics)
+        return self._tones_envelope(A, p, act, dpd_flags, harmonics)
 
     def P_dB(self, p: dict) -> np.ndarray:
         """Tone powers, shape (nA, 2 dpd, 2 sideband [red, blue], len(TONE_HARMONICS))."""
-        # the DPD-off half does not depend on the table (stale_calibration's st*):
-        # cached on the other parameters, it halves the stale fit's evaluations
-        key = tuple(sorted((k, float(v)) for k, v in p.items() if not k.startswith("st")))
-        if getattr(self, "_off_key", None) != key:
-            self._off_key, self._off_P = key, self._tone_dB(self._path(self.w, p))
-        x1 = np.sign(self.w) * _uniform_interp(np.abs(self.w), self._stale_table(p))
-        return np.stack([self._off_P, self._tone_dB(self._path(x1, p))], axis=1)
-
-    def _tone_dB(self, y: np.ndarray) -> np.ndarray:
-        """Tone powers (dB) of fields ``y`` (m, N): shape (m, 2 sideband, len(TONE_HARMONICS))."""
-        spec = np.fft.fft(y, axis=-1) / self.grid.n_samples
-        P = np.stack([np.abs(spec[..., self.kr]) ** 2, np.abs(spec[..., self.kb]) ** 2], axis=1)
-        return 10 * np.log10(np.maximum(P, 1e-300))
+        # the DPD-off half does not depend on parameters that move the table only:
+        # cached on the others, it halves the stale table's evaluations
+        table_only = {e.key(k) for e in EFFECTS.values() for k in e.table_only}
+        key = tuple(sorted((k, float(v)) for k, v in p.items() if k not in table_only))
+        if self._off_key != key:
+            self._off_key = key
+            self._off_P = _dB(self.tone_amplitudes(self.A, p, dpd_flags=(0,)))[:, 0]
+        on = _dB(self.tone_amplitudes(self.A, p, dpd_flags=(1,)))[:, 0]
+        return np.stack([self._off_P, on], axis=1)
 
     def tone_powers_at(self, A, p: dict) -> np.ndarray:
         """Tone powers (dB) of the gate waveform at amplitudes ``A`` for parameters ``p``:
         shape (len(A), 2 dpd, 2 sideband, len(TONE_HARMONICS))."""
-        y = self._field(synthesize(cardioid(), self.grid, np.asarray(A, dtype=float)), p)
-        return np.stack([self._tone_dB(y[:, d]) for d in (0, 1)], axis=1)
+        return _dB(self.tone_amplitudes(A, p))
 
     def features(self, p: dict) -> dict:
         return {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
 
-    def gate_tones(self, p: dict, A: float, dpd: int, harmonics=tuple(range(-2, 6))):
+    def gate_tones(self, p: dict, A: float, dpd: int, harmonics=GATE_HARMONICS):
         """Engine-convention tone amplitudes (n, b, c) of the gate waveform at ``A``."""
-        i = int(np.argmin(np.abs(self.A - A)))
-        w = (self.w[i:i + 1] if abs(self.A[i] - A) <= 1e-9
-             else synthesize(cardioid(), self.grid, np.array([A])))
-        y = self._field(w, p)[0, dpd]
-        spec = np.fft.fft(y) / self.grid.n_samples
+        t = self.tone_amplitudes([A], p, harmonics, dpd_flags=(int(dpd),))[0, 0]
         n = np.asarray(harmonics)
-        kb, kr = self.grid.tone_bins(n)
-        b, c = gate_sim.field_amplitudes(spec[kb], spec[kr])
+        b, c = gate_sim.field_amplitudes(t[1], t[0])
         return n, b, c
+
+
+def _dB(a: np.ndarray) -> np.ndarray:
+    return 10 * np.log10(np.maximum(np.abs(a) ** 2, 1e-300))

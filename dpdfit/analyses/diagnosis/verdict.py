@@ -20,15 +20,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
-from dpdfit.analyses.diagnosis.effects import EFFECTS, TONE_PARAMS
+from dpdfit.analyses.diagnosis.effects import EFFECTS, effect_of_key
 from dpdfit.analyses.diagnosis.fitting import FitResult
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS
 from dpdfit.analyses.diagnosis.scan import scan_intervals
 from dpdfit.models.fidelity import estimate
 
-__all__ = ["locate_mismatches", "mismatch_evidence", "fidelity_impact", "explained_fraction",
-           "rank_entry", "choose_verdict", "ALPHA", "ALPHA_FIT", "BIC_DECISIVE",
-           "DOMINANT_FRACTION", "EXPLAINED_FRACTION", "MATERIAL_FIDELITY"]
+__all__ = ["locate_mismatches", "mismatch_evidence", "fidelity_cost", "explained_fraction",
+           "rank_entry", "decisive", "choose_first", "ALPHA", "ALPHA_FIT", "BIC_DECISIVE",
+           "DOMINANT_FRACTION", "EXPLAINED_FRACTION"]
 
 #: global false-alarm level of a mismatch (3 sigma)
 ALPHA = 0.0027
@@ -36,17 +36,14 @@ ALPHA = 0.0027
 ALPHA_FIT = 1e-4
 #: |delta BIC| that counts as decisive (Kass & Raftery: > 10 "very strong")
 BIC_DECISIVE = 10.0
-#: a pair whose second effect adds less than this fraction of the first's chi2 improvement
-#: names the first (dominant) effect
+#: an effect added on the side of a named effect must remove at least this fraction of
+#: the chi2 that the named effects of that side removed: less only refines their form
+#: (e.g. a memory kernel that is not exactly the catalog's), it is not a second effect
 DOMINANT_FRACTION = 0.01
 #: a single effect that leaves no acceptable fit is still named when it is decisive and
 #: explains at least this fraction of the baseline's excess chi2 (chi2 - dof): its form is
 #: then not exactly the catalog's; the report says how much is explained
 EXPLAINED_FRACTION = 0.95
-#: an effect matters if it changes some fidelity at a recorded setting by at least this
-#: (the spectral estimate F_est for tone-side effects, (F_pop + C)/2 for gate-side ones);
-#: only effects that matter count for the targeted test (mismatch_evidence)
-MATERIAL_FIDELITY = 1e-4
 
 
 def locate_mismatches(prob, p: dict) -> list:
@@ -100,37 +97,52 @@ def mismatch_evidence(p_base: float, mismatches: list, ranking: list) -> list[st
     return out
 
 
-def fidelity_impact(prob, f: FitResult) -> float:
-    """How much an effect at its fitted parameters matters: the largest change of a
-    fidelity at a recorded gate setting (both DPD flags).
+def _bell_fidelities(prob, p: dict, side: str, amps) -> np.ndarray:
+    """Fidelities at the recorded gate settings that an effect of ``side`` changes: the
+    predicted Bell fidelity ``(F_pop + C)/2`` (gates), the spectral estimate ``F_est``
+    (S5, mean of the sidebands, both DPD flags; tones)."""
+    if side == "gates":
+        return prob.gate.bell_fidelity(p)
+    h = [TONE_HARMONICS.index(n) for n in (0, 1, 2, 3)]
+    P = prob.tone.tone_powers_at(amps, p)                # (nA, 2 dpd, 2 sb, H)
+    return np.array([[np.mean([estimate(P[i, d, sb][h], (0, 1, 2, 3)).F_est
+                               for sb in (0, 1)]) for d in (0, 1)]
+                     for i in range(len(amps))]).ravel()
 
-    Tone-side effects: the spectral estimate ``F_est`` (S5, from the model's tone
-    powers at the setting's amplitude, mean of the sidebands) with and without the
-    effect's parameters; gate-side effects: the predicted Bell fidelity
-    ``(F_pop + C)/2``.  Without gate settings the spectra's amplitudes >= 0.2 are used.
+
+def fidelity_cost(prob, f: FitResult, name: str) -> tuple[float, float]:
+    """The cost in Bell fidelity of effect ``name`` at its fit ``f``: the mean over the
+    recorded gate settings of the fidelity without it minus with it, and the 1-sigma
+    error by the delta method over its free parameters.
+
+    Gate-side effects: the predicted Bell fidelity ``(F_pop + C)/2``; tone-side
+    effects: the spectral estimate ``F_est`` (the gate settings' amplitudes; without
+    gate settings the spectra's amplitudes >= 0.2).
     """
-    p1 = {**f.nuisances, **f.params}
-    p0 = {k: v for k, v in p1.items() if k not in f.params}
-    names = set(TONE_PARAMS) & set(f.params)
-    out = 0.0
-    if names:
-        if prob.gate is not None:
-            amps = sorted({a for a, _ in prob.gate.keys})
-        else:
-            amps = [a for a in prob.camp.A_tones if a >= 0.2]
-        h = [TONE_HARMONICS.index(n) for n in (0, 1, 2, 3)]
-        F = []
-        for p in (p0, p1):
-            P = prob.tone.tone_powers_at(amps, p)                # (nA, 2 dpd, 2 sb, H)
-            F.append(np.array([[np.mean([estimate(P[i, d, sb][h], (0, 1, 2, 3)).F_est
-                                         for sb in (0, 1)]) for d in (0, 1)]
-                               for i in range(len(amps))]))
-        out = float(np.nanmax(np.abs(F[1] - F[0])))
-    if prob.gate is not None and set(f.params) - names:
-        a, b = prob.gate.predict(p1), prob.gate.predict(p0)
-        out = max(out, float(np.nanmax(np.abs((a["F_pop"] + a["C"]) - (b["F_pop"] + b["C"]))
-                                        / 2)))
-    return out
+    e = EFFECTS[name]
+    p1 = f.all_params
+    p0 = {k: v for k, v in p1.items() if effect_of_key(k) is not e}
+    if e.side == "gates" and prob.gate is None:
+        return float("nan"), float("nan")
+    amps = (sorted({a for a, _ in prob.gate.keys}) if prob.gate is not None
+            else [a for a in prob.camp.A_tones if a >= 0.2])
+    F0 = _bell_fidelities(prob, p0, e.side, amps)
+
+    def cost(p):
+        return float(np.mean(F0 - _bell_fidelities(prob, p, e.side, amps)))
+
+    c = cost(p1)
+    free = [k for k in f.free if effect_of_key(k) is e]
+    if not free or f.cov is None:
+        return c, float("nan")
+    idx = [f.free.index(k) for k in free]
+    g = np.zeros(len(free))
+    for j, k in enumerate(free):
+        h = 1e-3 * e.param(k.split(".", 1)[1], prob).scale
+        g[j] = (cost({**p1, k: p1[k] + h}) - cost({**p1, k: p1[k] - h})) / (2 * h)
+    cov = f.cov[np.ix_(idx, idx)]
+    err = float(np.sqrt(max(g @ cov @ g, 0.0))) if np.all(np.isfinite(cov)) else float("nan")
+    return c, err
 
 
 def explained_fraction(base: FitResult, f: FitResult) -> float | None:
@@ -140,51 +152,47 @@ def explained_fraction(base: FitResult, f: FitResult) -> float | None:
     return float((base.chi2 - f.chi2) / excess) if excess > 0 else None
 
 
-def rank_entry(base: FitResult, f: FitResult, impact: float | None = None) -> dict:
-    """The ranking entry of hypothesis ``f`` against the baseline ``base``."""
+def rank_entry(base: FitResult, f: FitResult, cost: tuple | None = None) -> dict:
+    """The ranking entry of hypothesis ``f`` against ``base`` (the baseline, or for an
+    added effect the model it was added to)."""
     dchi = base.chi2 - f.chi2
     k = f.n_par - base.n_par
+    single = len(f.effects) == 1
+    params = f.params_of(f.effect) if single else dict(f.params)
+    errs = f.errors_of(f.effect) if single else dict(f.params_err)
+    sizes = {name: {k_: s.to_dict() for k_, s in sz.items()} for name, sz in f.sizes.items()}
     return {"effect": f.effect, **({"variant": f.variant} if f.variant else {}),
-            "side": "+".join(sorted({EFFECTS[e].side for e in f.effect.split("+")})),
-            **({"impact": impact} if impact is not None else {}),
+            "side": "+".join(sorted({EFFECTS[e].side for e in f.effects})),
+            **({"impact": abs(cost[0]), "fidelity_cost": cost[0],
+                "fidelity_cost_err": cost[1]} if cost is not None else {}),
             "explained_fraction": explained_fraction(base, f),
             "delta_bic": float(f.bic - base.bic),
-            "p_value": float(chi2_dist.sf(max(dchi, 0.0), k)), "delta_chi2": float(dchi),
-            "params": f.params, "params_err": f.params_err, "chi2": f.chi2, "dof": f.dof,
-            "p_fit": f.p_fit}
+            "p_value": float(chi2_dist.sf(max(dchi, 0.0), max(k, 1))), "delta_chi2": float(dchi),
+            "params": params, "params_err": errs,
+            "sizes": sizes[f.effect] if single else sizes,
+            "chi2": f.chi2, "dof": f.dof, "p_fit": f.p_fit}
 
 
-def choose_verdict(ranking: list, fits: dict, pair_fits: dict):
-    """The verdict when there is evidence of a mismatch: ``(verdict, chosen fit,
+def decisive(entry: dict, n_tests: int) -> bool:
+    """A hypothesis is decisive against the one it extends: ``delta_bic < -BIC_DECISIVE``
+    and its likelihood-ratio p-value, Bonferroni-corrected over ``n_tests``, below ALPHA."""
+    return entry["delta_bic"] < -BIC_DECISIVE and entry["p_value"] * n_tests < ALPHA
+
+
+def choose_first(ranking: list, n_tests: int):
+    """The first named effect when there is evidence of a mismatch: ``(name or None,
     approximate)``.
 
-    The best single effect if it is decisive (``delta_bic < -BIC_DECISIVE``, LRT
-    ``p < ALPHA``) *and* leaves an acceptable fit (chi2 p-value >= ``ALPHA_FIT``);
-    else the best acceptable decisive pair if it beats the best single decisively
-    (named by its dominant effect when the partner adds less than
-    ``DOMINANT_FRACTION`` of the improvement); else the best single effect, as an
-    approximate form, if it explains ``EXPLAINED_FRACTION`` of the baseline's
-    excess chi2; else ``"unexplained"``.
+    The best single effect if it is decisive (:func:`decisive`, Bonferroni over the
+    ``n_tests`` effects tried) *and* leaves an acceptable fit (chi2 p-value >=
+    ``ALPHA_FIT``) or explains ``EXPLAINED_FRACTION`` of the baseline's excess chi2
+    (then ``approximate``: its form does not describe everything; further effects may);
+    a decisive effect that explains less may still be completed by further effects
+    (the caller decides, :func:`dpdfit.analyses.diagnosis.diagnose.diagnose`); None when
+    no single effect is decisive.
     """
     singles = [r for r in ranking if "+" not in r["effect"]]
-    best = singles[0] if singles else None
-    ok = (best is not None and best["delta_bic"] < -BIC_DECISIVE and best["p_value"] < ALPHA)
-    if ok and best["p_fit"] >= ALPHA_FIT:
-        return best["effect"], fits[best["effect"]], False
-    prs = [r for r in ranking if "+" in r["effect"] and r["delta_bic"] < -BIC_DECISIVE
-           and r["p_fit"] >= ALPHA_FIT]
-    if prs and (best is None or prs[0]["delta_bic"] < best["delta_bic"] - BIC_DECISIVE):
-        verdict, chosen = prs[0]["effect"], pair_fits[prs[0]["effect"]]
-        # a partner that adds < DOMINANT_FRACTION of the improvement only refines
-        # the dominant effect's functional form (e.g. a memory kernel that is not
-        # exactly single-pole): name the dominant effect, describe with the pair
-        if (ok and best["effect"] in verdict.split("+")
-                and prs[0]["delta_chi2"] - best["delta_chi2"]
-                < DOMINANT_FRACTION * best["delta_chi2"]):
-            verdict = best["effect"]
-        return verdict, chosen, False
-    if ok and (best["explained_fraction"] or 0.0) >= EXPLAINED_FRACTION:
-        # no acceptable fit, but one effect explains nearly all of the mismatch:
-        # it is named; its catalog form does not describe the rest (reported)
-        return best["effect"], fits[best["effect"]], True
-    return "unexplained", None, False
+    if not singles or not decisive(singles[0], n_tests):
+        return None, False
+    best = singles[0]
+    return best["effect"], best["p_fit"] < ALPHA_FIT

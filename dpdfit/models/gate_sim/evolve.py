@@ -26,7 +26,8 @@ __all__ = ["evolve", "evolve_lindblad"]
 _MONITOR_TOL = 1e-12     # top-level population allowed along the integration
 
 
-def _integrate(kind, drive, N, auto, p, tau, rtol, atol, initial, gamma, heat, gamma_c):
+def _integrate(kind, drive, N, auto, p, tau, rtol, atol, initial, gamma, heat, gamma_c,
+               monitor=_MONITOR_TOL):
     """Integrate, enlarging an automatic ``n_fock`` until the top level stays empty."""
     for _ in range(6):
         if kind == "pure":
@@ -34,7 +35,7 @@ def _integrate(kind, drive, N, auto, p, tau, rtol, atol, initial, gamma, heat, g
         else:
             out, top, nfev = integrate_lindblad(drive, N, p, tau, gamma, heat, rtol, atol,
                                                 initial, gamma_c)
-        if not auto or top < _MONITOR_TOL:
+        if not auto or top < monitor:
             return out, top, nfev, N
         N = int(math.ceil(1.3 * N)) + 4
     raise RuntimeError(f"Fock cutoff did not converge (top-level population {top:g} "
@@ -42,7 +43,7 @@ def _integrate(kind, drive, N, auto, p, tau, rtol, atol, initial, gamma, heat, g
 
 
 def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions,
-         gamma=0.0, heat=0.0, initial=0, gamma_c=0.0):
+         gamma=0.0, heat=0.0, initial=0, gamma_c=0.0, fock_tol=None):
     b, c, n = check_tones(b, c, n)
     eta_Omega0 = positive("eta_Omega0", eta_Omega0, allow_zero=True)
     xi0 = positive("xi0", xi0)
@@ -53,16 +54,20 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
     t = check_times(times)
     scalar = t.ndim == 0
     t1 = np.atleast_1d(t)
-    p = thermal_weights(nbar)
+    # fock_tol: the population neglected in the thermal tail, above the cutoff and at
+    # the top level along the way (default: the engine's 1e-10 / 1e-14 / 1e-12)
+    p = thermal_weights(nbar) if fock_tol is None else thermal_weights(nbar, fock_tol)
     t_max = float(t1.max()) if t1.size else 0.0
     B = displacement_bound(b, c, n, eta_Omega0, xi0, max(t_max, 1e-300), n_ions)
     auto = n_fock is None
-    N = fock_cutoff(nbar, B) if auto else int(n_fock)
+    N = (int(n_fock) if not auto else fock_cutoff(nbar, B) if fock_tol is None
+         else fock_cutoff(nbar, B, fock_tol, tail=fock_tol))
     if N < p.size + 1:
         raise InputError(f"n_fock={N} too small for the thermal sum (m_max={p.size - 1})")
     drive = Drive(b, c, n, eta_Omega0, xi0, n_ions)
     out, top, nfev, N = _integrate(kind, drive, N, auto, p, t1 * xi0, rtol, atol, int(initial),
-                                   gamma, heat, gamma_c)
+                                   gamma, heat, gamma_c,
+                                   _MONITOR_TOL if fock_tol is None else 10 * fock_tol)
     rho = np.array(out).reshape((t1.size, drive.dim, drive.dim)) if out else \
         np.zeros((0, drive.dim, drive.dim), dtype=complex)
     rho = 0.5 * (rho + np.conj(np.swapaxes(rho, -1, -2)))
@@ -71,7 +76,7 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
 
 
 def evolve(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, atol=1e-11,
-           *, n_ions=2, initial=0, return_info=False):
+           *, n_ions=2, initial=0, return_info=False, fock_tol=None):
     """Reduced spin density matrices by brute-force Schrodinger integration.
 
     Starts from ``|0...0> (x) rho_thermal(nbar)``; every thermal Fock state is
@@ -104,6 +109,9 @@ def evolve(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, atol=1
         ``|0>, |1>`` for one ion); default ``|0...0>``.
     return_info : bool
         Also return ``{"n_fock", "m_max", "B", "top_population", "nfev"}``.
+    fock_tol : float, optional
+        Population neglected in the thermal tail and above the Fock cutoff (default:
+        the engine's 1e-10 and 1e-14).
 
     Returns
     -------
@@ -111,13 +119,13 @@ def evolve(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, atol=1
         Basis ``|00>, |01>, |10>, |11>`` (``(..., 2, 2)`` for one ion), one per time.
     """
     rho, info = _run("pure", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions,
-                     initial=initial)
+                     initial=initial, fock_tol=fock_tol)
     return (rho, info) if return_info else rho
 
 
 def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.0,
                     n_fock=None, rtol=1e-9, atol=1e-11, n_ions=2, initial=0,
-                    T2_corr=np.inf, return_info=False):
+                    T2_corr=np.inf, return_info=False, fock_tol=None):
     """Reduced spin density matrices from the Lindblad master equation.
 
     Same model and arguments as :func:`evolve`, plus ::
@@ -136,6 +144,9 @@ def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.
         operator ``sqrt(1/(2 T2_corr)) (Z_1 + Z_2)``: each single-ion coherence
         decays as ``exp(-t/T2_corr)`` as for ``T2``, but ``|00><11|`` four times as
         fast (twice as fast as with independent noise), ``|01><10|`` not at all.
+    fock_tol : float, optional
+        Population neglected in the thermal tail and above the Fock cutoff (default:
+        the engine's 1e-10 and 1e-14); the diagnosis uses 1e-8, far below shot noise.
     """
     T2 = positive("T2", T2, allow_inf=True)
     T2_corr = positive("T2_corr", T2_corr, allow_inf=True)
@@ -144,5 +155,6 @@ def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.
     gamma = 0.0 if np.isinf(T2) else 1.0 / (T2 * xi0f)
     gamma_c = 0.0 if np.isinf(T2_corr) else 1.0 / (T2_corr * xi0f)
     rho, info = _run("lindblad", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol,
-                     n_ions, gamma=gamma, heat=ndot / xi0f, initial=initial, gamma_c=gamma_c)
+                     n_ions, gamma=gamma, heat=ndot / xi0f, initial=initial, gamma_c=gamma_c,
+                     fock_tol=fock_tol)
     return (rho, info) if return_info else rho

@@ -69,9 +69,9 @@ def displacement_bound(b, c, n, eta_Omega0, xi0, t_max=None, n_ions=2):
 
 
 @functools.lru_cache(maxsize=256)
-def _cutoff_cached(B_key: int, nbar_key: float, tol: float) -> int:
+def _cutoff_cached(B_key: int, nbar_key: float, tol: float, tail: float) -> int:
     B = B_key / 1000.0
-    p = thermal_weights(nbar_key)
+    p = thermal_weights(nbar_key, tail)
     m_max = p.size - 1
     big = int(math.ceil((math.sqrt(m_max) + B) ** 2 + 20 * B + 80))
     if big > 800:          # huge displacement: conservative closed-form rule instead
@@ -88,6 +88,8 @@ def _cutoff_cached(B_key: int, nbar_key: float, tol: float) -> int:
     return max(n_fock, m_max + 5, 6)
 
 
-def fock_cutoff(nbar, B, tol=_RULE_TOL):
-    """Fock dimension for a thermal state displaced by up to ``B`` (module docstring)."""
-    return _cutoff_cached(int(math.ceil(max(B, 0.0) * 1000)), float(nbar), float(tol))
+def fock_cutoff(nbar, B, tol=_RULE_TOL, tail=THERMAL_TAIL):
+    """Fock dimension for a thermal state displaced by up to ``B`` (module docstring);
+    ``tail``: the thermal weights' neglected tail."""
+    return _cutoff_cached(int(math.ceil(max(B, 0.0) * 1000)), float(nbar), float(tol),
+                          float(tail))

@@ -76,7 +76,8 @@ def parity_even(b, c, n, eta_Omega0, xi0, phases=None, *, nbar=NBAR, T2=T2_S, nd
 
 def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
                      phases=None, scan_times=None, power_error_db=0.0, spectator=True,
-                     flip=True, n_fock=None, rtol=1e-9, atol=1e-11, T2_corr=np.inf) -> dict:
+                     flip=True, n_fock=None, rtol=1e-9, atol=1e-11, T2_corr=np.inf,
+                     fock_tol=None) -> dict:
     """Raw outcome probabilities of the preparation branches of one setting.
 
     No preparation mixing and no detection error: what
@@ -106,7 +107,7 @@ def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
     lind = not (np.isinf(T2) and ndot == 0 and np.isinf(T2_corr))
     f = (functools.partial(evolve_lindblad, T2=T2, ndot=ndot, T2_corr=T2_corr) if lind
          else evolve)
-    kw = dict(n_fock=n_fock, rtol=rtol, atol=atol)
+    kw = dict(n_fock=n_fock, rtol=rtol, atol=atol, fock_tol=fock_tol)
     out = {"phases": phases, "times": times}
     runs = [("2", 2, 0)] + ([("1", 1, 0)] if spectator else []) + (
         [("2_01", 2, 1)] if flip else []) + ([("1_1", 1, 1)] if spectator and flip else [])
@@ -131,7 +132,8 @@ def _measured(rho2, rho1, flips, p_prep, p_flip, p_det, phases):
 def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
                      p_prep=P_PREP, p_det=P_DET, parity_phases=None, scan_times=None,
                      power_error_db=0.0, n_fock=None, rtol=1e-9, atol=1e-11,
-                     target=None, gate=(1, 2), p_flip=0.0) -> SettingProbabilities:
+                     target=None, gate=(1, 2), p_flip=0.0,
+                     T2_corr=np.inf) -> SettingProbabilities:
     """Outcome probabilities of one gate setting.
 
     The gate runs for ``T = 1/xi0`` with tones at ``n xi0`` from the sidebands;
@@ -153,6 +155,9 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
         Mean thermal phonon number at the start of the gate.
     T2 : float
         Qubit coherence time [s] (``np.inf``: none).
+    T2_corr : float
+        Coherence time [s] of dephasing common to both ions (``np.inf``: none;
+        :func:`~dpdfit.models.gate_sim.evolve.evolve_lindblad`).
     ndot : float
         Heating rate [quanta/s].
     p_prep : float
@@ -192,7 +197,7 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
     scan = None if scan_times is None else np.atleast_1d(check_times(scan_times))
     times = np.concatenate([[T], scan]) if scan is not None else np.array([T])
     rho2, rho1, info, flips = branch_states(b, c, n, eO, xi0, times, nbar, T2, ndot, p_prep,
-                                            n_fock, rtol, atol, p_flip)
+                                            n_fock, rtol, atol, p_flip, T2_corr)
     pops, par = _measured(rho2, rho1, flips, p_prep, p_flip, p_det, phases)
     info["seconds"] = time.perf_counter() - t0
     return SettingProbabilities(

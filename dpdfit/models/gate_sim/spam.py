@@ -85,7 +85,7 @@ def mix_branches(p2, p1, p_prep, p_flip=0.0, p2_01=None, p2_11=None, p1_1=None):
 
 
 def branch_states(b, c, n, eta_Omega0, xi0, times, nbar, T2, ndot, p_prep, n_fock, rtol, atol,
-                  p_flip=0.0):
+                  p_flip=0.0, T2_corr=np.inf):
     """Spin states of the preparation branches at ``times``.
 
     Returns ``(rho2, rho1, info, flips)``: the two-ion branch from ``|00>``,
@@ -94,10 +94,10 @@ def branch_states(b, c, n, eta_Omega0, xi0, times, nbar, T2, ndot, p_prep, n_foc
     rho1 from |1>)`` (ions prepared in the wrong qubit state; the last only if
     ``p_prep > 0`` too), else None.
     """
-    lind = not (np.isinf(T2) and ndot == 0)
+    lind = not (np.isinf(T2) and ndot == 0 and np.isinf(T2_corr))
     kw = dict(n_fock=n_fock, rtol=rtol, atol=atol, return_info=True)
     if lind:
-        f = functools.partial(evolve_lindblad, T2=T2, ndot=ndot)
+        f = functools.partial(evolve_lindblad, T2=T2, ndot=ndot, T2_corr=T2_corr)
     else:
         f = evolve
     rho2, info2 = f(b, c, n, eta_Omega0, xi0, times, nbar, n_ions=2, **kw)

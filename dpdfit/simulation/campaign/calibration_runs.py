@@ -30,10 +30,27 @@ def _iso(t0: _dt.datetime, days: float) -> str:
 
 
 def _detector(cfg: CampaignConfig, df: pd.DataFrame) -> None:
-    """Quadratic photodiode response (concealed ``detector_nonlinearity``), in place."""
+    """Photodiode response (concealed ``detector_nonlinearity``: quadratic, or the
+    injected effects' ``inject_photodiode``), in place."""
     if cfg.detector_nonlinearity:
         p = df["power"].to_numpy()
         df["power"] = p * (1 + cfg.detector_nonlinearity * p / cfg.photodiode.p_full)
+    for e, v in cfg.injections():
+        df["power"] = e.inject_photodiode(v, df["power"].to_numpy(), cfg.photodiode.p_full)
+
+
+def _aom_drift(cfg: CampaignConfig, days_after_table, days_after_recording) -> np.ndarray:
+    """Relative change of A_corr by the injected effects (``Effect.inject_aom``)."""
+    d = np.zeros(np.shape(days_after_table))
+    for e, v in cfg.injections():
+        d = d + e.inject_aom(v, days_after_table, days_after_recording)
+    return d
+
+
+def table_index(cfg) -> int:
+    """Index of the gate day's amplitude run (the table's, unless stale): the last one
+    before the recordings."""
+    return cfg.n_amp_runs - 1 - cfg.runs_after_recordings
 
 
 def _amplitude_runs(cfg, rng, t0, grid):
@@ -42,6 +59,10 @@ def _amplitude_runs(cfg, rng, t0, grid):
     days = np.concatenate([[0.0], inner, [cfg.amp_span_days]])
     days = np.sort(days + rng.uniform(0, 2 / 24, days.size))  # session start jitter
     A_corr = cfg.A_corr_mean + ou_series(days, cfg.A_corr_sigma, cfg.A_corr_tau_days, rng)
+    if cfg.injected:
+        k = table_index(cfg)
+        rec = days[k] + cfg.recording_hours[0] / 24
+        A_corr = A_corr * (1 + _aom_drift(cfg, days - days[k], days - rec))
     rows, truth = [], []
     for k, (d, ac) in enumerate(zip(days, A_corr)):
         aom = BraggAOM(A_corr=float(ac), phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
@@ -85,6 +106,16 @@ def _table_run(cfg, days, A_corr, amp_rows, grid, gate_day):
     return lut_run, sub
 
 
+def _reading_error_at_max(cfg: CampaignConfig, run: pd.DataFrame) -> float:
+    """Relative photodiode reading error at full scale (the largest reading)."""
+    if not cfg.injected:
+        return cfg.detector_nonlinearity * float(run["power"].max()) / cfg.photodiode.p_full
+    read = np.array([cfg.photodiode.p_full])
+    for e, v in cfg.injections():
+        read = e.inject_photodiode(v, read, cfg.photodiode.p_full)
+    return float(read[0] / cfg.photodiode.p_full - 1)
+
+
 def calibration_runs(cfg: CampaignConfig):
     """Amplitude and phase calibration runs with run-to-run drift.
 
@@ -95,25 +126,29 @@ def calibration_runs(cfg: CampaignConfig):
     rng = rng_for(cfg, 1)
     grid = np.round(np.linspace(0.0, 1.0, cfg.cal_points), 10)
     days, A_corr, amp_rows, amp_truth = _amplitude_runs(cfg, rng, t0, grid)
-    gate_day = days[-1]
-    phi1, ph_rows, ph_truth = _phase_runs(cfg, rng, t0, grid, gate_day, float(A_corr[-1]))
+    k_day = table_index(cfg)
+    gate_day = days[k_day]
+    # the AOM at the recordings: the gate day's run's, moved by what is injected
+    A_rec = float(A_corr[k_day]) * (1 + float(_aom_drift(
+        cfg, np.array([cfg.recording_hours[0] / 24]), np.zeros(1))[0]))
+    phi1, ph_rows, ph_truth = _phase_runs(cfg, rng, t0, grid, gate_day, A_rec)
     amp = pd.concat(amp_rows, ignore_index=True)
     ph = pd.concat(ph_rows, ignore_index=True)
-    # the day's truth: drift value of the last amplitude run, last phase run
-    day_aom = BraggAOM(A_corr=float(A_corr[-1]), phi_1=float(phi1[-1]), eta_ref=cfg.eta_ref,
+    # the day's truth: drift value of the gate day's amplitude run, last phase run
+    day_aom = BraggAOM(A_corr=A_rec, phi_1=float(phi1[-1]), eta_ref=cfg.eta_ref,
                        memory_tau=cfg.memory_tau, memory_offset_hz=cfg.memory_offset_hz)
     # predistortion table: from the run of the gate day, or a stale one
     lut_run, sub = _table_run(cfg, days, A_corr, amp_rows, grid, gate_day)
     fit = fit_amplitude(sub["A"], sub["power"], sub["power_err"], cfg.order)
-    day_fit = fit_amplitude(amp_rows[-1]["A"], amp_rows[-1]["power"],
-                            amp_rows[-1]["power_err"], cfg.order)
+    day_run = amp_rows[k_day]
+    day_fit = fit_amplitude(day_run["A"], day_run["power"], day_run["power_err"], cfg.order)
     tf = TransferFunction(fit.powers, fit.coefficients)
     truth = {"amplitude_runs": amp_truth, "phase_runs": ph_truth, "gate_day": float(gate_day),
              "lut_run": f"R{lut_run + 1:03d}", "lut_fit_A_corr": fit.A_corr,
              "day_fit_A_corr": day_fit.A_corr,
              "lut_relative_A_corr": fit.A_corr / day_fit.A_corr - 1,
              "lut_relative_y05": float(fit.y(0.5) / day_fit.y(0.5) - 1),
-             "detector_nonlinearity_rel_max": cfg.detector_nonlinearity
-             * float(amp_rows[-1]["power"].max()) / cfg.photodiode.p_full,
-             "day_A_corr": float(A_corr[-1]), "day_phi_at_1": float(phi1[-1])}
+             "detector_nonlinearity_rel_max": _reading_error_at_max(cfg, day_run),
+             "recording_y1_drift": A_rec / float(A_corr[k_day]) - 1,
+             "day_A_corr": A_rec, "day_phi_at_1": float(phi1[-1])}
     return amp, ph, day_aom, tf, truth

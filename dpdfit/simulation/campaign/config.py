@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.errors import InputError
 from dpdfit.models.gate_sim import NDOT, P_DET, P_PREP, T2_S
@@ -139,6 +140,26 @@ class CampaignConfig:
     time_scan_max: float = 1.5
     harmonics_gate: tuple = tuple(range(-2, 6))
     effects: dict = field(default_factory=dict)
+    #: calibration runs recorded after the spectra and gates (the last ones)
+    runs_after_recordings: int = 0
+    #: hours after the table's run at which the spectra and the gates are recorded
+    recording_hours: tuple = (4.0, 6.0)
+    #: effects of the diagnosis's catalog injected with the given values, by their own
+    #: hooks: ``((name, ((param, value), ...)), ...)`` (:meth:`inject`)
+    injected: tuple = ()
+
+    def inject(self, effects: dict) -> "CampaignConfig":
+        """Config with catalog effects injected: ``{name: {param: value}}`` (values in
+        the effect's own injection terms, :meth:`~dpdfit.analyses.diagnosis.effects.Effect.draw`)."""
+        inj = tuple((name, tuple(sorted(get(name).injected(v).items())))
+                    for name, v in effects.items())
+        return dataclasses.replace(self, injected=self.injected + inj)
+
+    def injections(self) -> list:
+        """The injected effects and their values: ``[(Effect, {param: value})]``."""
+        if not self.injected:
+            return []
+        return [(get(name), dict(items)) for name, items in self.injected]
 
     def with_effects(self, effects: dict) -> "CampaignConfig":
         """Config with the named effects applied (see :data:`SIMULATOR_EFFECTS`)."""

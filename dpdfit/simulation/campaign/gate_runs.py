@@ -28,6 +28,16 @@ def _t2(cfg) -> float:
     return 1.0 / rate
 
 
+def _engine(cfg, A: float, power_error_db: float) -> dict:
+    """The gate engine's physical inputs at a setting of amplitude ``A``: the
+    configuration's, changed by the injected effects (``Effect.inject_engine``)."""
+    kw = dict(nbar=cfg.nbar, T2=_t2(cfg), T2_corr=np.inf, ndot=cfg.ndot, p_prep=cfg.p_prep,
+              p_flip=0.0, p_det=cfg.p_det, power_error_db=power_error_db)
+    for e, v in cfg.injections():
+        kw = e.inject_engine(v, kw, A)
+    return kw
+
+
 def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
     """Gate rate, population and parity scans of one setting: rows appended to ``out``."""
     xi_true = gate_sim.calibrate_xi0(b, c, n, eta_Omega0)
@@ -38,10 +48,8 @@ def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
     fids_gate, fids_app = [], []
     for s, (shots_pop, shots_par) in enumerate(cfg.scan_shots):
         eps_db = cfg.gate_power_offset_db + cfg.power_jitter_db * rng.standard_normal()
-        res = gate_sim.simulate_setting(
-            b, c, n, eta_Omega0, xi_cal, nbar=cfg.nbar, T2=_t2(cfg), ndot=cfg.ndot,
-            p_prep=cfg.p_prep, p_det=cfg.p_det, parity_phases=_PHASES,
-            power_error_db=eps_db)
+        res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
+                                        **_engine(cfg, A, eps_db))
         counts = res.sample(rng, shots_pop, shots_par)
         out["pop"].append({"A": A, "dpd": d, "scan": s + 1, "n00": counts["n00"],
                            "n01_10": counts["n01_10"], "n11": counts["n11"],
@@ -64,12 +72,10 @@ def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out):
     A = cfg.time_scan_A
     xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
     t = np.linspace(0, cfg.time_scan_max / xi_cal, cfg.time_scan_points)
-    res = gate_sim.simulate_setting(
-        b, c, n, eta_Omega0, xi_cal, nbar=cfg.nbar, T2=_t2(cfg), ndot=cfg.ndot,
-        p_prep=cfg.p_prep, p_det=cfg.p_det, parity_phases=_PHASES, scan_times=t,
-        # a time scan is a gate run: it carries the systematic power offset
-        # (no per-scan jitter is drawn, which keeps older campaigns' bytes)
-        power_error_db=cfg.gate_power_offset_db)
+    # a time scan is a gate run: it carries the systematic power offset
+    # (no per-scan jitter is drawn, which keeps older campaigns' bytes)
+    res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
+                                    scan_times=t, **_engine(cfg, A, cfg.gate_power_offset_db))
     counts = res.sample(rng, 0, 0, shots_scan=_SCAN_SHOTS)
     for ti, cnt in zip(t, counts.scan_counts):
         out["time"].append({"A": A, "dpd": d, "t_us": ti * 1e6, "n00": int(cnt[0]),

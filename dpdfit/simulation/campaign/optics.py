@@ -11,7 +11,8 @@ from dpdfit.simulation.aom_truth import BraggAOM
 
 from .config import CampaignConfig
 
-__all__ = ["beam_path", "dpd_lut", "drive_envelope", "trace_field", "gate_spectrum"]
+__all__ = ["beam_path", "optical_field", "dpd_lut", "drive_envelope", "trace_field",
+           "gate_spectrum"]
 
 
 def beam_path(cfg: CampaignConfig, aom: BraggAOM, y: np.ndarray) -> np.ndarray:
@@ -21,6 +22,20 @@ def beam_path(cfg: CampaignConfig, aom: BraggAOM, y: np.ndarray) -> np.ndarray:
         return y
     r2 = (np.abs(y) / aom.true_A_corr) ** 2
     return y * (1 + cfg.post_k5 * r2 ** 2) * np.exp(1j * cfg.post_pm_rad * r2)
+
+
+def optical_field(cfg: CampaignConfig, aom: BraggAOM, x: np.ndarray, fs: float) -> np.ndarray:
+    """The optical field of one period of RF drive ``x`` at ``fs``: the injected effects'
+    drive hooks, the AOM (its own memory, if configured), the beam path, the injected
+    effects' field hooks (:meth:`dpdfit.analyses.diagnosis.effects.Effect.inject_drive`,
+    ``inject_field``)."""
+    injected = cfg.injections()
+    for e, v in injected:
+        x = e.inject_drive(v, x, fs)
+    y = beam_path(cfg, aom, aom.field_periodic(x, fs))
+    for e, v in injected:
+        y = e.inject_field(v, y, x, fs, aom.true_A_corr)
+    return y
 
 
 def dpd_lut(tf: TransferFunction, points: int):
@@ -53,7 +68,7 @@ def drive_envelope(cfg: CampaignConfig, A: float, lut, dpd: int) -> np.ndarray:
 
 def trace_field(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int) -> np.ndarray:
     """One gate period (``fs / xi0_spec`` samples) of the optical field envelope."""
-    return beam_path(cfg, aom, aom.field_periodic(drive_envelope(cfg, A, lut, dpd), cfg.fs))
+    return optical_field(cfg, aom, drive_envelope(cfg, A, lut, dpd), cfg.fs)
 
 
 def gate_spectrum(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int):
@@ -64,7 +79,7 @@ def gate_spectrum(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int):
     w = synthesize(tones, grid, A)
     if dpd:
         w = _predistort(w, lut)
-    y = beam_path(cfg, aom, aom.field_periodic(w, grid.fs))
+    y = optical_field(cfg, aom, w, grid.fs)
     spec = np.fft.fft(y) / grid.n_samples
     n = np.asarray(cfg.harmonics_gate)
     kb, kr = grid.tone_bins(n)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import datetime as _dt
 import json
 import os
 from pathlib import Path
@@ -13,7 +14,7 @@ import numpy as np
 from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 
-from .calibration_runs import calibration_runs
+from .calibration_runs import calibration_runs, table_index
 from .config import DEFAULT_SEED, CampaignConfig
 from .folder import check_new_folder, csv_text, write_folder
 from .gate_runs import gate_tables
@@ -24,8 +25,12 @@ from .spectra import spectra_tables
 __all__ = ["simulate_campaign"]
 
 
-def _campaign_json(cfg: CampaignConfig, nominal: CampaignConfig) -> dict:
+def _campaign_json(cfg: CampaignConfig, nominal: CampaignConfig, cal_truth: dict) -> dict:
     """Constants of the campaign as the lab records them (``campaign.json``)."""
+    t0 = _dt.datetime.fromisoformat(cfg.start)
+    day = cal_truth["gate_day"]
+    rec = {k: (t0 + _dt.timedelta(days=day + h / 24)).isoformat(timespec="seconds")
+           for k, h in zip(("spectra_recorded", "gates_recorded"), cfg.recording_hours)}
     return {
         "name": f"synthetic campaign, seed {cfg.seed}",
         "synthetic": True,
@@ -34,12 +39,12 @@ def _campaign_json(cfg: CampaignConfig, nominal: CampaignConfig) -> dict:
         "fs_traces_hz": cfg.fs, "eta_ld": cfg.eta_ld, "nbar_assumed": cfg.nbar,
         "eta_ref": cfg.eta_ref, "order": cfg.order,
         # what the lab's records say: the table was made from the gate day's run
-        "predistortion_table": {"amplitude_run": f"R{cfg.n_amp_runs:03d}",
+        "predistortion_table": {"amplitude_run": f"R{table_index(cfg) + 1:03d}",
                                 "points": cfg.lut_points,
                                 "order": cfg.order, "interpolation": "linear"},
         "phase_run_for_model": f"P{cfg.n_phase_runs:03d}",
         "gate_waveform": "Cardioid(1,2)",
-        "parity_phases": 16, "nominal_shots": 625,
+        "parity_phases": 16, "nominal_shots": 625, **rec,
         # the lab's error model (its own characterisation, Table S3), not the truth
         "error_model": {"nbar": nominal.nbar, "T2_s": nominal.T2,
                         "heating_quanta_per_s": nominal.ndot, "p_prep": nominal.p_prep,
@@ -117,7 +122,7 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = DEFAULT_SEED,
         files.update({"populations.csv": csv_text(pop), "parity.csv": csv_text(par),
                       "gate_rates.csv": csv_text(rates), "time_scans.csv": csv_text(ts)})
     truth = {"config": _jsonable_config(cfg), "calibration": cal_truth, "gates": gate_truth}
-    files["campaign.json"] = json.dumps(_campaign_json(cfg, nominal), indent=2,
+    files["campaign.json"] = json.dumps(_campaign_json(cfg, nominal, cal_truth), indent=2,
                                         sort_keys=True) + "\n"
     files["truth.json"] = _truth_json(truth)
     files["README.md"] = campaign_readme(f"Synthetic campaign (seed {cfg.seed})", cfg.seed,

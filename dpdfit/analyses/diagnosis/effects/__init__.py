@@ -1,21 +1,16 @@
-"""The diagnosis's catalog of candidate effects, one module per effect (issue #7).
+"""The diagnosis's catalog of candidate effects, one module per effect.
 
-Each catalog effect is a named extension of the forward model with physical
-parameters, units and bounds (flat priors inside them), described in its own
-module with its variants (second forms fitted beside it).  Tone-side effects
-change the field the waveform produces (:mod:`.am_pm_omitted`,
-:mod:`.aom_memory`, :mod:`.stale_calibration`, :mod:`.higher_order_im`,
-:mod:`.detector_nonlinearity`); gate-side effects change the gate observables
-through the engine's linear response (:mod:`.dephasing`,
-:mod:`.motional_heating`, :mod:`.spam_offset`, :mod:`.gate_rate_miscalibration`,
-:mod:`.higher_nbar`).  :class:`~.base.Effect` is their base class,
-:mod:`.registry` lists them in ``EFFECTS`` and ``VARIANTS``.
+Each module defines one :class:`~.base.Effect`: its family of parameters and
+forms, what it does to the optical field or to the gates, how the simulator
+injects it, how its size is stated in a laboratory's terms.  :mod:`.registry`
+lists them (``EFFECTS``) and derives every list of effects the rest of the
+package uses.
 """
 
-from .base import Effect, Param
-from .registry import (EFFECTS, PHASE_ODD_PARAMS, TONE_PARAMS, VARIANTS, effect_form,
-                       form_key, forms_of)
-from .stale_calibration import STALE_AOM
+from .base import SIDES, Effect, Form, Knob, Param, Prep, Size
+from .registry import (EFFECTS, catalog_table, default_effects, effect_of_key, get, register,
+                       side_effects, unregister)
 
-__all__ = ["Param", "Effect", "EFFECTS", "VARIANTS", "STALE_AOM", "TONE_PARAMS",
-           "PHASE_ODD_PARAMS", "effect_form", "forms_of", "form_key"]
+__all__ = ["Param", "Form", "Knob", "Prep", "Size", "Effect", "SIDES", "EFFECTS", "register",
+           "unregister", "get", "effect_of_key", "default_effects", "side_effects",
+           "catalog_table"]

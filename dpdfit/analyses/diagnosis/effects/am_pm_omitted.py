@@ -1,29 +1,66 @@
 """``am_pm_omitted``: AM-to-PM conversion left out of the model.
 
-Catalog form ("post"): a phase ``exp(i dphi r^2)``, ``r = |y|/y(1)``, of the
-optical field added after the static transfer (``r`` of the forward curve in
-use, calibration modes applied).
+Family: a phase that grows with the drive, in one of two places.
 
-Variant "aom": the AM-to-PM of the modulator itself, a phase ``dphi_x |x|^2``
-of the RF drive amplitude (the form of a phase calibration, Eq. aom-forward).
+* form ``post`` (catalog): ``exp(i dphi r^2)``, ``r = |y|/y(1)``, after the
+  static transfer (beam path after the calibrated AOM; ``r`` of the forward
+  curve in use, calibration modes applied);
+* form ``aom``: the modulator's own AM-to-PM, a phase ``dphi_x |x|^2`` of the
+  RF drive amplitude (the form of a phase calibration, Eq. aom-forward).  It
+  replaces the baseline's nuisance ``pm_x`` (a campaign without a phase file
+  has its AOM's phase as a nuisance with a narrow prior).
 
-Both phases change sign with the phase-sign convention of the recorded phase
-response.
+Priors: flat, |dphi|, |dphi_x| <= 1 rad.  Size: the phase at full drive
+(rad).  Both phases change sign with the phase-sign convention of the
+recorded phase response.
 """
 
 from __future__ import annotations
 
-from .base import Effect, Param
+import numpy as np
 
-__all__ = ["AM_PM_OMITTED", "AM_PM_AOM"]
+from .base import Effect, Form, Param
 
-AM_PM_OMITTED = Effect(
-    "am_pm_omitted", "tones",
-    (Param("dphi", "rad", -1.0, 1.0, 0.0, 0.05),),
-    "AM-to-PM conversion left out of the model (phase at full drive ~ |y|^2)",
-    form="post", phase_odd=("dphi",))
+__all__ = ["AmPmOmitted", "EFFECT"]
 
-AM_PM_AOM = Effect(
-    "am_pm_omitted", "tones", (Param("dphi_x", "rad", -1.0, 1.0, 0.0, 0.05),),
-    "AM-to-PM of the modulator left out of the model: phase dphi_x |x|^2 of the RF drive",
-    form="aom", variant=True, phase_odd=("dphi_x",))
+
+class AmPmOmitted(Effect):
+    name = "am_pm_omitted"
+    side = "tones"
+    meaning = "AM-to-PM conversion left out of the model (phase at full drive ~ |y|^2)"
+    params = (Param("dphi", "rad", -1.0, 1.0, 0.0, 0.05, "phase at full drive after the AOM"),
+              Param("dphi_x", "rad", -1.0, 1.0, 0.0, 0.05,
+                    "the AOM's own phase at full drive (|x|^2 of the RF drive)"))
+    forms = (Form("post", ("dphi",), {"dphi_x": 0.0}, "phase ~ |y|^2 after the AOM"),
+             Form("aom", ("dphi_x",), {"dphi": 0.0}, "the modulator's own AM-to-PM",
+                  replaces=("pm_x",)))
+    phase_odd = ("dphi", "dphi_x")
+    stage = 1
+    main = "am_pm_rad"
+    harness = {"dphi": (0.05, 0.15, True)}
+
+    def coefficients(self, tm, v, cy, cp):
+        if not v.get("dphi_x"):
+            return cy, cp
+        cp = np.concatenate([cp, np.zeros(max(3 - cp.size, 0))])
+        cp[2] += v["dphi_x"]
+        return cy, cp
+
+    def transfer(self, tm, v, y, cy):
+        if not v.get("dphi"):
+            return y
+        r2 = (np.abs(y) / np.polynomial.polynomial.polyval(1.0, cy)) ** 2
+        return y * np.exp(1j * v["dphi"] * r2)
+
+    def size_values(self, ctx, p):
+        v = self.values(p) or {}
+        return {"am_pm_rad": (v.get("dphi", 0.0) + v.get("dphi_x", 0.0), "rad",
+                              "missing AM-to-PM phase at full drive")}
+
+    def inject_field(self, v, y, x, fs, y_full):
+        r2 = (np.abs(y) / y_full) ** 2
+        return y * np.exp(1j * (v.get("dphi", 0.0) * r2
+                                + v.get("dphi_x", 0.0) * np.minimum(np.abs(x), 1.0) ** 2))
+
+
+EFFECT = AmPmOmitted()

@@ -1,48 +1,126 @@
 """``aom_memory``: the modulator's response has a memory.
 
-Catalog form ("fast"): single-pole response of the modulator to its drive
-envelope, ``H(f) = 1/(1 + i 2 pi (f - f_off) tau)``, before the static
-transfer (Wiener model): the acoustic response of nanoseconds.  ``f_off != 0``
-makes red and blue differ, so its spectra depend on the phase-sign convention.
+Family (two kinds of memory):
 
-Variant "thermal": a slow memory (microseconds: heating of the crystal by the
-RF), the drive power's recent history changing the modulator's complex gain
-by ``(th_a + i th_p) s(t)``, ``s`` the drive power ``|x|^2`` through a single
-pole of time constant ``th_tau``.
+* form ``fast`` (catalog): the acoustic response to the drive envelope, a
+  single pole ``H(f) = 1/(1 + i 2 pi (f - f_off) tau)`` before the static
+  transfer (Wiener model; nanoseconds).  ``f_off != 0`` makes red and blue
+  differ, so its spectra depend on the phase-sign convention.
+* forms ``slow``, ``two_scales``, ``two_scales_delay``: a slow memory
+  (microseconds, e.g. heating of the crystal by the RF): the modulator's
+  complex gain changes by ``(gain_a + i gain_p) s(t)``, ``s`` the drive power
+  ``|x|^2`` through the kernel
 
-Both chi2 surfaces are multimodal (the fast memory's: a valley per sign of
-``f_off`` and local minima along ``tau x f_off``; the thermal memory's along
-``th_tau``): their fits start from a coarse seed grid.
+      H(f) = exp(-i 2 pi f delay) [(1 - w) / (1 + i 2 pi f tau1) + w / (1 + i 2 pi f tau2)]
+
+  -- one time scale (``slow``: ``w = 0``), two (``two_scales``: two decays for
+  ``0 < w < 1``, a rise of time ``tau2`` and a decay ``tau1`` for ``w < 0``),
+  and a delay (``two_scales_delay``).
+
+Priors: flat inside the bounds below.  Sizes: ``tau_ns``, ``f_off_MHz`` (fast);
+``tau1_us``, ``tau2_us``, ``weight2``, ``delay_ns``, ``gain_abs``,
+``gain_phase_rad`` (slow).  Both chi2 surfaces are multimodal: the fits start
+from coarse seed grids, each larger form from the smaller one's optimum.
 """
 
 from __future__ import annotations
 
-from .base import Effect, Param
+import numpy as np
 
-__all__ = ["AOM_MEMORY", "AOM_MEMORY_THERMAL", "MEMORY_GRID_TAU", "MEMORY_GRID_FOFF",
-           "THERMAL_GRID_TAU", "THERMAL_GRID_P"]
+from .base import Effect, Form, Param
 
-#: coarse grid seeding the fast memory's fit: tau (ns) x f_off (MHz)
-MEMORY_GRID_TAU = (20.0, 45.0, 75.0, 110.0, 160.0)
-MEMORY_GRID_FOFF = (-4.5, -3.0, -2.0, -1.2, -0.6, 0.6, 1.2, 2.0, 3.0, 4.5)
-#: coarse grid seeding the thermal memory's fit: th_tau (us) x th_p (rad)
-THERMAL_GRID_TAU = (0.3, 1.0, 3.0, 10.0)
-THERMAL_GRID_P = (-0.1, -0.02, 0.02, 0.1)
+__all__ = ["AomMemory", "EFFECT", "slow_kernel"]
 
-AOM_MEMORY = Effect(
-    "aom_memory", "tones",
-    (Param("tau", "ns", 0.0, 400.0, 30.0, 20.0),
-     Param("f_off", "MHz", -20.0, 20.0, 0.0, 1.0)),
-    "finite response time of the modulator to its drive envelope (single pole)",
-    form="fast", seed_grid=(("tau", "f_off"), (MEMORY_GRID_TAU, MEMORY_GRID_FOFF)),
-    sign_sensitive=True)
+#: coarse grids seeding the fits: fast tau (ns) x f_off (MHz); slow tau1 (us) x gain_p
+FAST_GRID = ((25.0, 60.0, 120.0), (-4.0, -2.0, -0.8, 0.8, 2.0, 4.0))
+SLOW_GRID = ((0.3, 1.0, 3.0, 10.0), (-0.3, -0.1, -0.02, 0.02, 0.1, 0.3))
 
-AOM_MEMORY_THERMAL = Effect(
-    "aom_memory", "tones",
-    (Param("th_a", "1", -0.5, 0.5, 0.0, 0.01), Param("th_p", "rad", -1.0, 1.0, 0.01, 0.01),
-     Param("th_tau", "us", 0.0, 20.0, 1.0, 0.3)),
-    "slow memory of the modulator (e.g. thermal): its complex gain changes by "
-    "(th_a + i th_p) s(t), s = the drive power |x|^2 through a single pole of time "
-    "constant th_tau",
-    form="thermal", variant=True,
-    seed_grid=(("th_tau", "th_p"), (THERMAL_GRID_TAU, THERMAL_GRID_P)), phase_odd=("th_p",))
+
+def slow_kernel(v: dict, f: np.ndarray) -> np.ndarray:
+    """The slow memory's kernel ``H(f)`` (module doc) at frequencies ``f`` (Hz)."""
+    s = 2j * np.pi * np.asarray(f, dtype=float)
+    t1 = max(v.get("tau1", 0.0), 0.0) * 1e-6
+    t2 = max(v.get("tau2", 0.0), 0.0) * 1e-6
+    w = v.get("w", 0.0)
+    H = (1 - w) / (1 + s * t1) + (w / (1 + s * t2) if w else 0.0)
+    d = v.get("delay", 0.0) * 1e-9
+    return H * np.exp(-s * d) if d else H
+
+
+class AomMemory(Effect):
+    name = "aom_memory"
+    side = "tones"
+    meaning = "the modulator's response has a memory (fast acoustic or slow thermal)"
+    params = (Param("tau", "ns", 0.0, 400.0, 30.0, 20.0, "fast response time"),
+              Param("f_off", "MHz", -20.0, 20.0, 0.0, 1.0, "centre offset of the fast response"),
+              Param("gain_a", "1", -2.0, 2.0, 0.0, 0.01, "slow gain change per unit drive power"),
+              Param("gain_p", "rad", -3.0, 3.0, 0.01, 0.01,
+                    "slow phase change per unit drive power"),
+              Param("tau1", "us", 0.01, 50.0, 1.0, 0.3, "first time scale of the slow kernel"),
+              Param("tau2", "us", 0.01, 50.0, 3.0, 0.3, "second time scale"),
+              Param("w", "1", -3.0, 1.0, 0.0, 0.1, "weight of the second time scale"),
+              Param("delay", "ns", 0.0, 500.0, 0.0, 10.0, "delay of the slow kernel"))
+    _SLOW_OFF = {"gain_a": 0.0, "gain_p": 0.0, "tau1": 1.0, "tau2": 3.0, "w": 0.0,
+                 "delay": 0.0}
+    forms = (Form("fast", ("tau", "f_off"), _SLOW_OFF, "single-pole acoustic response",
+                  seed_grid=(("tau", "f_off"), FAST_GRID)),
+             Form("slow", ("gain_a", "gain_p", "tau1"),
+                  {"tau": 0.0, "f_off": 0.0, "tau2": 3.0, "w": 0.0, "delay": 0.0},
+                  "gain following the drive power through one time scale",
+                  seed_grid=(("tau1", "gain_p"), SLOW_GRID)),
+             Form("two_scales", ("gain_a", "gain_p", "tau1", "tau2", "w"),
+                  {"tau": 0.0, "f_off": 0.0, "delay": 0.0},
+                  "two time scales (two decays, or a rise and a decay)", starts_from="slow",
+                  extra_starts=({"w": 0.3, "tau2": 0.3}, {"w": 0.3, "tau2": 10.0},
+                                {"w": -0.5, "tau2": 0.3})),
+             Form("two_scales_delay", ("gain_a", "gain_p", "tau1", "tau2", "w", "delay"),
+                  {"tau": 0.0, "f_off": 0.0}, "two time scales and a delay",
+                  starts_from="two_scales", extra_starts=({"delay": 30.0}, {"delay": 100.0})))
+    phase_odd = ("gain_p",)
+    sign_sensitive = True
+    main = "tau_ns"
+    harness = {"tau": (40.0, 120.0, False), "f_off": (1.0, 4.0, True)}
+
+    def drive_filter(self, tm, v, f):
+        tau = v.get("tau", 0.0) * 1e-9
+        if tau <= 0:
+            return None
+        return 1.0 / (1.0 + 2j * np.pi * (f - v.get("f_off", 0.0) * 1e6) * tau)
+
+    def power_memory(self, tm, v, f):
+        if not (v.get("gain_a") or v.get("gain_p")):
+            return None
+        return v.get("gain_a", 0.0) + 1j * v.get("gain_p", 0.0), slow_kernel(v, f)
+
+    def size_values(self, ctx, p):
+        v = self.values(p) or {}
+        if v.get("gain_a") or v.get("gain_p"):
+            g = complex(v.get("gain_a", 0.0), v.get("gain_p", 0.0))
+            return {"tau1_us": (v.get("tau1", 0.0), "us", "first time scale"),
+                    "tau2_us": (v.get("tau2", 0.0), "us", "second time scale"),
+                    "weight2": (v.get("w", 0.0), "1",
+                                "weight of the second time scale (< 0: a rise)"),
+                    "delay_ns": (v.get("delay", 0.0), "ns", "delay of the kernel"),
+                    "gain_abs": (abs(g), "1/full power", "size of the gain change"),
+                    "gain_phase_rad": (float(np.angle(g)), "rad", "its phase")}
+        return {"tau_ns": (v.get("tau", 0.0), "ns", "response time of the modulator"),
+                "f_off_MHz": (v.get("f_off", 0.0), "MHz", "offset of its response centre")}
+
+    def inject_drive(self, v, x, fs):
+        tau = v.get("tau", 0.0) * 1e-9
+        if tau <= 0:
+            return x
+        f = np.fft.fftfreq(x.shape[-1], 1.0 / fs)
+        H = 1.0 / (1.0 + 2j * np.pi * (f - v.get("f_off", 0.0) * 1e6) * tau)
+        return np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
+
+    def inject_field(self, v, y, x, fs, y_full):
+        if not (v.get("gain_a") or v.get("gain_p")):
+            return y
+        f = np.fft.fftfreq(x.shape[-1], 1.0 / fs)
+        s = np.fft.ifft(np.fft.fft(np.minimum(np.abs(x), 1.0) ** 2, axis=-1)
+                        * slow_kernel(v, f), axis=-1).real
+        return y * (1 + complex(v.get("gain_a", 0.0), v.get("gain_p", 0.0)) * s)
+
+
+EFFECT = AomMemory()

@@ -1,30 +1,63 @@
-"""The base class of the diagnosis's candidate effects, and their parameters.
+"""The base class of the diagnosis's candidate effects: parameters, forms and behaviour.
 
-An :class:`Effect` is one *form* of a named extension of the forward model:
-its physical parameters (:class:`Param`: unit, bounds, start, scale), the side
-of the model it acts on, and the hooks the fit needs -- a seed grid when its
-chi2 surface is multimodal, the parameters the phase-sign convention flips,
-whether its spectra themselves depend on that sign, the form a campaign
-supports (:meth:`Effect.for_campaign`) and derived quantities reported beside
-the parameters (:meth:`Effect.derived`).  The physics itself lives in the
-forward models (:mod:`dpdfit.analyses.diagnosis.tone_model`,
-:mod:`dpdfit.analyses.diagnosis.gate_model`), which read the parameters by
-name.  One module of this package per catalog effect holds its catalog form
-and its variants; :mod:`dpdfit.analyses.diagnosis.effects.registry` lists them.
+An :class:`Effect` is one named piece of physics a laboratory may have left
+out of its model.  Its module carries everything about it (the pattern of
+emcee's ``moves/``):
+
+* its **family of parameters** (:class:`Param`: unit, bounds = a flat prior,
+  start and step) in its own namespace -- a fit knows them as
+  ``"<effect>.<param>"`` -- and its **forms** (:class:`Form`): nested members
+  of the family, each freeing some parameters and fixing the others, so that
+  a family's extra parameters are charged by BIC only when a form uses them;
+* what it does to the **optical field** (tone side): the static transfer's
+  coefficients (:meth:`Effect.coefficients`), the calibration the
+  predistortion table was built from (:meth:`Effect.table_curve`), the
+  memoryless transfer after the static curve (:meth:`Effect.transfer`), a
+  linear filter of the drive (:meth:`Effect.drive_filter`) or a gain that
+  follows the filtered drive power (:meth:`Effect.power_memory`);
+* what it does to the **gate dynamics and counts** (gate side): linear
+  responses of the exact engine to perturbations of its inputs
+  (:meth:`Effect.knobs`, :class:`Knob`, weighted per observation time by
+  :meth:`Effect.knob_coefficients`), a power offset at each gate setting
+  (:meth:`Effect.power_offset_db`), preparation and detection errors
+  (:meth:`Effect.preparation`);
+* how the **campaign simulator injects** it (``inject_*`` hooks, applied by
+  :mod:`dpdfit.simulation.campaign`), the strengths the **harness** draws
+  (:attr:`Effect.harness`, :meth:`Effect.draw`) and which **truth** it
+  compares (:meth:`Effect.truth`);
+* its **size in a laboratory's terms** (:meth:`Effect.size_values`, with
+  errors by :meth:`Effect.sizes`).
+
+Every hook defaults to "no change", so an effect implements only what it
+does.  The forward models (:mod:`~dpdfit.analyses.diagnosis.tone_model`,
+:mod:`~dpdfit.analyses.diagnosis.gate_model`) and the simulator call the hooks
+of the effects present; nothing outside an effect's module knows its
+parameters.  Registering an effect is one line in
+:mod:`~dpdfit.analyses.diagnosis.effects.registry` (or a call of
+:func:`~dpdfit.analyses.diagnosis.effects.registry.register`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
-__all__ = ["Param", "Effect"]
+__all__ = ["Param", "Form", "Knob", "Prep", "Size", "Effect", "SIDES"]
+
+#: the two sides of the forward model an effect can act on
+SIDES = ("tones", "gates")
 
 
 @dataclass(frozen=True)
 class Param:
-    """One physical parameter: name, unit, bounds (flat prior inside), start, step."""
+    """One parameter of an effect's family.
+
+    ``lo``/``hi`` bound it (a flat prior in between); ``start`` is where fits
+    begin, ``scale`` a typical step (the fits' finite-difference and trust-region
+    scale), ``meaning`` one line for the catalog.
+    """
 
     name: str
     unit: str
@@ -32,59 +65,269 @@ class Param:
     hi: float
     start: float
     scale: float
+    meaning: str = ""
 
 
 @dataclass(frozen=True)
-class Effect:
-    """A named extension of the forward model (one form of a catalog effect).
-
-    Attributes
-    ----------
-    name : str
-        The catalog name (a variant is reported by it, with ``variant`` = its form).
-    side : str
-        ``"tones"`` or ``"gates"``: the part of the model it changes.
-    params : tuple of Param
-    meaning : str
-    form : str or None
-        Name of this form when the catalog effect has several (None: it has one).
-    variant : bool
-        A second form, fitted beside the catalog form under the key ``name@form``.
-    seed_grid : tuple or None
-        ``((param a, param b), (grid a, grid b))`` for a multimodal chi2 surface:
-        the fit starts from the grid's best point of each sign of ``b``.
-    phase_odd : tuple of str
-        Parameters that change sign with the phase-sign convention of the recorded
-        phase response (an AM-to-PM phase).
-    sign_sensitive : bool
-        Its spectra are red/blue asymmetric, so they depend on the phase-sign
-        convention: it is refitted under the other sign (not only re-predicted).
-    """
+class Form:
+    """One member of an effect's family: ``free`` parameters are fitted, ``fixed``
+    holds the others; ``seed_grid`` = ``((param a, param b), (values a, values b))``
+    starts a multimodal fit from the best grid point of each sign of ``b``."""
 
     name: str
-    side: str
-    params: tuple
-    meaning: str
-    form: str | None = None
-    variant: bool = False
+    free: tuple
+    fixed: dict = field(default_factory=dict)
+    meaning: str = ""
     seed_grid: tuple | None = None
+    #: nuisances this form replaces (held at their prior centre while it is fitted)
+    replaces: tuple = ()
+    #: the smaller form whose optimum starts this one (nested families), and further
+    #: starting values of the parameters it adds
+    starts_from: str | None = None
+    extra_starts: tuple = ()
+
+
+@dataclass(frozen=True)
+class Knob:
+    """A perturbation of the gate engine's inputs whose linear response the gate
+    model computes at every setting and scan time: ``perturb(nominal, step)``
+    returns the engine's keyword arguments (``nbar``, ``T2``, ``ndot``,
+    ``T2_corr``) moved by ``step`` (in ``unit``).  Effects sharing a knob give it
+    the same ``key``."""
+
+    key: str
+    step: float
+    unit: str
+    perturb: Callable
+
+
+@dataclass(frozen=True)
+class Prep:
+    """Preparation and detection errors per ion: ``spectator`` (a level outside
+    the gate, reads bright), ``flip`` (the other qubit state, driven), ``e01``
+    (bright read dark), ``e10`` (dark read bright)."""
+
+    spectator: float
+    flip: float
+    e01: float
+    e10: float
+
+
+@dataclass(frozen=True)
+class Size:
+    """An effect's size in a laboratory's terms, with its 1-sigma error."""
+
+    name: str
+    value: float
+    error: float
+    unit: str
+    meaning: str = ""
+
+    def to_dict(self) -> dict:
+        return {"value": self.value, "error": self.error, "unit": self.unit,
+                "meaning": self.meaning}
+
+
+class Effect:
+    """A named extension of the forward model (one module per effect).
+
+    Subclasses set the class attributes and override the hooks they need.
+    Parameter values reach the hooks as ``v``: a dict of the family's
+    parameters by their own names (free and fixed ones of the form in use).
+    """
+
+    #: catalog name (a verdict name)
+    name: str = ""
+    #: ``"tones"`` or ``"gates"``: the part of the model it changes
+    side: str = "tones"
+    #: one line: what is missing
+    meaning: str = ""
+    #: the family's parameters
+    params: tuple = ()
+    #: its forms, the catalog form first (default: one form, every parameter free)
+    forms: tuple = ()
+    #: considered by ``diagnose`` unless the caller names the effects
+    default: bool = True
+    #: parameters that change sign with the phase-sign convention of the recorded phase
     phase_odd: tuple = ()
+    #: its spectra depend on that convention (red/blue asymmetric): refitted under both
     sign_sensitive: bool = False
+    #: order among the transfer hooks (smaller first: the static curve before the beam path)
+    stage: int = 1
+    #: parameters that move the predistortion table only (the DPD-off spectra stay cached)
+    table_only: tuple = ()
+    #: the quantity whose pull the harness reports (a key of :meth:`size_values`)
+    main: str = ""
+    #: harness strengths: parameter -> (lo, hi, signed) of its injected value; others at
+    #: :meth:`draw`'s defaults
+    harness: dict = {}
 
-    @property
-    def key(self) -> str:
-        """The name the fits know this form by: ``name``, or ``name@form`` for a variant."""
-        return f"{self.name}@{self.form}" if self.variant else self.name
+    # ---------------------------------------------------------------- parameters
+    def key(self, param: str) -> str:
+        """The fit's name of one of the family's parameters."""
+        return f"{self.name}.{param}"
 
-    def for_campaign(self, tone) -> "Effect":
-        """This form with the parameters a campaign supports (``tone``: its
-        :class:`~dpdfit.analyses.diagnosis.tone_model.ToneModel`)."""
-        return self
+    def parameters(self, ctx=None) -> tuple:
+        """The family's parameters for a campaign (``ctx``: its forward model or None)."""
+        return self.params
 
-    def derived(self, tone, p: dict, cov: np.ndarray, names: list) -> tuple[dict, dict]:
-        """Quantities reported before the parameters: ``(values, 1-sigma errors)``.
+    def forms_for(self, ctx=None) -> tuple:
+        """The forms a campaign supports (default: :attr:`forms`, else one with every
+        parameter free)."""
+        return self.forms or (Form("catalog", tuple(p.name for p in self.parameters(ctx))),)
 
-        ``p``: the fitted parameters (all of them, by name), ``cov``: their
-        covariance, rows and columns in the order of ``names``.
-        """
-        return {}, {}
+    def form(self, name: str | None, ctx=None) -> Form:
+        """The form called ``name`` (None: the catalog form)."""
+        forms = self.forms_for(ctx)
+        if name is None:
+            return forms[0]
+        for f in forms:
+            if f.name == name:
+                return f
+        raise KeyError(f"{self.name} has no form {name!r} (forms: "
+                       f"{', '.join(f.name for f in forms)})")
+
+    def param(self, name: str, ctx=None) -> Param:
+        return next(p for p in self.parameters(ctx) if p.name == name)
+
+    def values(self, p: dict, ctx=None) -> dict | None:
+        """This effect's parameter values in the parameter set ``p`` (its own names),
+        or None when it is absent from ``p``."""
+        prefix = self.name + "."
+        v = {k[len(prefix):]: float(x) for k, x in p.items() if k.startswith(prefix)}
+        return v or None
+
+    def supports(self, ctx) -> bool:
+        """Whether the campaign gives this effect something to act on."""
+        return True
+
+    # ---------------------------------------------------------------- tone side
+    def coefficients(self, tm, v: dict, cy: np.ndarray, cp: np.ndarray):
+        """The static transfer's coefficient vectors ``(cy, cp)`` (index = power of
+        the drive amplitude) as changed by this effect."""
+        return cy, cp
+
+    def table_curve(self, tm, v: dict, cy: np.ndarray):
+        """The amplitude calibration the predistortion table was built from (None:
+        the recorded one, unchanged)."""
+        return None
+
+    def transfer(self, tm, v: dict, y: np.ndarray, cy: np.ndarray) -> np.ndarray:
+        """The field ``y`` of the static transfer (curve ``cy``) as changed after it,
+        sample by sample (no memory)."""
+        return y
+
+    def drive_filter(self, tm, v: dict, f: np.ndarray):
+        """A linear filter ``H(f)`` of the complex drive envelope before the static
+        transfer (None: none; needs the time-domain field)."""
+        return None
+
+    def power_memory(self, tm, v: dict, f: np.ndarray):
+        """``(gain, H(f))``: the field is multiplied by ``1 + gain s(t)``, ``s`` the
+        drive power ``|x|^2`` through the filter ``H`` (None: no such memory)."""
+        return None
+
+    # ---------------------------------------------------------------- gate side
+    def knobs(self) -> tuple:
+        """The engine perturbations whose linear responses this effect combines."""
+        return ()
+
+    def knob_coefficients(self, gm, v: dict, t: np.ndarray) -> dict:
+        """Weights of the knobs' per-unit responses at observation times ``t`` (s):
+        ``{knob key: array like t}``."""
+        return {}
+
+    def power_offset_db(self, gm, v: dict, A: np.ndarray) -> np.ndarray:
+        """Optical power offset (dB) at gate time at drive amplitudes ``A``."""
+        return np.zeros(np.shape(A))
+
+    def preparation(self, gm, v: dict, prep: Prep) -> Prep:
+        """Preparation and detection errors as changed by this effect."""
+        return prep
+
+    # ---------------------------------------------------------------- other data
+    def run_drift(self, ctx, v: dict, days_after: np.ndarray):
+        """Shift of the calibration runs recorded after the recordings, in units of
+        the run-to-run drift modes' sd: shape ``(len(days_after), n modes)`` (None:
+        this effect does not move them)."""
+        return None
+
+    # ---------------------------------------------------------------- its size
+    def size_values(self, ctx, p: dict) -> dict:
+        """Its size in a laboratory's terms from the fitted parameter set ``p`` (every
+        parameter of the hypothesis, nuisances included, by the fits' names):
+        ``{name: (value, unit, meaning)}``."""
+        return {}
+
+    def sizes(self, ctx, p: dict, cov: np.ndarray | None, free: list, scales: list) -> dict:
+        """:meth:`size_values` with 1-sigma errors by the delta method: numerical
+        gradient over the fitted parameters ``free`` (steps of ``1e-4`` x their
+        ``scales``), covariance ``cov`` in their order."""
+        base = self.size_values(ctx, p)
+        out = {}
+        grads = {k: np.zeros(len(free)) for k in base}
+        if cov is not None and len(free):
+            for i, (name, s) in enumerate(zip(free, scales)):
+                h = 1e-4 * s
+                up = self.size_values(ctx, {**p, name: p[name] + h})
+                dn = self.size_values(ctx, {**p, name: p[name] - h})
+                for k in base:
+                    grads[k][i] = (up[k][0] - dn[k][0]) / (2 * h)
+        for k, (val, unit, meaning) in base.items():
+            err = float("nan")
+            g = grads[k]
+            if (cov is not None and len(free) and np.all(np.isfinite(cov))
+                    and np.all(np.isfinite(g))):
+                err = float(np.sqrt(max(g @ cov @ g, 0.0)))
+            out[k] = Size(k, float(val), err, unit, meaning)
+        return out
+
+    # ---------------------------------------------------------------- simulation
+    def draw(self, rng: np.random.Generator) -> dict:
+        """Injected values for one harness campaign: each :attr:`harness` parameter
+        uniform in its range (a random sign when signed), the others at their start."""
+        v = {}
+        for name, (lo, hi, signed) in self.harness.items():
+            x = float(rng.uniform(lo, hi))
+            v[name] = x * (float(rng.choice([-1.0, 1.0])) if signed else 1.0)
+        return v
+
+    def injected(self, v: dict) -> dict:
+        """The complete injected parameter set (the family's parameters not drawn keep
+        their catalog form's fixed value, else 0)."""
+        fixed = dict(self.forms_for()[0].fixed) if self.forms_for() else {}
+        return {p.name: float(v.get(p.name, fixed.get(p.name, 0.0))) for p in self.params}
+
+    def inject_drive(self, v: dict, x: np.ndarray, fs: float) -> np.ndarray:
+        """Simulator: the complex drive envelope (one period at ``fs``) before the AOM."""
+        return x
+
+    def inject_field(self, v: dict, y: np.ndarray, x: np.ndarray, fs: float,
+                     y_full: float) -> np.ndarray:
+        """Simulator: the optical field after the AOM (drive ``x``; ``y_full`` its
+        field at full drive)."""
+        return y
+
+    def inject_photodiode(self, v: dict, power: np.ndarray, p_full: float) -> np.ndarray:
+        """Simulator: the calibration photodiode's reading of the true ``power``."""
+        return power
+
+    def inject_aom(self, v: dict, days_after_table: np.ndarray,
+                   days_after_recording: np.ndarray) -> np.ndarray:
+        """Simulator: relative change of the AOM's ``A_corr`` at calibration runs and
+        recordings (arrays of days after the table's run and after the recordings;
+        the recordings themselves are at 0)."""
+        return np.zeros(np.shape(days_after_table))
+
+    def inject_engine(self, v: dict, kw: dict, A: float) -> dict:
+        """Simulator: the gate engine's keyword arguments at a setting of amplitude
+        ``A`` (``nbar``, ``T2``, ``T2_corr``, ``ndot``, ``p_prep``, ``p_flip``,
+        ``p_det``, ``power_error_db``)."""
+        return kw
+
+    def truth(self, v: dict, sim_truth: dict, ctx=None) -> dict:
+        """The injected size in the terms of :meth:`size_values` (what the harness
+        compares); default: :meth:`size_values` of the injected values (``ctx``: the
+        diagnosis's problem, for the campaign's own scales)."""
+        p = {self.key(k): x for k, x in self.injected(v).items()}
+        return {k: val for k, (val, _, _) in self.size_values(ctx, p).items()}

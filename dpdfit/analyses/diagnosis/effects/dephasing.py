@@ -1,26 +1,96 @@
 """``dephasing``: extra qubit dephasing beyond the lab's error model (gate side).
 
-Catalog form ("independent"): an extra rate ``gamma`` (1/s), independent on
-each ion; the loss grows with the gate time.
+Family: each ion's coherence decays by an extra ``exp(-G(t))`` with
+``G(t) = rate t_ref (t/t_ref)^beta`` (``beta = 1``: a rate; ``beta != 1``: a
+stretched or compressed exponential, e.g. slow noise), a fraction ``f_cm`` of
+which is common to both ions (e.g. magnetic-field noise: the Bell state's
+coherence then decays by ``2 (1 + f_cm) G``).  ``t_ref`` is the campaign's median
+gate time, so ``rate`` is the extra dephasing rate at the gate time.
 
-Variant "correlated": dephasing common to both ions (rate ``gamma_c`` of
-``Z1 + Z2``, e.g. magnetic-field noise).
+In the model the engine's linear responses to an independent rate (Lindblad
+``Z_j``) and a common one (``Z_1 + Z_2``) are weighted at each observation time
+``t`` by the effective rate ``G(t)/t`` (exact for ``beta = 1``; for other
+``beta`` it treats the dephasing accumulated by ``t`` as what matters).
+
+Forms: ``independent`` (catalog: ``f_cm = 0``, ``beta = 1``), ``common``
+(``f_cm = 1``), ``mixed`` (``f_cm`` free), ``stretched`` (``f_cm`` and ``beta``
+free).  Priors: flat, 0 <= rate <= 5000 /s, 0 <= f_cm <= 1, 0.3 <= beta <= 3.
+Sizes: ``rate_per_s`` (the harness's main quantity), ``T2_ms`` (coherence time
+of the extra decay, ``exp(-(t/T2)^beta)``), ``f_cm``, ``beta``.
 """
 
 from __future__ import annotations
 
-from .base import Effect, Param
+import numpy as np
 
-__all__ = ["DEPHASING", "DEPHASING_CORRELATED"]
+from .base import Effect, Form, Knob, Param
 
-DEPHASING = Effect(
-    "dephasing", "gates",
-    (Param("gamma", "1/s", 0.0, 2000.0, 10.0, 20.0),),
-    "extra qubit dephasing, independent on each ion (loss grows with gate time)",
-    form="independent")
+__all__ = ["Dephasing", "EFFECT", "INDEPENDENT", "COMMON"]
 
-DEPHASING_CORRELATED = Effect(
-    "dephasing", "gates", (Param("gamma_c", "1/s", 0.0, 2000.0, 10.0, 20.0),),
-    "extra dephasing common to both ions (e.g. magnetic-field noise): rate gamma_c of "
-    "Z1 + Z2",
-    form="correlated", variant=True)
+
+def _independent(nominal, step):
+    return {**nominal, "T2": 1.0 / (1.0 / nominal["T2"] + step)}
+
+
+def _common(nominal, step):
+    c = 1.0 / nominal.get("T2_corr", np.inf)
+    return {**nominal, "T2_corr": 1.0 / (c + step)}
+
+
+INDEPENDENT = Knob("dephasing.independent", 100.0, "1/s", _independent)
+COMMON = Knob("dephasing.common", 100.0, "1/s", _common)
+
+
+class Dephasing(Effect):
+    name = "dephasing"
+    side = "gates"
+    meaning = "extra qubit dephasing (independent on each ion and/or common to both)"
+    params = (Param("rate", "1/s", 0.0, 5000.0, 10.0, 20.0, "extra dephasing rate at t_ref"),
+              Param("f_cm", "1", 0.0, 1.0, 0.3, 0.1, "fraction common to both ions"),
+              Param("beta", "1", 0.3, 3.0, 1.0, 0.1, "time-profile exponent"))
+    forms = (Form("independent", ("rate",), {"f_cm": 0.0, "beta": 1.0},
+                  "independent on each ion, a rate"),
+             Form("common", ("rate",), {"f_cm": 1.0, "beta": 1.0}, "common to both ions"),
+             Form("mixed", ("rate", "f_cm"), {"beta": 1.0}, "a common-mode fraction",
+                  starts_from="independent", extra_starts=({"f_cm": 0.5},)),
+             Form("stretched", ("rate", "f_cm", "beta"), {},
+                  "a common-mode fraction and a time profile", starts_from="mixed",
+                  extra_starts=({"beta": 1.5}, {"beta": 0.7})))
+    main = "rate_per_s"
+    harness = {"rate": (30.0, 150.0, False), "f_cm": (0.0, 1.0, False)}
+
+    def knobs(self):
+        return (INDEPENDENT, COMMON)
+
+    def knob_coefficients(self, gm, v, t):
+        t = np.asarray(t, dtype=float)
+        g = v.get("rate", 0.0) * (np.maximum(t, 1e-300) / gm.t_ref) ** (v.get("beta", 1.0) - 1)
+        f = v.get("f_cm", 0.0)
+        return {INDEPENDENT.key: (1 - f) * g, COMMON.key: f * g}
+
+    def size_values(self, ctx, p):
+        v = self.values(p) or {}
+        rate, beta = v.get("rate", 0.0), v.get("beta", 1.0)
+        t_ref = ctx.gate.t_ref if ctx is not None and getattr(ctx, "gate", None) else 2.5e-4
+        # exp(-(t/T2)^beta) = exp(-rate t_ref (t/t_ref)^beta)
+        T2 = t_ref * (rate * t_ref) ** (-1.0 / beta) if rate > 0 else float("inf")
+        return {"rate_per_s": (rate, "1/s", "extra dephasing rate at the median gate time"),
+                "T2_ms": (T2 * 1e3, "ms", "coherence time of the extra dephasing"),
+                "f_cm": (v.get("f_cm", 0.0), "1", "fraction common to both ions"),
+                "beta": (beta, "1", "time-profile exponent")}
+
+    def inject_engine(self, v, kw, A):
+        rate, f = v.get("rate", 0.0), v.get("f_cm", 0.0)
+        kw = dict(kw)
+        if (1 - f) * rate > 0:
+            kw["T2"] = 1.0 / (1.0 / kw["T2"] + (1 - f) * rate)
+        if f * rate > 0:
+            kw["T2_corr"] = 1.0 / (1.0 / kw.get("T2_corr", np.inf) + f * rate)
+        return kw
+
+    def injected(self, v):
+        return {"rate": float(v.get("rate", 0.0)), "f_cm": float(v.get("f_cm", 0.0)),
+                "beta": 1.0}
+
+
+EFFECT = Dephasing()

@@ -1,19 +1,80 @@
-"""``detector_nonlinearity``: the calibration photodiode read ``P (1 + k (P/P_max)^q)``.
+"""``detector_nonlinearity``: the calibration photodiode read ``P (1 + k u^q)``,
+``u = P/P_max``.
 
 The true transfer is the corrected one while the table was built from the
-distorted one (``q = 1``: saturation; another ``q``: a nonlinearity of
-another order).
+distorted one.  Family: form ``linear`` (catalog, ``q = 1``: saturation or
+expansion) and form ``power`` (``q`` free: a nonlinearity of another order).
+A nonlinear detector bends every calibration run alike, so it leaves no
+run-to-run signature (unlike a stale calibration, which moves the runs taken
+after the recordings).
+
+Priors: flat, |k| <= 0.5, 0.3 <= q <= 4.  Size: ``k_det``, the relative
+reading error at the curve's maximum power, and the exponent ``q``.
 """
 
 from __future__ import annotations
 
-from .base import Effect, Param
+import numpy as np
 
-__all__ = ["DETECTOR_NONLINEARITY"]
+from .base import Effect, Form, Param
 
-DETECTOR_NONLINEARITY = Effect(
-    "detector_nonlinearity", "tones",
-    (Param("k_det", "1/P_max", -0.5, 0.5, 0.0, 0.02),
-     Param("q_det", "1", 0.5, 3.0, 1.0, 0.1)),
-    "calibration photodiode response P (1 + k (P/P_max)^q): saturation (q = 1) or "
-    "a nonlinearity of another order")
+__all__ = ["DetectorNonlinearity", "EFFECT", "NEWTON_STEPS"]
+
+#: Newton steps of the inversion for exponents q != 1 (a fixed number keeps the model
+#: smooth in k and q for the fits' finite differences)
+NEWTON_STEPS = 5
+
+
+def true_over_read(u, k, q):
+    """``u_true / u_read`` for readings ``u_read = u_true (1 + k u_true^q)``."""
+    # q = 1 root, rationalised: no cancellation as k -> 0, where the fits probe it
+    ratio = 2.0 / (1.0 + np.sqrt(np.maximum(1 + 4 * k * u, 0.0)))
+    if q != 1.0:
+        um = np.maximum(u, 1e-300)
+        ut = ratio * um
+        for _ in range(NEWTON_STEPS):
+            ut = np.maximum(ut - (ut + k * ut ** (q + 1) - um) / (1 + k * (q + 1) * ut ** q),
+                            0.0)
+        ratio = ut / um
+    return ratio
+
+
+class DetectorNonlinearity(Effect):
+    name = "detector_nonlinearity"
+    side = "tones"
+    meaning = ("calibration photodiode read P (1 + k (P/P_max)^q): the table was built from "
+               "a distorted calibration")
+    params = (Param("k", "1/P_max", -0.5, 0.5, 0.0, 0.02, "relative reading error at P_max"),
+              Param("q", "1", 0.3, 4.0, 1.0, 0.1, "exponent of the reading error"))
+    forms = (Form("linear", ("k",), {"q": 1.0}, "reading error ~ P (saturation)"),
+             Form("power", ("k", "q"), {}, "reading error ~ P^q", starts_from="linear",
+                  extra_starts=({"q": 2.0}, {"q": 0.6})))
+    stage = 0
+    main = "k_det"
+    harness = {"k": (0.05, 0.15, True)}
+
+    def transfer(self, tm, v, y, cy):
+        k = v.get("k", 0.0)
+        if not k:
+            return y
+        # P/P_max of *this* curve (calibration modes applied): a scale frozen at the
+        # fitted curve would move k with every mode that moves y(1)
+        u = (np.abs(y) / tm.y_max(cy)) ** 2
+        return y * np.sqrt(true_over_read(u, k, v.get("q", 1.0)))
+
+    def size_values(self, ctx, p):
+        v = self.values(p) or {}
+        return {"k_det": (v.get("k", 0.0), "1", "relative reading error at the maximum power"),
+                "q": (v.get("q", 1.0), "1", "exponent of the reading error")}
+
+    def inject_photodiode(self, v, power, p_full):
+        u = np.maximum(power / p_full, 0.0)
+        return power * (1 + v.get("k", 0.0) * u ** v.get("q", 1.0))
+
+    def truth(self, v, sim_truth, ctx=None):
+        # relative reading error at the largest recorded power of the day's run
+        return {"k_det": float(sim_truth.get("calibration", {}).get(
+            "detector_nonlinearity_rel_max", v.get("k", 0.0))), "q": v.get("q", 1.0)}
+
+
+EFFECT = DetectorNonlinearity()

@@ -1,27 +1,71 @@
-"""``motional_heating``: the gate mode heats faster than the lab's model (gate side).
+"""``motional_heating``: the gate mode is hotter than the lab's model (gate side).
 
-Catalog form ("during"): extra quanta per ms during the gate (``ndot``).
+Family: extra heating during the gate ``ndot`` (quanta/ms) and extra initial
+phonons ``dnbar`` (e.g. a hot tail of the distribution after cooling).
+Forms: ``during`` (catalog: ``ndot``), ``initial`` (``dnbar``), ``both``.
+Linear engine responses at every setting and scan time.
 
-Variant "initial": heating during the gate plus extra initial phonons
-``dnbar`` (a hot tail of the distribution).
+Priors: flat, 0 <= ndot <= 5 quanta/ms, 0 <= dnbar <= 5.  Sizes:
+``heating_q_per_ms`` (the total heating rate, the lab's plus the extra; the
+harness's main quantity), ``extra_heating_q_per_ms``, ``mean_nbar`` (initial).
 """
 
 from __future__ import annotations
 
-from .base import Effect, Param
+from .base import Effect, Form, Knob, Param
 
-__all__ = ["MOTIONAL_HEATING", "MOTIONAL_HEATING_INITIAL"]
+__all__ = ["MotionalHeating", "EFFECT", "NDOT", "NBAR"]
 
-MOTIONAL_HEATING = Effect(
-    "motional_heating", "gates",
-    (Param("ndot", "quanta/ms", 0.0, 5.0, 0.01, 0.05),),
-    "gate mode heating faster than the lab's model (extra quanta per ms during the gate)",
-    form="during")
 
-MOTIONAL_HEATING_INITIAL = Effect(
-    "motional_heating", "gates",
-    (Param("ndot", "quanta/ms", 0.0, 5.0, 0.01, 0.05),
-     Param("dnbar", "quanta", 0.0, 5.0, 0.01, 0.1)),
-    "gate mode hotter than the lab's model both during the gate (ndot) and at its start "
-    "(dnbar extra initial phonons, e.g. a hot tail of the distribution)",
-    form="initial", variant=True)
+def _ndot(nominal, step):
+    return {**nominal, "ndot": nominal["ndot"] + step * 1e3}
+
+
+def _nbar(nominal, step):
+    return {**nominal, "nbar": nominal["nbar"] + step}
+
+
+NDOT = Knob("heating.ndot", 0.1, "quanta/ms", _ndot)
+#: shared with :mod:`.higher_nbar`
+NBAR = Knob("initial.nbar", 0.2, "quanta", _nbar)
+
+
+class MotionalHeating(Effect):
+    name = "motional_heating"
+    side = "gates"
+    meaning = "the gate mode is hotter than the lab's model (heating during the gate, "\
+              "extra initial phonons)"
+    params = (Param("ndot", "quanta/ms", 0.0, 5.0, 0.01, 0.05, "extra heating rate"),
+              Param("dnbar", "quanta", 0.0, 5.0, 0.01, 0.1, "extra initial mean phonons"))
+    forms = (Form("during", ("ndot",), {"dnbar": 0.0}, "heating during the gate"),
+             Form("initial", ("dnbar",), {"ndot": 0.0}, "extra initial phonons"),
+             Form("both", ("ndot", "dnbar"), {}, "both", starts_from="during"))
+    main = "heating_q_per_ms"
+    harness = {"ndot": (0.05, 0.2, False)}
+
+    def knobs(self):
+        return (NDOT, NBAR)
+
+    def knob_coefficients(self, gm, v, t):
+        return {NDOT.key: v.get("ndot", 0.0), NBAR.key: v.get("dnbar", 0.0)}
+
+    def _nominal(self, ctx):
+        gate = getattr(ctx, "gate", None)
+        return (gate.nominal["ndot"] / 1e3, gate.nominal["nbar"]) if gate else (0.0, 0.0)
+
+    def size_values(self, ctx, p):
+        v = self.values(p) or {}
+        ndot0, nbar0 = self._nominal(ctx)
+        return {"heating_q_per_ms": (ndot0 + v.get("ndot", 0.0), "quanta/ms",
+                                     "heating rate of the gate mode (lab's + extra)"),
+                "extra_heating_q_per_ms": (v.get("ndot", 0.0), "quanta/ms",
+                                           "beyond the lab's model"),
+                "mean_nbar": (nbar0 + v.get("dnbar", 0.0), "quanta",
+                              "initial mean phonon number")}
+
+    def inject_engine(self, v, kw, A):
+        return {**kw, "ndot": kw["ndot"] + v.get("ndot", 0.0) * 1e3,
+                "nbar": kw["nbar"] + v.get("dnbar", 0.0)}
+
+
+EFFECT = MotionalHeating()

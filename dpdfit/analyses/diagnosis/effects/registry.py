@@ -1,62 +1,95 @@
-"""The catalog of candidate effects: every effect module's forms, by name.
+"""The catalog of candidate effects: every effect module's :class:`~.base.Effect`, by name.
 
-``EFFECTS`` maps each catalog name to its catalog form; ``VARIANTS`` maps
-``name@form`` to the second forms fitted beside them.  The diagnosis names the
-better of an effect's forms by the catalog name (``variant`` in its ranking
-entry).  A second parameter is a variant, not part of the catalog form, so
-that a one-parameter effect is not charged for it by BIC when it is not
-needed.  Adding an effect: a module beside this one defining its
-:class:`~dpdfit.analyses.diagnosis.effects.base.Effect` forms, listed here
-(the order is the order of the fits and of the reports).
+Adding an effect: a module beside this one defining it (its parameters, forms
+and behaviour, :mod:`.base`), and one line in ``_CATALOG`` below (or, from
+outside the package, e.g. a test, :func:`register`).  Everything else that
+lists effects -- the default effects of ``diagnose``, the gate-side effects of
+the null model, the harness's strengths and truths, the catalog table of the
+documentation -- is derived from the registry.  The order is the order of the
+fits and of the reports.
 """
 
 from __future__ import annotations
 
-from .am_pm_omitted import AM_PM_AOM, AM_PM_OMITTED
-from .aom_memory import AOM_MEMORY, AOM_MEMORY_THERMAL
-from .base import Effect
-from .dephasing import DEPHASING, DEPHASING_CORRELATED
-from .detector_nonlinearity import DETECTOR_NONLINEARITY
-from .gate_rate_miscalibration import GATE_RATE_MISCALIBRATION
-from .higher_nbar import HIGHER_NBAR
-from .higher_order_im import HIGHER_ORDER_IM
-from .motional_heating import MOTIONAL_HEATING, MOTIONAL_HEATING_INITIAL
-from .spam_offset import SPAM_OFFSET
-from .stale_calibration import STALE_AOM, STALE_CALIBRATION
+from . import (am_pm_omitted, aom_memory, dephasing, detector_nonlinearity,
+               gate_rate_miscalibration, higher_nbar, higher_order_im, motional_heating,
+               spam_offset, stale_calibration)
+from .base import SIDES, Effect
 
-__all__ = ["EFFECTS", "VARIANTS", "TONE_PARAMS", "PHASE_ODD_PARAMS", "effect_form",
-           "forms_of", "form_key"]
+__all__ = ["EFFECTS", "register", "unregister", "get", "effect_of_key", "default_effects",
+           "side_effects", "catalog_table"]
 
-#: catalog effects: name -> catalog form
-EFFECTS = {e.key: e for e in (
-    AM_PM_OMITTED, AOM_MEMORY, STALE_CALIBRATION, HIGHER_ORDER_IM, DETECTOR_NONLINEARITY,
-    DEPHASING, MOTIONAL_HEATING, SPAM_OFFSET, GATE_RATE_MISCALIBRATION, HIGHER_NBAR)}
+_CATALOG = (
+    am_pm_omitted.EFFECT,
+    aom_memory.EFFECT,
+    stale_calibration.EFFECT,
+    higher_order_im.EFFECT,
+    detector_nonlinearity.EFFECT,
+    motional_heating.EFFECT,
+    dephasing.EFFECT,
+    spam_offset.EFFECT,
+    gate_rate_miscalibration.EFFECT,
+    higher_nbar.EFFECT,
+)
 
-#: second forms of catalog effects: "name@form" -> form
-VARIANTS = {e.key: e for e in (
-    STALE_AOM, AM_PM_AOM, DEPHASING_CORRELATED, MOTIONAL_HEATING_INITIAL, AOM_MEMORY_THERMAL)}
-
-#: parameters of the tone side (effects), which the tone model's cache is keyed on
-TONE_PARAMS = tuple(dict.fromkeys(par.name for e in (*EFFECTS.values(), *VARIANTS.values())
-                                  if e.side == "tones" for par in e.params))
-
-#: parameters that change sign with the phase-sign convention of the recorded phase response
-PHASE_ODD_PARAMS = tuple(dict.fromkeys(k for e in (*EFFECTS.values(), *VARIANTS.values())
-                                       for k in e.phase_odd))
+#: catalog name -> effect (registered effects included)
+EFFECTS: dict = {e.name: e for e in _CATALOG}
 
 
-def effect_form(key: str) -> Effect:
-    """The catalog form (``key`` = a name) or the variant (``key`` = ``name@form``)."""
-    return VARIANTS[key] if key in VARIANTS else EFFECTS[key]
+def register(effect: Effect) -> Effect:
+    """Add ``effect`` to the catalog (a name may be registered once)."""
+    if not isinstance(effect, Effect):
+        raise TypeError(f"not an Effect: {effect!r}")
+    if not effect.name or "." in effect.name or "+" in effect.name:
+        raise ValueError(f"an effect's name must be non-empty without '.' or '+': "
+                         f"{effect.name!r}")
+    if effect.side not in SIDES:
+        raise ValueError(f"effect {effect.name}: side must be one of {SIDES}")
+    if effect.name in EFFECTS and EFFECTS[effect.name] is not effect:
+        raise ValueError(f"an effect named {effect.name!r} is already registered")
+    EFFECTS[effect.name] = effect
+    return effect
 
 
-def forms_of(name: str) -> list:
-    """Every form of the catalog effect ``name``: its catalog form, then its variants."""
-    return [EFFECTS[name]] + [v for v in VARIANTS.values() if v.name == name]
+def unregister(name: str) -> None:
+    """Remove a registered effect (the catalog's own stay)."""
+    if any(e.name == name for e in _CATALOG):
+        raise ValueError(f"{name!r} belongs to the catalog")
+    EFFECTS.pop(name, None)
 
 
-def form_key(name: str, form: str | None) -> str:
-    """The key of effect ``name``'s form ``form`` (its catalog form's key, ``name``, for
-    None or the catalog form)."""
-    key = f"{name}@{form}"
-    return key if key in VARIANTS else name
+def get(name: str) -> Effect:
+    """The effect called ``name`` (KeyError naming the known ones otherwise)."""
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise KeyError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}") from None
+
+
+def effect_of_key(key: str) -> Effect | None:
+    """The effect a fit parameter ``"<effect>.<param>"`` belongs to (None: a nuisance)."""
+    name, dot, _ = key.partition(".")
+    return EFFECTS.get(name) if dot else None
+
+
+def default_effects() -> tuple:
+    """Names of the effects ``diagnose`` considers by default (registry order)."""
+    return tuple(e.name for e in EFFECTS.values() if e.default)
+
+
+def side_effects(side: str, names=None) -> tuple:
+    """Names of the (default, or given) effects acting on ``side``."""
+    names = default_effects() if names is None else names
+    return tuple(n for n in names if EFFECTS[n].side == side)
+
+
+def catalog_table() -> str:
+    """The catalog as a Markdown table (effect, side, forms, parameters, sizes, meaning)."""
+    rows = ["| effect | side | forms (catalog first) | parameters | size | meaning |",
+            "|---|---|---|---|---|---|"]
+    for e in EFFECTS.values():
+        forms = ", ".join(f"`{f.name}`" for f in e.forms_for())
+        pars = ", ".join(f"`{p.name}` {p.unit}" for p in e.parameters())
+        rows.append(f"| `{e.name}`{'' if e.default else ' (not default)'} | {e.side} | "
+                    f"{forms} | {pars} | `{e.main}` | {e.meaning} |")
+    return "\n".join(rows)

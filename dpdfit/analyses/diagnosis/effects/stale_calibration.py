@@ -1,83 +1,156 @@
-"""``stale_calibration``: the predistortion table belongs to another calibration.
+"""``stale_calibration``: the predistortion table no longer matches the AOM.
 
-Catalog form ("table"): the table belongs to an earlier calibration whose
-order-8 polynomial is free (``a_k + dc_k``, unit slope kept: a drifted AOM
-*and* that run's own fit errors), parametrised by the calibration's 7 error
-modes.  The forward model (today's AOM) is unchanged, so only the DPD flag is
-affected.
+The table was built from a calibration run; the AOM at the recordings is not
+the AOM of that run.  Both are described in the run-to-run drift modes of the
+campaign's amplitude runs (principal components of their curves, each scaled
+to its run-to-run sd, at most ``MAX_DRIFT_MODES``; no dependence on the
+polynomial order), so a drift of 1 is a typical day-to-day change.
 
-Variant "aom": the AOM drifted since the named run, which made the table and
-describes the model's forward transfer; today's transfer is free along the
-run-to-run drift modes of the amplitude runs (``sa_i``, in units of their sd;
-as many as the campaign has, :meth:`StaleAom.for_campaign`).
+* form ``aom`` (catalog): the AOM drifted since the table's run by ``sa_i``
+  (today's transfer = the run's plus the modes) and stayed there;
+* form ``aom_profile``: the drift has a time profile: the runs taken ``dt``
+  days after the recordings sit at ``sa_i f(dt)``,
+  ``f(dt) = 1 - kappa (1 - exp(-dt / tau_d))`` (``kappa > 0``: it relaxes back,
+  ``kappa < 0``: it keeps growing); needs the recording times
+  (``campaign.json`` ``spectra_recorded``) and runs after them;
+* form ``table``: the table belongs to another calibration than the records
+  say (the AOM is the model's; the table's calibration is off by ``st_i``).
 
-Both are reported as ``drift``: the table calibration's fractional difference
-of y(A) at ``A = DRIFT_AT_A`` (mid gate range, where the spectra constrain it;
-y(1) is an extrapolation for DPD'd waveforms), with its delta-method error.
+With the recording times, the calibration runs taken after the recordings
+are data of every hypothesis (:mod:`dpdfit.analyses.diagnosis.problem`): a
+drifted AOM moves them (the ``aom`` forms predict by how much), a nonlinear
+detector bends every run alike.
+
+Priors: flat, |sa_i|, |st_i| <= 20 sd; -3 <= kappa <= 1; 0.1 <= tau_d <= 200
+days.  Size: ``y1_drift``, the fractional change of y(1) of the AOM since
+the table's run (``table``: today's y(1) over the table calibration's);
+``kappa`` and ``tau_d_days`` for the profile.
 """
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
-from .base import Effect, Param
+from .base import Effect, Form, Param
 
-__all__ = ["StaleTable", "StaleAom", "STALE_CALIBRATION", "STALE_AOM", "DRIFT_AT_A"]
+__all__ = ["StaleCalibration", "EFFECT", "MAX_DRIFT_MODES"]
 
-#: stale_calibration's "drift" is the table calibration's fractional y(A) difference at this A
-DRIFT_AT_A = 0.5
-
-
-class StaleTable(Effect):
-    """The catalog form: the table's calibration is free along its error modes."""
-
-    def derived(self, tone, p, cov, names):
-        # the fractional difference of the table's y(A) at A = 0.5 by the delta method
-        # (dc = st @ modes is linear)
-        idx = [names.index(f"st{i}") for i in range(len(tone.stale_modes))]
-        a = DRIFT_AT_A
-        y_a = tone.y_calibrated(a)
-        g = tone.stale_modes @ (a ** np.arange(2, 2 + tone.stale_modes.shape[1])) / y_a
-        return ({"drift": float(g @ np.array([p[names[i]] for i in idx]))},
-                {"drift": float(np.sqrt(max(g @ cov[np.ix_(idx, idx)] @ g, 0.0)))})
+#: drift modes used, at most (the campaign may have fewer significant ones)
+MAX_DRIFT_MODES = 3
 
 
-class StaleAom(Effect):
-    """The variant: today's AOM drifted along the run-to-run drift modes."""
-
-    def for_campaign(self, tone):
-        return dataclasses.replace(self, params=self.params[:len(tone.drift_modes)])
-
-    def derived(self, tone, p, cov, names):
-        # the AOM drifted since the table's run: drift = y_table(0.5)/y_today(0.5) - 1
-        # (the table's calibration relative to today's AOM, as for the table variant)
-        if not self.params:
-            return {}, {}
-        idx = [names.index(f"sa{i}") for i in range(len(tone.drift_modes))]
-        a = DRIFT_AT_A
-        powers = a ** np.arange(2, 2 + tone.drift_modes.shape[1])
-        y_a = tone.y_calibrated(a)
-        dy = tone.drift_modes @ powers
-        y_t = y_a + float(dy @ np.array([p[names[i]] for i in idx]))
-        g = -y_a / y_t ** 2 * dy
-        return ({"drift": y_a / y_t - 1},
-                {"drift": float(np.sqrt(max(g @ cov[np.ix_(idx, idx)] @ g, 0.0)))})
+def _modes(ctx):
+    tm = getattr(ctx, "tone", ctx)
+    m = getattr(tm, "drift_modes", None)
+    return np.zeros((0, 7)) if m is None else np.asarray(m)
 
 
-STALE_CALIBRATION = StaleTable(
-    "stale_calibration", "tones",
-    tuple(Param(f"st{i}", "sigma", -60.0, 60.0, 0.0, 1.0) for i in range(7)),
-    "predistortion table from an earlier calibration: its amplitude polynomial "
-    "a_k + dc_k (k = 2..8, a_1 = 1) is free, parametrised by the calibration's 7 "
-    "error modes (st_i, in units of their sigma); reported as drift = the table "
-    "calibration's fractional difference of y(0.5)",
-    form="table")
+def profile(v: dict, dt) -> np.ndarray:
+    """The drift's time profile ``f(dt)`` (module doc), ``dt`` in days after the recordings."""
+    dt = np.maximum(np.asarray(dt, dtype=float), 0.0)
+    tau = max(v.get("tau_d", 1.0), 1e-6)
+    return 1.0 - v.get("kappa", 0.0) * (1.0 - np.exp(-dt / tau))
 
-STALE_AOM = StaleAom(
-    "stale_calibration", "tones",
-    tuple(Param(f"sa{i}", "sd", -20.0, 20.0, 0.0, 1.0) for i in range(3)),
-    "the AOM drifted since the calibration run that made the table: today's transfer is "
-    "the run's plus its run-to-run drift modes",
-    form="aom", variant=True)
+
+class StaleCalibration(Effect):
+    name = "stale_calibration"
+    side = "tones"
+    meaning = ("the predistortion table no longer matches the AOM: it drifted since the "
+               "table's calibration run")
+    main = "y1_drift"
+    harness = {"drift": (0.01, 0.03, True)}
+
+    def parameters(self, ctx=None):
+        m = MAX_DRIFT_MODES if ctx is None else len(_modes(ctx))
+        return (tuple(Param(f"sa{i}", "sd", -20.0, 20.0, 0.0, 1.0,
+                            f"AOM drift along run-to-run mode {i}") for i in range(m))
+                + (Param("kappa", "1", -3.0, 1.0, 0.0, 0.1, "fraction of the drift relaxed"),
+                   Param("tau_d", "days", 0.1, 200.0, 5.0, 2.0, "time scale of the profile"))
+                + tuple(Param(f"st{i}", "sd", -20.0, 20.0, 0.0, 1.0,
+                              f"table calibration off along mode {i}") for i in range(m)))
+
+    @property
+    def table_only(self):
+        return tuple(f"st{i}" for i in range(MAX_DRIFT_MODES))
+
+    def forms_for(self, ctx=None):
+        m = MAX_DRIFT_MODES if ctx is None else len(_modes(ctx))
+        sa = tuple(f"sa{i}" for i in range(m))
+        st = tuple(f"st{i}" for i in range(m))
+        zero_st = {k: 0.0 for k in st}
+        zero_sa = {k: 0.0 for k in sa}
+        forms = [Form("aom", sa, {"kappa": 0.0, "tau_d": 5.0, **zero_st},
+                      "the AOM drifted since the table's run and stayed")]
+        if ctx is None or getattr(ctx, "runs_after", None) is not None:
+            forms.append(Form("aom_profile", sa + ("kappa", "tau_d"), dict(zero_st),
+                              "the drift relaxes or grows after the recordings",
+                              starts_from="aom",
+                              extra_starts=({"kappa": 0.5, "tau_d": 3.0},
+                                            {"kappa": -1.0, "tau_d": 10.0})))
+        forms.append(Form("table", st, {"kappa": 0.0, "tau_d": 5.0, **zero_sa},
+                          "the table belongs to another calibration than recorded"))
+        return tuple(forms)
+
+    def supports(self, ctx):
+        return len(_modes(ctx)) > 0
+
+    def _shift(self, modes, v, prefix):
+        a = np.array([v.get(f"{prefix}{i}", 0.0) for i in range(len(modes))])
+        return a @ modes if a.size else 0.0
+
+    def coefficients(self, tm, v, cy, cp):
+        modes = _modes(tm)
+        if not any(v.get(f"sa{i}") for i in range(len(modes))):
+            return cy, cp
+        cy = cy.copy()
+        cy[2:2 + modes.shape[1]] += self._shift(modes, v, "sa")
+        return cy, cp
+
+    def table_curve(self, tm, v, cy):
+        modes = _modes(tm)
+        if not any(f"st{i}" in v for i in range(len(modes))):
+            return None
+        # rebuilt even at st = 0, so the model is smooth in st for the Jacobian
+        cy = cy.copy()
+        cy[2:2 + modes.shape[1]] += self._shift(modes, v, "st")
+        return cy
+
+    def run_drift(self, ctx, v, days_after):
+        modes = _modes(ctx)
+        a = np.array([v.get(f"sa{i}", 0.0) for i in range(len(modes))])
+        if not a.any():
+            return None
+        return profile(v, days_after)[:, None] * a[None, :]
+
+    def size_values(self, ctx, p):
+        v = self.values(p) or {}
+        modes = _modes(ctx)
+        tm = getattr(ctx, "tone", ctx)
+        y1 = tm.y_calibrated(1.0)
+        k = np.arange(2, 2 + modes.shape[1])
+        d_sa = float(self._shift(modes, v, "sa") @ np.ones(k.size)) if modes.size else 0.0
+        d_st = float(self._shift(modes, v, "st") @ np.ones(k.size)) if modes.size else 0.0
+        # today's y(1) over the table calibration's y(1), minus 1
+        drift = (y1 + d_sa) / (y1 + d_st) - 1.0
+        out = {"y1_drift": (drift, "1", "fractional change of y(1) since the table's run")}
+        if "kappa" in v and v.get("kappa"):
+            out["kappa"] = (v["kappa"], "1", "fraction of the drift relaxed (< 0: grew)")
+            out["tau_d_days"] = (v.get("tau_d", 0.0), "days", "time scale of the profile")
+        return out
+
+    def inject_aom(self, v, days_after_table, days_after_recording):
+        d = v.get("drift", 0.0)
+        after = np.asarray(days_after_recording, dtype=float)
+        out = np.where(after >= 0, d * profile(v, after), 0.0)
+        return np.where(np.asarray(days_after_table) > 0, out, 0.0)
+
+    def injected(self, v):
+        return {"drift": float(v.get("drift", 0.0)), "kappa": float(v.get("kappa", 0.0)),
+                "tau_d": float(v.get("tau_d", 5.0))}
+
+    def truth(self, v, sim_truth, ctx=None):
+        cal = sim_truth.get("calibration", {})
+        return {"y1_drift": float(cal.get("recording_y1_drift", v.get("drift", 0.0)))}
+
+
+EFFECT = StaleCalibration()
