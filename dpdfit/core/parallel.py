@@ -1,22 +1,32 @@
-"""Parallel map of independent engine runs over the machine's cores.
+"""Parallel map of independent engine runs and fits over the machine's cores.
 
 The diagnosis spends most of its time in independent runs of the gate engine
-(every setting, every effect step).  :func:`pmap` spreads them over local
-processes (``concurrent.futures`` with the ``fork`` context, so nothing but
-the arguments is pickled) and falls back to a plain loop when there is one
-core, when ``fork`` is unavailable, when ``DPDFIT_WORKERS=1``, or inside a
-worker process (the harness already runs one diagnosis per core: no nesting).
-Results are returned in the order of the inputs, so the outcome does not
-depend on the number of workers.
+(every setting, every effect step) and independent fits (every effect's forms).
+:func:`pmap` spreads them over local processes (``concurrent.futures`` with the
+``fork`` context, so nothing but the arguments is pickled) and falls back to a
+plain loop when there is one core, when ``fork`` is unavailable, when
+``DPDFIT_WORKERS=1``, or inside a worker process (the harness already runs one
+diagnosis per core: no nesting).  Results are returned in the order of the
+inputs, so the outcome does not depend on the number of workers.
+
+Workers end with their parent: each asks the kernel for ``SIGKILL`` when the
+parent dies (Linux ``prctl(PR_SET_PDEATHSIG)``; :func:`die_with_parent`), so a
+killed command leaves no worker running; an interrupted one (Ctrl-C) cancels
+the jobs not started and terminates its workers before the interrupt goes on.
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
 from concurrent.futures import ProcessPoolExecutor
 
-__all__ = ["pmap", "n_workers"]
+__all__ = ["pmap", "n_workers", "die_with_parent", "terminate_pool"]
+
+_PR_SET_PDEATHSIG = 1
 
 
 def n_workers() -> int:
@@ -29,6 +39,31 @@ def n_workers() -> int:
     if "fork" not in multiprocessing.get_all_start_methods():
         return 1
     return max(1, min(os.cpu_count() or 1, 8))
+
+
+def die_with_parent() -> None:
+    """Worker initializer: be killed when the parent process dies (Linux; elsewhere a
+    no-op), and leave Ctrl-C to the parent (which then terminates the workers)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL("libc.so.6", use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except OSError:                          # no libc by that name: nothing to ask
+            pass
+        if os.getppid() == 1:                    # the parent died before prctl took effect
+            os._exit(1)
+
+
+def terminate_pool(ex: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the pool's workers now (an interrupt)."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    for p in procs:
+        try:
+            p.terminate()
+        except (OSError, AttributeError):
+            pass
+    ex.shutdown(wait=False, cancel_futures=True)
 
 
 def _call(args):
@@ -44,5 +79,11 @@ def pmap(fn, calls, workers: int | None = None) -> list:
     if workers <= 1:
         return [fn(*a, **kw) for a, kw in calls]
     ctx = multiprocessing.get_context("fork")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
-        return list(ex.map(_call, [(fn, a, kw) for a, kw in calls]))
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=die_with_parent)
+    try:
+        out = list(ex.map(_call, [(fn, a, kw) for a, kw in calls]))
+    except BaseException:
+        terminate_pool(ex)
+        raise
+    ex.shutdown()
+    return out

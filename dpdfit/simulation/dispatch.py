@@ -18,6 +18,7 @@ import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
+from dpdfit.core.parallel import die_with_parent, terminate_pool
 from dpdfit.errors import InputError
 
 __all__ = ["run_jobs"]
@@ -67,7 +68,14 @@ def run_jobs(fn, jobs: list, workers: int | None, scheduler: str | None, finishe
         for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
             os.environ.setdefault(var, "1")
         ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
+        # workers die with this process (killed or interrupted: none is left running)
+        ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                 initializer=die_with_parent)
+        try:
             job_of = {ex.submit(fn, j): j for j in jobs}
             for f in as_completed(job_of):
                 result(f, job_of[f])
+        except BaseException:
+            terminate_pool(ex)
+            raise
+        ex.shutdown()

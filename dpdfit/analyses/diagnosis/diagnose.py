@@ -55,7 +55,8 @@ from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
                                                DOMINANT_FRACTION, EXPLAINED_FRACTION,
                                                choose_first, decisive, explained_fraction,
                                                fidelity_cost, locate_mismatches,
-                                               mismatch_evidence, rank_entry)
+                                               mismatch_evidence, rank_entry,
+                                               side_evidence)
 from dpdfit.core.progress import progress_bar
 
 __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE",
@@ -127,12 +128,13 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, bar) ->
         ranking = _carry_tone_best(prob, base, fits, ranking)
     lap("single effects")
     evidence = mismatch_evidence(base.p_fit, mismatches, ranking)
-    first, _ = (None, False) if not evidence else choose_first(ranking, len(ranking))
+    sides = side_evidence(base, mismatches, evidence)
+    first, _ = (None, False) if not evidence else choose_first(ranking, len(ranking), sides)
     chosen, steps, chain = None, [], []
     if first is not None:
         chosen, chain = fits[first], [fits[first]]
         if pairs > 0:
-            chosen, steps, chain = _add_effects(prob, base, chosen, fits, ranking, pairs)
+            chosen, steps, chain = _add_effects(prob, base, chosen, fits, ranking, pairs, sides)
     lap("more effects")
     named = [] if chosen is None else list(chosen.effects)
     if (chosen is not None and chosen.p_fit < ALPHA_FIT
@@ -240,13 +242,14 @@ def _use_field_of(prob: Problem, chosen: FitResult) -> None:
 
 
 def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
-                 ranking: list, pairs: int):
+                 ranking: list, pairs: int, sides: set):
     """Forward selection: add the decisive best of the other effects until none is.
 
     Each candidate (the ``pairs`` best single effects not yet named) is fitted jointly
     with the named ones in its best single form, started from both fits; it is added
     when decisive against the named model (:func:`~dpdfit.analyses.diagnosis.verdict.decisive`,
-    Bonferroni over the candidates) and, on the side of an effect already named, when
+    Bonferroni over the candidates; only effects acting on a side whose recordings show
+    a mismatch, :func:`~dpdfit.analyses.diagnosis.verdict.side_evidence`) and, on the side of an effect already named, when
     it removes at least ``DOMINANT_FRACTION`` of what the named effects of that side
     removed.  Returns the final fit and the steps (ranking entries of the candidates
     tried, per step).
@@ -257,7 +260,8 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
     while len(chosen.effects) < MAX_EFFECTS:
         named = set(chosen.effects)
         cands = [r["effect"] for r in ranking
-                 if "+" not in r["effect"] and r["effect"] not in named][:pairs]
+                 if "+" not in r["effect"] and r["effect"] not in named
+                 and EFFECTS[r["effect"]].side in sides][:pairs]
         if not cands:
             break
         jobs, done = [], {}

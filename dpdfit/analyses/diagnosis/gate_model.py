@@ -50,6 +50,10 @@ __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES", "EN
 
 #: finite-difference step of the power response (dB)
 POWER_STEP_DB = 0.3
+#: each knob is run at these multiples of its step: the response between and beyond
+#: them follows an exponential (saturating or growing) through both, which is exact for
+#: a coherence that decays exponentially with a dephasing rate (:class:`_KnobResponse`)
+KNOB_MULTIPLES = (1, 3)
 #: engine tolerances for the diagnosis: DOP853 tolerances and the population neglected
 #: in the thermal tail and above the Fock cutoff
 ENGINE_PRECISION = {"rtol": 1e-4, "atol": 1e-6, "fock_tol": 1e-6}
@@ -81,6 +85,50 @@ def _contrast(par4):
     parity = 2 * (par4[..., 0] + par4[..., 3]) - 1
     c = np.einsum("ij,...j->...i", _PINV, parity)
     return np.hypot(c[..., 0], c[..., 1])
+
+
+def _decohere(par, k1, k2):
+    """Fringes ``par`` (rows, PHASES, outcomes) with their ``phi`` harmonic scaled by
+    ``k1`` and their ``2 phi`` harmonic by ``k2`` (per row): the final state's
+    single-ion and two-ion coherences decayed, its populations kept (exact on PHASES)."""
+    c = np.einsum("kj,rjo->rko", np.linalg.pinv(_DESIGN), par)      # (rows, 5, outcomes)
+    k1 = np.asarray(k1, dtype=float).reshape(-1, 1)
+    k2 = np.asarray(k2, dtype=float).reshape(-1, 1)
+    c = c.copy()
+    c[:, 1:3] *= k1[:, None]
+    c[:, 3:5] *= k2[:, None]
+    return np.einsum("jk,rko->rjo", _DESIGN, c)
+
+
+class _KnobResponse:
+    """The change of an observable with a knob's value ``c``, from engine runs at ``s``
+    and ``3 s`` (changes ``d1``, ``d3``), element by element:
+    ``A (1 - q^(c/s))`` with ``1 + q + q^2 = d3/d1`` -- exact for an exponential
+    dependence (a coherence decaying with a dephasing rate), linear for ``q = 1``.
+    Where the two runs are not of that shape (``d3/d1`` outside ``(1.05, 8)``, or
+    ``d1`` negligible) the quadratic through 0, ``s``, ``3 s`` is used.  Hand-written:
+    a per-element interpolation law."""
+
+    def __init__(self, d1, d3, s):
+        self.s = float(s)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = d3 / d1
+        ok = np.isfinite(r) & (r > 1.05) & (r < 8.0) & (np.abs(d1) > 1e-9)
+        # 1 + q + q^2 = r  ->  q = (-1 + sqrt(4 r - 3)) / 2
+        q = np.where(ok, (-1 + np.sqrt(np.maximum(4 * np.where(ok, r, 3.0) - 3, 0))) / 2, 1.0)
+        lin = ok & (np.abs(q - 1) < 1e-6)
+        self.exp = ok & ~lin
+        self.lnq = np.where(self.exp, np.log(np.where(self.exp, q, 1.0)), 0.0)
+        self.amp = np.where(self.exp, d1 / np.where(self.exp, 1 - q, 1.0), 0.0)
+        # quadratic elsewhere: d(c) = a (c/s) + b (c/s)^2
+        b = (d3 - 3 * d1) / 6
+        self.qa = np.where(self.exp, 0.0, d1 - np.where(lin, 0.0, b))
+        self.qb = np.where(self.exp | lin, 0.0, b)
+
+    def __call__(self, c):
+        x = np.asarray(c, dtype=float) / self.s
+        return (np.where(self.exp, self.amp * (1 - np.exp(np.clip(self.lnq * x, -50, 50))), 0.0)
+                + self.qa * x + self.qb * x * x)
 
 
 class GateModel:
@@ -205,9 +253,10 @@ class GateModel:
                                                       power_error_db=sign * POWER_STEP_DB)))
                 where.append((key, name))
             for knob in self.knobs.values():
-                calls.append(((b, c, n, eO, xi),
-                              dict(**knob.perturb(self.nominal, knob.step), **kw)))
-                where.append((key, knob.key))
+                for mult in KNOB_MULTIPLES:
+                    calls.append(((b, c, n, eO, xi),
+                                  dict(**knob.perturb(self.nominal, mult * knob.step), **kw)))
+                    where.append((key, (knob.key, mult)))
         out = {}
         for (key, name), run in zip(where, pmap(gate_sim.setting_branches, calls)):
             out.setdefault(key, {})[name] = run
@@ -243,8 +292,10 @@ class GateModel:
             return base, {}, zero, zero
         d = {}
         for kk, knob in self.knobs.items():
-            d[kk] = {q: np.stack([get(self.resp[key][kk], q) - get(self.base[key], q)
-                                  for key in keys]) / knob.step for q in qs}
+            d[kk] = {q: _KnobResponse(
+                *(np.stack([get(self.resp[key][(kk, m)], q) - get(self.base[key], q)
+                            for key in keys]) for m in KNOB_MULTIPLES), knob.step)
+                for q in qs}
         e = POWER_STEP_DB
         lin, quad = {}, {}
         for q in qs:
@@ -311,9 +362,11 @@ class GateModel:
             prep = e.preparation(self, v, prep)
         return prep
 
-    def _observe(self, base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool):
+    def _observe(self, base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
+                 coherence=None):
         """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
-        ``coefs`` (``{knob: array over the rows' times}``)."""
+        ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
+        ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics."""
         eps = np.asarray(eps, dtype=float)
         vm = np.asarray(v_mean, dtype=float)
 
@@ -325,8 +378,8 @@ class GateModel:
             for kk, c in coefs.items():
                 c = np.asarray(c, dtype=float)
                 if np.any(c):
-                    v = v + d[kk][q] * (c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
-                                        if c.ndim else c)
+                    v = v + d[kk][q](c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
+                                     if c.ndim else c)
             return v
 
         det = (prep.e01, prep.e10)
@@ -335,9 +388,23 @@ class GateModel:
         pop = gate_sim.confusion(pop, det)
         if not gate:
             return pop, None
-        par = gate_sim.mix_branches(two_ion("par2"), base["par1"], prep.spectator, prep.flip,
-                                    base["par2_01"], None, base["par1_1"])
+        par2 = two_ion("par2")
+        par2_01 = base["par2_01"]
+        if coherence is not None:
+            par2, par2_01 = (_decohere(x, *coherence) for x in (par2, par2_01))
+        par = gate_sim.mix_branches(par2, base["par1"], prep.spectator, prep.flip,
+                                    par2_01, None, base["par1_1"])
         return pop, gate_sim.confusion(par, det)
+
+    def _coherence(self, active, t):
+        """Product of the active effects' coherence factors ``(k1, k2)`` at times ``t``
+        (None: no effect decoheres the final state)."""
+        out = None
+        for e, v in active:
+            k = e.coherence(self, v, t)
+            if k is not None:
+                out = k if out is None else (out[0] * k[0], out[1] * k[1])
+        return out
 
     def _weights(self, active, t, A):
         """Knob weights and power offsets of the active effects at times ``t``, amplitudes ``A``."""
@@ -367,12 +434,13 @@ class GateModel:
         active = self._active(p)
         prep = self.preparation(p, active)
         coefs, eps = self._weights(active, self.T_gate, self.A_settings)
+        coh = self._coherence(active, self.T_gate)
         v_mean, v_quad = tab["var"]
         base, d, lin, quad = tab["gate"]
         h = POWER_STEP_DB / 3
         vals = {}
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
-            pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True)
+            pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh)
             F, imb = _collapse(pop)
             vals[s] = {"F_pop": F, "imb": imb, "C": _contrast(par)}
         res = {}

@@ -114,8 +114,10 @@ class Campaign:
     #: what the folder lacks and what that leaves out of the analysis, one line each
     left_out: tuple = ()
     #: run-to-run drift of the amplitude calibration: coefficient directions (k = 2..K) of
-    #: its significant principal components, each scaled to its run-to-run sd (m x (K-1))
+    #: its principal components, each scaled to its run-to-run sd (m x (K-1)), the
+    #: ``drift_significant`` first of them above the runs' fit errors
     drift_modes: np.ndarray | None = None
+    drift_significant: int = 0
     #: noise models learnt from the calibration runs when the files give no errors
     #: (``photodiode``: sigma(P) = sqrt(a^2 + (b P)^2); ``phase``: sqrt(c^2 + (d/A)^2))
     calibration_noise: dict = field(default_factory=dict)
@@ -182,8 +184,9 @@ def _calibrations(cf: CampaignFolder, noise: dict):
     return amp, amp_res, ph, ph_res
 
 
-#: at most this many run-to-run drift modes; a mode counts if its run-to-run sd exceeds
-#: DRIFT_MODE_SIGNIFICANCE times the runs' median fit error (both rms over 0 <= A <= 1)
+#: this many run-to-run drift modes (principal components); a mode is significant if its
+#: run-to-run sd exceeds DRIFT_MODE_SIGNIFICANCE times the runs' median fit error (both rms
+#: over 0 <= A <= 1)
 MAX_DRIFT_MODES = 3
 DRIFT_MODE_SIGNIFICANCE = 2.0
 
@@ -191,7 +194,7 @@ DRIFT_MODE_SIGNIFICANCE = 2.0
 def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None):
     """Principal components of the amplitude runs' normalised curves (see Campaign), and
     each run's coordinates along them with its start time: ``(modes, coords, labels,
-    starts)`` or ``(None, None, (), ())``.
+    starts, n_significant)`` or ``(None, None, (), (), 0)``.
 
     ``run_fits``: the runs' fits at ``order`` already made by the caller
     (``{run label: fit}``, as ``dpdfit analyze``'s calibration step makes them);
@@ -200,7 +203,7 @@ def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None):
     df = cf.amplitude_runs
     runs = list_runs(df)
     if len(runs) < 3:
-        return None, None, (), ()
+        return None, None, (), (), 0
     C, err, labels, starts = [], [], [], []
     A = np.linspace(0.0, 1.0, 101)
     for r in runs:
@@ -217,20 +220,18 @@ def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None):
         labels.append(r)
         starts.append(sub["timestamp"].min() if "timestamp" in sub.columns else None)
     if len(C) < 3:
-        return None, None, (), ()
+        return None, None, (), (), 0
     C = np.array(C)
     V = A[:, None] ** np.arange(2, order + 1)[None, :]
     U, sv, Vt = np.linalg.svd((C - C.mean(0)) @ V.T, full_matrices=False)
     sd = sv / np.sqrt((len(C) - 1) * A.size)                  # rms over A of each mode
-    keep = [i for i in range(min(MAX_DRIFT_MODES, sd.size))
-            if sd[i] > DRIFT_MODE_SIGNIFICANCE * np.median(err)]
-    if not keep:
-        keep = [0]
+    keep = [i for i in range(min(MAX_DRIFT_MODES, sd.size)) if sd[i] > 0]
+    n_sig = max(1, sum(sd[i] > DRIFT_MODE_SIGNIFICANCE * np.median(err) for i in keep))
     # function-space direction -> coefficients (least squares on the grid), scaled to 1 sd
     coef = np.linalg.lstsq(V, Vt[keep].T * sd[keep] * np.sqrt(A.size), rcond=None)[0]
     # each run's coordinate along a mode, in units of the mode (zero mean, unit sd)
     coords = U[:, keep] * np.sqrt(len(C) - 1)
-    return coef.T, coords, tuple(labels), tuple(starts)
+    return coef.T, coords, tuple(labels), tuple(starts), int(n_sig)
 
 
 def _runs_after(coords, labels, starts, recorded: dict, table_run) -> RunsAfter | None:
@@ -419,7 +420,7 @@ def load_campaign(folder, run_fits: dict | None = None) -> Campaign:
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
     recorded = cf.recording_times
-    modes, coords, labels, starts = _drift_modes(cf, int(cf.meta["order"]), run_fits)
+    modes, coords, labels, starts, n_sig = _drift_modes(cf, int(cf.meta["order"]), run_fits)
     after = _runs_after(coords, labels, starts, recorded, cf.table_run)
     if not recorded:
         left.append("campaign.json has no spectra_recorded/gates_recorded: the calibration "
@@ -435,7 +436,7 @@ def load_campaign(folder, run_fits: dict | None = None) -> Campaign:
                     sd_dB=sd, gates=gates, time_scans=_time_scans(cf), error_model=em,
                     warnings=tuple(warnings), P_raw=P_raw, snr_raw=snr, has_snr=has_snr,
                     has_error_model="error_model" in cf.raw_meta, left_out=tuple(left),
-                    drift_modes=modes,
+                    drift_modes=modes, drift_significant=n_sig,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
                     recorded=recorded, runs_after=after)

@@ -164,6 +164,7 @@ class ToneModel:
                             if ph is not None else np.zeros((0, 1)))
         self.drift_modes = (np.zeros((0, len(amp.powers) - 1)) if camp.drift_modes is None
                             else np.asarray(camp.drift_modes))
+        self.drift_significant = int(camp.drift_significant)
         self.mode_names = ([f"cal_amp{i}" for i in range(len(self.amp_modes))]
                            + [f"cal_phase{i}" for i in range(len(self.phase_modes))])
         #: sign with which the recorded phase response enters the field (+1: exp(+i phi))
@@ -260,6 +261,13 @@ class ToneModel:
             y = y.astype(complex)
         for e, v in act.items:
             y = e.transfer(self, v, y, cy)
+        for e, v in act.items:
+            mem = e.power_memory(self, v, np.zeros(1))
+            if mem is not None:
+                # the calibration runs drive a constant amplitude: a memory's steady state
+                # (gain 1 + c |x|^2, the kernel's H(0) = 1) is inside the measured
+                # transfer, so only the dynamic part 1 + c s(t) acts beyond it
+                y = y / (1 + mem[0] * m ** 2)
         return y
 
     # ------------------------------------------------------------- envelope engine

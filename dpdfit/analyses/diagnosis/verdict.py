@@ -27,7 +27,8 @@ from dpdfit.analyses.diagnosis.scan import scan_intervals
 from dpdfit.models.fidelity import estimate
 
 __all__ = ["locate_mismatches", "mismatch_evidence", "fidelity_cost", "explained_fraction",
-           "rank_entry", "decisive", "choose_first", "ALPHA", "ALPHA_FIT", "BIC_DECISIVE",
+           "rank_entry", "decisive", "choose_first", "side_evidence", "side_of_observable",
+           "GATE_OBSERVABLES", "ALPHA", "ALPHA_FIT", "BIC_DECISIVE",
            "DOMINANT_FRACTION", "EXPLAINED_FRACTION"]
 
 #: global false-alarm level of a mismatch (3 sigma)
@@ -94,6 +95,35 @@ def mismatch_evidence(p_base: float, mismatches: list, ranking: list) -> list[st
         best = min(gate_side, key=lambda r: r["delta_bic"])
         if best["p_value"] * len(singles) < ALPHA and best["delta_bic"] < -BIC_DECISIVE:
             out.append(f"targeted:{best['effect']}")
+    return out
+
+
+#: observables of the gate side (everything else -- tone features, the calibration runs --
+#: belongs to the tone side)
+GATE_OBSERVABLES = ("F_pop", "imb", "C", "P00_t", "P11_t")
+
+
+def side_of_observable(name: str) -> str:
+    return "gates" if name in GATE_OBSERVABLES else "tones"
+
+
+def side_evidence(base: FitResult, mismatches: list, evidence: list) -> set:
+    """The sides of the model whose recordings show a mismatch: a located interval there,
+    that side's chi2 p-value below ALPHA (Bonferroni over the two sides), or for the
+    gates the targeted test.  An effect is considered only on a side with evidence:
+    a flexible effect fitted to a side the baseline already describes lowers its chi2
+    a little without anything being missing there (the tone features are read more
+    finely than any forward model matches another laboratory's physics)."""
+    out = {side_of_observable(m["observable"]) for m in mismatches}
+    for side in ("tones", "gates"):
+        keys = [k for k in base.chi2_by_observable
+                if side_of_observable(k.split(":", 1)[1]) == side]
+        chi = sum(base.chi2_by_observable[k] for k in keys)
+        n = sum(base.n_by_observable[k] for k in keys)
+        if n and chi2_dist.sf(chi, n) * 2 < ALPHA:
+            out.add(side)
+    if any(e.startswith("targeted:") for e in evidence):
+        out.add("gates")
     return out
 
 
@@ -179,7 +209,7 @@ def decisive(entry: dict, n_tests: int) -> bool:
     return entry["delta_bic"] < -BIC_DECISIVE and entry["p_value"] * n_tests < ALPHA
 
 
-def choose_first(ranking: list, n_tests: int):
+def choose_first(ranking: list, n_tests: int, sides: set | None = None):
     """The first named effect when there is evidence of a mismatch: ``(name or None,
     approximate)``.
 
@@ -191,7 +221,8 @@ def choose_first(ranking: list, n_tests: int):
     (the caller decides, :func:`dpdfit.analyses.diagnosis.diagnose.diagnose`); None when
     no single effect is decisive.
     """
-    singles = [r for r in ranking if "+" not in r["effect"]]
+    singles = [r for r in ranking if "+" not in r["effect"]
+               and (sides is None or r["side"] in sides)]
     if not singles or not decisive(singles[0], n_tests):
         return None, False
     best = singles[0]

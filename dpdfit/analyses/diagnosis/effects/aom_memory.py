@@ -8,14 +8,18 @@ Family (two kinds of memory):
   differ, so its spectra depend on the phase-sign convention.
 * forms ``slow``, ``two_scales``, ``two_scales_delay``: a slow memory
   (microseconds, e.g. heating of the crystal by the RF): the modulator's
-  complex gain changes by ``(gain_a + i gain_p) s(t)``, ``s`` the drive power
+  complex gain is ``1 + (gain_a + i gain_p) s(t)``, ``s`` the drive power
   ``|x|^2`` through the kernel
 
       H(f) = exp(-i 2 pi f delay) [(1 - w) / (1 + i 2 pi f tau1) + w / (1 + i 2 pi f tau2)]
 
   -- one time scale (``slow``: ``w = 0``), two (``two_scales``: two decays for
-  ``0 < w < 1``, a rise of time ``tau2`` and a decay ``tau1`` for ``w < 0``),
-  and a delay (``two_scales_delay``).
+  ``0 < w < 1``; a rise of time ``tau1`` and a decay ``tau2``,
+  ``1/((1 + i 2 pi f tau1)(1 + i 2 pi f tau2))``, for ``w = tau2/(tau2 - tau1) > 1``),
+  and a delay (``two_scales_delay``).  The calibration runs drive a constant
+  amplitude, so the memory's steady state (gain ``1 + c |x|^2``: ``H(0) = 1``) is
+  already inside the measured transfer: the field is the calibrated transfer
+  times ``(1 + c s(t)) / (1 + c |x|^2)``.
 
 Priors: flat inside the bounds below.  Sizes: ``tau_ns``, ``f_off_MHz`` (fast);
 ``tau1_us``, ``tau2_us``, ``weight2``, ``delay_ns``, ``gain_abs``,
@@ -58,7 +62,7 @@ class AomMemory(Effect):
                     "slow phase change per unit drive power"),
               Param("tau1", "us", 0.01, 50.0, 1.0, 0.3, "first time scale of the slow kernel"),
               Param("tau2", "us", 0.01, 50.0, 3.0, 0.3, "second time scale"),
-              Param("w", "1", -3.0, 1.0, 0.0, 0.1, "weight of the second time scale"),
+              Param("w", "1", -5.0, 5.0, 0.0, 0.1, "weight of the second time scale"),
               Param("delay", "ns", 0.0, 500.0, 0.0, 10.0, "delay of the slow kernel"))
     _SLOW_OFF = {"gain_a": 0.0, "gain_p": 0.0, "tau1": 1.0, "tau2": 3.0, "w": 0.0,
                  "delay": 0.0}
@@ -72,7 +76,7 @@ class AomMemory(Effect):
                   {"tau": 0.0, "f_off": 0.0, "delay": 0.0},
                   "two time scales (two decays, or a rise and a decay)", starts_from="slow",
                   extra_starts=({"w": 0.3, "tau2": 0.3}, {"w": 0.3, "tau2": 10.0},
-                                {"w": -0.5, "tau2": 0.3})),
+                                {"w": 1.2, "tau2": 3.0, "tau1": 0.3})),
              Form("two_scales_delay", ("gain_a", "gain_p", "tau1", "tau2", "w", "delay"),
                   {"tau": 0.0, "f_off": 0.0}, "two time scales and a delay",
                   starts_from="two_scales", extra_starts=({"delay": 30.0}, {"delay": 100.0})))
@@ -99,7 +103,7 @@ class AomMemory(Effect):
             return {"tau1_us": (v.get("tau1", 0.0), "us", "first time scale"),
                     "tau2_us": (v.get("tau2", 0.0), "us", "second time scale"),
                     "weight2": (v.get("w", 0.0), "1",
-                                "weight of the second time scale (< 0: a rise)"),
+                                "weight of the second time scale (> 1: tau1 a rise)"),
                     "delay_ns": (v.get("delay", 0.0), "ns", "delay of the kernel"),
                     "gain_abs": (abs(g), "1/full power", "size of the gain change"),
                     "gain_phase_rad": (float(np.angle(g)), "rad", "its phase")}
@@ -120,7 +124,8 @@ class AomMemory(Effect):
         f = np.fft.fftfreq(x.shape[-1], 1.0 / fs)
         s = np.fft.ifft(np.fft.fft(np.minimum(np.abs(x), 1.0) ** 2, axis=-1)
                         * slow_kernel(v, f), axis=-1).real
-        return y * (1 + complex(v.get("gain_a", 0.0), v.get("gain_p", 0.0)) * s)
+        c = complex(v.get("gain_a", 0.0), v.get("gain_p", 0.0))
+        return y * (1 + c * s)
 
 
 EFFECT = AomMemory()

@@ -237,6 +237,12 @@ class Effect:
         ``{knob key: array like t}``."""
         return {}
 
+    def coherence(self, gm, v: dict, t: np.ndarray):
+        """Factors ``(k1, k2)`` (arrays like ``t``) by which the final two-ion state's
+        single-ion and two-ion coherences decay at gate time ``t``, its populations
+        untouched (None: no such decay)."""
+        return None
+
     def power_offset_db(self, gm, v: dict, A: np.ndarray) -> np.ndarray:
         """Optical power offset (dB) at gate time at drive amplitudes ``A``."""
         return np.zeros(np.shape(A))

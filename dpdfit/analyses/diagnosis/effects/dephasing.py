@@ -12,9 +12,16 @@ In the model the engine's linear responses to an independent rate (Lindblad
 ``t`` by the effective rate ``G(t)/t`` (exact for ``beta = 1``; for other
 ``beta`` it treats the dephasing accumulated by ``t`` as what matters).
 
-Forms: ``independent`` (catalog: ``f_cm = 0``, ``beta = 1``), ``common``
-(``f_cm = 1``), ``mixed`` (``f_cm`` free), ``stretched`` (``f_cm`` and ``beta``
-free).  Priors: flat, 0 <= rate <= 5000 /s, 0 <= f_cm <= 1, 0.3 <= beta <= 3.
+Where it acts (``during``): ``1`` -- during the gate, through the engine
+(Lindblad ``Z`` noise, which also disturbs the gate's populations); ``0`` -- on
+the final state's coherences only (noise too slow to act within the gate's
+loops, or between the gate and the analysis pulse: the parity contrast decays,
+the populations do not).
+
+Forms: ``independent`` (catalog: ``f_cm = 0``, ``beta = 1``, during the gate),
+``common`` (``f_cm = 1``), ``mixed`` (``f_cm`` free), ``stretched`` (``f_cm`` and
+``beta`` free), and ``coherence``, ``coherence_mixed``, ``coherence_stretched``:
+the same on the final state's coherences.  Priors: flat, 0 <= rate <= 5000 /s, 0 <= f_cm <= 1, 0.3 <= beta <= 3.
 Sizes: ``rate_per_s`` (the harness's main quantity), ``T2_ms`` (coherence time
 of the extra decay, ``exp(-(t/T2)^beta)``), ``f_cm``, ``beta``.
 """
@@ -47,15 +54,27 @@ class Dephasing(Effect):
     meaning = "extra qubit dephasing (independent on each ion and/or common to both)"
     params = (Param("rate", "1/s", 0.0, 5000.0, 10.0, 20.0, "extra dephasing rate at t_ref"),
               Param("f_cm", "1", 0.0, 1.0, 0.3, 0.1, "fraction common to both ions"),
-              Param("beta", "1", 0.3, 3.0, 1.0, 0.1, "time-profile exponent"))
-    forms = (Form("independent", ("rate",), {"f_cm": 0.0, "beta": 1.0},
+              Param("beta", "1", 0.3, 3.0, 1.0, 0.1, "time-profile exponent"),
+              Param("during", "1", 0.0, 1.0, 1.0, 1.0,
+                    "1: during the gate; 0: on the final state's coherences"))
+    forms = (Form("independent", ("rate",), {"f_cm": 0.0, "beta": 1.0, "during": 1.0},
                   "independent on each ion, a rate"),
-             Form("common", ("rate",), {"f_cm": 1.0, "beta": 1.0}, "common to both ions"),
-             Form("mixed", ("rate", "f_cm"), {"beta": 1.0}, "a common-mode fraction",
-                  starts_from="independent", extra_starts=({"f_cm": 0.5},)),
-             Form("stretched", ("rate", "f_cm", "beta"), {},
+             Form("common", ("rate",), {"f_cm": 1.0, "beta": 1.0, "during": 1.0},
+                  "common to both ions"),
+             Form("mixed", ("rate", "f_cm"), {"beta": 1.0, "during": 1.0},
+                  "a common-mode fraction", starts_from="independent",
+                  extra_starts=({"f_cm": 0.5},)),
+             Form("stretched", ("rate", "f_cm", "beta"), {"during": 1.0},
                   "a common-mode fraction and a time profile", starts_from="mixed",
-                  extra_starts=({"beta": 1.5}, {"beta": 0.7})))
+                  extra_starts=({"beta": 1.5}, {"beta": 0.7})),
+             Form("coherence", ("rate",), {"f_cm": 0.0, "beta": 1.0, "during": 0.0},
+                  "on the final state's coherences"),
+             Form("coherence_mixed", ("rate", "f_cm"), {"beta": 1.0, "during": 0.0},
+                  "on the coherences, a common-mode fraction", starts_from="coherence",
+                  extra_starts=({"f_cm": 0.5},)),
+             Form("coherence_stretched", ("rate", "f_cm", "beta"), {"during": 0.0},
+                  "on the coherences, a common-mode fraction and a time profile",
+                  starts_from="coherence_mixed", extra_starts=({"beta": 1.5}, {"beta": 0.7})))
     main = "rate_per_s"
     harness = {"rate": (30.0, 150.0, False), "f_cm": (0.0, 1.0, False)}
 
@@ -63,10 +82,21 @@ class Dephasing(Effect):
         return (INDEPENDENT, COMMON)
 
     def knob_coefficients(self, gm, v, t):
+        if v.get("during", 1.0) < 0.5:
+            return {}
         t = np.asarray(t, dtype=float)
         g = v.get("rate", 0.0) * (np.maximum(t, 1e-300) / gm.t_ref) ** (v.get("beta", 1.0) - 1)
         f = v.get("f_cm", 0.0)
         return {INDEPENDENT.key: (1 - f) * g, COMMON.key: f * g}
+
+    def coherence(self, gm, v, t):
+        if v.get("during", 1.0) >= 0.5:
+            return None
+        # accumulated dephasing G(t) = rate t_ref (t/t_ref)^beta of each ion; |00><11| of
+        # two ions decays by 2 (1 + f_cm) G
+        t = np.asarray(t, dtype=float)
+        G = v.get("rate", 0.0) * gm.t_ref * (np.maximum(t, 0.0) / gm.t_ref) ** v.get("beta", 1.0)
+        return np.exp(-G), np.exp(-2 * (1 + v.get("f_cm", 0.0)) * G)
 
     def size_values(self, ctx, p):
         v = self.values(p) or {}
@@ -77,9 +107,12 @@ class Dephasing(Effect):
         return {"rate_per_s": (rate, "1/s", "extra dephasing rate at the median gate time"),
                 "T2_ms": (T2 * 1e3, "ms", "coherence time of the extra dephasing"),
                 "f_cm": (v.get("f_cm", 0.0), "1", "fraction common to both ions"),
-                "beta": (beta, "1", "time-profile exponent")}
+                "beta": (beta, "1", "time-profile exponent"),
+                "during_gate": (v.get("during", 1.0), "1",
+                                "1: during the gate, 0: on the final state's coherences")}
 
     def inject_engine(self, v, kw, A):
+        # the simulator injects dephasing during the gate (its engine's Lindblad noise)
         rate, f = v.get("rate", 0.0), v.get("f_cm", 0.0)
         kw = dict(kw)
         if (1 - f) * rate > 0:
@@ -90,7 +123,7 @@ class Dephasing(Effect):
 
     def injected(self, v):
         return {"rate": float(v.get("rate", 0.0)), "f_cm": float(v.get("f_cm", 0.0)),
-                "beta": 1.0}
+                "beta": 1.0, "during": 1.0}
 
 
 EFFECT = Dephasing()

@@ -7,8 +7,11 @@ to its run-to-run sd, at most ``MAX_DRIFT_MODES``; no dependence on the
 polynomial order), so a drift of 1 is a typical day-to-day change.
 
 * form ``aom`` (catalog): the AOM drifted since the table's run by ``sa_i``
-  (today's transfer = the run's plus the modes) and stayed there;
-* form ``aom_profile``: the drift has a time profile: the runs taken ``dt``
+  along its significant drift modes (today's transfer = the run's plus the
+  modes) and stayed there;
+* form ``aom_all``: the same along all ``MAX_DRIFT_MODES`` modes (a drift whose
+  shape the campaign's typical drift does not quite have);
+* form ``aom_profile``: along all modes, with a time profile: the runs taken ``dt``
   days after the recordings sit at ``sa_i f(dt)``,
   ``f(dt) = 1 - kappa (1 - exp(-dt / tau_d))`` (``kappa > 0``: it relaxes back,
   ``kappa < 0``: it keeps growing); needs the recording times
@@ -45,6 +48,11 @@ def _modes(ctx):
     return np.zeros((0, 7)) if m is None else np.asarray(m)
 
 
+def _significant(ctx) -> int:
+    tm = getattr(ctx, "tone", ctx)
+    return int(getattr(tm, "drift_significant", MAX_DRIFT_MODES))
+
+
 def profile(v: dict, dt) -> np.ndarray:
     """The drift's time profile ``f(dt)`` (module doc), ``dt`` in days after the recordings."""
     dt = np.maximum(np.asarray(dt, dtype=float), 0.0)
@@ -75,16 +83,21 @@ class StaleCalibration(Effect):
 
     def forms_for(self, ctx=None):
         m = MAX_DRIFT_MODES if ctx is None else len(_modes(ctx))
+        k = min(m, MAX_DRIFT_MODES if ctx is None else _significant(ctx))
         sa = tuple(f"sa{i}" for i in range(m))
         st = tuple(f"st{i}" for i in range(m))
-        zero_st = {k: 0.0 for k in st}
-        zero_sa = {k: 0.0 for k in sa}
-        forms = [Form("aom", sa, {"kappa": 0.0, "tau_d": 5.0, **zero_st},
+        zero_st = {x: 0.0 for x in st}
+        zero_sa = {x: 0.0 for x in sa}
+        forms = [Form("aom", sa[:k], {"kappa": 0.0, "tau_d": 5.0, **zero_st,
+                                      **{x: 0.0 for x in sa[k:]}},
                       "the AOM drifted since the table's run and stayed")]
+        if k < m:
+            forms.append(Form("aom_all", sa, {"kappa": 0.0, "tau_d": 5.0, **zero_st},
+                              "the same along every drift mode", starts_from="aom"))
         if ctx is None or getattr(ctx, "runs_after", None) is not None:
             forms.append(Form("aom_profile", sa + ("kappa", "tau_d"), dict(zero_st),
                               "the drift relaxes or grows after the recordings",
-                              starts_from="aom",
+                              starts_from="aom_all" if k < m else "aom",
                               extra_starts=({"kappa": 0.5, "tau_d": 3.0},
                                             {"kappa": -1.0, "tau_d": 10.0})))
         forms.append(Form("table", st, {"kappa": 0.0, "tau_d": 5.0, **zero_sa},
