@@ -67,6 +67,8 @@ __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BI
 DEFAULT_PAIRS = 8
 #: at most this many effects are named
 MAX_EFFECTS = 3
+#: evaluations of a joint fit of an added effect (it starts from both optima)
+ADD_NFEV = 40
 
 
 def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
@@ -233,12 +235,15 @@ def _carry_tone_best(prob: Problem, base: FitResult, fits: dict, ranking: list) 
     return _rank(prob, base, fits)
 
 
-def _use_field_of(prob: Problem, chosen: FitResult) -> None:
-    """The gate model of the named tone-side effect's field (carried, if it was)."""
+def _use_field_of(prob: Problem, chosen: FitResult) -> bool:
+    """The gate model of the named tone-side effect's field (carried, if it was): whether
+    the gate model changed (the gate-side single fits were made with the other one)."""
     carried = getattr(prob, "carried", None)
     if carried is not None and carried[0] in chosen.effects:
         prob.use_tone(carried[1])
         prob.gate = carried[2]
+        return True
+    return False
 
 
 def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
@@ -255,19 +260,22 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
     tried, per step).
     """
     steps, chain = [], [chosen]
-    if prob.gate is not None:
-        _use_field_of(prob, chosen)
+    rebased = prob.gate is not None and _use_field_of(prob, chosen)
     while len(chosen.effects) < MAX_EFFECTS:
         named = set(chosen.effects)
+        # candidates: effects decisive on their own (one that does not improve the
+        # baseline decisively alone is not looked for beside another)
         cands = [r["effect"] for r in ranking
                  if "+" not in r["effect"] and r["effect"] not in named
-                 and EFFECTS[r["effect"]].side in sides][:pairs]
+                 and EFFECTS[r["effect"]].side in sides
+                 and r["delta_bic"] < -BIC_DECISIVE][:pairs]
         if not cands:
             break
         jobs, done = [], {}
         for c in cands:
             side = EFFECTS[c].side
-            if not any(EFFECTS[e].side == side for e in chosen.effects):
+            if not any(EFFECTS[e].side == side for e in chosen.effects) and not (
+                    rebased and side == "gates"):
                 # the sides share no parameter: the joint optimum is the named effects'
                 # side of ``chosen`` and the candidate's side of its single fit
                 done[c] = combine_sides(prob, chosen, fits[c], side)
@@ -276,18 +284,20 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
             other = {k: v for k, v in chosen.all_params.items()
                      if param_side(prob, k) != side and k in _fit_keys(prob, chosen)}
             jobs.append((c, (hyp, dict(starts=[{**chosen.params, **fits[c].params}],
-                                       fixed=other,
+                                       fixed=other, max_nfev=ADD_NFEV,
                                        init={**base.nuisances, **chosen.nuisances}))))
         done.update(zip([c for c, _ in jobs], fit_all(prob, [j for _, j in jobs])))
         done = [done[c] for c in cands]
         entries = sorted(((rank_entry(chosen, f), f) for f in done),
                          key=lambda ef: ef[0]["delta_bic"])
         steps.append([e for e, _ in entries])
-        entry, f = entries[0]
-        if not (decisive(entry, len(cands)) and _not_a_refinement(base, chosen, f)):
+        # the best decisive candidate that is more than a refinement of the named ones
+        added = next((f for entry, f in entries if decisive(entry, len(cands))
+                      and _not_a_refinement(base, chosen, f)), None)
+        if added is None:
             break
-        chosen = f
-        chain.append(f)
+        chosen = added
+        chain.append(added)
     tone_side = [e for e in chosen.effects if EFFECTS[e].side == "tones"]
     if prob.gate is not None and tone_side and len(chosen.effects) > 1:
         # the gates under the final field (the tone effects held at their joint fit)

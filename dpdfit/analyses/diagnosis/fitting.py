@@ -31,6 +31,9 @@ __all__ = ["FitResult", "fit_hypothesis", "fit_effect", "fit_all", "fit_effects"
 
 #: cap on residual evaluations per least-squares start
 MAX_NFEV = 100
+#: relative tolerances of chi2 and of the parameters that end a least-squares run: the
+#: ranking needs chi2 to ~0.1 (1e-6 of the largest, ~1e5), the errors ~1 % of a sigma
+FIT_TOL = 1e-6
 #: calibration modes profiled out linearly (:class:`ModeProfile`): re-linearisations at
 #: the optimum, and the change of the modes (sigma) that ends them
 PROFILE_RELIN = 3
@@ -38,7 +41,7 @@ PROFILE_TOL = 0.05
 #: finite-difference step of the fits' Jacobian, in units of each parameter's scale
 JACOBIAN_FD_STEP = 1e-3
 #: evaluations of the short runs that choose among several starts
-SCREEN_NFEV = 15
+SCREEN_NFEV = 10
 #: a baseline nuisance further than this (prior sigmas) from its centre also gets a
 #: start from the centre in the effect fits
 FAR_NUISANCE = 5.0
@@ -249,7 +252,7 @@ class _Objective:
         pad = 1e-6 * (hi - lo)
         r = least_squares(f, np.clip(x, lo + pad, hi - pad), jac=jac, bounds=(lo, hi),
                           x_scale=np.array(scale), method="trf",
-                          max_nfev=nfev, ftol=1e-8, xtol=1e-8)
+                          max_nfev=nfev, ftol=FIT_TOL, xtol=FIT_TOL)
         return _Opt(r.x, float(r.cost), r.jac)
 
 
@@ -308,9 +311,9 @@ def _starts(obj: _Objective, forms: list, x0: np.ndarray, far: bool, starts, lin
     return candidates
 
 
-def _solve_profiled(obj: _Objective, x, lin):
+def _solve_profiled(obj: _Objective, x, lin, nfev: int = MAX_NFEV):
     """Solution from ``x``, re-linearised at the optimum until the profiled modes settle."""
-    r = obj.solve(x, lin)
+    r = obj.solve(x, lin, nfev)
     for _ in range(PROFILE_RELIN):
         if lin is None:
             break
@@ -318,11 +321,12 @@ def _solve_profiled(obj: _Objective, x, lin):
         if max(abs(d_new[k] - v) for k, v in zip(obj.prof, lin.d_lin)) < PROFILE_TOL:
             break
         lin = obj.linearise(r.x, d_new)
-        r = obj.solve(r.x, lin)
+        r = obj.solve(r.x, lin, nfev)
     return r, lin
 
 
-def _best_solution(obj: _Objective, candidates: list, lin0, d_init: dict):
+def _best_solution(obj: _Objective, candidates: list, lin0, d_init: dict,
+                   nfev: int = MAX_NFEV):
     """The best solution over the starting points: ``(_Opt, its ModeProfile)``.
 
     Several starts: a short run from each (modes profiled at ``lin0``), and only
@@ -341,7 +345,7 @@ def _best_solution(obj: _Objective, candidates: list, lin0, d_init: dict):
     for x in candidates:
         lin = obj.linearise(x, d_init) if len(obj.names) and obj.prof else lin0
         try:
-            r, lin = _solve_profiled(obj, x, lin)
+            r, lin = _solve_profiled(obj, x, lin, nfev)
         except ValueError:
             continue
         if best is None or r.cost < best.cost:
@@ -451,7 +455,7 @@ def param_side(prob, k: str) -> str:
 
 
 def fit_hypothesis(prob, hyp: tuple = (), starts=None, fixed: dict | None = None,
-                   init: dict | None = None) -> FitResult:
+                   init: dict | None = None, max_nfev: int = MAX_NFEV) -> FitResult:
     """Least-squares fit of the nuisances plus the effects' parameters.
 
     ``hyp``: ``((effect name, form name or None), ...)``; empty: the baseline.
@@ -473,7 +477,7 @@ def fit_hypothesis(prob, hyp: tuple = (), starts=None, fixed: dict | None = None
     x0, far = _initial(obj, init)
     lin0 = obj.linearise(x0, d_init)
     candidates = _starts(obj, obj.forms, x0, far, starts, lin0)
-    best, best_lin = _best_solution(obj, candidates, lin0, d_init)
+    best, best_lin = _best_solution(obj, candidates, lin0, d_init, max_nfev)
     return _result(obj, best, best_lin)
 
 

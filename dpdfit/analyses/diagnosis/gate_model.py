@@ -50,9 +50,10 @@ __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES", "EN
 
 #: finite-difference step of the power response (dB)
 POWER_STEP_DB = 0.3
-#: each knob is run at these multiples of its step: the response between and beyond
-#: them follows an exponential (saturating or growing) through both, which is exact for
-#: a coherence that decays exponentially with a dephasing rate (:class:`_KnobResponse`)
+#: a nonlinear knob is run at these multiples of its step (a linear one at the first):
+#: the response between and beyond them follows an exponential (saturating or growing)
+#: through both, which is exact for a coherence that decays exponentially with a
+#: dephasing rate (:class:`_KnobResponse`)
 KNOB_MULTIPLES = (1, 3)
 #: engine tolerances for the diagnosis: DOP853 tolerances and the population neglected
 #: in the thermal tail and above the Fock cutoff
@@ -109,8 +110,10 @@ class _KnobResponse:
     ``d1`` negligible) the quadratic through 0, ``s``, ``3 s`` is used.  Hand-written:
     a per-element interpolation law."""
 
-    def __init__(self, d1, d3, s):
+    def __init__(self, d1, d3=None, s=1.0):
         self.s = float(s)
+        if d3 is None:                                   # one run: the linear response
+            d3 = 3 * d1
         with np.errstate(divide="ignore", invalid="ignore"):
             r = d3 / d1
         ok = np.isfinite(r) & (r > 1.05) & (r < 8.0) & (np.abs(d1) > 1e-9)
@@ -253,7 +256,7 @@ class GateModel:
                                                       power_error_db=sign * POWER_STEP_DB)))
                 where.append((key, name))
             for knob in self.knobs.values():
-                for mult in KNOB_MULTIPLES:
+                for mult in (KNOB_MULTIPLES if knob.nonlinear else KNOB_MULTIPLES[:1]):
                     calls.append(((b, c, n, eO, xi),
                                   dict(**knob.perturb(self.nominal, mult * knob.step), **kw)))
                     where.append((key, (knob.key, mult)))
@@ -292,9 +295,10 @@ class GateModel:
             return base, {}, zero, zero
         d = {}
         for kk, knob in self.knobs.items():
+            mults = KNOB_MULTIPLES if knob.nonlinear else KNOB_MULTIPLES[:1]
             d[kk] = {q: _KnobResponse(
                 *(np.stack([get(self.resp[key][(kk, m)], q) - get(self.base[key], q)
-                            for key in keys]) for m in KNOB_MULTIPLES), knob.step)
+                            for key in keys]) for m in mults), knob.step)
                 for q in qs}
         e = POWER_STEP_DB
         lin, quad = {}, {}

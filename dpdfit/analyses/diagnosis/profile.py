@@ -23,6 +23,8 @@ __all__ = ["profile_errors", "profile_interval", "DELTA_CHI2", "PROFILE_BISECTIO
 
 #: chi2 rise that ends a 1-sigma profile interval of one parameter
 DELTA_CHI2 = 1.0
+#: parameters profiled per effect, at most
+MAX_PROFILED = 2
 #: bisections of the crossing, and doublings of the step at most
 PROFILE_BISECTIONS = 4
 PROFILE_DOUBLINGS = 8
@@ -85,6 +87,13 @@ def profile_errors(prob, fit: FitResult, name: str) -> dict:
     sizes = dict(fit.sizes.get(name, {}))
     poor = [k for k in fit.free if k.startswith(name + ".")
             and (k in fit.at_bound or not np.isfinite(fit.params_err.get(k, np.nan)))]
+    # the parameters the main size depends on (a profile is a dozen refits each)
+    main = e.main
+    p0 = fit.all_params
+    base_main = e.size_values(prob, p0).get(main, (0.0,))[0]
+    poor = [k for k in poor if abs(e.size_values(prob, {**p0, k: p0[k] + 1e-3 * max(
+        abs(p0[k]), e.param(k.split(".", 1)[1], prob).scale)}).get(main, (base_main,))[0]
+                                   - base_main) > 0][:MAX_PROFILED]
     if not poor:
         return sizes
     p = fit.all_params

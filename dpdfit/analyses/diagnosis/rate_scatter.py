@@ -18,7 +18,7 @@ from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.core.parallel import pmap
 
 __all__ = ["learn_rate_scatter", "RATE_SCATTER_MIN", "RATE_SCATTER_MAX_FACTOR",
-           "RATE_SCATTER_POINTS", "RATE_SCATTER_PRIOR_FACTOR", "PROFILE_SWEEPS", "widest_gate_forms"]
+           "RATE_SCATTER_POINTS", "RATE_SCATTER_PRIOR_FACTOR", "PROFILE_SWEEPS", "gate_forms"]
 
 RATE_SCATTER_MIN = 1e-4
 RATE_SCATTER_MAX_FACTOR = 2.0
@@ -29,15 +29,13 @@ RATE_SCATTER_PRIOR_FACTOR = 2.0
 PROFILE_SWEEPS = 3
 
 
-def widest_gate_forms(prob) -> list:
-    """``(effect, form)`` of every gate-side effect ``prob`` considers, each in its form
-    with the most free parameters: free while the rate scatter is estimated."""
-    out = []
-    for name in prob.effects:
-        e = EFFECTS[name]
-        if e.side == "gates" and e.default:
-            out.append((e, max(e.forms_for(prob), key=lambda f: len(f.free))))
-    return out
+def gate_forms(prob) -> list:
+    """``(effect, catalog form)`` of every default gate-side effect ``prob`` considers:
+    free while the rate scatter is estimated (one parameter each: the smooth
+    directions a scatter must not absorb; a family's extra freedom would also absorb
+    the scatter itself)."""
+    return [(EFFECTS[n], EFFECTS[n].forms_for(prob)[0]) for n in prob.effects
+            if EFFECTS[n].side == "gates" and EFFECTS[n].default]
 
 
 def _gate_nll(prob, rel: float, start: dict | None = None):
@@ -51,10 +49,10 @@ def _gate_nll(prob, rel: float, start: dict | None = None):
     with every effect absent.
     """
     prob.set_rate_scatter(rel)
-    # the widest form of each gate-side effect (REML-like: the scatter is what no
-    # smooth gate-side effect explains)
+    # every gate-side effect's catalog form (REML-like: the scatter is what no smooth
+    # gate-side effect explains)
     eff, fixed = [], {}
-    for e, form in widest_gate_forms(prob):
+    for e, form in gate_forms(prob):
         pars = {par.name: par for par in e.parameters(prob)}
         eff += [(e.key(k), pars[k]) for k in form.free]
         fixed.update({e.key(k): v for k, v in form.fixed.items()})
@@ -80,8 +78,9 @@ def _gate_nll(prob, rel: float, start: dict | None = None):
         z = np.concatenate(z + [[(p[n] - prob.center[n]) / s for n, s in priors]])
         return np.where(np.isfinite(z), z, 0.0)
 
+    # -2 ln L to ~1e-3 is all the posterior over the grid needs
     r = least_squares(fun, np.clip(x0, np.array(lo) + pad, np.array(hi) - pad),
-                      bounds=(lo, hi), x_scale=scale, max_nfev=200)
+                      bounds=(lo, hi), x_scale=scale, max_nfev=200, ftol=1e-6, xtol=1e-6)
     p = {**fixed, **dict(zip(names, r.x))}
     _, ld = prob.gate_whitened(p, logdet=True)
     ld += sum(2 * np.log(s) for n, s in priors if n.startswith("eps_ts"))
@@ -117,12 +116,31 @@ def _profile(prob, grid: np.ndarray) -> np.ndarray:
         if i1 == i0:
             break               # the same sweep again would repeat the same starts
         i0 = i1
-        for order, step in ((range(i0 + 1, grid.size), -1), (range(i0 - 1, -1, -1), 1)):
-            for i in order:
-                f = _gate_nll(prob, grid[i], start=fits[i + step][1])
-                if f[0] < fits[i][0] - 1e-6:
-                    fits[i] = f
+        # the two directions are independent: over the cores
+        _SHARED["prob"] = prob
+        try:
+            ups, downs = pmap(_sweep, [((grid, fits, i0, +1), {}), ((grid, fits, i0, -1), {})])
+        finally:
+            _SHARED.clear()
+        for i, f in {**ups, **downs}.items():
+            if f[0] < fits[i][0] - 1e-6:
+                fits[i] = f
     return np.array([f[0] for f in fits])
+
+
+def _sweep(grid, fits, i0: int, direction: int) -> dict:
+    """Continuation from grid point ``i0`` outwards in ``direction``: each point fitted
+    from its neighbour's (better) optimum: ``{index: (nll, parameters)}``."""
+    prob = _SHARED["prob"]
+    out = {}
+    prev = fits[i0]
+    for i in range(i0 + direction, grid.size if direction > 0 else -1, direction):
+        f = _gate_nll(prob, grid[i], start=prev[1])
+        if fits[i][0] < f[0]:
+            f = fits[i]
+        out[i] = f
+        prev = f
+    return out
 
 
 def learn_rate_scatter(prob) -> dict:

@@ -33,7 +33,8 @@ Two engines compute the tones, chosen by the effects present:
 * **Time domain** (a filter of the drive before the static transfer, the fast
   acoustic memory, whose drive is no longer a real envelope times a carrier):
   the field on the exact no-alias grid of :mod:`dpdfit.models.waveforms`,
-  ``OVERSAMPLE`` x beyond the single-nonlinearity rate.
+  ``OVERSAMPLE`` x beyond the single-nonlinearity rate, the static transfer
+  tabulated (``STATIC_TABLE``).
 """
 
 from __future__ import annotations
@@ -50,13 +51,17 @@ from dpdfit.models.waveforms import _envelope, cardioid, sample_grid, synthesize
 
 __all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMONICS"]
 
-#: oversampling of the time-domain grid beyond the single-nonlinearity no-alias rate
-OVERSAMPLE = 4
+#: oversampling of the time-domain grid beyond the single-nonlinearity no-alias rate,
+#: without and with DPD: against a 16x grid the DPD-off tones agree exactly already at
+#: 1x, the DPD-on tones (the table clips at high A) to 0.07 dB at 2x and at 4x alike
+OVERSAMPLE = (1, 2)
 #: samples of the slow envelope per gate period (envelope engine)
 M_SLOW = 128
 #: amplitudes of the harmonic tables G_m(u) on [0, 1], and quadrature nodes per piece
 K_TABLE = 256
 N_QUAD = 16
+#: magnitudes of the tabulated static transfer of the time-domain engine
+STATIC_TABLE = 8192
 #: harmonics of the gate tones handed to the gate engine
 GATE_HARMONICS = tuple(range(-2, 6))
 
@@ -72,6 +77,16 @@ def _uniform_interp(x, table):
     i = np.minimum(u.astype(np.intp), n - 1)
     f = u - i
     return table[i] + f * (table[i + 1] - table[i])
+
+
+def _uniform_interp_complex(x, table):
+    """:func:`_uniform_interp` of a complex table (real and imaginary parts together)."""
+    n = table.size - 1
+    u = np.clip(x, 0.0, 1.0) * n
+    i = np.minimum(u.astype(np.intp), n - 1)
+    f = u - i
+    t0 = table[i]
+    return t0 + f * (table[i + 1] - t0)
 
 
 def _cubic(table: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -251,7 +266,17 @@ class ToneModel:
         return self.lut_rf
 
     def _static(self, mag, coef, act: _Active):
-        """Field (complex, phase of the drive not included) of drive magnitudes ``mag``."""
+        """Field (complex, phase of the drive not included) of drive magnitudes ``mag``.
+
+        On many samples (the time-domain field) the transfer is tabulated on
+        ``STATIC_TABLE + 1`` magnitudes and interpolated linearly: the curves are
+        smooth on [0, 1] (interpolation error ~1e-9 of the field, far below the
+        weakest tone used), and a table lookup costs a fifth of evaluating them."""
+        mag = np.asarray(mag)
+        if mag.size > 8 * STATIC_TABLE:
+            grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
+            F = self._static(grid, coef, act)
+            return _uniform_interp_complex(mag, F)
         cy, cp = coef
         m = np.minimum(mag, 1.0)
         y = np.polynomial.polynomial.polyval(m, cy)
@@ -347,19 +372,22 @@ class ToneModel:
         return np.stack(out, axis=1)                         # (nA, n flags, 2 sb, H)
 
     # ------------------------------------------------------------- time-domain engine
-    def _time_domain(self):
+    def _time_domain(self, dpd: int):
+        """The time-domain grid of a path (without or with DPD) and its frequencies."""
         if self._td is None:
             tones = cardioid()
             g0 = self._grid0
-            grid = sample_grid(self.nu, self.xi0, tones, fs=g0.fs * OVERSAMPLE,
-                               extra_harmonics=(-2, 0, 3, 5))
-            self._td = (grid, np.fft.fftfreq(grid.n_samples, 1.0 / grid.fs))
-        return self._td
+            self._td = []
+            for os_ in OVERSAMPLE:
+                grid = sample_grid(self.nu, self.xi0, tones, fs=g0.fs * os_,
+                                   extra_harmonics=(-2, 0, 3, 5))
+                self._td.append((grid, np.fft.fftfreq(grid.n_samples, 1.0 / grid.fs)))
+        return self._td[int(bool(dpd))]
 
     def _drive_spectrum(self, A, d: int, table) -> np.ndarray:
         """FFT of the drive (DPD by ``table`` when ``d``) at amplitudes ``A`` on the
         time-domain grid, cached: a memory's fit changes only its filter."""
-        grid, _ = self._time_domain()
+        grid, _ = self._time_domain(d)
         key = (tuple(np.round(A, 12)), d, id(table) if d else None)
         cache = self.__dict__.setdefault("_drive_cache", {})
         if key not in cache:
@@ -372,15 +400,15 @@ class ToneModel:
         return cache[key][1]
 
     def _tones_time_domain(self, A, p, act, dpd_flags, harmonics):
-        grid, freq = self._time_domain()
         coef = self._coefficients(p, act)
-        kb, kr = grid.tone_bins(np.asarray(harmonics))
         table = self._table(act)
-        H = np.ones(freq.size, dtype=complex)
-        for h in act.filters(freq):
-            H = H * h
         out = []
         for d in dpd_flags:
+            grid, freq = self._time_domain(d)
+            kb, kr = grid.tone_bins(np.asarray(harmonics))
+            H = np.ones(freq.size, dtype=complex)
+            for h in act.filters(freq):
+                H = H * h
             x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
             mag = np.abs(x)
             y = self._static(mag, coef, act) * (x / np.maximum(mag, 1e-300))

@@ -36,7 +36,7 @@ from .base import Effect, Form, Param
 __all__ = ["AomMemory", "EFFECT", "slow_kernel"]
 
 #: coarse grids seeding the fits: fast tau (ns) x f_off (MHz); slow tau1 (us) x gain_p
-FAST_GRID = ((25.0, 60.0, 120.0), (-4.0, -2.0, -0.8, 0.8, 2.0, 4.0))
+FAST_GRID = ((30.0, 90.0), (-4.0, -1.5, 1.5, 4.0))
 SLOW_GRID = ((0.3, 1.0, 3.0, 10.0), (-0.3, -0.1, -0.02, 0.02, 0.1, 0.3))
 
 
@@ -75,11 +75,10 @@ class AomMemory(Effect):
              Form("two_scales", ("gain_a", "gain_p", "tau1", "tau2", "w"),
                   {"tau": 0.0, "f_off": 0.0, "delay": 0.0},
                   "two time scales (two decays, or a rise and a decay)", starts_from="slow",
-                  extra_starts=({"w": 0.3, "tau2": 0.3}, {"w": 0.3, "tau2": 10.0},
-                                {"w": 1.2, "tau2": 3.0, "tau1": 0.3})),
+                  extra_starts=({"w": 0.3, "tau2": 0.3}, {"w": 1.2, "tau2": 3.0, "tau1": 0.3})),
              Form("two_scales_delay", ("gain_a", "gain_p", "tau1", "tau2", "w", "delay"),
                   {"tau": 0.0, "f_off": 0.0}, "two time scales and a delay",
-                  starts_from="two_scales", extra_starts=({"delay": 30.0}, {"delay": 100.0})))
+                  starts_from="two_scales", extra_starts=({"delay": 60.0},)))
     phase_odd = ("gain_p",)
     sign_sensitive = True
     main = "tau_ns"

@@ -99,6 +99,9 @@ class Knob:
     step: float
     unit: str
     perturb: Callable
+    #: the response is far from linear over the range fitted (a coherence that decays
+    #: exponentially): the engine is also run at three steps (:mod:`..gate_model`)
+    nonlinear: bool = False
 
 
 @dataclass(frozen=True)

@@ -44,8 +44,8 @@ def _common(nominal, step):
     return {**nominal, "T2_corr": 1.0 / (c + step)}
 
 
-INDEPENDENT = Knob("dephasing.independent", 100.0, "1/s", _independent)
-COMMON = Knob("dephasing.common", 100.0, "1/s", _common)
+INDEPENDENT = Knob("dephasing.independent", 100.0, "1/s", _independent, nonlinear=True)
+COMMON = Knob("dephasing.common", 100.0, "1/s", _common, nonlinear=True)
 
 
 class Dephasing(Effect):
