@@ -163,11 +163,13 @@ def test_summarise_confusion_pairs_and_pull_coverage_arithmetic():
     assert s["false_alarm_rate"] == 0.5
     assert s["named_correctly"]["dephasing"] == 2 / 3
     assert s["pairs_both_named"] == 0.5 and s["pairs_one_named"] == 1.0
-    rec = s["recovery"]["dephasing"]["main"]
+    rec = s["recovery"]["dephasing"]["params"]["rate_per_s"]
     # pulls +1, +3 (singles) and -0.5 (the pair that named it): 2 of 3 within 1 sigma
     assert rec["n"] == 3 and sorted(rec["pulls"]) == [-0.5, 1.0, 3.0]
     assert rec["coverage_1sigma"] == 2 / 3 and rec["coverage_2sigma"] == 2 / 3
-    assert s["recovery"]["spam_offset"]["main"]["pulls"] == [pytest.approx(2.0)]
+    assert s["recovery"]["spam_offset"]["params"]["extra_preparation"]["pulls"] == [
+        pytest.approx(2.0)]
+    assert s["recovery"]["dephasing"]["all_params_within_2sigma"] == 2 / 3
 
 
 def test_scan_false_alarm_rate_is_below_alpha_over_many_series():

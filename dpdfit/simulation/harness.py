@@ -331,7 +331,11 @@ def summarise(results: list) -> dict:
         # the runs that named the effect (alone or among others)
         rs = [r for r in singles + pairs if e in r.get("effects", {})
               and e in (r.get("named") or [r["verdict"]])]
-        recovery[e] = {"n_named": len(rs), "main": _pulls(rs, e)}
+        main = _pulls(rs, e)
+        within = [abs(x) <= 2 for x in main["pulls"]]
+        recovery[e] = {"n_named": len(rs), "params": {main["quantity"]: main},
+                       "all_params_within_2sigma": float(np.mean(within)) if within
+                       else None}
     conc = singles + pairs
     return {"n_runs": len(results), "n_failed": len(every) - len(results),
             "confusion": confusion, "false_alarm_rate": far,
@@ -386,7 +390,7 @@ def report(s: dict) -> str:
         lines.append(f"    {c:>40s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
     lines += ["", "  recovery of each effect's main size (runs that named it):"]
     for c, r in s["recovery"].items():
-        m = r["main"]
-        lines.append(f"    {c:>26s} {m['quantity']:>20s}: n={m['n']} bias={num(m['bias'])} "
-                     f"cov1={num(m['coverage_1sigma'])} cov2={num(m['coverage_2sigma'])}")
+        for q, m in r["params"].items():
+            lines.append(f"    {c:>26s} {q:>20s}: n={m['n']} bias={num(m['bias'])} "
+                         f"cov1={num(m['coverage_1sigma'])} cov2={num(m['coverage_2sigma'])}")
     return "\n".join(lines)

@@ -253,8 +253,9 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
     Each candidate (the ``pairs`` best single effects not yet named) is fitted jointly
     with the named ones in its best single form, started from both fits; it is added
     when decisive against the named model (:func:`~dpdfit.analyses.diagnosis.verdict.decisive`,
-    Bonferroni over the candidates; only effects acting on a side whose recordings show
-    a mismatch, :func:`~dpdfit.analyses.diagnosis.verdict.side_evidence`) and, on the side of an effect already named, when
+    Bonferroni over the candidates; only effects acting on a side where the named model
+    still leaves a mismatch, :func:`~dpdfit.analyses.diagnosis.verdict.side_evidence`)
+    and, on the side of an effect already named, when
     it removes at least ``DOMINANT_FRACTION`` of what the named effects of that side
     removed.  Returns the final fit and the steps (ranking entries of the candidates
     tried, per step).
@@ -263,11 +264,15 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
     rebased = prob.gate is not None and _use_field_of(prob, chosen)
     while len(chosen.effects) < MAX_EFFECTS:
         named = set(chosen.effects)
+        # a side is searched again only while the named model leaves a mismatch there:
+        # a located interval or its chi2 (a decisive addition on a side the named effects
+        # describe refines their form, e.g. a tone effect's imprint on the gates)
+        left = side_evidence(chosen, locate_mismatches(prob, chosen.all_params), []) & sides
         # candidates: effects decisive on their own (one that does not improve the
         # baseline decisively alone is not looked for beside another)
         cands = [r["effect"] for r in ranking
                  if "+" not in r["effect"] and r["effect"] not in named
-                 and EFFECTS[r["effect"]].side in sides
+                 and EFFECTS[r["effect"]].side in left
                  and r["delta_bic"] < -BIC_DECISIVE][:pairs]
         if not cands:
             break
@@ -286,7 +291,9 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
             jobs.append((c, (hyp, dict(starts=[{**chosen.params, **fits[c].params}],
                                        fixed=other, max_nfev=ADD_NFEV,
                                        init={**base.nuisances, **chosen.nuisances}))))
-        done.update(zip([c for c, _ in jobs], fit_all(prob, [j for _, j in jobs])))
+        for (c, (hyp, _)), f in zip(jobs, fit_all(prob, [j for _, j in jobs])):
+            # the other side was held at the named model's: its values and covariance
+            done[c] = combine_sides(prob, chosen, f, EFFECTS[c].side, hyp=hyp)
         done = [done[c] for c in cands]
         entries = sorted(((rank_entry(chosen, f), f) for f in done),
                          key=lambda ef: ef[0]["delta_bic"])

@@ -298,7 +298,7 @@ class GateModel:
             mults = KNOB_MULTIPLES if knob.nonlinear else KNOB_MULTIPLES[:1]
             d[kk] = {q: _KnobResponse(
                 *(np.stack([get(self.resp[key][(kk, m)], q) - get(self.base[key], q)
-                            for key in keys]) for m in mults), knob.step)
+                            for key in keys]) for m in mults), s=knob.step)
                 for q in qs}
         e = POWER_STEP_DB
         lin, quad = {}, {}

@@ -90,6 +90,7 @@ def catalog_table() -> str:
     for e in EFFECTS.values():
         forms = ", ".join(f"`{f.name}`" for f in e.forms_for())
         pars = ", ".join(f"`{p.name}` {p.unit}" for p in e.parameters())
+        meaning = e.meaning.replace("|", "\\|")
         rows.append(f"| `{e.name}`{'' if e.default else ' (not default)'} | {e.side} | "
-                    f"{forms} | {pars} | `{e.main}` | {e.meaning} |")
+                    f"{forms} | {pars} | `{e.main}` | {meaning} |")
     return "\n".join(rows)
