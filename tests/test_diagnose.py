@@ -408,19 +408,20 @@ def test_effect_scales_follow_the_calibration_modes():
     """At full drive (|x| = 1) the extra AM-to-PM phase is dphi, the fifth-order factor
     1 + k5 and the detector correction that of u = P/P_max = 1, whatever the
     calibration modes do to y(1): the scales belong to the forward curve in use."""
-    from dpdfit.analyses.diagnosis.tone_model import ToneModel, _Active
+    from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
+    from dpdfit.analyses.diagnosis.tone_model import ToneModel
     from dpdfit.analyses.diagnosis.observables import load_campaign
     tone = ToneModel(load_campaign(BUNDLED))
     x = np.ones(8)                                       # drive magnitude at full drive
 
     def field(p):
-        act = _Active(tone, p)
+        act = ActiveEffects(tone, p)
         return tone._static(x, tone._coefficients(p, act), act)
 
     for modes in ({}, {"cal_amp0": 3.0, "cal_amp1": -2.0}, {"cal_amp2": 4.0}):
         ref = field(modes)
         y1 = np.polynomial.polynomial.polyval(1.0, tone._coefficients(
-            modes, _Active(tone, modes))[0])
+            modes, ActiveEffects(tone, modes))[0])
         assert np.allclose(np.abs(ref), y1, rtol=1e-12)
         d = field({**modes, "am_pm_omitted.dphi": 0.1})
         np.testing.assert_allclose(np.angle(d / ref), 0.1, atol=1e-12)
@@ -432,7 +433,7 @@ def test_effect_scales_follow_the_calibration_modes():
     # the modes used here do move y(1), so a frozen scale would fail the checks above
     p = {"cal_amp0": 3.0, "cal_amp1": -2.0}
     assert abs(np.polynomial.polynomial.polyval(1.0, tone._coefficients(
-        p, _Active(tone, p))[0]) / tone.A_corr - 1) > 1e-4
+        p, ActiveEffects(tone, p))[0]) / tone.A_corr - 1) > 1e-4
 
 
 def test_report_shows_the_null_model_the_verdict_fit_and_what_was_left_out():

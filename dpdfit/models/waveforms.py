@@ -38,7 +38,7 @@ from scipy.fft import next_fast_len
 from dpdfit.errors import InputError
 
 __all__ = ["ToneSet", "cardioid", "Grid", "sample_grid", "synthesize", "predistort",
-           "MAX_PRODUCT_ORDER"]
+           "MAX_PRODUCT_ORDER", "drive_peak"]
 
 #: Mixing products up to this order must not alias (issue #3).
 MAX_PRODUCT_ORDER = 9
@@ -226,14 +226,18 @@ def synthesize(tones: ToneSet, grid: Grid, A) -> np.ndarray:
         Real if the tone set is symmetric (``w_Q = 0``, S3), else complex.
     """
     w = _envelope(tones, grid, grid.t)
-    # peak of the continuous envelope (what the DAC's reconstructed output
-    # reaches), found on a 16x finer grid of the same record
-    peak = np.max(np.abs(_envelope(tones, grid, np.arange(16 * grid.n_samples)
-                                   / (16 * grid.fs))))
+    peak = drive_peak(tones, grid)
     A = np.asarray(A, dtype=float)
     if np.any((A < 0) | (A > 1)) or not np.all(np.isfinite(A)):
         raise InputError("amplitudes A must lie in [0, 1]")
     return (A[..., None] if A.ndim else A) * (w / peak)
+
+
+def drive_peak(tones: ToneSet, grid: Grid) -> float:
+    """Peak of the continuous drive envelope (what the DAC's reconstructed output
+    reaches; ``synthesize`` normalises it to A), found on a 16x finer grid of the record."""
+    t = np.arange(16 * grid.n_samples) / (16 * grid.fs)
+    return float(np.max(np.abs(_envelope(tones, grid, t))))
 
 
 def _envelope(tones: ToneSet, grid: Grid, t: np.ndarray) -> np.ndarray:

@@ -60,7 +60,7 @@ from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
 from dpdfit.core.progress import progress_bar
 
 __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE",
-           "DEFAULT_PAIRS", "MAX_EFFECTS"]
+           "DEFAULT_PAIRS", "MAX_EFFECTS", "ADD_NFEV"]
 
 #: at most this many other effects are tried as an addition at each step, the best
 #: single effects first (``dpdfit diagnose --pairs``; 0: one effect only)

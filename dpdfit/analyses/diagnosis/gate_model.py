@@ -42,25 +42,19 @@ import copy
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
+from dpdfit.analyses.diagnosis.fringes import PHASES, collapse, contrast, decohere
+from dpdfit.analyses.diagnosis.knob_response import (KNOB_MULTIPLES, POWER_STEP_DB,
+                                                     response_tables)
 from dpdfit.core.parallel import pmap
 from dpdfit.models import gate_sim
 
 __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES", "ENGINE_PRECISION",
            "POWER_STEP_DB"]
 
-#: finite-difference step of the power response (dB)
-POWER_STEP_DB = 0.3
-#: a nonlinear knob is run at these multiples of its step (a linear one at the first):
-#: the response between and beyond them follows an exponential (saturating or growing)
-#: through both, which is exact for a coherence that decays exponentially with a
-#: dephasing rate (:class:`_KnobResponse`)
-KNOB_MULTIPLES = (1, 3)
 #: engine tolerances for the diagnosis: DOP853 tolerances and the population neglected
 #: in the thermal tail and above the Fock cutoff
 ENGINE_PRECISION = {"rtol": 1e-4, "atol": 1e-6, "fock_tol": 1e-6}
 _XI_STEP = 0.01
-#: analysis phases of the model's fringes (the contrast does not depend on them)
-PHASES = np.arange(16) * 2 * np.pi / 16
 #: prior sigma of each detection error around the lab's p_det
 DETECTION_PRIOR_SIGMA = 1e-4
 #: gate-side nuisances: name -> (unit, meaning)
@@ -70,68 +64,6 @@ GATE_NUISANCES = {
     "e01": ("probability", "detection error, bright read dark (prior N(p_det, 1e-4))"),
     "e10": ("probability", "detection error, dark read bright (prior N(p_det, 1e-4))"),
 }
-
-# design of the fringe fit: 1, cos phi, sin phi, cos 2phi, sin 2phi (exact on PHASES)
-_DESIGN = np.stack([np.ones_like(PHASES), np.cos(PHASES), np.sin(PHASES), np.cos(2 * PHASES),
-                    np.sin(2 * PHASES)], axis=1)
-_PINV = np.linalg.pinv(_DESIGN)[3:5]                 # rows giving the cos/sin 2phi coefficients
-
-
-def _collapse(p4):
-    return p4[..., 0] + p4[..., 3], p4[..., 0] - p4[..., 3]
-
-
-def _contrast(par4):
-    """``cos 2 phi`` amplitude of the parity ``2 (P00 + P11) - 1`` over PHASES (last-but-one axis)."""
-    parity = 2 * (par4[..., 0] + par4[..., 3]) - 1
-    c = np.einsum("ij,...j->...i", _PINV, parity)
-    return np.hypot(c[..., 0], c[..., 1])
-
-
-def _decohere(par, k1, k2):
-    """Fringes ``par`` (rows, PHASES, outcomes) with their ``phi`` harmonic scaled by
-    ``k1`` and their ``2 phi`` harmonic by ``k2`` (per row): the final state's
-    single-ion and two-ion coherences decayed, its populations kept (exact on PHASES)."""
-    c = np.einsum("kj,rjo->rko", np.linalg.pinv(_DESIGN), par)      # (rows, 5, outcomes)
-    k1 = np.asarray(k1, dtype=float).reshape(-1, 1)
-    k2 = np.asarray(k2, dtype=float).reshape(-1, 1)
-    c = c.copy()
-    c[:, 1:3] *= k1[:, None]
-    c[:, 3:5] *= k2[:, None]
-    return np.einsum("jk,rko->rjo", _DESIGN, c)
-
-
-class _KnobResponse:
-    """The change of an observable with a knob's value ``c``, from engine runs at ``s``
-    and ``3 s`` (changes ``d1``, ``d3``), element by element:
-    ``A (1 - q^(c/s))`` with ``1 + q + q^2 = d3/d1`` -- exact for an exponential
-    dependence (a coherence decaying with a dephasing rate), linear for ``q = 1``.
-    Where the two runs are not of that shape (``d3/d1`` outside ``(1.05, 8)``, or
-    ``d1`` negligible) the quadratic through 0, ``s``, ``3 s`` is used.  Hand-written:
-    a per-element interpolation law."""
-
-    def __init__(self, d1, d3=None, s=1.0):
-        self.s = float(s)
-        if d3 is None:                                   # one run: the linear response
-            d3 = 3 * d1
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = d3 / d1
-        ok = np.isfinite(r) & (r > 1.05) & (r < 8.0) & (np.abs(d1) > 1e-9)
-        # 1 + q + q^2 = r  ->  q = (-1 + sqrt(4 r - 3)) / 2
-        q = np.where(ok, (-1 + np.sqrt(np.maximum(4 * np.where(ok, r, 3.0) - 3, 0))) / 2, 1.0)
-        lin = ok & (np.abs(q - 1) < 1e-6)
-        self.exp = ok & ~lin
-        self.lnq = np.where(self.exp, np.log(np.where(self.exp, q, 1.0)), 0.0)
-        self.amp = np.where(self.exp, d1 / np.where(self.exp, 1 - q, 1.0), 0.0)
-        # quadratic elsewhere: d(c) = a (c/s) + b (c/s)^2
-        b = (d3 - 3 * d1) / 6
-        self.qa = np.where(self.exp, 0.0, d1 - np.where(lin, 0.0, b))
-        self.qb = np.where(self.exp | lin, 0.0, b)
-
-    def __call__(self, c):
-        x = np.asarray(c, dtype=float) / self.s
-        return (np.where(self.exp, self.amp * (1 - np.exp(np.clip(self.lnq * x, -50, 50))), 0.0)
-                + self.qa * x + self.qb * x * x)
 
 
 class GateModel:
@@ -206,10 +138,10 @@ class GateModel:
         run = gate_sim.setting_branches(b, c, n, eO, xi * (1 + _XI_STEP), **self.nominal,
                                         phases=PHASES, spectator=False, flip=False,
                                         **ENGINE_PRECISION)
-        base_imb = _collapse(self.base[key]["p2"][0])[1]
-        d_xi = (_collapse(run["p2"][0])[1] - base_imb) / _XI_STEP
-        lin = (_collapse(self.resp[key]["eps+"]["p2"][0])[1]
-               - _collapse(self.resp[key]["eps-"]["p2"][0])[1]) / (2 * POWER_STEP_DB)
+        base_imb = collapse(self.base[key]["p2"][0])[1]
+        d_xi = (collapse(run["p2"][0])[1] - base_imb) / _XI_STEP
+        lin = (collapse(self.resp[key]["eps+"]["p2"][0])[1]
+               - collapse(self.resp[key]["eps-"]["p2"][0])[1]) / (2 * POWER_STEP_DB)
         self.db_per_rel_xi = float(abs(d_xi / lin))
         self._tab = self._stk = None
 
@@ -276,39 +208,6 @@ class GateModel:
         return new
 
     # ------------------------------------------------------------------ tables
-    def _stack(self, keys, part):
-        """Arrays over ``keys`` of the base branch outcomes and the two-ion responses."""
-        sel = (lambda a: a[0]) if part == "gate" else (lambda a: a[1:])
-        qs = ("p2", "par2") if part == "gate" else ("p2",)
-
-        def get(run, q):
-            return sel(run[q]) if q == "p2" else run[q]
-
-        base = {}
-        for name in ("p2", "p1", "p2_01", "p1_1"):
-            base[name] = np.stack([sel(self.base[key][name]) for key in keys])
-        if part == "gate":
-            for name in ("par2", "par1", "par2_01", "par1_1"):
-                base[name] = np.stack([self.base[key][name] for key in keys])
-        if self.resp is None:
-            zero = {q: np.zeros_like(base[q]) for q in qs}
-            return base, {}, zero, zero
-        d = {}
-        for kk, knob in self.knobs.items():
-            mults = KNOB_MULTIPLES if knob.nonlinear else KNOB_MULTIPLES[:1]
-            d[kk] = {q: _KnobResponse(
-                *(np.stack([get(self.resp[key][(kk, m)], q) - get(self.base[key], q)
-                            for key in keys]) for m in mults), s=knob.step)
-                for q in qs}
-        e = POWER_STEP_DB
-        lin, quad = {}, {}
-        for q in qs:
-            plus = np.stack([get(self.resp[key]["eps+"], q) for key in keys])
-            minus = np.stack([get(self.resp[key]["eps-"], q) for key in keys])
-            lin[q] = (plus - minus) / (2 * e)
-            quad[q] = (plus + minus - 2 * base[q]) / (2 * e * e)
-        return base, d, lin, quad
-
     @property
     def stated_rate_error(self) -> float:
         """The lab's stated relative gate-rate error (median ``xi0_err/xi0``, else the
@@ -342,8 +241,10 @@ class GateModel:
         if self._stk is None or self._stk[0] is not self.base:
             ts = []
             for key in self.ts_keys:
-                ts.append((key, self._scan_times(key), self._stack([key], "scan")))
-            self._stk = (self.base, {"gate": self._stack(self.keys, "gate"), "ts": ts})
+                ts.append((key, self._scan_times(key),
+                           response_tables(self.base, self.resp, self.knobs, [key], "scan")))
+            gate = response_tables(self.base, self.resp, self.knobs, self.keys, "gate")
+            self._stk = (self.base, {"gate": gate, "ts": ts})
         return self._stk[1]
 
     # ------------------------------------------------------------------ predict
@@ -395,7 +296,7 @@ class GateModel:
         par2 = two_ion("par2")
         par2_01 = base["par2_01"]
         if coherence is not None:
-            par2, par2_01 = (_decohere(x, *coherence) for x in (par2, par2_01))
+            par2, par2_01 = (decohere(x, *coherence) for x in (par2, par2_01))
         par = gate_sim.mix_branches(par2, base["par1"], prep.spectator, prep.flip,
                                     par2_01, None, base["par1_1"])
         return pop, gate_sim.confusion(par, det)
@@ -445,8 +346,8 @@ class GateModel:
         vals = {}
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
             pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh)
-            F, imb = _collapse(pop)
-            vals[s] = {"F_pop": F, "imb": imb, "C": _contrast(par)}
+            F, imb = collapse(pop)
+            vals[s] = {"F_pop": F, "imb": imb, "C": contrast(par)}
         res = {}
         for q in ("F_pop", "imb", "C"):
             res[q] = vals["0"][q]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ModeProfile", "PROFILE_STEP"]
+__all__ = ["ModeProfile", "PROFILE_STEP", "calibration_error_modes"]
 
 #: Jacobian step (sigma) of the modes
 PROFILE_STEP = 0.1
@@ -49,3 +49,17 @@ class ModeProfile:
         r0 = z - self.J @ self.d_lin
         d = -self.M @ r0
         return r0 + self.J @ d, d
+
+
+def calibration_error_modes(cov, powers, k):
+    """Coefficient directions of the ``k`` largest function-space error modes (1 sigma each)."""
+    cov = np.asarray(cov, dtype=float)
+    n = cov.shape[0]
+    if n == 0 or k == 0 or not np.all(np.isfinite(cov)):
+        return np.zeros((0, n))
+    w, U = np.linalg.eigh(0.5 * (cov + cov.T))
+    L = U * np.sqrt(np.clip(w, 0, None))                    # cov = L L^T
+    A = np.linspace(0.0, 1.0, 101)
+    V = A[:, None] ** np.asarray(powers, dtype=float)[None, :]
+    _, sv, Vt = np.linalg.svd(V @ L, full_matrices=False)
+    return np.array([L @ Vt[i] for i in range(min(k, n))])

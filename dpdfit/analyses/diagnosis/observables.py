@@ -34,15 +34,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dpdfit.analyses.diagnosis.calibration_drift import RunsAfter, drift_modes, runs_after_recordings
 from dpdfit.core.defaults import NBAR
-from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase, fit_amplitude
+from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.fits.counts import fit_parity
-from dpdfit.errors import DpdfitError, InputError
+from dpdfit.errors import InputError
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
-from dpdfit.recordings.tables import list_runs
 
-__all__ = ["RunsAfter", "DEFAULT_ERROR_MODEL", "DRIFT_MODE_SIGNIFICANCE", "EXTRACTION_FLOOR_DB", "MAX_DRIFT_MODES", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
+__all__ = ["DEFAULT_ERROR_MODEL", "EXTRACTION_FLOOR_DB", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
            "TONE_HARMONICS", "MIN_SNR_DB"]
 
 #: tones weaker than this above the (median) floor are not used
@@ -141,28 +141,6 @@ class Campaign:
         return self.gates is not None and bool(np.isfinite(self.gates["imb"]).any())
 
 
-@dataclass(frozen=True)
-class RunsAfter:
-    """The amplitude calibration runs taken after the recordings, in the run-to-run drift
-    modes (each mode scaled to the runs' sd, :func:`_drift_modes`).
-
-    ``coords`` (n runs, n modes): their coordinates; ``mu``, ``sd``: mean and sd of
-    the runs taken before the recordings (the table's run among them), the null
-    expectation; ``days``: days after the recordings; ``runs``: their labels.
-    """
-
-    runs: tuple
-    days: np.ndarray
-    coords: np.ndarray
-    mu: np.ndarray
-    sd: np.ndarray
-
-    def residuals(self, shift=None) -> np.ndarray:
-        """Standardised residuals (n runs, n modes) against the null plus ``shift``."""
-        c = self.coords - self.mu[None, :] - (0.0 if shift is None else shift)
-        return c / self.sd[None, :]
-
-
 def _residual_frame(cal, A, value, err) -> pd.DataFrame:
     pred = cal.power(A) if hasattr(cal, "power") else cal.phi(A)
     if err is None:
@@ -182,72 +160,6 @@ def _calibrations(cf: CampaignFolder, noise: dict):
         ph_res = _residual_frame(ph, pdata.A[use], pdata.value[use],
                                  None if pdata.error is None else pdata.error[use])
     return amp, amp_res, ph, ph_res
-
-
-#: this many run-to-run drift modes (principal components); a mode is significant if its
-#: run-to-run sd exceeds DRIFT_MODE_SIGNIFICANCE times the runs' median fit error (both rms
-#: over 0 <= A <= 1)
-MAX_DRIFT_MODES = 3
-DRIFT_MODE_SIGNIFICANCE = 2.0
-
-
-def _drift_modes(cf: CampaignFolder, order: int, run_fits: dict | None = None):
-    """Principal components of the amplitude runs' normalised curves (see Campaign), and
-    each run's coordinates along them with its start time: ``(modes, coords, labels,
-    starts, n_significant)`` or ``(None, None, (), (), 0)``.
-
-    ``run_fits``: the runs' fits at ``order`` already made by the caller
-    (``{run label: fit}``, as ``dpdfit analyze``'s calibration step makes them);
-    a run not in it is fitted here.
-    """
-    df = cf.amplitude_runs
-    runs = list_runs(df)
-    if len(runs) < 3:
-        return None, None, (), (), 0
-    C, err, labels, starts = [], [], [], []
-    A = np.linspace(0.0, 1.0, 101)
-    for r in runs:
-        sub = df[df["run"] == r]
-        f = (run_fits or {}).get(r)
-        try:
-            f = f if f is not None else fit_amplitude(sub["A"].to_numpy(), sub["power"].to_numpy(),
-                              sub["power_err"].to_numpy() if "power_err" in sub.columns else None,
-                              order)
-        except DpdfitError:
-            continue
-        C.append(np.asarray(f.coefficients)[1:])
-        err.append(np.sqrt(np.mean(f.y_stderr(A) ** 2)))
-        labels.append(r)
-        starts.append(sub["timestamp"].min() if "timestamp" in sub.columns else None)
-    if len(C) < 3:
-        return None, None, (), (), 0
-    C = np.array(C)
-    V = A[:, None] ** np.arange(2, order + 1)[None, :]
-    U, sv, Vt = np.linalg.svd((C - C.mean(0)) @ V.T, full_matrices=False)
-    sd = sv / np.sqrt((len(C) - 1) * A.size)                  # rms over A of each mode
-    keep = [i for i in range(min(MAX_DRIFT_MODES, sd.size)) if sd[i] > 0]
-    n_sig = max(1, sum(sd[i] > DRIFT_MODE_SIGNIFICANCE * np.median(err) for i in keep))
-    # function-space direction -> coefficients (least squares on the grid), scaled to 1 sd
-    coef = np.linalg.lstsq(V, Vt[keep].T * sd[keep] * np.sqrt(A.size), rcond=None)[0]
-    # each run's coordinate along a mode, in units of the mode (zero mean, unit sd)
-    coords = U[:, keep] * np.sqrt(len(C) - 1)
-    return coef.T, coords, tuple(labels), tuple(starts), int(n_sig)
-
-
-def _runs_after(coords, labels, starts, recorded: dict, table_run) -> RunsAfter | None:
-    """The runs started after the recordings (:class:`RunsAfter`), or None."""
-    t_rec = recorded.get("spectra_recorded") or recorded.get("gates_recorded")
-    if t_rec is None or coords is None or any(s is None for s in starts):
-        return None
-    starts = pd.to_datetime(list(starts), utc=True)
-    after = np.asarray(starts > t_rec)
-    before = ~after
-    if not after.any() or before.sum() < 3:
-        return None
-    mu = coords[before].mean(axis=0)
-    sd = np.maximum(coords[before].std(axis=0, ddof=1), 1e-3)
-    days = np.asarray((starts[after] - t_rec) / pd.Timedelta(days=1), dtype=float)
-    return RunsAfter(tuple(np.asarray(labels)[after]), days, coords[after], mu, sd)
 
 
 def _tones(cf: CampaignFolder):
@@ -420,8 +332,8 @@ def load_campaign(folder, run_fits: dict | None = None) -> Campaign:
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
     recorded = cf.recording_times
-    modes, coords, labels, starts, n_sig = _drift_modes(cf, int(cf.meta["order"]), run_fits)
-    after = _runs_after(coords, labels, starts, recorded, cf.table_run)
+    modes, coords, labels, starts, n_sig = drift_modes(cf, int(cf.meta["order"]), run_fits)
+    after = runs_after_recordings(coords, labels, starts, recorded, cf.table_run)
     if not recorded:
         left.append("campaign.json has no spectra_recorded/gates_recorded: the calibration "
                     "runs cannot be placed relative to the recordings, so a stale "

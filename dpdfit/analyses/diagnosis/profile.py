@@ -19,7 +19,7 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting import FitResult, fit_hypothesis
 
-__all__ = ["profile_errors", "profile_interval", "DELTA_CHI2", "PROFILE_BISECTIONS"]
+__all__ = ["profile_errors", "profile_interval", "DELTA_CHI2", "PROFILE_BISECTIONS", "MAX_PROFILED", "PROFILE_DOUBLINGS"]
 
 #: chi2 rise that ends a 1-sigma profile interval of one parameter
 DELTA_CHI2 = 1.0

@@ -44,12 +44,15 @@ import copy
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
+from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
+from dpdfit.analyses.diagnosis.interpolation import cubic_interp, uniform_interp, uniform_interp_complex
+from dpdfit.analyses.diagnosis.mode_profile import calibration_error_modes
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
 from dpdfit.models import gate_sim
 from dpdfit.models.transfer import TransferFunction, predistortion_table
-from dpdfit.models.waveforms import _envelope, cardioid, sample_grid, synthesize
+from dpdfit.models.waveforms import cardioid, drive_peak, sample_grid, synthesize
 
-__all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMONICS"]
+__all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMONICS", "STATIC_TABLE"]
 
 #: oversampling of the time-domain grid beyond the single-nonlinearity no-alias rate,
 #: without and with DPD: against a 16x grid the DPD-off tones agree exactly already at
@@ -64,81 +67,6 @@ N_QUAD = 16
 STATIC_TABLE = 8192
 #: harmonics of the gate tones handed to the gate engine
 GATE_HARMONICS = tuple(range(-2, 6))
-
-
-def _uniform_interp(x, table):
-    """Linear interpolation in a table on the uniform grid 0..1 (as the AWG applies it).
-
-    Hand-written because ``np.interp`` bisects for every sample; on a uniform
-    grid the index is arithmetic (5-10x faster).
-    """
-    n = table.size - 1
-    u = np.clip(x, 0.0, 1.0) * n
-    i = np.minimum(u.astype(np.intp), n - 1)
-    f = u - i
-    return table[i] + f * (table[i + 1] - table[i])
-
-
-def _uniform_interp_complex(x, table):
-    """:func:`_uniform_interp` of a complex table (real and imaginary parts together)."""
-    n = table.size - 1
-    u = np.clip(x, 0.0, 1.0) * n
-    i = np.minimum(u.astype(np.intp), n - 1)
-    f = u - i
-    t0 = table[i]
-    return t0 + f * (table[i + 1] - t0)
-
-
-def _cubic(table: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Cubic Lagrange interpolation of ``table`` (last axis: uniform grid on [0, 1]) at
-    ``x`` in [0, 1] (hand-written: vectorised over the leading table axis)."""
-    K = table.shape[-1] - 1
-    s = np.clip(x, 0.0, 1.0) * K
-    i = np.clip(np.floor(s).astype(np.intp) - 1, 0, K - 3)
-    f = s - i
-    l0 = -(f - 1) * (f - 2) * (f - 3) / 6
-    l1 = f * (f - 2) * (f - 3) / 2
-    l2 = -f * (f - 1) * (f - 3) / 2
-    l3 = f * (f - 1) * (f - 2) / 6
-    return (l0 * table[..., i] + l1 * table[..., i + 1] + l2 * table[..., i + 2]
-            + l3 * table[..., i + 3])
-
-
-def _modes(cov, powers, k):
-    """Coefficient directions of the ``k`` largest function-space error modes (1 sigma each)."""
-    cov = np.asarray(cov, dtype=float)
-    n = cov.shape[0]
-    if n == 0 or k == 0 or not np.all(np.isfinite(cov)):
-        return np.zeros((0, n))
-    w, U = np.linalg.eigh(0.5 * (cov + cov.T))
-    L = U * np.sqrt(np.clip(w, 0, None))                    # cov = L L^T
-    A = np.linspace(0.0, 1.0, 101)
-    V = A[:, None] ** np.asarray(powers, dtype=float)[None, :]
-    _, sv, Vt = np.linalg.svd(V @ L, full_matrices=False)
-    return np.array([L @ Vt[i] for i in range(min(k, n))])
-
-
-class _Active:
-    """The effects present in a parameter set, with their values, grouped by hook."""
-
-    def __init__(self, tm, p: dict):
-        self.items = []
-        for e in EFFECTS.values():
-            if e.side != "tones":
-                continue
-            v = e.values(p)
-            if v is not None:
-                self.items.append((e, v))
-        self.items.sort(key=lambda ev: ev[0].stage)
-        self.tm = tm
-
-    def filters(self, f):
-        out = [e.drive_filter(self.tm, v, f) for e, v in self.items]
-        return [h for h in out if h is not None]
-
-    def memories(self, f):
-        out = [e.power_memory(self.tm, v, f) for e, v in self.items]
-        return [m for m in out if m is not None]
 
 
 class ToneModel:
@@ -173,9 +101,9 @@ class ToneModel:
         # calibration uncertainty as nuisance modes: the coefficient errors
         # delta = L z (C = L L^T, z ~ N(0, I)) rotated so that the first modes
         # move y(A) (phi(A)) most on [0, 1]; each mode has a N(0, 1) prior
-        self.amp_modes = _modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:],
+        self.amp_modes = calibration_error_modes(np.asarray(amp.covariance)[1:, 1:], amp.powers[1:],
                                 len(amp.powers) - 1)
-        self.phase_modes = (_modes(np.asarray(ph.covariance), ph.powers, len(ph.powers))
+        self.phase_modes = (calibration_error_modes(np.asarray(ph.covariance), ph.powers, len(ph.powers))
                             if ph is not None else np.zeros((0, 1)))
         self.drift_modes = (np.zeros((0, len(amp.powers) - 1)) if camp.drift_modes is None
                             else np.asarray(camp.drift_modes))
@@ -194,8 +122,7 @@ class ToneModel:
         grid = sample_grid(self.nu, self.xi0, tones, extra_harmonics=(-2, 0, 3, 5))
         self._grid0 = grid
         # peak of the continuous drive (what synthesize normalises to A)
-        peak = np.max(np.abs(_envelope(tones, grid, np.arange(16 * grid.n_samples)
-                                       / (16 * grid.fs))))
+        peak = drive_peak(tones, grid)
         t = np.arange(M_SLOW) / (M_SLOW * self.xi0)
         eps = np.zeros(M_SLOW, dtype=complex)
         for n, r, ph in zip(tones.n, tones.r_blue, tones.phi_blue):
@@ -233,7 +160,7 @@ class ToneModel:
         """Largest field of the amplitude curve ``cy`` on 0 <= A <= 1 (P_max = its square)."""
         return float(np.max(np.polynomial.polynomial.polyval(self._A_pmax, cy)))
 
-    def _coefficients(self, p: dict, act: _Active):
+    def _coefficients(self, p: dict, act: ActiveEffects):
         """Forward-model coefficient vectors with the calibration modes and effects applied."""
         cy, cp = self._cy, self._cp
         if any(p.get(f"cal_amp{i}", 0.0) for i in range(len(self.amp_modes))):
@@ -252,7 +179,7 @@ class ToneModel:
             cy, cp = e.coefficients(self, v, cy, cp)
         return cy, cp
 
-    def _table(self, act: _Active) -> np.ndarray:
+    def _table(self, act: ActiveEffects) -> np.ndarray:
         """Table (RF amplitude per target on the uniform grid) the AWG applies."""
         for e, v in act.items:
             c = e.table_curve(self, v, self._cy)
@@ -265,7 +192,7 @@ class ToneModel:
                 return np.where(self.lut_target >= yt[-1], 1.0, inv)
         return self.lut_rf
 
-    def _static(self, mag, coef, act: _Active):
+    def _static(self, mag, coef, act: ActiveEffects):
         """Field (complex, phase of the drive not included) of drive magnitudes ``mag``.
 
         On many samples (the time-domain field) the transfer is tabulated on
@@ -276,7 +203,7 @@ class ToneModel:
         if mag.size > 8 * STATIC_TABLE:
             grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
             F = self._static(grid, coef, act)
-            return _uniform_interp_complex(mag, F)
+            return uniform_interp_complex(mag, F)
         cy, cp = coef
         m = np.minimum(mag, 1.0)
         y = np.polynomial.polynomial.polyval(m, cy)
@@ -296,7 +223,7 @@ class ToneModel:
         return y
 
     # ------------------------------------------------------------- envelope engine
-    def _harmonics(self, coef, table, act: _Active, memory: bool):
+    def _harmonics(self, coef, table, act: ActiveEffects, memory: bool):
         """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field and ``S_m(u)`` (m = 0, 2, 4)
         of the drive power, over ``u`` on [0, 1] (module doc)."""
         Eg = self._Eg
@@ -313,7 +240,7 @@ class ToneModel:
             th = lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None]
             w = self._gw[None, :] * (hi - lo)[:, None] / 2
             u = Eg[:, None] * np.cos(th)
-            x = u if table is None else _uniform_interp(u, table)
+            x = u if table is None else uniform_interp(u, table)
             g = self._static(x, coef, act)
             for j, m in enumerate(ms):
                 G[j] += (4 / np.pi) * np.sum(g * np.cos(m * th) * w, axis=-1)
@@ -324,19 +251,19 @@ class ToneModel:
                 S[2] += (4 / np.pi) * np.sum(pw * np.cos(4 * th) * w, axis=-1)
         return G, S
 
-    def _bands(self, A, coef, table, act: _Active) -> tuple[np.ndarray, np.ndarray]:
+    def _bands(self, A, coef, table, act: ActiveEffects) -> tuple[np.ndarray, np.ndarray]:
         """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
         drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
         mems = act.memories(np.zeros(1))
         G, S = self._harmonics(coef, table, act, bool(mems))
         E = np.asarray(A, dtype=float)[:, None] * self._E_unit[None, :]
         rot = self._rot
-        g1 = _cubic(G[0], E) / 2
+        g1 = cubic_interp(G[0], E) / 2
         blue, red = g1 * rot, g1 * np.conj(rot)
         if not mems:
             return blue, red
-        g3, g5 = _cubic(G[1], E) / 2, _cubic(G[2], E) / 2
-        s0, s2, s4 = (_cubic(S[j], E) for j in range(3))
+        g3, g5 = cubic_interp(G[1], E) / 2, cubic_interp(G[2], E) / 2
+        s0, s2, s4 = (cubic_interp(S[j], E) for j in range(3))
         gm = {1: blue, -1: red, 3: g3 * rot ** 3, -3: g3 * np.conj(rot) ** 3,
               5: g5 * rot ** 5, -5: g5 * np.conj(rot) ** 5}
         f_slow = self._k_slow * self.xi0
@@ -395,7 +322,7 @@ class ToneModel:
                 cache.clear()
             w = synthesize(cardioid(), grid, np.asarray(A, dtype=float))
             w = w[None, :] if w.ndim == 1 else w
-            x = np.sign(w) * _uniform_interp(np.abs(w), table) if d else w
+            x = np.sign(w) * uniform_interp(np.abs(w), table) if d else w
             cache[key] = (table, np.fft.fft(x, axis=-1))      # table kept: its id stays valid
         return cache[key][1]
 
@@ -427,7 +354,7 @@ class ToneModel:
         """Complex tone amplitudes at drive amplitudes ``A``: shape (len(A), len(dpd_flags),
         2 sideband [red, blue], len(harmonics)); the field's Fourier coefficients at
         ``-(nu + n xi0)`` (red) and ``+(nu + n xi0)`` (blue)."""
-        act = _Active(self, p)
+        act = ActiveEffects(self, p)
         A = np.atleast_1d(np.asarray(A, dtype=float))
         if act.filters(np.zeros(1)):
             return self._tones_time_domain(A, p, act, dpd_flags, harmonics)

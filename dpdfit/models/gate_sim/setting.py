@@ -153,11 +153,9 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
         Tone spacing [Hz] (typically from :func:`~dpdfit.models.gate_sim.drive.calibrate_xi0`).
     nbar : float
         Mean thermal phonon number at the start of the gate.
-    T2 : float
-        Qubit coherence time [s] (``np.inf``: none).
-    T2_corr : float
-        Coherence time [s] of dephasing common to both ions (``np.inf``: none;
-        :func:`~dpdfit.models.gate_sim.evolve.evolve_lindblad`).
+    T2, T2_corr : float
+        Coherence times [s] of each qubit's own and of common (both ions) dephasing
+        (``np.inf``: none; :func:`~dpdfit.models.gate_sim.evolve.evolve_lindblad`).
     ndot : float
         Heating rate [quanta/s].
     p_prep : float

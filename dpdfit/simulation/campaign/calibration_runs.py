@@ -22,7 +22,7 @@ from dpdfit.simulation.aom_truth import (BraggAOM, ou_series, simulate_amplitude
 
 from .config import CampaignConfig, rng_for
 
-__all__ = ["calibration_runs"]
+__all__ = ["calibration_runs", "table_index"]
 
 
 def _iso(t0: _dt.datetime, days: float) -> str:

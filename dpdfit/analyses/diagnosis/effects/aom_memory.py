@@ -33,7 +33,7 @@ import numpy as np
 
 from .base import Effect, Form, Param
 
-__all__ = ["AomMemory", "EFFECT", "slow_kernel"]
+__all__ = ["AomMemory", "EFFECT", "slow_kernel", "FAST_GRID", "SLOW_GRID"]
 
 #: coarse grids seeding the fits: fast tau (ns) x f_off (MHz); slow tau1 (us) x gain_p
 FAST_GRID = ((30.0, 90.0), (-4.0, -1.5, 1.5, 4.0))

@@ -18,7 +18,7 @@ import numpy as np
 
 from .base import Effect, Form, Param
 
-__all__ = ["DetectorNonlinearity", "EFFECT", "NEWTON_STEPS"]
+__all__ = ["DetectorNonlinearity", "EFFECT", "NEWTON_STEPS", "true_over_read"]
 
 #: Newton steps of the inversion for exponents q != 1 (a fixed number keeps the model
 #: smooth in k and q for the fits' finite differences)

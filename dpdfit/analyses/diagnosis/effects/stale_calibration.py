@@ -34,12 +34,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.calibration_drift import MAX_DRIFT_MODES
+
 from .base import Effect, Form, Param
 
-__all__ = ["StaleCalibration", "EFFECT", "MAX_DRIFT_MODES"]
-
-#: drift modes used, at most (the campaign may have fewer significant ones)
-MAX_DRIFT_MODES = 3
+__all__ = ["StaleCalibration", "EFFECT", "drift_profile"]
 
 
 def _modes(ctx):
@@ -53,7 +52,7 @@ def _significant(ctx) -> int:
     return int(getattr(tm, "drift_significant", MAX_DRIFT_MODES))
 
 
-def profile(v: dict, dt) -> np.ndarray:
+def drift_profile(v: dict, dt) -> np.ndarray:
     """The drift's time profile ``f(dt)`` (module doc), ``dt`` in days after the recordings."""
     dt = np.maximum(np.asarray(dt, dtype=float), 0.0)
     tau = max(v.get("tau_d", 1.0), 1e-6)
@@ -133,7 +132,7 @@ class StaleCalibration(Effect):
         a = np.array([v.get(f"sa{i}", 0.0) for i in range(len(modes))])
         if not a.any():
             return None
-        return profile(v, days_after)[:, None] * a[None, :]
+        return drift_profile(v, days_after)[:, None] * a[None, :]
 
     def size_values(self, ctx, p):
         v = self.values(p) or {}
@@ -154,7 +153,7 @@ class StaleCalibration(Effect):
     def inject_aom(self, v, days_after_table, days_after_recording):
         d = v.get("drift", 0.0)
         after = np.asarray(days_after_recording, dtype=float)
-        out = np.where(after >= 0, d * profile(v, after), 0.0)
+        out = np.where(after >= 0, d * drift_profile(v, after), 0.0)
         return np.where(np.asarray(days_after_table) > 0, out, 0.0)
 
     def injected(self, v):

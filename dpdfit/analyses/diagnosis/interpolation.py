@@ -1,0 +1,45 @@
+"""Interpolation in uniform tables, the inner loop of the tone model's engines."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["uniform_interp", "uniform_interp_complex", "cubic_interp"]
+
+
+def uniform_interp(x, table):
+    """Linear interpolation in a table on the uniform grid 0..1 (as the AWG applies it).
+
+    Hand-written because ``np.interp`` bisects for every sample; on a uniform
+    grid the index is arithmetic (5-10x faster).
+    """
+    n = table.size - 1
+    u = np.clip(x, 0.0, 1.0) * n
+    i = np.minimum(u.astype(np.intp), n - 1)
+    f = u - i
+    return table[i] + f * (table[i + 1] - table[i])
+
+
+def uniform_interp_complex(x, table):
+    """:func:`uniform_interp` of a complex table (real and imaginary parts together)."""
+    n = table.size - 1
+    u = np.clip(x, 0.0, 1.0) * n
+    i = np.minimum(u.astype(np.intp), n - 1)
+    f = u - i
+    t0 = table[i]
+    return t0 + f * (table[i + 1] - t0)
+
+
+def cubic_interp(table: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Cubic Lagrange interpolation of ``table`` (last axis: uniform grid on [0, 1]) at
+    ``x`` in [0, 1] (hand-written: vectorised over the leading table axis)."""
+    K = table.shape[-1] - 1
+    s = np.clip(x, 0.0, 1.0) * K
+    i = np.clip(np.floor(s).astype(np.intp) - 1, 0, K - 3)
+    f = s - i
+    l0 = -(f - 1) * (f - 2) * (f - 3) / 6
+    l1 = f * (f - 2) * (f - 3) / 2
+    l2 = -f * (f - 1) * (f - 3) / 2
+    l3 = f * (f - 1) * (f - 2) / 6
+    return (l0 * table[..., i] + l1 * table[..., i + 1] + l2 * table[..., i + 2]
+            + l3 * table[..., i + 3])
