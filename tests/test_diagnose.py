@@ -78,8 +78,8 @@ def test_concealed_campaign_is_named_and_its_parameters_recovered(tmp_path):
     ev = set(d.to_dict()["mismatch_evidence"])
     assert {"global_chi2", "located_interval"} <= ev
     assert all(EFFECTS[e.split(":")[1]].side == "gates" for e in ev if e.startswith("targeted:"))
-    got = d.chosen.params
-    err = d.chosen.params_err
+    got = d.chosen.params_of(name)
+    err = d.chosen.errors_of(name)
     assert abs(got["tau"] - params["tau_ns"]) < 2 * err["tau"] + 0.02 * params["tau_ns"]
     assert abs(got["f_off"] - params["f_off_MHz"]) < 2 * err["f_off"] + 0.02 * params["f_off_MHz"]
     # every observable the effect spoiled is described at the level of its errors again

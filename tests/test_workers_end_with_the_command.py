@@ -1,9 +1,11 @@
 """Worker processes end when the command that started them is killed or interrupted."""
 
 import os
+import queue
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -18,7 +20,7 @@ from dpdfit.core.parallel import pmap
 def busy(i):
     print("worker", os.getpid(), flush=True)
     t = time.time()
-    while time.time() - t < 60:
+    while time.time() - t < 300:
         pass
 pmap(busy, [((i,), {}) for i in range(2)], workers=2)
 """
@@ -48,11 +50,19 @@ def test_pool_workers_do_not_outlive_their_parent(sig):
     p = subprocess.Popen([sys.executable, "-c", _SCRIPT], cwd=ROOT, stdout=subprocess.PIPE,
                          text=True, env={**os.environ, "DPDFIT_WORKERS": "2"})
     workers = []
-    deadline = time.time() + 60
+    # generous: under a loaded test run a forked worker can take long to be scheduled
+    deadline = time.time() + 180
+    lines = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(x) for x in p.stdout], daemon=True).start()
     while len(workers) < 2 and time.time() < deadline:
-        line = p.stdout.readline()
+        try:
+            line = lines.get(timeout=1.0)
+        except queue.Empty:
+            continue
         if line.startswith("worker"):
             workers.append(int(line.split()[1]))
+    if len(workers) < 2:
+        p.kill()
     assert len(workers) == 2
     p.send_signal(sig)
     p.wait(timeout=30)

@@ -313,7 +313,7 @@ def summarise(results: list) -> dict:
     confusion = {c: {} for c in labels}
     for r in results:
         row = confusion[r["concealed"]]
-        key = "+".join(r.get("named") or []) if "+" in r["concealed"] else r["verdict"]
+        key = "+".join(sorted(r.get("named") or [])) if "+" in r["concealed"] else r["verdict"]
         key = key or r["verdict"]
         row[key] = row.get(key, 0) + 1
     nulls = [r for r in results if r["concealed"] == "none"]
