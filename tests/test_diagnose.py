@@ -187,6 +187,7 @@ def test_scan_false_alarm_rate_is_below_alpha_over_many_series():
     assert alarms / n_rep <= 0.05
 
 
+@pytest.mark.slow
 def test_reduced_harness_runs_and_names_most_concealed_effects():
     """CI's reduced harness: one campaign per effect and one null, on the local cores.
 

@@ -187,14 +187,21 @@ def report_external(s: dict) -> str:
     def num(v):
         return "n/a" if v is None else f"{v:.3g}"
 
+    def share(frac, n):
+        """A fraction of ``n`` campaigns as a count and a percentage."""
+        if frac is None or not n:
+            return f"n/a of {n or 0}"
+        return f"{round(frac * n)}/{n} ({100 * frac:.0f} %)"
+
     lines = [f"External injection recovery: {s['n_campaigns']} campaigns from "
              f"{s['campaigns']} in {s['seconds']:.0f} s",
-             f"  named correctly: {num(s['named_correctly'])} of {s['n_concealed']} concealed",
-             f"  false-alarm rate: {num(s['false_alarm_rate'])} of {s['n_nulls']} nulls"]
+             f"  named correctly: {share(s['named_correctly'], s['n_concealed'])} concealed",
+             f"  false alarms: {share(s['false_alarm_rate'], s['n_nulls'])} nulls"]
     if s.get("n_pairs"):
-        lines.append(f"  pairs: both named {num(s.get('pairs_both_named'))}, at least one "
-                     f"{num(s.get('pairs_one_named'))}, called none "
-                     f"{s.get('pairs_called_none')} of {s.get('n_pairs')}")
+        n = s.get("n_pairs")
+        lines.append(f"  pairs: both named {share(s.get('pairs_both_named'), n)}, at least one "
+                     f"{share(s.get('pairs_one_named'), n)}, called none "
+                     f"{s.get('pairs_called_none')}/{n}")
     lines += [f"  refused: {s['n_refused']}; seconds per campaign: median "
               f"{num(s['median_seconds'])}, max {num(s['max_seconds'])}", "",
               "  confusion (truth -> named):"]
