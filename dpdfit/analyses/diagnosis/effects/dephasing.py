@@ -48,6 +48,25 @@ INDEPENDENT = Knob("dephasing.independent", 100.0, "1/s", _independent, nonlinea
 COMMON = Knob("dephasing.common", 100.0, "1/s", _common, nonlinear=True)
 
 
+def _profile_forms(name: str, during: float, what: str, where: str) -> tuple:
+    """The rate alone, with a common-mode fraction, and with a time profile too, each
+    started from the one before: during the gate (``during`` 1, ``name`` "" gives
+    independent/mixed/stretched) or on the final coherences (0)."""
+    base = name or "independent"
+    mixed = f"{name}_mixed" if name else "mixed"
+    return (Form(base, ("rate",), {"f_cm": 0.0, "beta": 1.0, "during": during}, what),
+            Form(mixed, ("rate", "f_cm"), {"beta": 1.0, "during": during},
+                 f"{where}a common-mode fraction", starts_from=base,
+                 extra_starts=({"f_cm": 0.5},)),
+            Form(f"{name}_stretched" if name else "stretched", ("rate", "f_cm", "beta"),
+                 {"during": during}, f"{where}a common-mode fraction and a time profile",
+                 starts_from=mixed, extra_starts=({"beta": 1.5}, {"beta": 0.7})))
+
+
+# the forms during the gate (the common-mode form goes after the first)
+_DURING = _profile_forms("", 1.0, "independent on each ion, a rate", "")
+
+
 class Dephasing(Effect):
     name = "dephasing"
     side = "gates"
@@ -57,24 +76,12 @@ class Dephasing(Effect):
               Param("beta", "1", 0.3, 3.0, 1.0, 0.1, "time-profile exponent"),
               Param("during", "1", 0.0, 1.0, 1.0, 1.0,
                     "1: during the gate; 0: on the final state's coherences"))
-    forms = (Form("independent", ("rate",), {"f_cm": 0.0, "beta": 1.0, "during": 1.0},
-                  "independent on each ion, a rate"),
+    forms = (_DURING[0],
              Form("common", ("rate",), {"f_cm": 1.0, "beta": 1.0, "during": 1.0},
                   "common to both ions"),
-             Form("mixed", ("rate", "f_cm"), {"beta": 1.0, "during": 1.0},
-                  "a common-mode fraction", starts_from="independent",
-                  extra_starts=({"f_cm": 0.5},)),
-             Form("stretched", ("rate", "f_cm", "beta"), {"during": 1.0},
-                  "a common-mode fraction and a time profile", starts_from="mixed",
-                  extra_starts=({"beta": 1.5}, {"beta": 0.7})),
-             Form("coherence", ("rate",), {"f_cm": 0.0, "beta": 1.0, "during": 0.0},
-                  "on the final state's coherences"),
-             Form("coherence_mixed", ("rate", "f_cm"), {"beta": 1.0, "during": 0.0},
-                  "on the coherences, a common-mode fraction", starts_from="coherence",
-                  extra_starts=({"f_cm": 0.5},)),
-             Form("coherence_stretched", ("rate", "f_cm", "beta"), {"during": 0.0},
-                  "on the coherences, a common-mode fraction and a time profile",
-                  starts_from="coherence_mixed", extra_starts=({"beta": 1.5}, {"beta": 0.7})))
+             *_DURING[1:],
+             *_profile_forms("coherence", 0.0, "on the final state's coherences",
+                             "on the coherences, "))
     main = "rate_per_s"
     harness = {"rate": (30.0, 150.0, False), "f_cm": (0.0, 1.0, False)}
 
