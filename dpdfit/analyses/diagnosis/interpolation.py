@@ -4,24 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["uniform_interp", "uniform_interp_complex", "cubic_interp"]
+__all__ = ["uniform_interp", "cubic_interp"]
 
 
 def uniform_interp(x, table):
-    """Linear interpolation in a table on the uniform grid 0..1 (as the AWG applies it).
+    """Linear interpolation in a table (real or complex) on the uniform grid 0..1 (as
+    the AWG applies it).
 
-    Hand-written because ``np.interp`` bisects for every sample; on a uniform
-    grid the index is arithmetic (5-10x faster).
+    Hand-written because ``np.interp`` bisects for every sample (and takes real
+    tables only); on a uniform grid the index is arithmetic (5-10x faster).
     """
-    n = table.size - 1
-    u = np.clip(x, 0.0, 1.0) * n
-    i = np.minimum(u.astype(np.intp), n - 1)
-    f = u - i
-    return table[i] + f * (table[i + 1] - table[i])
-
-
-def uniform_interp_complex(x, table):
-    """:func:`uniform_interp` of a complex table (real and imaginary parts together)."""
     n = table.size - 1
     u = np.clip(x, 0.0, 1.0) * n
     i = np.minimum(u.astype(np.intp), n - 1)

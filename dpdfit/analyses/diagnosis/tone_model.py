@@ -45,7 +45,7 @@ import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
-from dpdfit.analyses.diagnosis.interpolation import cubic_interp, uniform_interp, uniform_interp_complex
+from dpdfit.analyses.diagnosis.interpolation import cubic_interp, uniform_interp
 from dpdfit.analyses.diagnosis.mode_profile import calibration_error_modes
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
 from dpdfit.models import gate_sim
@@ -203,7 +203,7 @@ class ToneModel:
         if mag.size > 8 * STATIC_TABLE:
             grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
             F = self._static(grid, coef, act)
-            return uniform_interp_complex(mag, F)
+            return uniform_interp(mag, F)
         cy, cp = coef
         m = np.minimum(mag, 1.0)
         y = np.polynomial.polynomial.polyval(m, cy)
