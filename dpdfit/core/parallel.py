@@ -41,9 +41,14 @@ def n_workers() -> int:
     return max(1, min(os.cpu_count() or 1, 8))
 
 
-def die_with_parent() -> None:
+def die_with_parent(parent_pid: int | None = None) -> None:
     """Worker initializer: be killed when the parent process dies (Linux; elsewhere a
-    no-op), and leave Ctrl-C to the parent (which then terminates the workers)."""
+    no-op), and leave Ctrl-C to the parent (which then terminates the workers).
+
+    ``parent_pid`` is the pid of the process that made the pool: a worker whose parent
+    is already another process when it starts (the parent died before ``prctl`` took
+    effect) exits at once.  Without it, only re-parenting to pid 1 is recognised; under
+    a sub-reaper (containers, some CI runners) an orphan is re-parented elsewhere."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         try:
@@ -51,7 +56,8 @@ def die_with_parent() -> None:
             libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
         except OSError:                          # no libc by that name: nothing to ask
             pass
-        if os.getppid() == 1:                    # the parent died before prctl took effect
+        ppid = os.getppid()                      # the parent died before prctl took effect
+        if ppid == 1 or (parent_pid is not None and ppid != parent_pid):
             os._exit(1)
 
 
@@ -79,7 +85,8 @@ def pmap(fn, calls, workers: int | None = None) -> list:
     if workers <= 1:
         return [fn(*a, **kw) for a, kw in calls]
     ctx = multiprocessing.get_context("fork")
-    ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=die_with_parent)
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=die_with_parent,
+                             initargs=(os.getpid(),))
     try:
         out = list(ex.map(_call, [(fn, a, kw) for a, kw in calls]))
     except BaseException:

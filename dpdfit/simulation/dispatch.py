@@ -70,7 +70,7 @@ def run_jobs(fn, jobs: list, workers: int | None, scheduler: str | None, finishe
         ctx = multiprocessing.get_context("spawn")
         # workers die with this process (killed or interrupted: none is left running)
         ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=die_with_parent)
+                                 initializer=die_with_parent, initargs=(os.getpid(),))
         try:
             job_of = {ex.submit(fn, j): j for j in jobs}
             for f in as_completed(job_of):
