@@ -46,10 +46,13 @@ def cmd_analyze(args) -> int:
     if not args.no_plots:
         from dpdfit.report.figure_io import use_noninteractive_backend
         use_noninteractive_backend()
+    from dpdfit.cli.import_campaign import campaign_argument, copy_imported, is_mapping
     out = Path(args.output)
-    folder = Path(args.folder)
-    summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
-                      diagnosis=not args.no_diagnosis, progress=args.progress)
+    with campaign_argument(args.folder, args.complete_only) as folder:
+        summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
+                          diagnosis=not args.no_diagnosis, progress=args.progress)
+        if is_mapping(args.folder):
+            copy_imported(folder, out)
     for name, st in summary["analyses"].items():
         print(f"{name:12s} {st['status']:8s} {st['detail']}")
     print(f"results in {out}/ (summary.md, summary.json)")
@@ -60,7 +63,10 @@ def add_analyze_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit analyze`` on an argparse sub-parsers object."""
     a = subparsers.add_parser("analyze",
                               help="run every analysis on a campaign folder (main job)")
-    a.add_argument("folder", help="campaign folder (campaign.json, calibration_*.csv, ...)")
+    a.add_argument("folder", help="campaign folder (campaign.json, calibration_*.csv, ...), "
+                   "or an import mapping (MAP.toml) of ARTIQ results files")
+    a.add_argument("--complete-only", action="store_true",
+                   help="with a mapping: skip ndscan scans that did not complete")
     a.add_argument("-o", "--output", required=True, help="results folder")
     a.add_argument("--formula", choices=["exact", "paper"], default=FORMULA,
                    help=f"Bell-fidelity expression for F_est ({FORMULA})")

@@ -17,7 +17,9 @@ __all__ = ["add_diagnose_command", "cmd_diagnose"]
 
 def cmd_diagnose(args) -> int:
     """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr."""
-    res = diagnose(args.campaign, pairs=args.pairs, progress=args.progress)
+    from dpdfit.cli.import_campaign import campaign_argument
+    with campaign_argument(args.campaign, args.complete_only) as folder:
+        res = diagnose(folder, pairs=args.pairs, progress=args.progress)
     for w in res.extra.get("warnings", []):
         print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:
@@ -40,7 +42,10 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
                     "and likelihood-ratio tests; further effects added while decisive; each "
                     "named effect's size in a lab's terms with errors; verdict: the first "
                     "named effect, 'none' or 'unexplained'.")
-    s.add_argument("campaign", metavar="CAMPAIGN_DIR")
+    s.add_argument("campaign", metavar="CAMPAIGN_DIR",
+                   help="campaign folder, or an import mapping (MAP.toml) of ARTIQ results files")
+    s.add_argument("--complete-only", action="store_true",
+                   help="with a mapping: skip ndscan scans that did not complete")
     s.add_argument("--json", action="store_true", help="print JSON instead of a report")
     s.add_argument("--plot", metavar="DIR", help="write before/after residual plots into DIR")
     s.add_argument("--pairs", type=nonneg_int, default=DEFAULT_PAIRS,

@@ -89,6 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_fidelity_command(sub)
     add_align_command(sub)
     add_simulate_campaign_command(sub)
+    from dpdfit.cli.import_campaign import add_import_command
+    add_import_command(sub)
     add_analyze_command(sub)
     describe(sub)
     return p
@@ -105,6 +107,8 @@ def check_outputs(args) -> None:
         folders["output"] = "results folder (-o)"
     if args.command == "simulate-campaign":
         folders["outdir"] = "campaign folder"
+    if args.command == "import":
+        folders["output"] = "campaign folder (-o)"
     for attr, what in folders.items():
         if getattr(args, attr, None):
             check_output_folder(getattr(args, attr), what)

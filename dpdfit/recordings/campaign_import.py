@@ -1,0 +1,277 @@
+"""Import a lab's ARTIQ results files into a campaign folder, following a mapping.
+
+:func:`import_campaign` reads every results file a :class:`~.mapping.Mapping`
+names (each once), builds the campaign tables row by row (one row per ndscan
+point, or per value of a plain per-point dataset, or one per file), converts
+units, checks values and counts, and returns an :class:`ImportedCampaign`;
+:meth:`ImportedCampaign.write` writes the documented campaign folder
+atomically and checks it with the campaign folder's own readers before it
+appears.
+
+Every row keeps where it came from: ``source_file`` (relative to the mapping)
+and ``source_rid``, extra columns the readers ignore.  ``campaign.json`` lists
+every source file with its SHA-256, rid and start time.  A point measured again
+stays a separate row; the ``scan`` column of populations and parity, when the
+mapping does not give it, numbers the repeats of each setting (1, 2, ...) in
+acquisition order (files by start time, then rid).  The recording times default
+to the earliest start time of the spectra's and of the gates' files.
+"""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import json
+import logging
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.core.version import __version__
+from dpdfit.errors import InputError
+
+from .artiq import ResultsFile, read_results_file
+from .campaign_folder import CampaignFolder
+from .mapped_columns import column_values, fail
+from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
+
+__all__ = ["ImportedCampaign", "import_campaign", "GATE_TABLES", "COUNT_COLUMNS"]
+
+log = logging.getLogger(__name__)
+
+#: tables recorded with the gates (their earliest run is campaign.json's gates_recorded)
+GATE_TABLES = ("populations", "parity", "time_scans", "gate_rates")
+#: count columns, each at most ``shots``
+COUNT_COLUMNS = ("n_even", "n00", "n01_10", "n11")
+_SCAN_KEYS = {"populations": ["A", "dpd"], "parity": ["A", "dpd", "phase_rad"]}
+#: sorts a run without a start time last
+_NEVER = pd.Timestamp.max.tz_localize("UTC")
+
+
+@dataclass(frozen=True)
+class ImportedCampaign:
+    """The campaign tables built from results files, ready to be written as a folder."""
+
+    tables: dict
+    meta: dict
+    warnings: tuple = ()
+    skipped: tuple = ()
+    mapping: Mapping | None = field(default=None, repr=False)
+
+    def report(self) -> str:
+        lines = [f"{t:22s} {len(df):6d} rows from {df['source_file'].nunique()} files"
+                 for t, df in self.tables.items()]
+        lines += [f"warning: {w}" for w in self.warnings]
+        lines += [f"skipped (incomplete): {s}" for s in self.skipped]
+        return "\n".join(lines)
+
+    def write(self, folder) -> Path:
+        """Write the campaign folder (atomically: it appears complete or not at all).
+
+        Refuses a folder that exists and is not empty (never overwrites).  The
+        written tables are read back with :class:`CampaignFolder` first; a row the
+        readers refuse is reported with the results file it came from.
+        """
+        folder = Path(folder)
+        if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+            raise InputError("exists and is not empty: dpdfit import writes a new campaign "
+                             "folder and never overwrites one", file=str(folder))
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=folder.parent))
+        try:
+            for name, df in self.tables.items():
+                df.to_csv(tmp / f"{name}.csv", index=False)
+            (tmp / "campaign.json").write_text(json.dumps(self.meta, indent=2) + "\n",
+                                               encoding="utf-8")
+            self._check(tmp)
+            if folder.exists():
+                folder.rmdir()
+            os.replace(tmp, folder)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return folder
+
+    def _check(self, tmp: Path) -> None:
+        camp = CampaignFolder(tmp)
+        readers = {"calibration_amplitude": "amplitude_runs", "calibration_phase": "phase_runs",
+                   "spectra": "spectra", "populations": "populations", "parity": "parity",
+                   "time_scans": "time_scans", "gate_rates": "gate_rates"}
+        for name in self.tables:
+            try:
+                getattr(camp, readers[name])
+            except InputError as exc:
+                raise _traced(exc, name, self.tables[name]) from None
+        camp.recording_times
+
+
+def _traced(exc: InputError, table: str, df: pd.DataFrame) -> InputError:
+    msg = str(exc).split(": ", 1)[-1]
+    if exc.row is not None and 1 <= exc.row <= len(df):
+        r = df.iloc[exc.row - 1]
+        return InputError(f"imported {table} (row {exc.row}, column '{exc.column}'): {msg}",
+                          file=f"{r['source_file']} (rid {r['source_rid']})")
+    return InputError(f"imported {table}: {msg}")
+
+
+def import_campaign(mapping, *, complete_only: bool | None = None) -> ImportedCampaign:
+    """Build the campaign tables a mapping describes (module doc).
+
+    Parameters
+    ----------
+    mapping : Mapping or path-like
+        The mapping (:func:`~dpdfit.recordings.mapping.read_mapping`) or its file.
+    complete_only : bool, optional
+        Skip ndscan scans that did not complete (default: the mapping's
+        ``[import] complete_only``, else import them with a warning).
+    """
+    m = mapping if isinstance(mapping, Mapping) else read_mapping(mapping)
+    complete_only = m.complete_only if complete_only is None else complete_only
+    files = {}                                       # each results file read once
+    chunks = {t: [] for t in TABLE_COLUMNS}
+    warnings, skipped = [], []
+    for src in m.sources:
+        for path in _expand(m, src):
+            if path not in files:
+                files[path] = read_results_file(path)
+            rf = files[path]
+            rel = _relative(path, m.folder)
+            df, scan = _rows(src, rf, rel)
+            if scan is not None and scan.completed is False:
+                what = f"{rel}: ndscan root '{scan.root}' did not complete ({len(df)} points)"
+                if complete_only:
+                    skipped.append(what)
+                    continue
+                warnings.append(what + ", imported")
+                log.warning("%s; imported (--complete-only skips it)", what)
+            t0 = _NEVER if rf.run.start_time is None else rf.run.start_time
+            chunks[src.table].append(((t0, rf.run.rid or 0, src.index), df))
+    tables = {}
+    for t, parts in chunks.items():
+        if not parts:
+            continue
+        parts.sort(key=lambda p: p[0])
+        df = pd.concat([p[1] for p in parts], ignore_index=True)
+        if t in _SCAN_KEYS and "scan" not in df.columns:
+            df.insert(2, "scan", df.groupby(_SCAN_KEYS[t], sort=False).cumcount() + 1)
+        tables[t] = _ordered(df, t)
+    meta = _meta(m, files, chunks, warnings)
+    return ImportedCampaign(tables=tables, meta=meta, warnings=tuple(warnings),
+                            skipped=tuple(skipped), mapping=m)
+
+
+def _expand(m: Mapping, src: SourceSpec) -> list[str]:
+    out = []
+    for pattern in src.files:
+        full = pattern if os.path.isabs(pattern) else str(m.folder / pattern)
+        hits = sorted(p for p in glob.glob(full, recursive=True) if os.path.isfile(p))
+        if not hits:
+            raise InputError(f"mapping key '{src.key}.files' (line {src.line}): no file "
+                             f"matches '{pattern}'", file=str(m.path))
+        out += [h for h in hits if h not in out]
+    return out
+
+
+def _relative(path: str, folder: Path) -> str:
+    try:
+        return Path(os.path.relpath(path, folder)).as_posix()
+    except ValueError:                                 # another drive (Windows)
+        return Path(path).as_posix()
+
+
+def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
+    """The rows one results file contributes to one source's table."""
+    uses_scan = any(c.source in ("axis", "channel") for c in src.columns.values())
+    scan = rf.scan(src.root) if uses_scan else None
+    if scan is not None:
+        n = _scan_points(scan, rf)
+    else:
+        lengths = {len(np.atleast_1d(rf.datasets[c.name][0])) for c in src.columns.values()
+                   if c.source == "dataset" and c.name in rf.datasets
+                   and np.ndim(rf.datasets[c.name][0]) > 0}
+        if len(lengths) > 1:
+            raise InputError(f"per-point datasets of different lengths {sorted(lengths)}",
+                             file=rf.run.file)
+        n = lengths.pop() if lengths else 1
+    cols = {c: column_values(spec, rf, scan, n) for c, spec in src.columns.items()}
+    df = pd.DataFrame(cols)
+    _check_counts(df, src, rf, scan)
+    df["source_file"] = rel
+    df["source_rid"] = rf.run.rid if rf.run.rid is not None else -1
+    return df, scan
+
+
+def _scan_points(scan, rf: ResultsFile) -> int:
+    qs = (*scan.axes, *scan.channels.values())
+    lengths = {q.dataset: len(q.values) for q in qs}
+    n = min(lengths.values()) if lengths else 0
+    if len(set(lengths.values())) > 1:
+        longest = max(lengths, key=lengths.get)
+        shortest = min(lengths, key=lengths.get)
+        if scan.completed is not False:
+            raise InputError(f"root '{scan.root}': dataset '{longest}' has {lengths[longest]} "
+                             f"points but '{shortest}' has {lengths[shortest]}",
+                             file=rf.run.file)
+        # an interrupted scan may end inside a point: drop it, as ndscan's tools do
+        log.warning("%s: root '%s' interrupted inside a point: its last partial point dropped",
+                    rf.run.file, scan.root)
+    return n
+
+
+def _check_counts(df: pd.DataFrame, src: SourceSpec, rf: ResultsFile, scan) -> None:
+    if "shots" not in df.columns:
+        return
+    for c in COUNT_COLUMNS:
+        if c in df.columns:
+            bad = (df[c] > df["shots"]).to_numpy()
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                spec = src.columns[c]
+                ds = None
+                if scan is not None and spec.source in ("axis", "channel"):
+                    ds = (scan.axis(spec.name) if spec.source == "axis"
+                          else scan.channel(spec.name)).dataset
+                fail(spec, rf, f"point {i + 1}: {c} = {df[c].iloc[i]} exceeds shots = "
+                      f"{df['shots'].iloc[i]}", scan, ds)
+
+
+def _ordered(df: pd.DataFrame, table: str) -> pd.DataFrame:
+    required, optional = TABLE_COLUMNS[table]
+    doc = [c for c in ("run", "timestamp") if c in df.columns] + \
+        [c for c in (*required, *optional) if c in df.columns and c not in ("run", "timestamp")]
+    if table in _SCAN_KEYS:                     # the bundled layout: A, dpd, scan, ...
+        doc = ["A", "dpd", "scan"] + [c for c in doc if c not in ("A", "dpd", "scan")]
+    return df[doc + ["source_file", "source_rid"]]
+
+
+def _meta(m: Mapping, files: dict, chunks: dict, warnings: list) -> dict:
+    meta = json.loads(json.dumps(m.campaign, default=str))   # TOML dates become text
+    used = {t: sorted({p[1]["source_file"].iloc[0] for p in parts if len(p[1])})
+            for t, parts in chunks.items()}
+
+    def earliest(tables):
+        ts = [p[0][0] for t in tables for p in chunks[t] if p[0][0] != _NEVER]
+        return min(ts).isoformat() if ts else None
+
+    if "spectra_recorded" not in meta and earliest(["spectra"]):
+        meta["spectra_recorded"] = earliest(["spectra"])
+    if "gates_recorded" not in meta and earliest(GATE_TABLES):
+        meta["gates_recorded"] = earliest(GATE_TABLES)
+    sources = []
+    for path, rf in files.items():
+        rel = _relative(path, m.folder)
+        sources.append({"file": rel, "sha256": rf.run.sha256, "rid": rf.run.rid,
+                        "start_time": None if rf.run.start_time is None
+                        else rf.run.start_time.isoformat(),
+                        "class_name": rf.run.expid.get("class_name"),
+                        "artiq_version": rf.run.artiq_version,
+                        "tables": [t for t, fs in used.items() if rel in fs]})
+    meta["imported"] = {"dpdfit": __version__, "mapping": _relative(str(m.path), m.folder),
+                        "mapping_sha256": hashlib.sha256(m.text.encode()).hexdigest(),
+                        "warnings": list(warnings), "sources": sources}
+    return meta

@@ -1,0 +1,152 @@
+"""One column of a campaign table from one results file, as a mapping describes it.
+
+:func:`column_values` takes a column's :class:`~.mapping.ColumnSpec` and a
+:class:`~.artiq.ResultsFile` (and the ndscan scan the source reads) and
+returns the column's values, one per row, in the column's documented unit:
+the value found (axis, channel, argument, parameter, dataset, provenance or
+constant), then per-shot counting, labels, formatting, and the unit
+conversion with its checks (finite numbers, integers where the column counts).
+Every refusal is an InputError naming the file, the root and dataset, and the
+mapping key with its line.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dpdfit.errors import InputError
+
+from .artiq import ResultsFile
+from .mapping import ColumnSpec
+from .units import COLUMN_KINDS, UnitError, convert, stored_unit
+
+__all__ = ["column_values", "fail"]
+
+_INTEGER = tuple(c for c, (k, _) in COLUMN_KINDS.items() if k == "number")
+
+
+def fail(spec: ColumnSpec, rf: ResultsFile, msg: str, scan=None, dataset=None):
+    where = []
+    if scan is not None:
+        where.append(f"root '{scan.root}'")
+    if dataset:
+        where.append(f"dataset '{dataset}'")
+    prefix = ", ".join(where) + ": " if where else ""
+    raise InputError(f"{prefix}{msg} ({spec.where()})", file=rf.run.file)
+
+
+def column_values(spec: ColumnSpec, rf: ResultsFile, scan, n: int) -> np.ndarray:
+    """One column's ``n`` values from one results file, in the column's unit."""
+    src, name = spec.source, spec.name
+    file_unit, dataset = None, None
+    if src == "value":
+        v = np.full(n, name, dtype=object if isinstance(name, str) else None)
+    elif src in ("axis", "channel"):
+        try:
+            q = scan.axis(name) if src == "axis" else scan.channel(name)
+        except KeyError:
+            known = [a.name for a in scan.axes] if src == "axis" else list(scan.channels)
+            fail(spec, rf, f"no {src} '{name}' (the scan has: {', '.join(known) or 'none'})",
+                  scan)
+        dataset, v = q.dataset, q.values[:n]
+        file_unit = stored_unit(q.unit, q.scale)
+        if file_unit is None and spec.unit is None:
+            fail(spec, rf, f"shown in '{q.unit}' with scale {q.scale:g}: the stored unit is "
+                  "not clear; say it with 'unit'", scan, dataset)
+    elif src in ("argument", "parameter"):
+        pool = rf.run.arguments if src == "argument" else rf.run.ndscan_overrides
+        if name not in pool:
+            fail(spec, rf, f"the run has no {src} '{name}' (it has: "
+                  f"{', '.join(map(str, pool)) or 'none'})")
+        v = np.full(n, pool[name], dtype=object if isinstance(pool[name], str) else None)
+    elif src == "dataset":
+        if name not in rf.datasets:
+            fail(spec, rf, f"no dataset '{name}'")
+        raw, attrs = rf.datasets[name]
+        dataset, v = name, np.asarray(raw)
+        v = np.full(n, v[()]) if v.ndim == 0 else v
+        if "unit" in attrs:
+            file_unit = stored_unit(str(attrs.get("unit")), attrs.get("scale", 1.0))
+    else:                                                  # provenance
+        value = {"rid": rf.run.rid, "file": rf.run.file,
+                 "start_time": None if rf.run.start_time is None
+                 else rf.run.start_time.isoformat()}[name]
+        if value is None:
+            fail(spec, rf, f"the results file has no '{name}'")
+        v = np.full(n, value, dtype=object if isinstance(value, str) else None)
+    if spec.count is not None:
+        v = _count(v, spec, rf, scan, dataset)
+    if spec.labels is not None:
+        v = _labelled(v, spec, rf, scan, dataset)
+    if spec.format is not None:
+        v = _formatted(v, spec, rf, scan, dataset)
+    return _in_unit(v, spec, spec.unit or file_unit, rf, scan, dataset)
+
+
+def _count(v, spec, rf, scan, dataset) -> np.ndarray:
+    rows = list(v) if v.dtype == object or v.ndim == 2 else None
+    if rows is None:
+        fail(spec, rf, "'count' needs per-shot outcomes (one array per point)", scan, dataset)
+    if spec.count == "all":
+        return np.array([len(np.asarray(r).ravel()) for r in rows], dtype=np.int64)
+    want = np.atleast_1d(spec.count)
+    return np.array([int(np.isin(np.asarray(r).ravel(), want).sum()) for r in rows],
+                    dtype=np.int64)
+
+
+def _labelled(v, spec, rf, scan, dataset) -> np.ndarray:
+    labels = {str(k): str(x) for k, x in spec.labels.items()}
+    out = []
+    for i, x in enumerate(v):
+        k = str(int(x)) if isinstance(x, (int, float, np.number)) and float(x).is_integer() \
+            else str(x)
+        if k not in labels:
+            fail(spec, rf, f"point {i + 1}: code {k} has no label (labels: "
+                  f"{', '.join(labels)})", scan, dataset)
+        out.append(labels[k])
+    return np.array(out, dtype=object)
+
+
+def _formatted(v, spec, rf, scan, dataset) -> np.ndarray:
+    out = []
+    for x in v:
+        if isinstance(x, (float, np.floating)) and float(x).is_integer():
+            x = int(x)
+        elif isinstance(x, np.integer):
+            x = int(x)
+        try:
+            out.append(spec.format.format(x))
+        except (ValueError, IndexError, KeyError) as exc:
+            fail(spec, rf, f"format '{spec.format}' does not apply to {x!r} ({exc})", scan,
+                  dataset)
+    return np.array(out, dtype=object)
+
+
+def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset) -> np.ndarray:
+    kind = COLUMN_KINDS[spec.column][0]
+    if kind == "label":
+        return np.asarray(v, dtype=object)
+    try:
+        x = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        fail(spec, rf, f"values are not numbers (e.g. {v[0]!r})", scan, dataset)
+    if x.ndim != 1:
+        fail(spec, rf, f"one value per point expected, got an array of shape {x.shape} "
+              "(per-shot outcomes need 'count')", scan, dataset)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        fail(spec, rf, f"point {i + 1} is {x[i]} (values must be finite)", scan, dataset)
+    try:
+        x = convert(x, unit or "", spec.column, full_scale_dbm=spec.full_scale_dbm)
+    except UnitError as exc:
+        fail(spec, rf, str(exc), scan, dataset)
+    if spec.column in _INTEGER:
+        r = np.round(x)
+        bad = r != x
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            fail(spec, rf, f"point {i + 1}: {spec.column} = {x[i]:g} must be an integer",
+                  scan, dataset)
+        return r.astype(np.int64)
+    return x
