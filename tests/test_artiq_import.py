@@ -119,21 +119,25 @@ def test_the_reader_gives_provenance_units_and_points(ndscan_set):
 
 
 @pytest.mark.slow
-def test_analyze_on_the_imported_campaign_matches_the_csv_campaign(ndscan_set, tmp_path):
-    """Same analysis outputs (compare_analyze's rules); traces are not imported, so the
-    CSV campaign is taken without them."""
+def test_analyze_takes_the_mapping_and_matches_the_csv_campaign(ndscan_set, tmp_path, capsys):
+    """``dpdfit analyze MAP.toml``: the same analysis outputs as the CSV campaign
+    (compare_analyze's rules; the inputs' paths and hashes aside).  Traces are not
+    imported, so the CSV campaign is taken without them."""
     import importlib.util
     import shutil
-    from dpdfit.pipeline.analyze import analyze
+
+    from dpdfit.cli.main import main
     spec = importlib.util.spec_from_file_location("compare_analyze",
                                                   ROOT / "scripts" / "compare_analyze.py")
     compare_analyze = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(compare_analyze)
     ref = tmp_path / "csv"
     shutil.copytree(BUNDLED, ref, ignore=shutil.ignore_patterns("traces*"))
-    import_campaign(ndscan_set).write(tmp_path / "imported")
-    analyze(ref, tmp_path / "res_csv", plots=False, diagnosis=False, progress=False)
-    analyze(tmp_path / "imported", tmp_path / "res_imp", plots=False, diagnosis=False,
-            progress=False)
+    opts = ["--no-plots", "--no-diagnosis", "--no-progress"]
+    assert main(["analyze", str(ref), "-o", str(tmp_path / "res_csv"), *opts]) == 0
+    assert main(["analyze", str(ndscan_set), "-o", str(tmp_path / "res_imp"), *opts]) == 0
+    kept = tmp_path / "res_imp" / "imported_campaign"
+    assert (kept / "campaign.json").exists()
+    shutil.rmtree(kept)
     assert compare_analyze.compare(tmp_path / "res_csv", tmp_path / "res_imp",
                                    inputs_differ=True) == []

@@ -171,7 +171,7 @@ def _expand(m: Mapping, src: SourceSpec) -> list[str]:
         full = pattern if os.path.isabs(pattern) else str(m.folder / pattern)
         hits = sorted(p for p in glob.glob(full, recursive=True) if os.path.isfile(p))
         if not hits:
-            raise InputError(f"mapping key '{src.key}.files' (line {src.line}): no file "
+            raise InputError(f"mapping key '{src.key}.files' (line {src.files_line}): no file "
                              f"matches '{pattern}'", file=str(m.path))
         out += [h for h in hits if h not in out]
     return out

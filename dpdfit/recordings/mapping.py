@@ -97,6 +97,7 @@ class SourceSpec:
     columns: dict
     key: str
     line: int | None = None
+    files_line: int | None = None
 
 
 @dataclass(frozen=True)
@@ -191,7 +192,8 @@ def _source(table: str, i: int, entry, err) -> SourceSpec:
         err.bad(f"{key}.columns", f"misses the column(s) {', '.join(missing)}", table)
     columns = {c: _column(c, v, f"{key}.columns.{c}", err, table, i) for c, v in cols.items()}
     return SourceSpec(table=table, index=i, files=tuple(files), root=root, columns=columns,
-                      key=key, line=err.lines.find(table, None, i))
+                      key=key, line=err.lines.find(table, None, i),
+                      files_line=err.lines.find(table, "files", i))
 
 
 def _column(column: str, v, key: str, err, table: str, index: int) -> ColumnSpec:
