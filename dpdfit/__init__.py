@@ -33,6 +33,8 @@ from dpdfit.models.waveforms import ToneSet, cardioid, sample_grid, synthesize, 
 from dpdfit.models.spectrum import field_tone_powers, simulate_field  # noqa: E402
 from dpdfit.fits.tones import trace_tone_powers  # noqa: E402
 from dpdfit.recordings.traces import load_trace  # noqa: E402
+from dpdfit.recordings.artiq import read_results_file  # noqa: E402
+from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.analyses.trace_estimate import trace_estimate  # noqa: E402
 from dpdfit.models.fidelity import bell_fidelity, estimate, phase_space  # noqa: E402
 from dpdfit.models.im_requirements import im_requirements  # noqa: E402
@@ -57,4 +59,5 @@ __all__ = [
     "estimate", "im_requirements", "phase_space", "SweepConfig", "run_sweep", "thresholds",
     "fit_parity", "gate_fidelities", "merge_parity", "pool_populations", "population_fidelity",
     "read_parity", "read_populations", "align", "analyze", "Analysis",
+    "read_results_file", "import_campaign",
 ]

@@ -46,13 +46,12 @@ def cmd_analyze(args) -> int:
     if not args.no_plots:
         from dpdfit.report.figure_io import use_noninteractive_backend
         use_noninteractive_backend()
-    from dpdfit.cli.import_campaign import campaign_argument, copy_imported, is_mapping
+    from dpdfit.cli.import_campaign import campaign_argument
     out = Path(args.output)
-    with campaign_argument(args.folder, args.complete_only) as folder:
+    # a mapping is imported into the results folder: the results name their inputs
+    with campaign_argument(args.folder, args.complete_only, keep_in=out) as folder:
         summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
                           diagnosis=not args.no_diagnosis, progress=args.progress)
-        if is_mapping(args.folder):
-            copy_imported(folder, out)
     for name, st in summary["analyses"].items():
         print(f"{name:12s} {st['status']:8s} {st['detail']}")
     print(f"results in {out}/ (summary.md, summary.json)")

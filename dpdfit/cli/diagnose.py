@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 
@@ -17,9 +18,11 @@ __all__ = ["add_diagnose_command", "cmd_diagnose"]
 
 def cmd_diagnose(args) -> int:
     """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr."""
-    from dpdfit.cli.import_campaign import campaign_argument
+    from dpdfit.cli.import_campaign import campaign_argument, is_mapping
     with campaign_argument(args.campaign, args.complete_only) as folder:
         res = diagnose(folder, pairs=args.pairs, progress=args.progress)
+    if is_mapping(args.campaign):         # the temporary folder is gone: name the mapping
+        res = dataclasses.replace(res, campaign=f"{args.campaign} (imported)")
     for w in res.extra.get("warnings", []):
         print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:

@@ -1,21 +1,23 @@
 """``dpdfit import``: a lab's ARTIQ results files into a campaign folder, by a mapping.
 
 Also :func:`campaign_argument`, which lets ``analyze`` and ``diagnose`` take a
-mapping file in place of a campaign folder (imported into a temporary folder
-first).
+mapping file in place of a campaign folder (``analyze`` imports it into its
+results folder, ``diagnose`` into a temporary folder).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-import shutil
+import json
+import os
 import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["add_import_command", "cmd_import", "campaign_argument", "is_mapping",
-           "copy_imported"]
+from dpdfit.errors import InputError
+
+__all__ = ["add_import_command", "cmd_import", "campaign_argument", "is_mapping"]
 
 
 def is_mapping(path) -> bool:
@@ -25,18 +27,42 @@ def is_mapping(path) -> bool:
 
 
 @contextlib.contextmanager
-def campaign_argument(path, complete_only: bool = False):
+def campaign_argument(path, complete_only: bool = False, keep_in=None):
     """The campaign folder a command's argument names: the folder itself, or, for a
-    mapping file, the campaign imported from it into a temporary folder (removed after)."""
+    mapping file, the campaign imported from it -- into ``keep_in/imported_campaign``
+    when given (an earlier import there is replaced; anything else is refused), else
+    into a temporary folder removed afterwards."""
     if not is_mapping(path):
         yield Path(path)
         return
     from dpdfit.recordings.campaign_import import import_campaign
     imported = import_campaign(path, complete_only=complete_only or None)
-    with tempfile.TemporaryDirectory(prefix="dpdfit-import-") as tmp:
-        folder = imported.write(Path(tmp) / "campaign")
-        print(imported.report(), file=sys.stderr)    # stdout may be JSON
-        yield folder
+    if keep_in is None:
+        with tempfile.TemporaryDirectory(prefix="dpdfit-import-") as tmp:
+            folder = imported.write(Path(tmp) / "campaign")
+            print(imported.report(), file=sys.stderr)    # stdout may be JSON
+            yield folder
+        return
+    target = Path(keep_in) / "imported_campaign"
+    if target.exists() and not _imported_before(target):
+        raise InputError("exists and is not a campaign dpdfit imported: not replaced",
+                         file=str(target))
+    Path(keep_in).mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix=".imported_campaign.", dir=keep_in) as tmp:
+        new = imported.write(Path(tmp) / "campaign")
+        if target.exists():
+            new_old = Path(tmp) / "previous"
+            os.replace(target, new_old)
+        os.replace(new, target)
+    print(imported.report(), file=sys.stderr)
+    yield target
+
+
+def _imported_before(folder: Path) -> bool:
+    try:
+        return "imported" in json.loads((folder / "campaign.json").read_text())
+    except (OSError, ValueError, TypeError):
+        return False
 
 
 def cmd_import(args) -> int:
@@ -64,8 +90,3 @@ def add_import_command(subparsers) -> argparse.ArgumentParser:
                         "with a warning)")
     c.set_defaults(func=cmd_import)
     return c
-
-
-def copy_imported(folder: Path, outdir) -> None:
-    """Keep the imported campaign beside the results (``OUTDIR/imported_campaign``)."""
-    shutil.copytree(folder, Path(outdir) / "imported_campaign", dirs_exist_ok=True)
