@@ -14,9 +14,9 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, "tests")
-from test_alignment import ALPHA, DELTA, SDB, simulated_gate  # noqa: E402
-from test_transfer import truth_poly_tf  # noqa: E402
+sys.path.insert(0, ".")   # the repository root (run from there): the tests package
+from tests.test_alignment import ALPHA, DELTA, SDB, simulated_gate  # noqa: E402
+from tests.test_transfer import truth_poly_tf  # noqa: E402
 
 from dpdfit.fits.alignment import align  # noqa: E402
 from dpdfit.analyses.sweep import SweepConfig, run_sweep  # noqa: E402

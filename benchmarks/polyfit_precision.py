@@ -36,9 +36,9 @@ except ImportError:                      # run from a source checkout
 
 
 # problems and the 50-digit reference: the very ones the tests use
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tests"))
-from test_polyfit import hard_case, no_constant_case  # noqa: E402
-from test_polyfit import mp_reference as _mp_reference  # noqa: E402
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+from tests.test_polyfit import hard_case, no_constant_case  # noqa: E402
+from tests.test_polyfit import mp_reference as _mp_reference  # noqa: E402
 
 CASES = [
     ("degree 10 with constant, x in [-9,-3], 60 points", hard_case),

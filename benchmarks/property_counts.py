@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""How the readers and commands answer generated bad input (issue #17 item 2).
+"""How the readers and commands answer generated bad input.
 
     python benchmarks/property_counts.py [EXAMPLES]
 
@@ -23,12 +23,11 @@ os.environ["PROPERTY_COUNT_ONLY"] = "1"
 os.environ["HYPOTHESIS_PROFILE"] = "counts"
 if len(sys.argv) > 1:
     os.environ["PROPERTY_EXAMPLES"] = sys.argv[1]
-sys.path.insert(0, "tests")
 sys.path.insert(0, ".")
 
-import prop_mutations  # noqa: E402  (registers and loads the 'counts' profile)
-import test_properties  # noqa: E402
-import test_properties_cli  # noqa: E402
+from tests.helpers import prop_mutations  # noqa: E402  (loads the 'counts' profile)
+from tests import test_properties  # noqa: E402
+from tests import test_properties_cli  # noqa: E402
 
 
 def main() -> None:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Simulate the bundled campaign with a concealed effect (issue #7 walkthrough).
+"""Simulate the bundled campaign with a concealed effect (for the diagnosis walkthrough).
 
     python scripts/make_concealed_campaign.py
 

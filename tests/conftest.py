@@ -1,17 +1,18 @@
 import os
-import sys
 
 # Small dense problems: threaded BLAS only adds scheduling overhead on a shared
 # 2-core machine (must be set before numpy is imported).
 for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "datasets" / "synthetic_aom"
+BUNDLED_CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 
 
 @pytest.fixture
@@ -28,17 +29,15 @@ def write_csv(tmp_path):
         return p
     return _write
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))   # test-only helpers (exact_ms)
-
 
 @pytest.fixture(scope="session")
-def made(tmp_path_factory):
+def cli_outputs(tmp_path_factory):
     """calibration.json, sweep.csv and gate.csv of the bundled data, made once by the CLI."""
     from dpdfit.cli.main import main
     root = Path(__file__).resolve().parents[1]
     amp = root / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
     camp = root / "datasets" / "synthetic_campaign"
-    d = tmp_path_factory.mktemp("made17")
+    d = tmp_path_factory.mktemp("cli_outputs")
     cal, sweep, gate = d / "c.json", d / "s.csv", d / "g.csv"
     assert main(["calibrate", "--amplitude", str(amp), "-o", str(cal),
                  "--order-scan", "none"]) == 0
@@ -47,3 +46,20 @@ def made(tmp_path_factory):
                  "--parity", str(camp / "parity.csv"),
                  "--gate-rates", str(camp / "gate_rates.csv"), "-o", str(gate)]) == 0
     return {"cal": cal, "sweep": sweep, "gate": gate}
+
+
+class AnalysedCampaign(NamedTuple):
+    analysis: object   # the dpdfit.Analysis that analyze returned
+    results: Path      # the results folder it wrote
+
+
+@pytest.fixture(scope="session")
+def bundled_analysis(tmp_path_factory):
+    """``analyze`` on the bundled campaign with everything on (figures, diagnosis), written
+    to a results folder: the suite's most expensive fixture, made once per test process
+    (per xdist worker) and shared.  Tests only read it; one that changes the Analysis or
+    the folder must make its own."""
+    from dpdfit.pipeline.analyze import analyze
+    out = tmp_path_factory.mktemp("bundled_analysis") / "results"
+    res = analyze(BUNDLED_CAMPAIGN, out, plots=True, diagnosis=True, progress=False)
+    return AnalysedCampaign(res, out)

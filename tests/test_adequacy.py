@@ -1,4 +1,4 @@
-"""Model adequacy (issue #16 item 5): the reduced chi-square against its 99 % range.
+"""Model adequacy: the reduced chi-square against its 99 % range.
 
 A correct model is flagged (``model_adequate is False``) 1 % of the time: over
 300 seeded replicates per fit kind the count of flags must lie in the
@@ -21,9 +21,9 @@ from dpdfit.fits.alignment import align
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
 from dpdfit.fits.polyfit import polyfit
 from dpdfit.recordings.tables import read_calibration
-from test_alignment import simulated_gate
-from test_display import AOM, alignment, campaign  # noqa: F401  (fixtures)
-from test_transfer import truth_poly_tf
+from tests.test_alignment import simulated_gate
+from tests.test_display import AOM, alignment, campaign  # noqa: F401  (fixtures)
+from tests.test_transfer import truth_poly_tf
 
 N_REP = 300
 P_FLAG = 0.01
@@ -78,12 +78,14 @@ def flag_counts():
         ("phase", _phase_flags, 1603), ("alignment", _alignment_flags, 1604)]}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["polyfit", "amplitude", "phase", "alignment"])
 def test_correct_model_is_flagged_about_1_percent(flag_counts, kind):
     lo, hi = _band(N_REP)
     assert lo <= flag_counts[kind] <= hi, (kind, flag_counts[kind], (lo, hi))
 
 
+@pytest.mark.slow
 def test_pooled_flag_rate(flag_counts):
     lo, hi = _band(4 * N_REP)
     assert lo <= sum(flag_counts.values()) <= hi, (flag_counts, (lo, hi))

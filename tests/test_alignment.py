@@ -9,7 +9,7 @@ from dpdfit.fits.alignment import K_DB, align, curves, xi0_band
 from dpdfit.errors import FitError, InputError
 from dpdfit.models.fidelity import cardioid_populations
 from dpdfit.analyses.sweep import SweepConfig, run_sweep
-from test_transfer import truth_poly_tf
+from tests.test_transfer import truth_poly_tf
 
 ALPHA, DELTA, SDB = 3.42, -0.018, 0.2
 AMPS = (0.4, 0.5, 0.6, 0.7, 0.8)
@@ -39,6 +39,7 @@ def test_band_formula():
     assert np.log(10) / 20 * 0.2 == pytest.approx(0.023, abs=5e-4)    # paper: ~2.3 %
 
 
+@pytest.mark.slow
 def test_alpha_delta_coverage(sweep):
     """alpha and delta are recovered within 1 sigma in >= 60 % and 2 sigma in >= 93 %."""
     rng = np.random.default_rng(5)

@@ -1,4 +1,4 @@
-"""The package's structure (issue #15): layers, `__all__`, private names, plotting at the edge.
+"""The package's structure: layers, `__all__`, private names, plotting at the edge.
 
 The layer contract itself is import-linter's (``[tool.importlinter]`` in pyproject.toml);
 the other rules are read from the source with :mod:`ast`.
@@ -128,7 +128,7 @@ def test_matplotlib_only_in_report():
 
 
 def test_modules_and_functions_are_readable_in_one_sitting():
-    """No module over 400 lines and no function over 80 (issue #15)."""
+    """No module over 400 lines and no function over 80."""
     long_modules = [(_name(p), n) for p in MODULES
                     if (n := p.read_text().count("\n")) > 400]
     long_functions = [(_name(p), f.name, f.end_lineno - f.lineno + 1) for p in MODULES

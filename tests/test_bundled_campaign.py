@@ -5,7 +5,6 @@ from pathlib import Path
 
 import pytest
 
-from dpdfit.pipeline.analyze import analyze
 from dpdfit.simulation.campaign import campaign_hashes, simulate_campaign
 
 BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
@@ -13,10 +12,11 @@ SEED = 20260329
 
 
 def quiet(label, total):
-    from dpdfit.core.progress import Progress
-    return Progress(label, total, enabled=False)
+    from dpdfit.core.progress import progress_bar
+    return progress_bar(total=total, desc=label, disable=True)
 
 
+@pytest.mark.slow
 def test_simulator_regenerates_bundled_campaign_bit_for_bit(tmp_path):
     out = tmp_path / "regen"
     simulate_campaign(out, seed=SEED, progress=quiet)
@@ -30,8 +30,9 @@ def test_bundled_campaign_size():
     assert total <= 30 * 2 ** 20
 
 
-def test_analyze_bundled_campaign(tmp_path):
-    s = analyze(BUNDLED, tmp_path / "results", plots=False)
+@pytest.mark.slow
+def test_analyze_bundled_campaign(bundled_analysis):
+    s = bundled_analysis.analysis.summary
     assert {k: v["status"] for k, v in s["analyses"].items()} == {
         "calibration": "ok", "stability": "ok", "sweep": "ok", "spectra": "ok", "traces": "ok",
         "gates": "ok", "propagation": "ok", "budget": "ok", "diagnosis": "ok"}
@@ -41,5 +42,5 @@ def test_analyze_bundled_campaign(tmp_path):
     assert abs(cal["A_corr_runs_mean"] - 0.5655) < 3 * cal["A_corr_runs_std"] / 34 ** 0.5 + 0.002
     gain = s["spectra"]["R10_gain_dB_below_A_corr"]
     assert gain["mean"] > 2.0
-    summary = json.loads((tmp_path / "results" / "summary.json").read_text())
+    summary = json.loads((bundled_analysis.results / "summary.json").read_text())
     assert summary["realism"]

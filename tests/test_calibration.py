@@ -106,6 +106,7 @@ def _amp_coverage(n_rep, seed, with_err, noise):
     return est, se, truth
 
 
+@pytest.mark.slow
 def test_A_corr_coverage_with_power_err():
     """1-sigma interval of A_corr covers the truth in 68 +/- 3 % of 1000 calibrations."""
     est, se, truth = _amp_coverage(1000, 2026, True, PhotodiodeNoise())
@@ -117,6 +118,7 @@ def test_A_corr_coverage_with_power_err():
     assert est.std(ddof=1) / se.mean() == pytest.approx(1.0, abs=0.06)
 
 
+@pytest.mark.slow
 def test_A_corr_coverage_sigma_from_residuals():
     """Without power_err (homoscedastic detector noise, estimated from residuals)."""
     est, se, truth = _amp_coverage(1000, 77, False, PhotodiodeNoise(sigma_0=1e-3, rel=0.0))
@@ -135,6 +137,7 @@ def _phase_coverage(n_rep, seed, with_err, noise):
     return est, se, truth
 
 
+@pytest.mark.slow
 def test_phi1_coverage_with_phase_err():
     """1-sigma interval of phi(1) covers the truth in 68 +/- 3 % of 1000 calibrations."""
     est, se, truth = _phase_coverage(1000, 11, True, HeterodyneNoise())
@@ -143,6 +146,7 @@ def test_phi1_coverage_with_phase_err():
     assert abs(est.mean() - truth) < 0.1 * se.mean()
 
 
+@pytest.mark.slow
 def test_phi1_coverage_sigma_from_residuals():
     """Phase noise nearly constant above A=0.3: fit there without phase_err."""
     rng = np.random.default_rng(12)

@@ -18,8 +18,8 @@ SMALL = CampaignConfig(n_amp_runs=4, n_phase_runs=2, cal_points=101,
 
 
 def quiet(label, total):
-    from dpdfit.core.progress import Progress
-    return Progress(label, total, enabled=False)
+    from dpdfit.core.progress import progress_bar
+    return progress_bar(total=total, desc=label, disable=True)
 
 
 @pytest.fixture(scope="module")
@@ -65,9 +65,10 @@ def test_refuses_non_empty_output(small_campaign):
         simulate_campaign(small_campaign, config=SMALL, progress=quiet, include_gates=False)
 
 
+@pytest.mark.slow
 def test_analyze_runs_everything_present(small_campaign, tmp_path):
     out = tmp_path / "res"
-    s = analyze(small_campaign, out, plots=False, diagnosis=False)
+    s = analyze(small_campaign, out, plots=False, diagnosis=False).summary
     st = {k: v["status"] for k, v in s["analyses"].items()}
     assert st == {"calibration": "ok", "stability": "ok", "sweep": "ok", "spectra": "ok",
                   "traces": "ok", "gates": "skipped", "propagation": "ok", "budget": "ok",
@@ -138,6 +139,7 @@ def test_effects_change_the_recordings(tmp_path):
     assert truth["config"]["effects"] == {"aom_memory": 40.0, "aom_memory_offset": 30.0}
 
 
+@pytest.mark.slow
 def test_gate_power_offset_reaches_the_time_scans(tmp_path):
     """A time scan is a gate run: the systematic power offset acts on it too."""
     from dpdfit.simulation.harness import harness_config
@@ -154,9 +156,10 @@ def test_gate_power_offset_reaches_the_time_scans(tmp_path):
     assert (a / "spectra.csv").read_bytes() == (b / "spectra.csv").read_bytes()
 
 
+@pytest.mark.slow
 def test_analyze_text_in_spectra_amplitude_with_traces_present(small_campaign, tmp_path, capsys):
     """Text in spectra.csv's A column: the spectra step fails with the one line; the
-    traces check (which reads the file as recorded) runs on, no traceback (issue #17)."""
+    traces check (which reads the file as recorded) runs on, no traceback."""
     camp = tmp_path / "camp"
     shutil.copytree(small_campaign, camp)
     sp = (camp / "spectra.csv").read_text().splitlines()
@@ -175,6 +178,7 @@ def test_analyze_text_in_spectra_amplitude_with_traces_present(small_campaign, t
     assert s["analyses"]["traces"]["status"] == "ok"
 
 
+@pytest.mark.slow
 def test_analyze_rerun_clears_what_the_previous_run_wrote(small_campaign, tmp_path):
     """A rerun into a used results folder: the old spectra tables go when spectra are skipped."""
     out = tmp_path / "res"
@@ -185,7 +189,7 @@ def test_analyze_rerun_clears_what_the_previous_run_wrote(small_campaign, tmp_pa
     shutil.copytree(small_campaign, camp)
     (camp / "spectra.csv").unlink()
     (camp / "traces.csv").unlink()
-    s = analyze(camp, out, plots=False, diagnosis=False)
+    s = analyze(camp, out, plots=False, diagnosis=False).summary
     assert s["analyses"]["spectra"]["status"] == "skipped"
     assert not (out / "spectra_measured.csv").exists()
     assert not (out / "traces_check.csv").exists()

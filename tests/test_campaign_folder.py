@@ -1,4 +1,4 @@
-"""One campaign-folder reader for analyze and diagnose (issue #14): required and
+"""One campaign-folder reader for analyze and diagnose: required and
 optional files and columns, what is left out, bad input in one line."""
 
 import json

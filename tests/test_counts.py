@@ -208,6 +208,7 @@ def test_fit_parity_sign_convention():
     assert np.allclose(r.parity(PHI16), -0.8 * np.cos(2 * PHI16 + 0.5), atol=5e-3)
 
 
+@pytest.mark.slow
 def test_parity_hessian_coverage_bias_and_cramer_rao():
     """2000 scans, 16 x 625 shots, contrast 0.96, random phi0.
 
@@ -227,6 +228,7 @@ def test_parity_hessian_coverage_bias_and_cramer_rao():
     assert abs(A.std() / bound.mean() - 1) < 0.05                 # the scatter agrees too
 
 
+@pytest.mark.slow
 def test_parity_boundary_regime_coverage():
     """Contrast 0.995 (about 2.5 sigma below A = 1): the reported interval.
 
@@ -246,6 +248,7 @@ def test_parity_boundary_regime_coverage():
     assert np.all(err > 0) and np.all(np.isfinite(err)) and np.all(hi <= 1)
 
 
+@pytest.mark.slow
 def test_parity_on_the_boundary_true_contrast_one():
     """True A = 1: the MLE sits on the boundary in about half the scans.
 
@@ -348,6 +351,7 @@ def parity_frame(scans):
     return pd.DataFrame(rows)
 
 
+@pytest.mark.slow
 def test_pooling_four_scans_shrinks_sigma_by_two():
     """Average over 150 replicates of sigma(single scan) / sigma(4 merged scans).
 
@@ -401,8 +405,8 @@ def test_merge_parity_rounds_to_common_grid():
 
 @pytest.mark.parametrize("offset", [0.013, 0.004, 0.03])
 def test_merge_parity_accepts_scans_off_the_grid(offset):
-    """Issue #14: scans whose phases jitter around a common set are merged for
-    tables (never refused); the fit itself uses every recorded phase."""
+    """Scans whose phases jitter around a common set are merged for tables
+    (never refused); the fit itself uses every recorded phase."""
     rng = np.random.default_rng(4)
     k = simulate(rng, 0.9, 0.0)
     scans = [(0.5, 0, PHI16, k, N), (0.5, 0, PHI16 + offset, k, N)]

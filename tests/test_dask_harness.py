@@ -1,4 +1,4 @@
-"""Issue #17 item 3: the harness on a real dask.distributed cluster.
+"""The harness on a real dask.distributed cluster.
 
 A ``LocalCluster`` on the loopback interface (two worker processes, one thread
 each) runs a small harness through ``dpdfit harness --scheduler ADDR``; its runs
@@ -69,6 +69,7 @@ def _same(a, b, path="run"):
         assert a == b, f"{path}: {a!r} != {b!r}"
 
 
+@pytest.mark.slow      # also slow: -m "not slow" replaces the default -m 'not cluster'
 @pytest.mark.cluster
 def test_harness_on_a_dask_cluster_equals_the_process_pool(tmp_path, capsys):
     """``dpdfit harness --scheduler ADDR`` on a LocalCluster: same runs, verdicts and fitted
@@ -98,6 +99,7 @@ def test_harness_on_a_dask_cluster_equals_the_process_pool(tmp_path, capsys):
         _same(pool[k], dsk[k], k)
 
 
+@pytest.mark.slow
 def test_a_killed_workers_job_is_retried_or_reported():
     """A job that kills its worker once is run again; one that kills it every time is handed
     to ``failed`` as KilledWorker after the allowed failures; the others all finish."""

@@ -1,4 +1,4 @@
-"""Discrepancy diagnosis (issue #7): contract, null campaign, concealed campaign, reduced harness."""
+"""Discrepancy diagnosis: contract, null campaign, concealed campaign, reduced harness."""
 
 import json
 from pathlib import Path
@@ -37,11 +37,13 @@ def test_catalog_keeps_the_verdict_names_and_every_effect_is_complete():
     assert set(concealed_effects()) == {n for n in default_effects() if EFFECTS[n].harness}
 
 
-@pytest.fixture(scope="module")
-def bundled():
-    return diagnose(BUNDLED)
+@pytest.fixture
+def bundled(bundled_analysis):
+    """The diagnosis of the bundled (null) campaign, as ``analyze`` ran it."""
+    return bundled_analysis.analysis.diagnosis
 
 
+@pytest.mark.slow
 def test_bundled_null_campaign_has_no_mismatch(bundled):
     d = bundled.to_dict()
     assert d["verdict"] == "none"
@@ -53,6 +55,7 @@ def test_bundled_null_campaign_has_no_mismatch(bundled):
     assert d["baseline_p_value"] > 0.01
 
 
+@pytest.mark.slow
 def test_json_contract_keys(bundled):
     d = json.loads(json.dumps(bundled.to_dict(), default=float))
     for key in ("mismatches", "ranking", "verdict", "redchi_before", "redchi_after"):
@@ -64,6 +67,7 @@ def test_json_contract_keys(bundled):
         assert set(r["params"]) == set(r["params_err"])
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not CONCEALED_DIR.exists(), reason="bundled concealed campaign missing")
 def test_concealed_campaign_is_named_and_its_parameters_recovered(tmp_path):
     truth = json.loads(CONCEALED_TRUTH.read_text())          # read by the test only
@@ -172,6 +176,7 @@ def test_summarise_confusion_pairs_and_pull_coverage_arithmetic():
     assert s["recovery"]["dephasing"]["all_params_within_2sigma"] == 2 / 3
 
 
+@pytest.mark.slow
 def test_scan_false_alarm_rate_is_below_alpha_over_many_series():
     """Bonferroni over intervals and series keeps the global false-alarm rate <= alpha."""
     rng = np.random.default_rng(2)
@@ -192,7 +197,7 @@ def test_reduced_harness_runs_and_names_most_concealed_effects():
     """CI's reduced harness: one campaign per effect and one null, on the local cores.
 
     This checks the machinery end to end and that most effects are named; it
-    does NOT establish the issue's targets (>= 90 % named, <= 5 % false alarms),
+    does NOT establish the diagnosis's targets (>= 90 % named, <= 5 % false alarms),
     which need the larger run of ``dpdfit harness`` (report committed as
     ``benchmarks/harness_report.json``; measured values in the README).
     """
@@ -265,7 +270,7 @@ def test_bad_input_one_line_nonzero_exit_input_untouched(tmp_path, capsys, case,
     else:
         import pandas as pd
         p = camp / "spectra.csv"
-        # snr_db is optional now (the noise floor is learnt); P_dB never is
+        # snr_db is optional (the noise floor is learnt); P_dB never is
         pd.read_csv(p).drop(columns=["P_dB"]).to_csv(p, index=False)
     before = {p.name: p.read_bytes() for p in camp.iterdir() if p.is_file()}
     assert main(["diagnose", str(camp), "--plot", str(tmp_path / "plots")]) == 2

@@ -1,7 +1,7 @@
 """Generalisation of the discrepancy diagnosis: forms the catalog does not have.
 
 Recordings whose effect comes from an independent implementation with a
-different functional form than the catalog's (see ``independent_effects.py``)
+different functional form than the catalog's (see ``tests/helpers/independent_effects.py``)
 must still be named correctly: a two-pole (not single-pole) modulator memory as
 ``aom_memory``, a linearly ramped drift of compression, efficiency and amplifier
 shape (not an amplitude-axis scaling) as ``stale_calibration``.
@@ -10,17 +10,14 @@ Each test simulates one null harness campaign, rewrites its ``spectra.csv`` from
 the independent generator and diagnoses the folder.
 """
 
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import independent_effects as ie  # noqa: E402
-from dpdfit.analyses.diagnosis.diagnose import diagnose  # noqa: E402
+from dpdfit.analyses.diagnosis.diagnose import diagnose
+from tests.helpers import independent_effects as ie
 
 TAU = 40e-9          # two-pole kernel t/tau^2 exp(-t/tau): mean delay 2 tau = 80 ns
 F_OFF = 2.5e6        # response centre offset from the carrier, Hz
@@ -40,6 +37,7 @@ def _entry(d, effect):
     return next(r for r in d.ranking if r["effect"] == effect)
 
 
+@pytest.mark.slow
 def test_two_pole_memory_named_aom_memory(tmp_path):
     t0 = time.perf_counter()
     folder = tmp_path / "campaign"
@@ -68,6 +66,7 @@ def test_two_pole_memory_named_aom_memory(tmp_path):
     assert mean_delay / 3 < tau_fit < 3 * mean_delay, _summary(d)
 
 
+@pytest.mark.slow
 def test_linear_drift_named_stale_calibration(tmp_path):
     t0 = time.perf_counter()
     folder = tmp_path / "campaign"

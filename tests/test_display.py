@@ -1,4 +1,4 @@
-"""Results that display themselves (issue #16): golden text/HTML renderings, and every
+"""Results that display themselves: golden text/HTML renderings, and every
 public result class has ``__str__``, ``__repr__``, ``_repr_html_``, ``report`` and ``to_dict``.
 
 The golden files in ``tests/golden/`` pin ``repr(result)`` plus
@@ -55,7 +55,7 @@ AOM = ROOT / "datasets" / "synthetic_aom"
 CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 UPDATE = os.environ.get("DPDFIT_UPDATE_GOLDEN") == "1"
 
-#: every public result class of dpdfit (issue #16)
+#: every public result class of dpdfit
 RESULT_CLASSES = [PolyFitResult, AmplitudeCalibration, PhaseCalibration, Calibration,
                   AlignmentFit, PosteriorResult, DriftModel, PowerNoise, PhaseNoise, NoiseFloor,
                   PopulationFidelity, ParityFit, SidebandTones, TraceSpectrum, Estimate,

@@ -10,7 +10,7 @@ from dpdfit.analyses.diagnosis.effects import (EFFECTS, catalog_table, default_e
 from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.harness import concealed_effects, harness_config, plan
 
-from seventh_order_effect import EFFECT as PM7
+from tests.helpers.seventh_order_effect import EFFECT as PM7
 
 
 @pytest.fixture
@@ -32,13 +32,14 @@ def test_a_registered_effect_appears_in_every_derived_list(registered):
 
 
 def test_register_refuses_a_second_effect_of_the_same_name(registered):
-    from seventh_order_effect import SeventhOrderPM
+    from tests.helpers.seventh_order_effect import SeventhOrderPM
     with pytest.raises(ValueError, match="already registered"):
         register(SeventhOrderPM())
     with pytest.raises(ValueError, match="belongs to the catalog"):
         unregister("dephasing")
 
 
+@pytest.mark.slow
 def test_a_registered_effect_is_injected_named_and_sized(registered, tmp_path):
     seed = 5151
     phi7 = 0.1

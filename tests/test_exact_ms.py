@@ -1,4 +1,4 @@
-"""Tests of the brute-force Molmer-Sorensen oracle in tests/exact_ms.py.
+"""Tests of the brute-force Molmer-Sorensen oracle in tests/helpers/exact_ms.py.
 
 Realistic parameters: xi0 = 5 kHz, eta = 0.026, eta*Omega = pi*xi0 (the
 single-tone MS condition eta*Omega = delta/2).
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from exact_ms import (
+from tests.helpers.exact_ms import (
     S_OPERATOR,
     bell_fidelity,
     ideal_target,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-import exact_ms
+from tests.helpers import exact_ms
 from dpdfit.models.fidelity import (bell_fidelity, calibrate_g, estimate, gate_phase_space,
                              im_signs, phase_space)
 from dpdfit.models.im_requirements import im_infidelity, im_requirements

@@ -1,4 +1,4 @@
-"""Figures as objects (issue #16): every figure function returns a matplotlib Figure and draws
+"""Figures as objects: every figure function returns a matplotlib Figure and draws
 into the caller's axes (``ax=``) or figure (``fig=``); saving is separate; the library never
 chooses a matplotlib backend and ``import dpdfit`` does not import matplotlib.
 
@@ -29,7 +29,6 @@ from dpdfit import (Calibration, SweepConfig, TransferFunction, align, calibrate
 from dpdfit.analyses.stability import stability  # noqa: E402
 from dpdfit.fits.posterior import sample_amplitude_posterior  # noqa: E402
 from dpdfit.pipeline.steps.gates import closest_pair  # noqa: E402
-from dpdfit.report import plots  # noqa: E402
 from dpdfit.report.figure_io import save_figures  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -188,28 +187,6 @@ def test_save_figures_dpi_per_name(inp, tmp_path):
     assert wa == round(fig.get_figwidth() * 50) and wb == round(fig.get_figwidth() * report.DPI)
 
 
-def test_old_plot_functions_still_write_their_files(inp, tmp_path):
-    """The ``plot_*`` writers work as before (with a DeprecationWarning naming the new one)."""
-    calls = {
-        "plot_calibration": (lambda d: plots.plot_calibration(inp.cal, d, inp.amp_data,
-                                                              inp.ph_data), 4),
-        "plot_sweep": (lambda d: plots.plot_sweep(inp.sweep, d), 4),
-        "plot_gate_figures": (lambda d: plots.plot_gate_figures(
-            inp.gate, inp.sweep, inp.fit, d, inp.parity, inp.time_scans, inp.highlight), 4),
-        "plot_parity_only": (lambda d: plots.plot_parity_only(inp.gate, inp.merged, d), 1),
-        "plot_stability": (lambda d: plots.plot_stability(inp.stab, d), 2),
-        "plot_diagnosis": (lambda d: plots.plot_diagnosis(inp.diag, None, d), 3),
-    }
-    for name, (call, n) in calls.items():
-        with pytest.warns(DeprecationWarning, match="dpdfit.report"):
-            paths = call(tmp_path / name)
-        assert len(paths) == n and all(isinstance(p, str) for p in paths), name
-        assert all(Path(p).read_bytes()[:8] == PNG for p in paths), name
-    with pytest.warns(DeprecationWarning, match="corner_figure"):
-        out = plots.plot_corner(inp.post, tmp_path / "corner.png")
-    assert out == str(tmp_path / "corner.png") and Path(out).read_bytes()[:8] == PNG
-
-
 def test_corner_plot_is_drawn_by_corner(inp):
     """K x K axes (corner's layout), unknown parameters refused."""
     fig = report.corner_figure(inp.post, ["A_corr", "a2"])
@@ -219,7 +196,7 @@ def test_corner_plot_is_drawn_by_corner(inp):
 
 
 def test_import_dpdfit_does_not_import_matplotlib():
-    code = ("import dpdfit, dpdfit.report, dpdfit.report.plots, dpdfit.cli.main, sys; "
+    code = ("import dpdfit, dpdfit.report, dpdfit.cli.main, sys; "
             "assert 'matplotlib' not in sys.modules, 'matplotlib imported'; "
             "assert 'corner' not in sys.modules, 'corner imported'")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from dpdfit.cli.main import main
-from test_cli import _bad, run
+from tests.test_cli import _bad, run
 
 CAMP = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
 KEYS = ["A", "dpd", "F_pop", "F_pop_err", "F_par", "F_par_err", "F", "F_err", "contrast",
@@ -75,13 +75,13 @@ def test_fidelity_too_few_phases(tmp_path, capsys):
     _bad(capsys, ["fidelity", "--populations", pop, "--parity", p], "3", tmp_path, [p, pop])
 
 
-def test_analyze_gate_analysis(tmp_path):
-    from dpdfit.pipeline.analyze import analyze
-    s = analyze(CAMP, tmp_path / "res", plots=True, diagnosis=False)
-    assert s["analyses"]["gates"]["status"] == "ok"
-    al = s["gates"]["alignment"]
+@pytest.mark.slow
+def test_analyze_gate_analysis(bundled_analysis):
+    s, res = bundled_analysis
+    assert s.summary["analyses"]["gates"]["status"] == "ok"
+    al = s.summary["gates"]["alignment"]
     assert abs(al["alpha_khz"] - 3.42) < 3 * al["alpha_khz_err"]
-    figs = {p.name for p in (tmp_path / "res" / "figures").iterdir()}
+    figs = {p.name for p in (res / "figures").iterdir()}
     assert {"fig3_fidelity_vs_rate.png", "fig4_fidelity_vs_eta.png", "figS7_time_scans.png",
             "figS8_parity_fringes.png"} <= figs
-    assert (tmp_path / "res" / "gate.csv").exists()
+    assert (res / "gate.csv").exists()

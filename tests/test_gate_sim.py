@@ -1,7 +1,7 @@
 """Tests of the gate-experiment physics engine (dpdfit.models.gate_sim).
 
 Reference values are independent of the engine: the brute-force oracle
-tests/exact_ms.py, the closed-form exact Bell formula of dpdfit.models.fidelity
+tests/helpers/exact_ms.py, the closed-form exact Bell formula of dpdfit.models.fidelity
 (itself validated against exact_ms), first-order (Dyson) perturbation theory
 in the dissipators built from the analytic displacement alpha(t) and
 geometric phase theta(t) of the ideal gate, and hand-computed SPAM branches.
@@ -13,7 +13,7 @@ the symmetric real Cardioid(1,2) gate is a perfect MS gate at T = 1/xi0.
 import numpy as np
 import pytest
 
-import exact_ms
+from tests.helpers import exact_ms
 from dpdfit.models import gate_sim as gs
 from dpdfit.errors import InputError
 from dpdfit.models.fidelity import bell_fidelity as formula_fidelity

@@ -1,4 +1,4 @@
-"""External injection recovery (issue #14): ``dpdfit harness --campaigns DIR --truth FILE``."""
+"""External injection recovery: ``dpdfit harness --campaigns DIR --truth FILE``."""
 
 import json
 import shutil
@@ -59,6 +59,7 @@ def test_bad_arguments_are_one_line_and_exit_2(tmp_path, capsys, case, needle):
     assert len(err) == 1 and needle in err[0], err
 
 
+@pytest.mark.slow
 def test_four_validation_campaigns_are_diagnosed_and_named(tmp_path, capsys):
     """Two nulls and two concealed effects of the independent simulator (copied from
     ../shared/validation_campaigns with their truth): none refused, every verdict right."""

@@ -1,4 +1,4 @@
-"""The worked notebook ``examples/analysis.ipynb`` executes top to bottom (issue #16).
+"""The worked notebook ``examples/analysis.ipynb`` executes top to bottom.
 
 Executed with nbclient on the bundled data in a fresh kernel; every section's
 result displays itself (HTML) and every figure cell shows an image.
@@ -9,10 +9,12 @@ from pathlib import Path
 
 import nbclient
 import nbformat
+import pytest
 
 NOTEBOOK = Path(__file__).resolve().parents[1] / "examples" / "analysis.ipynb"
 
 
+@pytest.mark.slow
 def test_notebook_executes_with_results_and_figures_inline():
     nb = nbformat.read(NOTEBOOK, as_version=4)
     t0 = time.perf_counter()

@@ -1,4 +1,4 @@
-"""Use from Python and notebooks (issue #16): the Analysis object, logging and progress,
+"""Use from Python and notebooks: the Analysis object, logging and progress,
 lmfit views of the fits, the emcee chain, ``python -m dpdfit`` and the commands' help."""
 
 from __future__ import annotations
@@ -58,6 +58,7 @@ def api():
     return res, out.getvalue(), err.getvalue(), rec.records
 
 
+@pytest.mark.slow
 def test_analyze_returns_the_analysis_with_its_tables(api):
     res = api[0]
     assert isinstance(res, dpdfit.Analysis)
@@ -73,13 +74,19 @@ def test_analyze_returns_the_analysis_with_its_tables(api):
     assert res.diagnosis is None and res.results["budget"] is not None
 
 
-def test_old_summary_access_still_works(api):
+@pytest.mark.slow
+def test_the_summary_is_rendered_from_the_typed_results(api):
+    """summary.json's sections are made from the steps' results: the alignment is the
+    gates step's AlignmentFit, the budget the budget step's result; plain JSON."""
     res = api[0]
-    assert res["analyses"]["diagnosis"]["status"] == "skipped"
-    assert res["failures"] == [] and isinstance(res.summary, dict)
-    assert json.loads(json.dumps(dict(res), default=str))["campaign"] == res["campaign"]
+    assert res.summary["analyses"]["diagnosis"]["status"] == "skipped"
+    assert res.failures == [] and json.loads(json.dumps(res.summary))["campaign"]
+    assert res.results["gates"].alignment is res.alignment
+    assert res.summary["budget"]["delta"] == res.results["budget"].to_dict()["delta"]
+    assert res.summary["budget"]["delta"]["estimate"] == pytest.approx(res.alignment.delta)
 
 
+@pytest.mark.slow
 def test_progress_false_prints_nothing_and_messages_go_through_logging(api):
     res, out, err, records = api
     assert out == "" and err == ""
@@ -90,6 +97,7 @@ def test_progress_false_prints_nothing_and_messages_go_through_logging(api):
     assert any(r.levelno == logging.WARNING for r in records) and res.messages
 
 
+@pytest.mark.slow
 def test_save_writes_what_the_command_line_writes(api, tmp_path, capsys):
     cli = tmp_path / "cli"
     assert main(["analyze", str(CAMP), "-o", str(cli), "--no-plots", "--no-diagnosis"]) == 0

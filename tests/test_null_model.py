@@ -1,4 +1,4 @@
-"""What the diagnosis's null model learns from a campaign (issue #14): noise floor,
+"""What the diagnosis's null model learns from a campaign: noise floor,
 tone repeatability, the calibration photodiode's and phase measurement's noise,
 and the exact preparation/detection branches of the gate engine."""
 
@@ -18,6 +18,7 @@ def _im_series(rng, N0, A, k):
     return 10 * np.log10(np.abs(c + n) ** 2)
 
 
+@pytest.mark.slow
 def test_noise_floor_estimate_is_unbiased_and_its_error_covers():
     """IM tones rising as A^6 out of a floor: the estimate of the floor (dB) has no
     bias beyond 0.15 of its error and its 1-sigma interval covers 68 +/- 6 %
@@ -45,6 +46,7 @@ def test_noise_floor_not_reached_gives_an_upper_limit():
     assert f.floor_db <= P.min() + 1e-9
 
 
+@pytest.mark.slow
 def test_debiased_tone_power_is_unbiased_at_moderate_snr():
     rng = np.random.default_rng(2)
     N0, c2 = 1.0, 10 ** 2.5                   # 25 dB over the mean floor
@@ -56,6 +58,7 @@ def test_debiased_tone_power_is_unbiased_at_moderate_snr():
     assert abs(np.std(val) / np.median(err) - 1) < 0.03
 
 
+@pytest.mark.slow
 def test_robust_scale_recovers_the_white_noise_under_a_smooth_misfit():
     """Second differences: a smooth misfit of 20 sigma does not inflate the estimate."""
     rng = np.random.default_rng(3)

@@ -1,4 +1,4 @@
-"""Pooling of real parity scans (issue #14, Supplement S7.4).
+"""Pooling of real parity scans (Supplement S7.4).
 
 Repeated scans carry each scan's own small analysis-phase offset, recorded as
 is: the fit uses the exact binomial likelihood of every recorded phase (the
@@ -81,6 +81,7 @@ def test_pooled_jittered_unequal_scans_match_an_independent_binomial_mle():
         assert row["parity_method"] == "hessian"
 
 
+@pytest.mark.slow
 def test_pooled_contrast_error_covers():
     """1-sigma coverage 68 +/- 5 % and no bias over 400 seeded replicates."""
     rng = np.random.default_rng(2026)
@@ -94,6 +95,7 @@ def test_pooled_contrast_error_covers():
     assert abs(pulls.mean()) < 0.15
 
 
+@pytest.mark.slow
 def test_consistent_scans_pass_the_per_scan_test_at_its_nominal_rate():
     rng = np.random.default_rng(7)
     p = []

@@ -21,7 +21,7 @@ DICT_KEYS = {
     "reduced_chi2", "r2", "aic", "bic", "log_likelihood", "condition_number",
     "condition_number_scaled", "n_points", "sigma_source", "refinement_iterations",
     "converged",
-    # model adequacy (issue #16)
+    # model adequacy
     "model_adequate", "redchi_range_99", "birge_factor", "chi2_p_value", "stderr_birge",
 }
 
@@ -428,6 +428,7 @@ def test_dd_kernels_against_mpmath():
 N_REPLICATES = 2000
 
 
+@pytest.mark.slow
 def test_coverage_with_given_sigma():
     # heteroscedastic noise with its sigma given: absolute errors must cover
     rng = np.random.default_rng(2718)
@@ -444,6 +445,7 @@ def test_coverage_with_given_sigma():
     assert np.mean(red) == pytest.approx(1.0, abs=0.03)
 
 
+@pytest.mark.slow
 def test_coverage_with_sigma_from_residuals():
     # homoscedastic noise, sigma unknown: |c - truth| / stderr follows Student t(dof)
     rng = np.random.default_rng(31415)

@@ -66,7 +66,7 @@ def test_posterior_result_structure(posterior, tmp_path):
     assert "K = 8" in r.report() and "independent samples" in r.report()
     with pytest.raises(Exception):
         r.a_draws[0, 0] = 2.0
-    with pytest.deprecated_call():                    # the old writer (issue #16)
+    with pytest.deprecated_call():                    # the deprecated writer to a file
         out = plot_corner(r, tmp_path / "corner.png")
     assert (tmp_path / "corner.png").stat().st_size > 1000 and out.endswith("corner.png")
 
@@ -96,6 +96,7 @@ def test_refuses_short_chain():
     assert isinstance(ConvergenceError("x"), DpdfitError)
 
 
+@pytest.mark.slow
 def test_credible_interval_coverage():
     """68 % and 95 % intervals of A_corr cover the truth at their nominal rates (+/- 3 %).
 

@@ -1,6 +1,6 @@
-"""Property-based tests of every reader (issue #17 item 2).
+"""Property-based tests of every reader.
 
-A generated mutation of a valid file (see :mod:`prop_mutations`) must give a
+A generated mutation of a valid file (see :mod:`tests.helpers.prop_mutations`) must give a
 valid result (finite numbers where the reader promises them) or raise ONE
 :class:`~dpdfit.errors.DpdfitError` whose message is one line naming the file;
 any other exception, or a NaN/empty result, fails.  Harmless edits (CRLF line
@@ -20,7 +20,8 @@ import pandas as pd
 from hypothesis import example, given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-from prop_mutations import base_texts, csv_mutations, json_mutations, mutate_csv, mutate_json, outcome
+from tests.helpers.prop_mutations import (base_texts, csv_mutations, json_mutations,
+                                          mutate_csv, mutate_json, outcome)
 
 from dpdfit.analyses.budget import read_gate_rates
 from dpdfit.analyses.sweep import read_sweep_table

@@ -1,7 +1,7 @@
-"""Property-based tests of the command line (issue #17 item 2).
+"""Property-based tests of the command line.
 
 ``main(argv)`` with a generated mutation of a valid input file (see
-:mod:`prop_mutations`) and generated option values (floats incl. nan, inf,
+:mod:`tests.helpers.prop_mutations`) and generated option values (floats incl. nan, inf,
 negative and huge; integers; junk text) must either exit 0 with finite outputs
 (no NaN or inf in a written CSV or JSON, nor as a word in the printed report)
 or exit 2 with exactly one stderr line ``dpdfit: error: ...`` naming an input
@@ -25,8 +25,9 @@ import pytest
 import pandas as pd
 from hypothesis import example, given
 from hypothesis import strategies as st
-from prop_mutations import (TALLY, Traceback, base_texts, csv_mutations, json_mutations,
-                            mutate_csv, mutate_json, number_texts, _fail)
+from tests.helpers.prop_mutations import (TALLY, Traceback, base_texts, csv_mutations,
+                                          json_mutations, mutate_csv, mutate_json, number_texts,
+                                          _fail)
 
 from dpdfit.cli.main import main
 

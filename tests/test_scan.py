@@ -7,6 +7,7 @@ from dpdfit.errors import InputError
 from dpdfit.analyses.diagnosis.scan import scan_intervals
 
 
+@pytest.mark.slow
 def test_false_alarm_rate_on_null_series_is_below_nominal():
     rng = np.random.default_rng(7)
     x = np.linspace(0.05, 1, 40)
@@ -14,6 +15,7 @@ def test_false_alarm_rate_on_null_series_is_below_nominal():
     assert alarms / 1000 <= 0.05        # Bonferroni: conservative
 
 
+@pytest.mark.slow
 def test_finds_and_localises_a_concealed_offset():
     rng = np.random.default_rng(8)
     x = np.linspace(0.05, 1, 40)

@@ -14,7 +14,8 @@ import pytest
 from dpdfit.simulation.aom_truth import ou_series
 from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.analyses.stability import allan_deviation, drift_test, stability
-from dpdfit.report.stability_plots import plot_stability
+from dpdfit.report.figure_io import save_figures
+from dpdfit.report.stability_plots import stability_figures
 from dpdfit.cli.stability import add_stability_command
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -122,8 +123,7 @@ def test_phase_kind():
 
 
 def test_amplitude_plots(amp_result, tmp_path):
-    with pytest.deprecated_call():                    # the old writer (issue #16)
-        paths = plot_stability(amp_result, tmp_path)
+    paths = save_figures(stability_figures(amp_result), tmp_path)
     assert [Path(p).name for p in paths] == ["figS2_stability_amplitude.png",
                                              "figS3_envelope_amplitude.png"]
     assert all(Path(p).stat().st_size > 5000 for p in paths)
@@ -146,6 +146,7 @@ def _replicates(nrep, n, trend, s, se_lo, se_hi, seed):
     return cover / nrep, false_pos / nrep
 
 
+@pytest.mark.slow
 def test_drift_coverage_campaign_like():
     # 34 runs over 110 days, excess scatter ~ 2x the fit errors (as in the campaign)
     cover, fp = _replicates(800, 34, 1e-4, 0.0085, 0.003, 0.005, seed=1)
@@ -153,6 +154,7 @@ def test_drift_coverage_campaign_like():
     assert 0.025 <= fp <= 0.075
 
 
+@pytest.mark.slow
 def test_drift_coverage_heteroscedastic():
     # fit errors comparable to the excess scatter and very unequal between runs
     cover, fp = _replicates(500, 34, 1e-4, 0.004, 0.001, 0.008, seed=2)

@@ -12,8 +12,8 @@ from dpdfit.analyses.sweep import (COLUMNS, SweepConfig, eta_bar, parse_amplitud
                           run_sweep, thresholds)
 from dpdfit.analyses.sweep import first_crossing as _first_crossing
 from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
-from test_cli import _bad, bundled, run  # noqa: F401  (fixture re-use)
-from test_transfer import truth_poly_tf
+from tests.test_cli import _bad, bundled, run  # noqa: F401  (fixture re-use)
+from tests.test_transfer import truth_poly_tf
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 
 from dpdfit.cli.options import nonneg_int
-from dpdfit.core.defaults import FORMULA
+from dpdfit.core.defaults import ERROR_MODEL, FORMULA
 
 __all__ = ["add_simulate_campaign_command", "add_analyze_command", "cmd_simulate_campaign",
            "cmd_analyze"]
@@ -32,7 +32,8 @@ def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
     c = subparsers.add_parser("simulate-campaign",
                               help="simulate a complete synthetic measurement campaign")
     c.add_argument("outdir", help="new folder to write the campaign into")
-    c.add_argument("--seed", type=nonneg_int, default=20260329, help="random seed (20260329)")
+    c.add_argument("--seed", type=nonneg_int, default=ERROR_MODEL.seed,
+                   help=f"random seed ({ERROR_MODEL.seed})")
     c.add_argument("--effects", metavar="NAME=STRENGTH,...",
                    help="effects to conceal (see dpdfit.simulation.campaign.SIMULATOR_EFFECTS)")
     c.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
@@ -50,12 +51,12 @@ def cmd_analyze(args) -> int:
     out = Path(args.output)
     # a mapping is imported into the results folder: the results name their inputs
     with campaign_argument(args.folder, args.complete_only, keep_in=out) as folder:
-        summary = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
-                          diagnosis=not args.no_diagnosis, progress=args.progress)
-    for name, st in summary["analyses"].items():
+        res = analyze(folder, out, formula=args.formula, plots=not args.no_plots,
+                      diagnosis=not args.no_diagnosis, progress=args.progress)
+    for name, st in res.summary["analyses"].items():
         print(f"{name:12s} {st['status']:8s} {st['detail']}")
     print(f"results in {out}/ (summary.md, summary.json)")
-    return 2 if summary["failures"] else 0
+    return 2 if res.failures else 0
 
 
 def add_analyze_command(subparsers) -> argparse.ArgumentParser:

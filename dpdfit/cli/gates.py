@@ -12,6 +12,7 @@ import json
 import sys
 
 from dpdfit.cli.options import positive_float
+from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.recordings.outputs import refuse_overwriting_inputs, to_jsonable
 from dpdfit.recordings.tables import read_table
 
@@ -134,8 +135,8 @@ def add_align_command(subparsers) -> argparse.ArgumentParser:
         "align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
     al.add_argument("--gate", required=True, help="A, dpd, xi0_khz, xi0_err_khz, F, F_err")
     al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")
-    al.add_argument("--sigma-db", type=_sigma_db, default=0.2,
-                    help="laser-power fluctuation, dB (0.2)")
+    al.add_argument("--sigma-db", type=_sigma_db, default=ERROR_MODEL.power_jitter_db,
+                    help=f"laser-power fluctuation, dB ({ERROR_MODEL.power_jitter_db:g})")
     al.add_argument("--json", action="store_true")
     al.add_argument("--plot", metavar="DIR", help="write Figs. 3 and 4 (PNG)")
     al.set_defaults(func=cmd_align)

@@ -23,7 +23,6 @@ from dpdfit.fits.calibration import load_calibration
 from dpdfit.models.transfer import TransferFunction
 from dpdfit.recordings.outputs import (refuse_overwriting_inputs, sha256_file,
                                        to_jsonable, write_csv_with_header)
-from dpdfit.recordings.tables import read_table
 
 __all__ = ["add_sweep_command", "add_estimate_command", "add_im_table_command",
            "add_thresholds_command", "cmd_sweep", "cmd_estimate", "cmd_im_table",

@@ -1,4 +1,4 @@
-"""Model adequacy of a least-squares fit: is its reduced chi-square plausible? (issue #16)
+"""Model adequacy of a least-squares fit: is its reduced chi-square plausible?
 
 With absolute uncertainties (dpdfit's error convention: errors are absolute
 when sigmas are given, never silently rescaled) a correct model gives

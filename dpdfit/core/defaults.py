@@ -6,8 +6,17 @@ falls back to is taken from here, so that a lab changes it in one place.
 
 from __future__ import annotations
 
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from dpdfit.errors import InputError
+
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
-           "PHASE_ORDER", "PHASE_MIN_A", "FORMULA"]
+           "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL"]
 
 #: sideband detuning nu of the gate tones from the carrier, Hz (S4)
 NU_HZ = 1.84e6
@@ -27,3 +36,122 @@ PHASE_ORDER = 5
 PHASE_MIN_A = 0.1
 #: the fidelity-estimate formula used by default ("exact" or "paper")
 FORMULA = "exact"
+
+
+# Section and table numbers below count the Supplement of the paper
+# (../shared/000_25865f86b72c0b0d.txt) in order: S6.5 "Gate-rate uncertainty from power
+# fluctuations", S7.2 "Parity fidelity", S10 "Error sources and limitations" with
+# S10.1 "State preparation and measurement", S10.2 "Qubit dephasing", S10.3 "Motional
+# heating" and its Table S3 (the project's name for tab:error-budget).
+
+
+@dataclass(frozen=True)
+class ErrorModel:
+    """The lab's error model: one set of values for the gate engine, simulator and diagnosis.
+
+    The first seven fields are the keys of a campaign's ``campaign.json``
+    ``error_model`` object (:attr:`CAMPAIGN_KEYS`, :meth:`campaign_dict`); the
+    other three are the lab's fixed recording choices that a campaign names
+    elsewhere (``parity_phases``, ``predistortion_table.points``, the seed in
+    ``generator``).  :meth:`from_dict` overlays a campaign's values on the
+    defaults.  The error budget (:mod:`dpdfit.analyses.budget`) does not use
+    this: it takes the paper's Table S3 inputs, which are bounds where these are
+    point values (see the comment on its ``DEFAULT_CONFIG``).
+    """
+
+    #: thermal mean phonon number of the gate mode before the gate: :data:`NBAR`
+    #: (main text "Experimental setup", sideband thermometry; S5 uses it in the estimate)
+    nbar: float = NBAR
+    #: qubit coherence time T2 [s]: Ramsey, 50 +/- 5 ms (S10.2, Table S3)
+    T2_s: float = 50e-3
+    #: motional heating rate of the stretch mode [quanta/s]: the paper gives only a
+    #: bound, < 0.01 quanta/ms = 10 /s (main text "Experimental setup", S10.3,
+    #: Table S3); 5 /s (half the bound, the mean of the budget's uniform prior on it)
+    #: is this project's synthetic-lab choice
+    heating_quanta_per_s: float = 5.0
+    #: state-preparation error per ion: 1 - 0.997, the fitted Rabi-flop amplitude
+    #: 0.997 +/- 0.003 (S10.1, Table S3 "<~ 0.6 %" for two ions)
+    p_prep: float = 0.003
+    #: bright/dark detection error per ion: the paper bounds it, < 1e-4 (S10.1;
+    #: Table S3 "< 0.02 %" for two ions); 5e-5 (half the bound) is this project's
+    #: synthetic-lab choice
+    p_det: float = 5e-5
+    #: laser-power fluctuation, 1 sigma [dB]: sigma_dB ~ 0.2 dB (S6.5)
+    power_jitter_db: float = 0.2
+    #: relative 1-sigma error of each setting's calibrated gate rate xi0: not given
+    #: in the paper (xi0 is "precalibrated for each setting", main text); 1 % is
+    #: this project's synthetic-lab choice
+    xi0_rel_err: float = 0.01
+    #: analysis phases of a parity-fringe scan, uniformly spaced on [0, 2 pi):
+    #: 16, with 625 shots per phase (S7.2)
+    parity_phases: int = 16
+    #: points of the predistortion lookup table: not given in the paper; 4096 is
+    #: this project's synthetic-lab choice
+    table_points: int = 4096
+    #: random seed of the bundled synthetic campaign (``datasets/synthetic_campaign``):
+    #: this project's choice
+    seed: int = 20260329
+
+    #: the fields a campaign's ``campaign.json`` ``error_model`` object holds
+    CAMPAIGN_KEYS: ClassVar[tuple[str, ...]] = (
+        "nbar", "T2_s", "heating_quanta_per_s", "p_prep", "p_det", "power_jitter_db",
+        "xi0_rel_err")
+    _INTEGERS: ClassVar[tuple[str, ...]] = ("parity_phases", "table_points", "seed")
+    _PROBABILITIES: ClassVar[tuple[str, ...]] = ("p_prep", "p_det")
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            object.__setattr__(self, f.name, _checked(f.name, getattr(self, f.name)))
+
+    def to_dict(self) -> dict:
+        """Every field, by name (plain ``float``/``int`` values)."""
+        return dataclasses.asdict(self)
+
+    def campaign_dict(self) -> dict:
+        """The ``campaign.json`` ``error_model`` object: the :attr:`CAMPAIGN_KEYS` fields."""
+        return {k: getattr(self, k) for k in self.CAMPAIGN_KEYS}
+
+    @classmethod
+    def from_dict(cls, values: dict, base: ErrorModel | None = None) -> ErrorModel:
+        """``base`` (default :data:`ERROR_MODEL`) with the fields ``values`` names replaced.
+
+        ``values`` may be a campaign's ``error_model`` object or :meth:`to_dict`'s
+        output; an unknown key or a bad value is an :class:`InputError` naming it.
+        """
+        if not isinstance(values, dict):
+            raise InputError(f"error_model must be an object/dict, got {type(values).__name__}")
+        known = [f.name for f in dataclasses.fields(cls)]
+        for key in values:
+            if key not in known:
+                raise InputError(f"unknown error_model key '{key}' (known: {', '.join(known)})")
+        return dataclasses.replace(ERROR_MODEL if base is None else base, **values)
+
+    def analysis_phases(self) -> np.ndarray:
+        """The parity scans' analysis phases [rad]: ``2 pi k / parity_phases``."""
+        return np.arange(self.parity_phases) * 2 * np.pi / self.parity_phases
+
+
+def _checked(key: str, value):
+    """``value`` of ErrorModel field ``key`` as float/int, or InputError naming the key."""
+    if key in ErrorModel._INTEGERS:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise InputError(f"error_model key '{key}' must be an integer, got {value!r}")
+        lowest = 0 if key == "seed" else 1
+        if value < lowest:
+            raise InputError(f"error_model key '{key}' must be >= {lowest}, got {value}")
+        return int(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(f"error_model key '{key}' must be a number, got {value!r}")
+    value = float(value)
+    if math.isnan(value) or value < 0 or (key == "T2_s" and value == 0):
+        raise InputError(f"error_model key '{key}' must be "
+                         f"{'> 0' if key == 'T2_s' else '>= 0'}, got {value}")
+    if not math.isfinite(value) and key != "T2_s":
+        raise InputError(f"error_model key '{key}' must be finite, got {value}")
+    if key in ErrorModel._PROBABILITIES and value > 1:
+        raise InputError(f"error_model key '{key}' must be a probability <= 1, got {value}")
+    return value
+
+
+#: the lab's error model: the default of the gate engine, the simulator and the diagnosis
+ERROR_MODEL = ErrorModel()

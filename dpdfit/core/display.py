@@ -1,4 +1,4 @@
-"""How a result shows itself: short repr, text table, HTML table (issue #16).
+"""How a result shows itself: short repr, text table, HTML table.
 
 Rendering is kept apart from the physics, the way iminuit keeps its
 ``repr_text``/``repr_html``: a result class inherits :class:`Displayable`
@@ -25,6 +25,8 @@ from dataclasses import fields, is_dataclass
 
 import numpy as np
 
+from dpdfit.core.jsonable import to_jsonable
+
 __all__ = ["VALUE_DIGITS", "ERROR_DIGITS", "MAX_ROWS", "Displayable", "format_number",
            "format_value_error", "rows_from_dict", "diagnostics_from_dict", "text_table",
            "html_table", "short_repr", "plain"]
@@ -48,21 +50,9 @@ _UNITS = {"khz": "kHz", "hz": "Hz", "db": "dB", "us": "us", "s": "s", "rad": "ra
 
 
 def plain(value):
-    """``value`` as plain python (numpy scalars/arrays and frames converted), for JSON."""
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, dict):
-        return {str(k): plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [plain(v) for v in value]
-    if hasattr(value, "to_dict") and not isinstance(value, type):
-        try:
-            return plain(value.to_dict(orient="records"))       # pandas DataFrame
-        except TypeError:
-            return plain(value.to_dict())
-    return value
+    """``value`` as plain python (numpy scalars/arrays and frames converted; NaN kept):
+    :func:`dpdfit.core.jsonable.to_jsonable` for display."""
+    return to_jsonable(value, finite_only=False)
 
 
 def format_number(value, digits: int = VALUE_DIGITS) -> str:

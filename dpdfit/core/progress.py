@@ -16,7 +16,7 @@ import contextlib
 import contextvars
 import sys
 
-__all__ = ["progress_enabled", "progress_bar", "progress_scope", "job_progress", "Progress"]
+__all__ = ["progress_enabled", "progress_bar", "progress_scope", "job_progress"]
 
 _DEFAULT: contextvars.ContextVar = contextvars.ContextVar("dpdfit_progress", default=None)
 
@@ -70,11 +70,3 @@ def job_progress(progress, total: int, desc: str, initial: int = 0):
         def update(k, n):
             bar.update(k - bar.n)
         yield update
-
-
-def Progress(label: str, total: int, *, enabled: bool = True, stream=None):  # noqa: N802
-    """Backwards-compatible ``Progress(label, total, enabled=...)``: a :func:`progress_bar`
-    (a context manager with ``update()``); shown only when ``enabled`` and stderr is a
-    terminal (or the enclosing :func:`progress_scope` says so)."""
-    return progress_bar(total=total, desc=label, disable=not enabled,
-                        **({"file": stream} if stream is not None else {}))

@@ -35,6 +35,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import least_squares
 
 from dpdfit.core.adequacy import ModelAdequacy
+from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 
@@ -44,7 +45,7 @@ __all__ = ["AlignmentFit", "align", "curves", "xi0_band", "K_DB"]
 K_DB = np.log(10) / 20
 
 
-def xi0_band(xi0, sigma_db: float = 0.2):
+def xi0_band(xi0, sigma_db: float = ERROR_MODEL.power_jitter_db):
     """Absolute gate-rate spread ``sigma_xi0 = xi0 ln(10)/20 sigma_dB`` (Eq. sigma-xi)."""
     return np.asarray(xi0, dtype=float) * K_DB * sigma_db
 
@@ -162,7 +163,8 @@ def _check_errors(g: pd.DataFrame, file) -> None:
                              file=file or "gate table", column=col, row=i + 1)
 
 
-def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> AlignmentFit:
+def align(gate: pd.DataFrame, sweep: pd.DataFrame,
+          sigma_db: float = ERROR_MODEL.power_jitter_db) -> AlignmentFit:
     """Fit ``alpha`` and ``delta`` (see module docstring).
 
     Parameters
@@ -172,7 +174,8 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame, sigma_db: float = 0.2) -> Ali
     sweep : DataFrame
         A sweep table (:func:`dpdfit.analyses.sweep.run_sweep` or ``sweep.csv``).
     sigma_db : float
-        Laser-power fluctuation (dB rms), paper: 0.2.
+        Laser-power fluctuation (dB rms); default the lab's ``ERROR_MODEL.power_jitter_db``
+        (paper: 0.2, Supplement S6.5).
     """
     need = ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"]
     missing = [c for c in need if c not in gate.columns]

@@ -1,4 +1,4 @@
-"""The calibration photodiode's noise, learnt from the calibration runs (issue #14).
+"""The calibration photodiode's noise, learnt from the calibration runs.
 
 A lab's ``calibration_amplitude.csv`` need not carry ``power_err``.  A single
 noise level estimated from one run's residuals is then the only option for one

@@ -1,4 +1,4 @@
-"""Noise of recorded tone powers, learnt from the campaign itself (issue #14).
+"""Noise of recorded tone powers, learnt from the campaign itself.
 
 A lab's ``spectra.csv`` need not say how noisy its tone powers are.  Two
 things set that noise, and both are estimated here from the recordings,

@@ -40,7 +40,7 @@ from dpdfit.errors import InputError
 __all__ = ["ToneSet", "cardioid", "Grid", "sample_grid", "synthesize", "predistort",
            "MAX_PRODUCT_ORDER", "drive_peak"]
 
-#: Mixing products up to this order must not alias (issue #3).
+#: Mixing products up to this order must not alias (see "Sampling grid" above).
 MAX_PRODUCT_ORDER = 9
 
 

@@ -5,10 +5,6 @@ each analysis's status, the tables as pandas DataFrames, the JSON outputs as
 dicts and the result objects the steps made (calibration fits, alignment fit,
 error budget, diagnosis) -- and writes them with :meth:`Analysis.save`,
 exactly the files ``dpdfit analyze FOLDER -o RESULTS`` writes.
-
-It is also a read-only mapping over the summary, so code written for the old
-return value (the summary dict) keeps working: ``res["analyses"]``,
-``res["failures"]``, ``dict(res)``.
 """
 
 from __future__ import annotations
@@ -17,7 +13,6 @@ import functools
 import json
 import logging
 import time
-from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
@@ -30,17 +25,9 @@ from dpdfit.report.sweep_plots import sweep_figures
 
 from .context import draw_figure_jobs
 
-__all__ = ["Analysis", "write_outputs", "previous_outputs", "LEGACY_OUTPUTS"]
+__all__ = ["Analysis", "write_outputs", "previous_outputs", "json_text"]
 
 log = logging.getLogger(__name__)
-
-
-#: What ``analyze`` wrote into a results folder before ``summary.json`` listed its
-#: ``outputs``: cleared by a rerun when the new run does not write them.
-LEGACY_OUTPUTS = ("calibration.json", "calibration_runs.csv", "sweep.csv", "spectra_measured.csv",
-                  "traces_check.csv", "stability_amplitude.json", "stability_phase.json",
-                  "gate.csv", "alignment_points.csv", "propagation.json", "budget.json",
-                  "diagnosis.json")
 
 
 def previous_outputs(out: Path) -> set[str]:
@@ -55,7 +42,7 @@ def previous_outputs(out: Path) -> set[str]:
         return set()
     if not isinstance(old, dict) or "analyses" not in old:
         return set()
-    names = old.get("outputs", LEGACY_OUTPUTS)
+    names = old.get("outputs", ())
     if not isinstance(names, (list, tuple)):
         return set()
     return {n for n in names if isinstance(n, str) and n and not Path(n).is_absolute()
@@ -66,6 +53,9 @@ def write_outputs(files: dict, summary: dict, out: Path, folder: Path, formula: 
                   figures: dict | None = None) -> list[str]:
     """Publish every output, the figures (``{stem: (Figure, dpi)}`` -> ``figures/stem.png``),
     ``summary.json`` and ``summary.md`` together (one staging: all or nothing).
+
+    ``files`` maps a name to text, ``("csv", DataFrame, meta)`` (a table with ``meta``
+    as ``# key: value`` header lines) or ``("json", object)`` (rendered here, once).
 
     What the previous run into ``out`` wrote and this one does not is deleted in
     the same step; ``summary.json`` lists this run's ``outputs``.  Returns them.
@@ -78,22 +68,29 @@ def write_outputs(files: dict, summary: dict, out: Path, folder: Path, formula: 
     with staged_outputs() as stage:
         for name, obj in files.items():
             path = stage(out / name)
-            if isinstance(obj, tuple):
+            if isinstance(obj, tuple) and obj[0] == "csv":
                 _, df, meta = obj
                 text = "".join(f"# {k}: {json.dumps(to_jsonable(v))}\n" for k, v in meta.items())
                 path.write_text(text + df.to_csv(index=False, float_format="%.10g"))
+            elif isinstance(obj, tuple):
+                path.write_text(json_text(obj[1]))
             else:
                 path.write_text(obj)
         for stem, (fig, dpi) in figures.items():
             fig.savefig(stage(out / "figures" / f"{stem}.png"), dpi=dpi, format="png")
-        stage(out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=2) + "\n")
+        stage(out / "summary.json").write_text(json_text(summary))
         stage(out / "summary.md").write_text(summary_markdown(summary, folder, formula))
         for name in sorted(owned - set(names)):
             stage.remove(out / name)
     return names
 
 
-class Analysis(Mapping):
+def json_text(obj) -> str:
+    """The text of a JSON output: indented, numpy values converted, newline-terminated."""
+    return json.dumps(to_jsonable(obj), indent=2) + "\n"
+
+
+class Analysis:
     """The results of :func:`dpdfit.analyze` on one campaign folder.
 
     Attributes
@@ -104,11 +101,15 @@ class Analysis(Mapping):
         What ``summary.json`` holds (``analyses``: per analysis ``status`` and
         ``detail``; ``failures``; each analysis's headline numbers).
     files : dict
-        Output file name -> its text, or ``("csv", DataFrame, meta)`` for a table.
+        Output file name -> its text, ``("csv", DataFrame, meta)`` for a table or
+        ``("json", object)`` for a JSON file.
     results : dict
-        Analysis name -> the object its step returned (``calibration``:
-        the fits, ``sweep``/``spectra``/``gates``: DataFrames, ``propagation``:
-        dict, ``budget``: :class:`~dpdfit.analyses.budget.BudgetResult`,
+        Analysis name -> the typed result its step returned (``calibration``:
+        :class:`~dpdfit.pipeline.steps.CalibrationFits`, ``sweep``: a DataFrame,
+        ``spectra``: :class:`~dpdfit.pipeline.steps.MeasuredSpectra`,
+        ``gates``: :class:`~dpdfit.pipeline.steps.GateResults`, ``propagation``:
+        :class:`~dpdfit.pipeline.steps.PropagationResults`, ``budget``:
+        :class:`~dpdfit.analyses.budget.BudgetResult`,
         ``diagnosis``: :class:`~dpdfit.analyses.diagnosis.Diagnosis`); None when
         the analysis was skipped or failed.
     formula : str
@@ -117,8 +118,7 @@ class Analysis(Mapping):
     """
 
     def __init__(self, folder, summary: dict, files: dict, results: dict, formula: str, *,
-                 figures=None, figdir: Path | None = None, sweep=None, measured=None,
-                 messages=None):
+                 figures=None, sweep=None, measured=None, messages=None):
         self.folder = Path(folder)
         self.summary = summary
         self.files = files
@@ -126,19 +126,7 @@ class Analysis(Mapping):
         self.formula = formula
         self.messages = list(messages or [])
         self._figures = figures
-        self._figdir = figdir
         self._sweep, self._measured = sweep, measured
-        self._keep = None
-
-    # ------------------------------------------------------------ old dict access
-    def __getitem__(self, key):
-        return self.summary[key]
-
-    def __iter__(self):
-        return iter(self.summary)
-
-    def __len__(self):
-        return len(self.summary)
 
     def __repr__(self):
         st = {k: v["status"] for k, v in self.summary.get("analyses", {}).items()}
@@ -159,14 +147,16 @@ class Analysis(Mapping):
         """Every CSV output as a DataFrame, by name without ``.csv`` (``calibration_runs``,
         ``sweep``, ``spectra_measured``, ``traces_check``, ``gate``, ``alignment_points``)."""
         return {name.removesuffix(".csv"): obj[1] for name, obj in self.files.items()
-                if isinstance(obj, tuple)}
+                if isinstance(obj, tuple) and obj[0] == "csv"}
 
-    @property
+    @functools.cached_property
     def outputs(self) -> dict:
         """Every JSON output as a dict, by name without ``.json`` (``calibration``,
-        ``stability_amplitude``, ``propagation``, ``budget``, ``diagnosis``, ...)."""
-        return {name.removesuffix(".json"): json.loads(obj) for name, obj in self.files.items()
-                if isinstance(obj, str) and name.endswith(".json")}
+        ``stability_amplitude``, ``propagation``, ``budget``, ``diagnosis``, ...), with
+        numpy values as plain Python (what the file holds)."""
+        return {name.removesuffix(".json"): to_jsonable(obj[1])
+                for name, obj in self.files.items()
+                if isinstance(obj, tuple) and obj[0] == "json"}
 
     def table(self, name: str) -> pd.DataFrame | None:
         """One table (``"sweep"`` or ``"sweep.csv"``), None when not produced."""
@@ -198,20 +188,16 @@ class Analysis(Mapping):
     @property
     def alignment(self) -> AlignmentFit | None:
         """The alignment fit of ``alpha`` and ``delta`` (with its points)."""
-        d = (self.summary.get("gates") or {}).get("alignment")
-        pts = self.alignment_points
-        if d is None or pts is None:
-            return None
-        keys = ("alpha_khz", "alpha_khz_err", "delta", "delta_err", "correlation", "chi2",
-                "dof", "redchi", "sigma_db")
-        return AlignmentFit(**{k: d[k] for k in keys}, points=pts)
+        gates = self.results.get("gates")
+        return None if gates is None else gates.alignment
 
     @property
     def budget(self) -> pd.DataFrame | None:
         """The error budget (Table S3): one row per term, ``estimate`` and ``error``."""
-        d = self.outputs.get("budget")
-        if d is None:
+        b = self.results.get("budget")
+        if b is None:
             return None
+        d = b.to_dict()
         rows = {k: v for k, v in d.items() if isinstance(v, dict) and "estimate" in v}
         return pd.DataFrame.from_dict(rows, orient="index")[["estimate", "error"]]
 
@@ -221,10 +207,6 @@ class Analysis(Mapping):
         return self.results.get("diagnosis")
 
     # ------------------------------------------------------------ writing
-    def keep_alive(self, obj) -> None:
-        """Keep ``obj`` alive as long as this result lives (kept for old callers)."""
-        self._keep = obj
-
     def draw_figures(self) -> dict:
         """Draw every figure of this analysis: ``{file stem: (Figure, dpi)}`` (none when
         made with ``plots=False``)."""

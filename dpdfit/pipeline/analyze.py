@@ -8,40 +8,43 @@ included, are staged and published together at the end (Ctrl-C leaves a
 previous results folder exactly as it was), and what a previous run wrote
 there and this one does not is deleted in the same step.
 
-Analyses (in order):
+Analyses, in the order of :data:`dpdfit.pipeline.steps.PIPELINE` (stated
+there once):
 
-1. ``calibration`` -- the amplitude run the day's predistortion table came
-   from (``campaign.json``), the phase run used for the model; every
-   amplitude and phase run for the per-run table.  -> ``calibration.json``,
-   ``calibration_runs.csv``, Fig. 1.
-2. ``sweep`` -- the simulated amplitude sweep from that calibration at the
-   spectra's ``nu``, ``xi0`` (S6). -> ``sweep.csv``, Figs. 2, 5, S4, S6.
-3. ``spectra`` -- measured tone powers (``spectra.csv``): ``R10``, ``R23``,
-   ``dP_n``, ``F_est`` per A and flag, ``eta_bar`` from the simulation's
-   spline (S6.5), measured threshold efficiencies
-   (:mod:`dpdfit.analyses.measured_spectra`). -> ``spectra_measured.csv``,
-   Figs. 2/S6/5 with measured (solid) and simulated (dashed) curves.
-4. ``traces`` -- the bundled raw traces re-analysed and checked against
-   ``spectra.csv``. -> ``traces_check.csv``.
-5. ``stability`` -- y(1) and phi(1) per run: mean, sd, drift test, Allan
-   deviation, curve envelopes (S2). -> ``stability_*.json``, Figs. S2, S3.
-6. ``gates`` -- count inference (S7): population and parity fidelities per
-   setting pooled over scans (``gate.csv``, joined with ``gate_rates.csv``),
-   the alignment fit of ``alpha`` and ``delta`` against the simulated sweep
-   (``alignment_points.csv``), Figs. 3, 4, S7, S8.
-7. ``propagation`` -- emcee posterior of the day's amplitude calibration with
-   the run-to-run drift model, 10^4 draws pushed through the sweep at
-   A = 0.5 for a fresh and a 30-day-old table. -> ``propagation.json``.
-8. ``budget`` -- the error budget of Table S3 (S8) from ``budget.toml`` in
-   the campaign folder (or the paper's inputs), with the gate times from
-   ``gate_rates.csv`` and ``delta`` from the alignment fit. -> ``budget.json``.
-9. ``diagnosis`` -- the discrepancy diagnosis (unless ``diagnosis=False``).
-   -> ``diagnosis.json``.
+* ``calibration`` -- the amplitude run the day's predistortion table came
+  from (``campaign.json``), the phase run used for the model; every
+  amplitude and phase run for the per-run table.  -> ``calibration.json``,
+  ``calibration_runs.csv``, Fig. 1.
+* ``stability`` -- y(1) and phi(1) per run: mean, sd, drift test, Allan
+  deviation, curve envelopes (S2). -> ``stability_*.json``, Figs. S2, S3.
+* ``sweep`` -- the simulated amplitude sweep from that calibration at the
+  spectra's ``nu``, ``xi0`` (S6). -> ``sweep.csv``, Figs. 2, 5, S4, S6.
+* ``spectra`` -- measured tone powers (``spectra.csv``): ``R10``, ``R23``,
+  ``dP_n``, ``F_est`` per A and flag, ``eta_bar`` from the simulation's
+  spline (S6.5), measured threshold efficiencies
+  (:mod:`dpdfit.analyses.measured_spectra`). -> ``spectra_measured.csv``,
+  Figs. 2/S6/5 with measured (solid) and simulated (dashed) curves.
+* ``traces`` -- the bundled raw traces re-analysed and checked against
+  ``spectra.csv``. -> ``traces_check.csv``.
+* ``gates`` -- count inference (S7): population and parity fidelities per
+  setting pooled over scans (``gate.csv``, joined with ``gate_rates.csv``),
+  the alignment fit of ``alpha`` and ``delta`` against the simulated sweep
+  (``alignment_points.csv``), Figs. 3, 4, S7, S8.
+* ``propagation`` -- emcee posterior of the day's amplitude calibration with
+  the run-to-run drift model, 10^4 draws pushed through the sweep at
+  A = 0.5 for a fresh and a 30-day-old table. -> ``propagation.json``.
+* ``budget`` -- the error budget of Table S3 (S8) from ``budget.toml`` in
+  the campaign folder (or the paper's inputs), with the gate times from
+  ``gate_rates.csv`` and ``delta`` from the alignment fit. -> ``budget.json``.
+* ``diagnosis`` -- the discrepancy diagnosis (unless ``diagnosis=False``).
+  -> ``diagnosis.json``.
 
 One pipeline: each step (:mod:`dpdfit.pipeline.steps`) gets what earlier
-steps produced instead of recomputing it -- every calibration run is fitted
-once (in ``calibration``; ``stability`` and ``propagation`` reuse the fits)
-and the amplitude posterior is sampled once (``propagation``: the
+steps produced instead of recomputing it -- every recording file is read once
+(:class:`~dpdfit.recordings.campaign_folder.CampaignFolder`, shared by every
+step, the diagnosis included), every calibration run is fitted once (in
+``calibration``; ``stability``, ``propagation`` and the diagnosis reuse the
+fits) and the amplitude posterior is sampled once (``propagation``: the
 propagation, the threshold distributions and the corner plot share it).  The
 Markdown summary is written by :mod:`dpdfit.report.summary`.
 
@@ -72,16 +75,14 @@ from dpdfit.report.summary import PAPER, realism_table
 
 from .analysis import Analysis
 from .context import Context, Results
-from .steps import (budget_step, calibration_step, diagnosis_step, gates_step, propagation_step,
-                    spectra_step, stability_step, sweep_step, traces_step)
+from .steps import PIPELINE
 
-__all__ = ["analyze", "Analysis", "PAPER", "STEPS"]
+__all__ = ["analyze", "Analysis", "PAPER", "STEPS", "render_summary"]
 
 log = logging.getLogger(__name__)
 
-#: The analyses in the order they run.
-STEPS = ("calibration", "stability", "sweep", "spectra", "traces", "gates", "propagation",
-         "budget", "diagnosis")
+#: The analyses' names in the order they run (:data:`~dpdfit.pipeline.steps.PIPELINE`).
+STEPS = tuple(step.name for step in PIPELINE)
 
 
 def _guarded(ctx: Context, failures: list, name, step, *args):
@@ -100,29 +101,18 @@ def _guarded(ctx: Context, failures: list, name, step, *args):
 
 
 def _run_steps(ctx: Context, diagnosis: bool, bar) -> tuple[dict, list]:
-    """Every analysis in order, each handed what it needs -> (step results, failures)."""
+    """Every analysis of the pipeline in order, each handed the earlier results it needs
+    -> (step results, failures)."""
     failures: list[str] = []
     out: dict = {}
-
-    def run(name, step, *args):
-        bar.set_postfix_str(name, refresh=False)
-        out[name] = _guarded(ctx, failures, name, step, *args)
-        bar.update()
-        return out[name]
-
-    fits = run("calibration", calibration_step)
-    run("stability", stability_step, fits)
-    sweep = run("sweep", sweep_step, fits)
-    run("spectra", spectra_step, sweep)
-    run("traces", traces_step)
-    run("gates", gates_step, sweep)
-    run("propagation", propagation_step, fits)
-    run("budget", budget_step)
-    if diagnosis:
-        run("diagnosis", diagnosis_step, fits)
-    else:
-        ctx.results.status("diagnosis", "skipped", "--no-diagnosis")
-        out["diagnosis"] = None
+    for step in PIPELINE:
+        bar.set_postfix_str(step.name, refresh=False)
+        if step.name == "diagnosis" and not diagnosis:
+            ctx.results.status("diagnosis", "skipped", "--no-diagnosis")
+            out[step.name] = None
+        else:
+            out[step.name] = _guarded(ctx, failures, step.name, step.run,
+                                      *(out.get(n) for n in step.needs))
         bar.update()
     return out, failures
 
@@ -138,25 +128,40 @@ class _Collect(logging.Handler):
         self.messages.append(record.getMessage())
 
 
-def _analysis(folder: Path, figdir: Path, formula, plots, diagnosis, bar) -> Analysis:
+def _analysis(folder: Path, formula, plots, diagnosis, bar) -> Analysis:
     """Run the steps; everything in memory (figures queued, drawn by ``Analysis.save``)."""
     cf = CampaignFolder(folder)
-    ctx = Context(campaign=cf, results=Results(), figdir=figdir, formula=formula,
+    ctx = Context(campaign=cf, results=Results(), formula=formula,
                   figures=[] if plots else None)
     res = ctx.results
-    res.summary["campaign"] = cf.meta.get("name", folder.name)
-    res.summary["left_out"] = cf.left_out()
     collect = _Collect()
     logging.getLogger("dpdfit").addHandler(collect)
     try:
         results, failures = _run_steps(ctx, diagnosis, bar)
     finally:
         logging.getLogger("dpdfit").removeHandler(collect)
-    res.summary["realism"] = realism_table(res.summary)
-    res.summary["failures"] = failures
-    return Analysis(folder, res.summary, res.files, results, formula, figures=ctx.figures,
-                    figdir=figdir, sweep=results.get("sweep"), measured=results.get("spectra"),
+    summary = render_summary(cf, res.statuses, results, failures)
+    spectra = results.get("spectra")
+    return Analysis(folder, summary, res.files, results, formula, figures=ctx.figures,
+                    sweep=results.get("sweep"),
+                    measured=None if spectra is None else spectra.table,
                     messages=collect.messages)
+
+
+def render_summary(cf: CampaignFolder, statuses: dict, results: dict, failures: list) -> dict:
+    """``summary.json`` of one run, made once from the steps' typed results: each
+    analysis's status, the campaign, what was left out, each step's section (from its
+    result, :data:`~dpdfit.pipeline.steps.PIPELINE`), the realism table, the failures."""
+    summary = {"analyses": statuses, "campaign": cf.meta.get("name", cf.path.name),
+               "left_out": cf.left_out()}
+    for step in PIPELINE:
+        result = results.get(step.name)
+        ok = statuses.get(step.name, {}).get("status") == "ok"
+        if result is not None and ok and step.summary is not None:
+            summary[step.name] = step.summary(result)
+    summary["realism"] = realism_table(summary)
+    summary["failures"] = failures
+    return summary
 
 
 def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, *,
@@ -184,9 +189,9 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, 
     Returns
     -------
     Analysis
-        Every analysis's result and tables; also a mapping over the summary
-        (``res["analyses"]``: per analysis ``ok``, ``skipped`` (why) or
-        ``failed`` (the error line)), as the summary dict returned before.
+        Every analysis's typed result and tables, and the summary
+        (``res.summary["analyses"]``: per analysis ``ok``, ``skipped`` (why) or
+        ``failed`` (the error line); ``res.status`` as a table).
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -198,10 +203,9 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, 
             raise InputError("results folder must differ from the campaign folder",
                              file=str(outdir))
         check_output_folder(Path(outdir) / "figures", "figures folder")
-    figdir = Path(outdir if outdir is not None else ".") / "figures"
     n = len(STEPS) + (outdir is not None)
     with progress_scope(progress), progress_bar(total=n, desc="analyze") as bar:
-        result = _analysis(folder, figdir, formula, plots, diagnosis, bar)
+        result = _analysis(folder, formula, plots, diagnosis, bar)
         if outdir is not None:
             bar.set_postfix_str("writing", refresh=False)
             result.save(outdir)

@@ -51,7 +51,9 @@ from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, 
 from dpdfit.errors import InputError
 
 from .counts import read_parity, read_populations
-from .tables import CalibrationData, list_runs, read_calibration, read_table
+from .gate_rates import read_gate_rates
+from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
+from .tables import read_calibration_table, read_table
 
 __all__ = ["CampaignFolder", "META_DEFAULTS", "FILES", "RECORDING_KEYS", "MAX_FUTURE_DAYS"]
 
@@ -103,9 +105,6 @@ class CampaignFolder:
             raise InputError(f"campaign.json cannot be read ({why})", file=str(p)) from None
         except json.JSONDecodeError as exc:
             raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
-                             file=str(p)) from None
-        except UnicodeDecodeError as exc:
-            raise InputError(f"campaign.json is not UTF-8 text (byte {exc.start + 1})",
                              file=str(p)) from None
         if not isinstance(raw, dict):
             raise InputError("campaign.json must hold a JSON object", file=str(p))
@@ -185,31 +184,38 @@ class CampaignFolder:
     @functools.cached_property
     def amplitude_runs(self) -> pd.DataFrame:
         """Every amplitude calibration run (validated table)."""
-        return read_table(self.require("calibration_amplitude.csv", "the calibration"),
-                          ["A", "power"], ["power_err", "run", "timestamp"],
-                          ranges={"A": (0, 1)}, positive=["power_err"], distinct_rows=True)
+        return read_calibration_table(
+            self.require("calibration_amplitude.csv", "the calibration"), "amplitude")
 
     @functools.cached_property
     def amplitude_model(self) -> CalibrationData:
         """The amplitude run behind the predistortion table."""
-        self.amplitude_runs                                   # validate the whole file once
         run = self.table_run if list_runs(self.amplitude_runs) else None
-        return read_calibration(self.file("calibration_amplitude.csv"), "amplitude", run)
+        return calibration_data(self.amplitude_runs, "amplitude", run)
+
+    @functools.cached_property
+    def amplitude_run_data(self) -> dict:
+        """Every amplitude run, ``{label: CalibrationData}`` (label None: a single run)."""
+        return calibration_runs_data(self.amplitude_runs, "amplitude")
 
     @functools.cached_property
     def phase_runs(self) -> pd.DataFrame | None:
         if not self.has("calibration_phase.csv"):
             return None
-        return read_table(self.file("calibration_phase.csv"), ["A", "phase_rad"],
-                          ["phase_err", "run", "timestamp"], ranges={"A": (0, 1)},
-                          positive=["phase_err"], distinct_rows=True)
+        return read_calibration_table(self.file("calibration_phase.csv"), "phase")
 
     @functools.cached_property
     def phase_model(self) -> CalibrationData | None:
         if self.phase_runs is None:
             return None
         run = self.phase_run if list_runs(self.phase_runs) else None
-        return read_calibration(self.file("calibration_phase.csv"), "phase", run)
+        return calibration_data(self.phase_runs, "phase", run)
+
+    @functools.cached_property
+    def phase_run_data(self) -> dict:
+        """Every phase run, ``{label: CalibrationData}`` (empty without a phase file)."""
+        return {} if self.phase_runs is None else calibration_runs_data(self.phase_runs,
+                                                                        "phase")
 
     # ------------------------------------------------------------------ spectra
     @functools.cached_property
@@ -260,19 +266,10 @@ class CampaignFolder:
 
     @functools.cached_property
     def gate_rates(self) -> pd.DataFrame | None:
+        """``A, dpd, xi0_khz`` (+ ``xi0_err_khz``): :func:`~.gate_rates.read_gate_rates`."""
         if not self.has("gate_rates.csv"):
             return None
-        path = self.file("gate_rates.csv")
-        df = read_table(path, ["A", "dpd", "xi0_khz"], ["xi0_err_khz"],
-                        ranges={"A": (0, 1), "dpd": (0, 1)},
-                        positive=["xi0_khz", "xi0_err_khz"])
-        df["dpd"] = df["dpd"].astype(int)
-        dup = df.duplicated(["A", "dpd"])
-        if dup.any():
-            i = int(np.flatnonzero(dup.to_numpy())[0])
-            raise InputError(f"setting A={df['A'].iloc[i]:g}, dpd={df['dpd'].iloc[i]} appears "
-                             "twice", file=str(path), column="A", row=i + 1)
-        return df
+        return read_gate_rates(self.file("gate_rates.csv"))
 
     @functools.cached_property
     def time_scans(self) -> pd.DataFrame | None:

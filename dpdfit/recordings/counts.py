@@ -138,15 +138,6 @@ def _rows_text(file, rows) -> str:
     return text + f" (lines {', '.join(map(str, lines))})"
 
 
-def _header(path) -> list[str]:
-    """Column names of a CSV file ([] if it cannot be read; read_table reports why)."""
-    try:
-        cols = pd.read_csv(path, comment="#", skipinitialspace=True, nrows=0).columns
-    except Exception:  # noqa: BLE001 - read_table gives the proper message
-        return []
-    return [str(c).strip() for c in cols]
-
-
 def _check_trio(df, file):
     """``n00 + n01_10 + n11 == shots``; ``n_even == n00 + n11`` (added when absent)."""
     tot = df["n00"] + df["n01_10"] + df["n11"]
@@ -186,10 +177,8 @@ def read_populations(path: str | os.PathLike) -> pd.DataFrame:
     """
     name = str(path)
     optional = ["n_even", "n00", "n01_10", "n11"]
-    present = _header(path)
     df = read_table(path, ["A", "dpd", "scan", "shots"], optional,
-                    numeric=["A", "dpd", "shots"] + [c for c in optional if c in present],
-                    ranges={"A": (0.0, 1.0)})
+                    numeric=["A", "dpd", "shots"] + optional, ranges={"A": (0.0, 1.0)})
     trio = [c for c in ("n00", "n01_10", "n11") if c in df.columns]
     if "n_even" not in df.columns and len(trio) < 3:
         missing = next(c for c in ("n00", "n01_10", "n11") if c not in df.columns)

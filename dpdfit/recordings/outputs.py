@@ -20,13 +20,14 @@ import signal
 import tempfile
 import threading
 from pathlib import Path
-from typing import Callable, Iterable, Iterator
+from typing import Iterable, Iterator
 
-import numpy as np
+from dpdfit.core.jsonable import to_jsonable
 
 from dpdfit.errors import InputError
 
-__all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "refuse_overwriting_inputs", "staged_outputs", "Stage",
+__all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "file_sha256",
+           "remember_sha256", "refuse_overwriting_inputs", "staged_outputs", "Stage",
            "check_output_folder", "check_output_file",
            "atomic_write_text", "atomic_write_json", "to_jsonable"]
 
@@ -38,6 +39,39 @@ def sha256_file(path: str | os.PathLike) -> str:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+#: digests of file versions already read, ``{(realpath, mtime_ns, size): hex}``
+_DIGESTS: dict = {}
+_MAX_DIGESTS = 256
+
+
+def _version(path) -> tuple:
+    st = os.stat(path)
+    return os.path.realpath(path), st.st_mtime_ns, st.st_size
+
+
+def remember_sha256(path: str | os.PathLike, data: bytes) -> None:
+    """Note the digest of ``data``, the bytes just read from ``path``: a reader that has
+    the bytes in hand spares :func:`file_sha256` opening the file again."""
+    if len(_DIGESTS) >= _MAX_DIGESTS:
+        _DIGESTS.pop(next(iter(_DIGESTS)))
+    _DIGESTS[_version(path)] = hashlib.sha256(data).hexdigest()
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file, computed once per version (path, mtime, size) of the file.
+
+    The runs of one calibration file share its digest (hashing the whole file once
+    per run made fitting every run quadratic in the number of runs), and a file
+    whose reader noted its digest (:func:`remember_sha256`) is not opened again.
+    """
+    key = _version(path)
+    if key not in _DIGESTS:
+        if len(_DIGESTS) >= _MAX_DIGESTS:
+            _DIGESTS.pop(next(iter(_DIGESTS)))
+        _DIGESTS[key] = sha256_file(path)
+    return _DIGESTS[key]
 
 
 def refuse_overwriting_inputs(outputs: Iterable[str | os.PathLike],
@@ -211,25 +245,6 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` to ``path`` atomically."""
     with staged_outputs() as stage:
         stage(path).write_text(text)
-
-
-def to_jsonable(obj):
-    """Convert numpy scalars/arrays (recursively) to plain Python for JSON."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.floating):
-        obj = float(obj)
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None  # JSON has no NaN/inf; absent values are null
-    return obj
 
 
 def atomic_write_json(path: str | os.PathLike, obj) -> None:

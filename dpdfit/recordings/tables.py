@@ -25,18 +25,22 @@ Extra columns are allowed and ignored.
 from __future__ import annotations
 
 import difflib
+import io
 import os
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
 from dpdfit.core.memory import TABLE_BYTES_PER_FILE_BYTE, check_memory
 from dpdfit.errors import InputError, data_line
+from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, CalibrationData,
+                                                calibration_data, calibration_runs_data,
+                                                list_runs, select_run)
+from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.repeats import check_duplicates
 
 __all__ = ["read_table", "CalibrationData", "read_calibration", "read_calibration_runs",
-           "select_run", "list_runs", "check_duplicates", "check_repeated_rows", "require_file"]
+           "read_calibration_table", "select_run", "list_runs", "check_duplicates",
+           "check_repeated_rows", "require_file"]
 
 
 def _row(index: int) -> int:
@@ -61,7 +65,8 @@ def read_table(path: str | os.PathLike, required: list[str],
         suggested.
     numeric : list of str, optional
         Columns that must hold finite numbers (default: all required and
-        present optional columns except ``run`` and ``timestamp``).
+        present optional columns except ``run`` and ``timestamp``); an
+        optional column named here is checked when present.
     ranges : dict, optional
         ``{column: (lo, hi)}`` inclusive bounds.
     positive : list of str
@@ -91,6 +96,8 @@ def read_table(path: str | os.PathLike, required: list[str],
     for col in df.columns:
         out[col] = df[col].str.strip() if df[col].dtype == object else df[col]
     for col in numeric:
+        if col not in out.columns and col in optional:   # an absent optional column
+            continue
         out[col] = _numeric_column(out[col], name, col)
     for col, (lo, hi) in (ranges or {}).items():
         if col in out.columns:
@@ -126,7 +133,11 @@ def _read_csv(path, name: str) -> pd.DataFrame:
     """The file as a table of strings (InputError when absent, empty or not a CSV)."""
     require_file(path)
     try:
-        df = pd.read_csv(path, comment="#", skipinitialspace=True, dtype=str,
+        # read once: the bytes are parsed and hashed (provenance) without a second open
+        with open(path, "rb") as fh:
+            raw = fh.read()
+        remember_sha256(path, raw)
+        df = pd.read_csv(io.BytesIO(raw), comment="#", skipinitialspace=True, dtype=str,
                          keep_default_na=False)
     except pd.errors.EmptyDataError:
         raise InputError("file is empty (no header, no data)", file=name) from None
@@ -265,90 +276,19 @@ def _timestamps(column: pd.Series, name: str) -> pd.Series:
     return ts
 
 
-@dataclass(frozen=True)
-class CalibrationData:
-    """One calibration run's points, validated.
-
-    Attributes
-    ----------
-    A : ndarray
-        Normalised RF amplitudes (0..1).
-    value : ndarray
-        ``power`` (arbitrary units) or ``phase_rad`` (rad).
-    error : ndarray or None
-        1-sigma uncertainties of ``value`` if the file has them.
-    rows : ndarray of int
-        1-based data-row numbers in the source file (for messages).
-    source : str
-        File name. ``run`` and ``timestamp`` (ISO string) identify the run.
-    """
-
-    A: np.ndarray
-    value: np.ndarray
-    error: np.ndarray | None
-    rows: np.ndarray
-    source: str
-    run: str | None = None
-    timestamp: str | None = None
-
-
-def list_runs(df: pd.DataFrame) -> list[str]:
-    """Run labels in order of first appearance (``[]`` if no ``run`` column)."""
-    if "run" not in df.columns:
-        return []
-    return list(dict.fromkeys(df["run"].tolist()))
-
-
-def select_run(df: pd.DataFrame, run: str | None) -> tuple[pd.DataFrame, str | None]:
-    """Rows of one run.
-
-    ``run=None`` is allowed only when the table holds a single run;
-    ``run="latest"`` picks the run with the latest timestamp (or the last in
-    the file without timestamps).
-    """
-    name = df.attrs.get("source")
-    runs = list_runs(df)
-    if not runs:
-        if run not in (None, "latest"):
-            raise InputError(f"--run {run} given but the file has no 'run' column", file=name)
-        return df, None
-    if run is None:
-        if len(runs) == 1:
-            return df, runs[0]
-        shown = ", ".join(runs[:8]) + (" ..." if len(runs) > 8 else "")
-        raise InputError(f"file holds {len(runs)} runs ({shown}); choose one with --run ID, "
-                         "--run latest, or fit each with --all-runs", file=name)
-    if run == "latest":
-        if "timestamp" in df.columns:
-            last = df.groupby("run", sort=False)["timestamp"].min().idxmax()
-        else:
-            last = runs[-1]
-        run = last
-    if str(run) not in runs:
-        raise InputError(f"run '{run}' not found; runs present: {', '.join(runs[:20])}",
-                         file=name, column="run")
-    return df[df["run"] == str(run)], str(run)
-
-
 def _calibration_table(path: str | os.PathLike, kind: str) -> tuple[pd.DataFrame, str, str]:
     """The whole calibration file, validated, and its value and error columns."""
-    value_col, err_col = {"amplitude": ("power", "power_err"),
-                          "phase": ("phase_rad", "phase_err")}[kind]
+    value_col, err_col = CALIBRATION_COLUMNS[kind]
     df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
                     ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
     return df, value_col, err_col
 
 
-def _calibration_data(sub: pd.DataFrame, label, path, value_col: str, err_col: str
-                      ) -> CalibrationData:
-    """One run's rows (``sub``, indexed by file position) as :class:`CalibrationData`."""
-    ts = None
-    if "timestamp" in sub.columns:
-        ts = sub["timestamp"].min().isoformat()
-    return CalibrationData(
-        A=sub["A"].to_numpy(dtype=float), value=sub[value_col].to_numpy(dtype=float),
-        error=sub[err_col].to_numpy(dtype=float) if err_col in sub.columns else None,
-        rows=sub.index.to_numpy() + 1, source=str(path), run=label, timestamp=ts)
+def read_calibration_table(path: str | os.PathLike, kind: str) -> pd.DataFrame:
+    """A whole calibration file (every run), validated once (``attrs["source"]``: path)."""
+    df, _, _ = _calibration_table(path, kind)
+    df.attrs["source"] = str(path)
+    return df
 
 
 def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
@@ -363,9 +303,7 @@ def read_calibration(path: str | os.PathLike, kind: str, run: str | None = None
     run : str, optional
         Run label, or ``"latest"``; required if the file holds several runs.
     """
-    df, value_col, err_col = _calibration_table(path, kind)
-    sub, label = select_run(df, run)
-    return _calibration_data(sub, label, path, value_col, err_col)
+    return calibration_data(read_calibration_table(path, kind), kind, run)
 
 
 def read_calibration_runs(path: str | os.PathLike, kind: str) -> dict:
@@ -375,9 +313,4 @@ def read_calibration_runs(path: str | os.PathLike, kind: str) -> dict:
     file without a ``run`` column), but the file is read and validated once:
     linear, not quadratic, in the number of runs.
     """
-    df, value_col, err_col = _calibration_table(path, kind)
-    if not list_runs(df):
-        return {None: _calibration_data(df, None, path, value_col, err_col)}
-    groups = df.groupby("run", sort=False).indices
-    return {str(r): _calibration_data(df.iloc[pos], str(r), path, value_col, err_col)
-            for r, pos in groups.items()}
+    return calibration_runs_data(read_calibration_table(path, kind), kind)

@@ -14,8 +14,7 @@ No matplotlib backend is chosen by the library.  New figures are plain
 close, no duplicate display): in Jupyter a returned Figure is shown once
 matplotlib's inline support is on (``%matplotlib inline``, or after any pyplot
 figure); ``plt.show()`` does not know them -- draw into your own
-``plt.subplots()`` with ``ax=``/``fig=`` for that.  The older ``plot_*``
-functions, which write PNG files into a folder, still work but are deprecated.
+``plt.subplots()`` with ``ax=``/``fig=`` for that.
 """
 
 from dpdfit.report.calibration_plots import (amplitude_calibration_figure, calibration_figure,

@@ -4,23 +4,20 @@
 DPD (:func:`amplitude_calibration_figure`); (b) phase data, fit and band
 (:func:`phase_calibration_figure`); (c) the predistortion function
 (:func:`predistortion_figure`); all side by side (:func:`calibration_figure`).
-:func:`calibration_figures` draws the set ``dpdfit analyze`` writes;
-:func:`plot_calibration` (deprecated) writes it as PNG files.
+:func:`calibration_figures` draws the set ``dpdfit analyze`` writes.
 """
 
 from __future__ import annotations
-
-import os
 
 import numpy as np
 
 from dpdfit.fits.calibration import AmplitudeCalibration, Calibration, PhaseCalibration
 from dpdfit.models.transfer import TransferFunction
 from dpdfit.recordings.tables import CalibrationData
-from dpdfit.report.figure_io import deprecated_plot, panel_grid, save_figures, single_axes
+from dpdfit.report.figure_io import panel_grid, single_axes
 
 __all__ = ["amplitude_calibration_figure", "phase_calibration_figure", "predistortion_figure",
-           "calibration_figure", "calibration_figures", "plot_calibration"]
+           "calibration_figure", "calibration_figures"]
 
 #: amplitude grid of the drawn curves
 _GRID = np.linspace(0, 1, 501)
@@ -163,15 +160,3 @@ def calibration_figures(cal: Calibration, amp_data: CalibrationData | None = Non
             for name, draw in _panels(cal, amp_data, phase_data).items()}
     figs["fig1_calibration"] = calibration_figure(cal, amp_data, phase_data)
     return figs
-
-
-def plot_calibration(cal: Calibration, outdir: str | os.PathLike,
-                     amp_data: CalibrationData | None = None,
-                     phase_data: CalibrationData | None = None) -> list[str]:
-    """Deprecated: write :func:`calibration_figures` as PNG files into ``outdir``; returns the paths.
-
-    Use :func:`calibration_figures` (or the single-figure functions) and
-    :func:`dpdfit.report.figure_io.save_figures`.
-    """
-    deprecated_plot("plot_calibration", "calibration_figures")
-    return save_figures(calibration_figures(cal, amp_data, phase_data), outdir)

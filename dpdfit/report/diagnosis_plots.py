@@ -1,16 +1,16 @@
 """Before/after residual figures of the discrepancy diagnosis (``dpdfit diagnose --plot``).
 
 :func:`diagnosis_figure` draws one observable group and returns the Figure;
-:func:`diagnosis_figures` draws every group there is; :func:`plot_diagnosis`
-(deprecated) writes them as PNG files at :data:`DIAGNOSIS_DPI`.
+:func:`diagnosis_figures` draws every group there is (written at
+:data:`DIAGNOSIS_DPI`).
 """
 
 from __future__ import annotations
 
 from dpdfit.analyses.diagnosis.result import Diagnosis
-from dpdfit.report.figure_io import deprecated_plot, panel_grid, save_figures
+from dpdfit.report.figure_io import panel_grid
 
-__all__ = ["diagnosis_figure", "diagnosis_figures", "plot_diagnosis", "DIAGNOSIS_DPI",
+__all__ = ["diagnosis_figure", "diagnosis_figures", "DIAGNOSIS_DPI",
            "DIAGNOSIS_GROUPS"]
 
 #: resolution of the diagnosis figures
@@ -85,14 +85,3 @@ def diagnosis_figures(result: Diagnosis) -> dict:
     ``diagnosis_calibration`` (each when the diagnosis has series of that group)."""
     return {f"diagnosis_{g}": diagnosis_figure(result, g)
             for g in DIAGNOSIS_GROUPS if _series(result, g)}
-
-
-def plot_diagnosis(result: Diagnosis, folder, outdir) -> list[str]:
-    """Deprecated: write :func:`diagnosis_figures` as PNG files (``diagnosis_tones.png``,
-    ``diagnosis_gates.png``, ...) into ``outdir``; returns the paths.  ``folder`` is unused.
-
-    Use :func:`diagnosis_figures` and :func:`dpdfit.report.figure_io.save_figures`
-    (with ``dpi=DIAGNOSIS_DPI``).
-    """
-    deprecated_plot("plot_diagnosis", "diagnosis_figures")
-    return save_figures(diagnosis_figures(result), outdir, dpi=DIAGNOSIS_DPI)

@@ -17,7 +17,6 @@ line only (``dpdfit.cli`` may not import matplotlib itself).
 from __future__ import annotations
 
 import os
-import warnings
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
@@ -27,7 +26,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
 __all__ = ["DPI", "new_figure", "single_axes", "panel_grid", "root_figure", "save_figures",
-           "save_png", "pyplot", "use_noninteractive_backend", "deprecated_plot"]
+           "save_png", "pyplot", "use_noninteractive_backend"]
 
 #: resolution of every PNG figure (unless a module says otherwise)
 DPI = 130
@@ -106,10 +105,3 @@ def use_noninteractive_backend() -> None:
     """
     import matplotlib
     matplotlib.use("Agg")
-
-
-def deprecated_plot(old: str, new: str) -> None:
-    """The DeprecationWarning of an old ``plot_*`` function that writes PNG files."""
-    warnings.warn(f"{old}() is deprecated: draw with dpdfit.report.{new}() (returns "
-                  "matplotlib Figures) and write them with dpdfit.report.save_figures()",
-                  DeprecationWarning, stacklevel=3)

@@ -6,8 +6,7 @@
 :func:`time_scans_figure` the population time scans (S7); each returns a
 Figure and :func:`gate_figures` draws the set ``dpdfit analyze`` writes.
 :func:`merged_parity_figure` draws Fig. S8 from merged parity counts alone
-(``dpdfit fidelity --plot``).  :func:`plot_gate_figures` and
-:func:`plot_parity_only` (deprecated) write them as PNG files.
+(``dpdfit fidelity --plot``).
 """
 
 from __future__ import annotations
@@ -15,13 +14,13 @@ from __future__ import annotations
 import numpy as np
 
 from dpdfit.analyses.sweep import eta_corr
+from dpdfit.core.defaults import NBAR
 from dpdfit.fits.alignment import K_DB
 from dpdfit.models.fidelity import cardioid_populations
-from dpdfit.report.figure_io import deprecated_plot, panel_grid, save_figures, single_axes
+from dpdfit.report.figure_io import panel_grid, single_axes
 
 __all__ = ["fidelity_vs_rate_figure", "fidelity_vs_efficiency_figure", "parity_fringes_figure",
-           "time_scans_figure", "gate_figures", "merged_parity_figure", "plot_gate_figures",
-           "plot_parity_only"]
+           "time_scans_figure", "gate_figures", "merged_parity_figure"]
 
 #: marker style per DPD flag
 _STYLE = {1: dict(color="C0", marker="s", label="DPD"), 0: dict(color="C3", marker="o",
@@ -175,7 +174,7 @@ def _time_scan_panel(ax, gate, ts, d, nbar):
     ax.legend(fontsize=7)
 
 
-def time_scans_figure(gate, time_scans, nbar: float = 0.1, *, fig=None):
+def time_scans_figure(gate, time_scans, nbar: float = NBAR, *, fig=None):
     """Fig. S7: the population time scans, one panel per DPD flag, with the ideal Cardioid
     model at the setting's gate rate.
 
@@ -191,7 +190,7 @@ def time_scans_figure(gate, time_scans, nbar: float = 0.1, *, fig=None):
 
 
 def gate_figures(gate, sweep, fit, parity=None, time_scans=None, highlight=None,
-                 nbar: float = 0.1) -> dict:
+                 nbar: float = NBAR) -> dict:
     """Figures of the measured side as ``dpdfit analyze`` writes them: ``{file stem: Figure}``.
 
     ``fig3_fidelity_vs_rate``, ``fig4_fidelity_vs_eta``, ``figS8_parity_fringes``
@@ -223,18 +222,6 @@ def gate_figures(gate, sweep, fit, parity=None, time_scans=None, highlight=None,
     return figs
 
 
-def plot_gate_figures(gate, sweep, fit, outdir, parity=None, time_scans=None,
-                      highlight=None, nbar: float = 0.1) -> list[str]:
-    """Deprecated: write :func:`gate_figures` as PNG files into ``outdir``; returns the paths.
-
-    Use :func:`gate_figures` (or the single-figure functions) and
-    :func:`dpdfit.report.figure_io.save_figures`.
-    """
-    deprecated_plot("plot_gate_figures", "gate_figures")
-    return save_figures(gate_figures(gate, sweep, fit, parity, time_scans, highlight, nbar),
-                        outdir)
-
-
 def merged_parity_figure(gate, merged_parity, *, fig=None):
     """Fig. S8 alone (``dpdfit fidelity --plot``): merged parity fringes of every setting
     with their fits.
@@ -260,11 +247,3 @@ def merged_parity_figure(gate, merged_parity, *, fig=None):
         ax.set(title=f"A={key[0]:g} {'DPD' if key[1] else 'no DPD'}: C={row['contrast']:.3f}",
                ylim=(-1.1, 1.1), xlabel="$\\varphi$ (rad)", ylabel="$\\Pi$")
     return fig
-
-
-def plot_parity_only(gate, merged_parity, outdir) -> list[str]:
-    """Deprecated: write :func:`merged_parity_figure` as ``figS8_parity_fringes.png`` into
-    ``outdir``; returns the paths."""
-    deprecated_plot("plot_parity_only", "merged_parity_figure")
-    return save_figures({"figS8_parity_fringes": merged_parity_figure(gate, merged_parity)},
-                        outdir)

@@ -1,21 +1,19 @@
 """Corner plot of the amplitude-calibration posterior (:mod:`dpdfit.fits.posterior`), drawn
 with the ``corner`` package.
 
-:func:`corner_figure` returns the Figure; :func:`plot_corner` (deprecated)
-writes it as a PNG file at :data:`CORNER_DPI`.
+:func:`corner_figure` returns the Figure, written by ``dpdfit analyze`` at
+:data:`CORNER_DPI`.
 """
 
 from __future__ import annotations
-
-import os
 
 import numpy as np
 
 from dpdfit.errors import InputError
 from dpdfit.fits.posterior import PosteriorResult
-from dpdfit.report.figure_io import deprecated_plot, new_figure, root_figure, save_figures
+from dpdfit.report.figure_io import new_figure, root_figure
 
-__all__ = ["corner_figure", "plot_corner", "CORNER_DPI"]
+__all__ = ["corner_figure", "CORNER_DPI"]
 
 #: resolution of the corner plot
 CORNER_DPI = 110
@@ -67,22 +65,3 @@ def corner_figure(result: PosteriorResult, params=None, *, bins: int = 40, fig=N
     else:
         fig.suptitle(note.replace("\n", ", "), fontsize=8)
     return root_figure(fig)
-
-
-def plot_corner(result: PosteriorResult, path, params=None, bins: int = 40,
-                max_points: int = 4000) -> str:
-    """Deprecated: write :func:`corner_figure` as the PNG file ``path``; returns the path.
-
-    ``max_points`` is ignored (``corner`` draws densities, not a thinned
-    scatter).  Use :func:`corner_figure` and
-    :func:`dpdfit.report.figure_io.save_figures` (with ``dpi=CORNER_DPI``).
-    """
-    deprecated_plot("plot_corner", "corner_figure")
-    path = os.fspath(path)
-    fig = corner_figure(result, params, bins=bins)
-    folder, name = os.path.split(path)
-    if name.lower().endswith(".png"):
-        save_figures({name[:-4]: fig}, folder or ".", dpi=CORNER_DPI)
-    else:  # another format, from the file name's extension (as before)
-        fig.savefig(path, dpi=CORNER_DPI)
-    return str(path)

@@ -1,20 +1,18 @@
 """Figures S2 (calibration stability over time) and S3 (response envelope of all runs).
 
 :func:`stability_figure` (S2) and :func:`envelope_figure` (S3) each return a
-Figure; :func:`stability_figures` draws both as ``dpdfit analyze`` writes them;
-:func:`plot_stability` (deprecated) writes them as PNG files.
+Figure; :func:`stability_figures` draws both as ``dpdfit analyze`` writes them
+(:func:`~dpdfit.report.figure_io.save_figures` writes any of them as PNG).
 """
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from dpdfit.analyses.stability import StabilityResult
-from dpdfit.report.figure_io import deprecated_plot, save_figures, single_axes
+from dpdfit.report.figure_io import single_axes
 
-__all__ = ["stability_figure", "envelope_figure", "stability_figures", "plot_stability"]
+__all__ = ["stability_figure", "envelope_figure", "stability_figures"]
 
 _FIGSIZE = (5.2, 3.6)
 
@@ -77,13 +75,3 @@ def stability_figures(result: StabilityResult) -> dict:
     (``figS2_stability_<kind>``, ``figS3_envelope_<kind>``)."""
     return {f"figS2_stability_{result.kind}": stability_figure(result),
             f"figS3_envelope_{result.kind}": envelope_figure(result)}
-
-
-def plot_stability(result: StabilityResult, outdir: str | os.PathLike) -> list[str]:
-    """Deprecated: write :func:`stability_figures` (``figS2_stability_<kind>.png``,
-    ``figS3_envelope_<kind>.png``) into ``outdir``, together; returns the paths.
-
-    Use :func:`stability_figures` and :func:`dpdfit.report.figure_io.save_figures`.
-    """
-    deprecated_plot("plot_stability", "stability_figures")
-    return save_figures(stability_figures(result), outdir)

@@ -7,12 +7,11 @@ recorded spectra (the table of
 :func:`spectral_figure` (Fig. 2), :func:`spectral_supplement_figure` (S6),
 :func:`infidelity_vs_efficiency_figure` (Fig. 5), :func:`phase_space_figure`
 (S4) each return a Figure; :func:`sweep_figures` draws the set ``dpdfit
-analyze`` writes; :func:`plot_sweep` (deprecated) writes it as PNG files.
+analyze`` writes.
 """
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,10 +19,10 @@ import pandas as pd
 
 from dpdfit.analyses.sweep import thresholds
 from dpdfit.models.fidelity import calibrate_g, phase_space
-from dpdfit.report.figure_io import deprecated_plot, panel_grid, save_figures, single_axes
+from dpdfit.report.figure_io import panel_grid, single_axes
 
 __all__ = ["spectral_figure", "spectral_supplement_figure", "infidelity_vs_efficiency_figure",
-           "phase_space_figure", "sweep_figures", "plot_sweep"]
+           "phase_space_figure", "sweep_figures"]
 
 #: simulated curve style per DPD flag
 _STYLE = {1: dict(color="C0", ls="--", label="DPD (sim.)"),
@@ -205,13 +204,3 @@ def sweep_figures(df, measured=None) -> dict:
             "figS6_spectral": spectral_supplement_figure(df, measured),
             "fig5_eps_vs_eta": infidelity_vs_efficiency_figure(df, measured),
             "figS4_phase_space": phase_space_figure()}
-
-
-def plot_sweep(df, outdir: str | os.PathLike, measured=None) -> list[str]:
-    """Deprecated: write :func:`sweep_figures` as PNG files into ``outdir``; returns the paths.
-
-    Use :func:`sweep_figures` (or the single-figure functions) and
-    :func:`dpdfit.report.figure_io.save_figures`.
-    """
-    deprecated_plot("plot_sweep", "sweep_figures")
-    return save_figures(sweep_figures(df, measured), outdir)

@@ -1,4 +1,4 @@
-"""External injection recovery: diagnose campaigns someone else wrote (issue #14).
+"""External injection recovery: diagnose campaigns someone else wrote.
 
 ``dpdfit harness --campaigns DIR --truth FILE`` diagnoses every campaign folder
 in ``DIR`` (a sub-folder holding ``campaign.json``, in name order) exactly as a

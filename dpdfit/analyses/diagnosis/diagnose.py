@@ -73,7 +73,7 @@ ADD_NFEV = 40
 
 def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
              with_gates: bool = True, run_fits: dict | None = None,
-             progress: bool | None = None) -> Diagnosis:
+             progress: bool | None = None, calibration=None) -> Diagnosis:
     """Diagnose a campaign (see module doc).
 
     Parameters
@@ -94,6 +94,9 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
         when the caller has made them (``dpdfit analyze`` does): not refitted.
     progress : bool, optional
         A bar over the stages; default: when stderr is a terminal.
+    calibration : Calibration, optional
+        The fits of the model's amplitude and phase runs at the campaign's order,
+        when the caller has made them (``dpdfit analyze`` does): not refitted.
 
     BLAS runs single-threaded meanwhile: the engine's many small matrix products
     are 1.5x slower with threaded BLAS, and the independent fits and engine runs
@@ -104,10 +107,11 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
         get(e)                                            # a KeyError naming the known ones
     with (threadpool_limits(limits=1, user_api="blas"),
           progress_bar(total=6, desc="diagnose", progress=progress) as bar):
-        return _diagnose(campaign, effects, pairs, with_gates, run_fits, bar)
+        return _diagnose(campaign, effects, pairs, with_gates, run_fits, calibration, bar)
 
 
-def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, bar) -> Diagnosis:
+def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibration,
+              bar) -> Diagnosis:
     t0 = time.perf_counter()
     timing = {}
 
@@ -115,7 +119,8 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, bar) ->
         timing[stage] = time.perf_counter() - t0 - sum(timing.values())
         bar.update()
 
-    camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign, run_fits)
+    camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign, run_fits,
+                                                                         calibration)
     effects = tuple(e for e in effects if (with_gates and camp.gates is not None)
                     or EFFECTS[e].side == "tones")
     prob = Problem(camp, with_gates=with_gates, effects=effects)

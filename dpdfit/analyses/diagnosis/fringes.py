@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from dpdfit.core.defaults import ERROR_MODEL
+
 __all__ = ["PHASES", "collapse", "contrast", "decohere"]
 
-#: analysis phases of the model's fringes (the contrast does not depend on them)
-PHASES = np.arange(16) * 2 * np.pi / 16
+#: analysis phases of the model's fringes (the contrast does not depend on them): the
+#: lab's ``ERROR_MODEL.parity_phases`` (16) equally spaced phases
+PHASES = ERROR_MODEL.analysis_phases()
 
 # design of the fringe fit: 1, cos phi, sin phi, cos 2phi, sin 2phi (exact on PHASES)
 _DESIGN = np.stack([np.ones_like(PHASES), np.cos(PHASES), np.sin(PHASES), np.cos(2 * PHASES),

@@ -45,6 +45,7 @@ from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
 from dpdfit.analyses.diagnosis.fringes import PHASES, collapse, contrast, decohere
 from dpdfit.analyses.diagnosis.knob_response import (KNOB_MULTIPLES, POWER_STEP_DB,
                                                      response_tables)
+from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.core.parallel import pmap
 from dpdfit.models import gate_sim
 
@@ -214,7 +215,7 @@ class GateModel:
         error model's ``xi0_rel_err``)."""
         rel = self.gates.xi0_rel_err.to_numpy(dtype=float)
         return (float(np.nanmedian(rel)) if np.isfinite(rel).any()
-                else float(self.em.get("xi0_rel_err", 0.01)))
+                else float(self.em.get("xi0_rel_err", ERROR_MODEL.xi0_rel_err)))
 
     @property
     def rate_error_stated(self) -> bool:

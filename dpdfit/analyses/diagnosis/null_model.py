@@ -1,4 +1,4 @@
-"""The diagnosis's null model learns what a lab does not know (issue #14).
+"""The diagnosis's null model learns what a lab does not know.
 
 What a laboratory cannot state to the precision a simulator fixes it becomes
 a nuisance of the baseline, estimated from the campaign itself *before any

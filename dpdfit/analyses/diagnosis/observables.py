@@ -1,4 +1,4 @@
-"""Recorded observables of a campaign, standardised for the discrepancy diagnosis (issue #7).
+"""Recorded observables of a campaign, standardised for the discrepancy diagnosis.
 
 Reads a campaign folder (layout of :mod:`dpdfit.simulation.campaign`) into the
 quantities that the forward model predicts, each with a 1-sigma error that
@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.analyses.diagnosis.calibration_drift import RunsAfter, drift_modes, runs_after_recordings
-from dpdfit.core.defaults import NBAR
+from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
 from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.fits.counts import fit_parity
@@ -55,9 +55,8 @@ TONE_FEATURES = {
     "R5hi": (True, (2, 4)), "gate_balance": (True, (2, 1)),
     "red_blue": (False, (1, 2)), "gate_power": (False, (1, 2)),
 }
-DEFAULT_ERROR_MODEL = {"nbar": NBAR, "T2_s": 50e-3, "heating_quanta_per_s": 5.0,
-                       "p_prep": 0.003, "p_det": 5e-5, "power_jitter_db": 0.2,
-                       "xi0_rel_err": 0.01}
+#: the lab's error model when campaign.json has none (``ERROR_MODEL``'s error_model keys)
+DEFAULT_ERROR_MODEL = ERROR_MODEL.campaign_dict()
 #: harmonics n of the recorded tone powers (last axis of ``Campaign.P_dB``)
 TONE_HARMONICS = (-1, 0, 1, 2, 3, 4)
 SIDEBANDS = ("red", "blue")
@@ -148,14 +147,21 @@ def _residual_frame(cal, A, value, err) -> pd.DataFrame:
     return pd.DataFrame({"A": A, "z": (value - pred) / err})
 
 
-def _calibrations(cf: CampaignFolder, noise: dict):
+def _calibrations(cf: CampaignFolder, noise: dict, given=None):
+    """The model runs' fits and residuals; ``given`` (a Calibration of the same runs at
+    the campaign's order, made by the caller) is used instead of fitting again."""
     data, noise["photodiode"] = model_run_with_noise(cf)
-    amp = calibrate_amplitude(data, int(cf.meta["order"]))
+    order = int(cf.meta["order"])
+    if given is not None and given.amplitude.order == order:
+        amp = given.amplitude
+    else:
+        amp, given = calibrate_amplitude(data, order), None
     amp_res = _residual_frame(amp, data.A, data.value, data.error)
     ph, ph_res = None, None
     pdata, noise["phase"] = phase_run_with_noise(cf)
     if pdata is not None:
-        ph = calibrate_phase(pdata)
+        ph = given.phase if given is not None and given.phase is not None \
+            else calibrate_phase(pdata)
         use = pdata.A >= 0.1
         ph_res = _residual_frame(ph, pdata.A[use], pdata.value[use],
                                  None if pdata.error is None else pdata.error[use])
@@ -292,19 +298,20 @@ def _time_scans(cf: CampaignFolder):
     return ts[["A", "dpd", "t_s", "n00", "n11", "shots"]].reset_index(drop=True)
 
 
-def load_campaign(folder, run_fits: dict | None = None) -> Campaign:
+def load_campaign(folder, run_fits: dict | None = None, calibration=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
 
     ``folder`` is a path or a :class:`~dpdfit.recordings.campaign_folder.CampaignFolder`
     (the reader ``dpdfit analyze`` shares).  Required: ``campaign.json``,
     ``calibration_amplitude.csv``, ``spectra.csv``; everything else is
     optional and what is absent is listed in :attr:`Campaign.left_out`.
-    ``run_fits``: the amplitude runs' fits at the campaign's order, if the
-    caller has them (not refitted).
+    ``run_fits``: the amplitude runs' fits at the campaign's order, and
+    ``calibration``: the model runs' fits (a Calibration), if the caller has them
+    (not refitted).
     """
     cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
     cal_noise = {}
-    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise)
+    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise, calibration)
     warnings = []
     if not amp.monotone:
         iv = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in amp.nonmonotone_intervals)
@@ -319,8 +326,10 @@ def load_campaign(folder, run_fits: dict | None = None) -> Campaign:
         P, sd = debias_tones(P_raw, np.where(np.isfinite(N0), N0, np.inf))
     else:
         P, sd = np.full_like(P_raw, np.nan), np.full_like(P_raw, np.nan)
-    em = dict(DEFAULT_ERROR_MODEL)
-    em.update(cf.raw_meta.get("error_model") or {})
+    try:        # the campaign's error_model over the defaults (an unknown key refused)
+        em = ErrorModel.from_dict(cf.raw_meta.get("error_model") or {}).campaign_dict()
+    except InputError as exc:
+        raise InputError(str(exc), file=str(cf.file("campaign.json"))) from None
     gates = _gates(cf)
     left = cf.left_out()
     if not has_snr:

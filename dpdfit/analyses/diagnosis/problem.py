@@ -1,4 +1,4 @@
-"""The diagnosis's problem: every observable of a campaign and its residuals (issue #7).
+"""The diagnosis's problem: every observable of a campaign and its residuals.
 
 :class:`Problem` holds the recordings standardised by
 :mod:`dpdfit.analyses.diagnosis.observables`, the forward models
@@ -9,7 +9,7 @@ parameter set (:meth:`Problem.blocks`, :meth:`Problem.residuals`) and the
 series the interval scan reads (:meth:`Problem.series`).
 
 Before any effect is considered it learns what the lab does not state (the
-null model, issue #14): the tone-side noise
+null model): the tone-side noise
 (:mod:`dpdfit.analyses.diagnosis.null_model`), the sign convention of the
 recorded phase response (chosen by the gates) and the gate-rate calibration's
 relative scatter (:mod:`dpdfit.analyses.diagnosis.rate_scatter`).
@@ -146,7 +146,7 @@ class Problem:
             self.gate = keep
 
     def null_model(self, base=None) -> dict:
-        """What the baseline learnt from the campaign before any effect (issue #14)."""
+        """What the baseline learnt from the campaign before any effect."""
         out = {"tone_noise": self.tone_noise.to_dict(),
                "calibration_noise": dict(self.camp.calibration_noise),
                "phase_sign": self.tone.phase_sign if self.camp.phase is not None else None,

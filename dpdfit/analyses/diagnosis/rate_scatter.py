@@ -1,4 +1,4 @@
-"""The gate-rate calibration's relative scatter, learnt by profile likelihood (issue #14).
+"""The gate-rate calibration's relative scatter, learnt by profile likelihood.
 
 A nuisance of the null model, estimated from the gate recordings before any
 effect is considered and then held fixed for every hypothesis

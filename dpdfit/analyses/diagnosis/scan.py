@@ -1,6 +1,6 @@
 """Scan a series of standardised residuals for intervals of significant deviation.
 
-Building block of the discrepancy diagnosis (issue #7, "Locate"): given
+Building block of the discrepancy diagnosis (its "Locate" step): given
 residuals ``z_i = (recorded_i - simulated_i) / sigma_i`` ordered by a control
 parameter ``x`` (amplitude, gate rate, time), find the contiguous intervals
 where the recordings depart from the simulation, and say how significant that

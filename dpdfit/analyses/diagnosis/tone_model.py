@@ -48,6 +48,7 @@ from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
 from dpdfit.analyses.diagnosis.interpolation import cubic_interp, uniform_interp
 from dpdfit.analyses.diagnosis.mode_profile import calibration_error_modes
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
+from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 from dpdfit.models.transfer import TransferFunction, predistortion_table
 from dpdfit.models.waveforms import cardioid, drive_peak, sample_grid, synthesize
@@ -81,7 +82,8 @@ class ToneModel:
         self.tf = TransferFunction(amp.powers, tuple(amp.coefficients),
                                    () if ph is None else ph.powers,
                                    () if ph is None else tuple(ph.coefficients))
-        pts = lut_points or int((camp.meta.get("predistortion_table") or {}).get("points", 4096))
+        pts = lut_points or int((camp.meta.get("predistortion_table") or {})
+                                .get("points", ERROR_MODEL.table_points))
         target, rf, _ = predistortion_table(self.tf, pts)
         self.lut_target, self.lut_rf = target, rf
         self.A = np.asarray(camp.A_tones, dtype=float)

@@ -7,12 +7,10 @@ intervals where a fitted polynomial decreases.
 
 from __future__ import annotations
 
-import functools
-import os
 
 import numpy as np
 
-from dpdfit.recordings.outputs import sha256_file
+from dpdfit.recordings.outputs import file_sha256
 from dpdfit.recordings.tables import CalibrationData
 
 __all__ = ["frozen_array", "json_float", "vander", "gaussian_ic", "run_source",
@@ -47,24 +45,9 @@ def gaussian_ic(chi2: float, n: int, n_coef: int, sigma: np.ndarray | None):
     return -0.5 * m2ll, m2ll + 2 * k, m2ll + k * np.log(n), k
 
 
-@functools.lru_cache(maxsize=32)
-def _sha256_of_version(path: str, mtime_ns: int, size: int) -> str:
-    return sha256_file(path)
-
-
-def _file_sha256(path: str) -> str:
-    """SHA-256 of a file, computed once per version (path, mtime, size) of the file.
-
-    The runs of one calibration file share its digest: hashing the whole file
-    once per run made fitting every run quadratic in the number of runs.
-    """
-    st = os.stat(path)
-    return _sha256_of_version(os.path.realpath(path), st.st_mtime_ns, st.st_size)
-
-
 def run_source(data: CalibrationData) -> dict:
     """Provenance of a recorded run: ``file``, ``sha256``, ``run``, ``timestamp``."""
-    return {"file": data.source, "sha256": _file_sha256(data.source), "run": data.run,
+    return {"file": data.source, "sha256": file_sha256(data.source), "run": data.run,
             "timestamp": data.timestamp}
 
 

@@ -9,6 +9,7 @@ from dataclasses import fields
 import numpy as np
 from scipy import stats
 
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 
 __all__ = ["LEVEL_1SIGMA"]
@@ -30,14 +31,7 @@ def _to_dict(obj) -> dict:
     for f in fields(obj):
         if f.name.startswith("_"):
             continue
-        value = getattr(obj, f.name)
-        if isinstance(value, np.ndarray):
-            value = value.tolist()
-        elif isinstance(value, tuple):
-            value = list(value)
-        elif isinstance(value, np.generic):
-            value = value.item()
-        out[f.name] = value
+        out[f.name] = to_jsonable(getattr(obj, f.name), finite_only=False)
     return out
 
 

@@ -22,8 +22,8 @@ from dpdfit.recordings.counts import PHASE_GRID_RAD, check_counts, grid_keys
 
 __all__ = ["NEAR_MISS", "pool_populations", "merge_parity"]
 
-#: Former grid-consistency threshold of :func:`merge_parity` (rad); kept for
-#: compatibility, no longer used (scans are never refused for jittered phases).
+#: A grid-consistency threshold (rad) that :func:`merge_parity` does not apply: scans
+#: are never refused for jittered phases.  Kept public so code that imports it still runs.
 NEAR_MISS = 0.05
 
 

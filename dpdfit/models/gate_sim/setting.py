@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from dpdfit.core.defaults import NBAR
+from dpdfit.core.defaults import ERROR_MODEL, NBAR
 from dpdfit.errors import InputError
 
 from ._validate import check_times, positive
@@ -26,20 +26,21 @@ from .states import (bell_fidelity_max, collapse_outcomes, gate_target, outcome_
 __all__ = ["T2_S", "NDOT", "P_PREP", "P_DET", "populations", "parity_even", "setting_branches",
            "simulate_setting"]
 
-# The lab's error model (Table S3): the defaults of every function of this module.
+# The lab's error model (dpdfit.core.defaults.ERROR_MODEL, sources there): the defaults
+# of every function of this module.
 #: Qubit coherence time [s].
-T2_S = 50e-3
+T2_S = ERROR_MODEL.T2_s
 #: Motional heating rate [quanta/s].
-NDOT = 5.0
+NDOT = ERROR_MODEL.heating_quanta_per_s
 #: Per-ion state-preparation error (spectator probability).
-P_PREP = 0.003
+P_PREP = ERROR_MODEL.p_prep
 #: Per-ion detection error.
-P_DET = 5e-5
+P_DET = ERROR_MODEL.p_det
 
 
 def _analysis_phases(phases):
-    """Analysis phases [rad]; default ``2 pi k/16``, ``k = 0..15``."""
-    return (np.arange(16) * 2 * np.pi / 16 if phases is None
+    """Analysis phases [rad]; default ``2 pi k/16``, ``k = 0..15`` (``ERROR_MODEL``'s 16)."""
+    return (ERROR_MODEL.analysis_phases() if phases is None
             else np.atleast_1d(np.asarray(phases, dtype=float)))
 
 

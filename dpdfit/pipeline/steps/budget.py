@@ -7,42 +7,47 @@ from the alignment fit of the ``gates`` step.  -> ``budget.json``.
 
 from __future__ import annotations
 
-from dpdfit.analyses.budget import error_budget, load_budget_config, read_gate_rates
+from dpdfit.analyses.budget import error_budget, load_budget_config
 
 from ..context import Context
+from .gates import GateResults
 
-__all__ = ["budget_step"]
+__all__ = ["budget_step", "budget_summary"]
 
 _BUDGET_KEYS = ("state_preparation", "dephasing", "heating", "detection", "total", "delta",
                 "unexplained")
 
 
-def _budget_config(ctx: Context):
+def _budget_config(ctx: Context, alignment):
     """The budget's inputs: ``budget.toml`` (or None: the paper's), the fitted delta, the
     gate rates."""
-    folder, res = ctx.folder, ctx.results
-    path = folder / "budget.toml"
+    path = ctx.folder / "budget.toml"
     cfg = load_budget_config(path) if path.exists() else None
-    al = (res.summary.get("gates") or {}).get("alignment")
-    if al:
+    if alignment is not None:
         cfg = dict(cfg or {})
-        cfg["delta"] = {"value": al["delta"], "error": al["delta_err"], "enabled": True}
-    rates = folder / "gate_rates.csv"
-    if rates.exists():
+        cfg["delta"] = {"value": alignment.delta, "error": alignment.delta_err, "enabled": True}
+    rates = ctx.campaign.gate_rates
+    if rates is not None:
         cfg = dict(cfg or {})
-        cfg["gate"] = {**(cfg.get("gate") or {}), "rates_khz": read_gate_rates(rates)}
+        cfg["gate"] = {**(cfg.get("gate") or {}),
+                       "rates_khz": [float(x) for x in rates["xi0_khz"]]}
     return cfg
 
 
-def budget_step(ctx: Context):
-    """Table S3 from the campaign's budget.toml (or the paper's inputs) and the fitted delta."""
+def budget_step(ctx: Context, gates: GateResults | None):
+    """Table S3 from the campaign's budget.toml (or the paper's inputs) and the fitted delta
+    of the gates step."""
     res = ctx.results
-    b = error_budget(_budget_config(ctx))
-    d = b.to_dict()
-    res.json_file("budget.json", d)
-    res.summary["budget"] = {k: d[k] for k in _BUDGET_KEYS}
+    al = None if gates is None else gates.alignment
+    b = error_budget(_budget_config(ctx, al))
+    res.json_file("budget.json", b.to_dict())
     src = "budget.toml" if (ctx.folder / "budget.toml").exists() else "the paper's inputs"
-    al = (res.summary.get("gates") or {}).get("alignment")
     res.status("budget", "ok", f"inputs from {src}; delta from "
                                f"{'the alignment fit' if al else 'the inputs'}")
     return b
+
+
+def budget_summary(b) -> dict:
+    """The ``budget`` section of ``summary.json``."""
+    d = b.to_dict()
+    return {k: d[k] for k in _BUDGET_KEYS}

@@ -10,19 +10,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pandas as pd
 
 from dpdfit.analyses.stability import stability
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.calibration import Calibration, calibrate_amplitude, calibrate_phase
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
-from dpdfit.recordings.tables import list_runs, read_calibration_runs
+from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.report.calibration_plots import calibration_figures
 from dpdfit.report.stability_plots import stability_figures
 
 from ..context import Context
 
-__all__ = ["CalibrationFits", "calibration_step", "stability_step"]
+__all__ = ["CalibrationFits", "StabilityResults", "calibration_step", "stability_step",
+           "calibration_summary", "stability_summary"]
 
 #: orders of the AIC/BIC table of the predistortion table's run
 _ORDER_SCAN = range(4, 13)
@@ -43,22 +45,37 @@ class CalibrationFits:
     order: int
     amplitude_runs: dict
     phase_runs: dict
+    runs_table: pd.DataFrame | None = None
+    noise: object = None
+    phase_noise: object = None
 
     def amplitude_fits(self, order: int) -> dict | None:
         """The per-run amplitude fits if they were made at ``order`` (else None: refit)."""
         return self.amplitude_runs if order == self.order else None
 
 
-def _amplitude_run_fits(cf, order) -> dict:
-    """Every amplitude run's fit at ``order``, ``{label: fit}`` (label None: a single run)."""
-    runs = read_calibration_runs(cf.file("calibration_amplitude.csv"), "amplitude")
-    return {r: calibrate_amplitude(data, order) for r, data in runs.items()}
+def _amplitude_run_fits(cf, order, table_fit, table_data) -> dict:
+    """Every amplitude run's fit at ``order``, ``{label: fit}`` (label None: a single run);
+    the table's run is the table fit itself when it was fitted to the same data."""
+    return {r: table_fit if _same_data(data, table_data) else calibrate_amplitude(data, order)
+            for r, data in cf.amplitude_run_data.items()}
 
 
-def _phase_run_fits(cf) -> dict:
-    """Every phase run's fit (default order and window), ``{label: fit}``."""
-    runs = read_calibration_runs(cf.file("calibration_phase.csv"), "phase")
-    return {r: calibrate_phase(data) for r, data in runs.items()}
+def _phase_run_fits(cf, model_fit, model_data) -> dict:
+    """Every phase run's fit (default order and window), ``{label: fit}``; the model's run
+    is the model fit itself when it was fitted to the same data."""
+    return {r: model_fit if _same_data(data, model_data) else calibrate_phase(data)
+            for r, data in cf.phase_run_data.items()}
+
+
+def _same_data(a, b) -> bool:
+    """The same run with the same points and errors (the model run gets learnt errors
+    when the file has none: then it is another fit)."""
+    if a.run != b.run or a.source != b.source or len(a.A) != len(b.A):
+        return False
+    same_err = (a.error is None and b.error is None) or (
+        a.error is not None and b.error is not None and np.array_equal(a.error, b.error))
+    return same_err and np.array_equal(a.A, b.A) and np.array_equal(a.value, b.value)
 
 
 def _runs_table(amp_fits: dict, ph_fits: dict) -> pd.DataFrame:
@@ -108,23 +125,28 @@ def calibration_step(ctx: Context) -> CalibrationFits | None:
     # has no power_err (the same rule as the diagnosis: dpdfit.fits.photodiode)
     amp_data, noise = model_run_with_noise(cf)
     amp = calibrate_amplitude(amp_data, order, order_scan=_ORDER_SCAN)
-    amp_fits = _amplitude_run_fits(cf, order)
+    amp_fits = _amplitude_run_fits(cf, order, amp, amp_data)
     ph = ph_data = ph_noise = None
     ph_fits = {}
     if cf.has("calibration_phase.csv"):
         ph_data, ph_noise = phase_run_with_noise(cf)
         ph = calibrate_phase(ph_data)
-        ph_fits = _phase_run_fits(cf)
+        ph_fits = _phase_run_fits(cf, ph, ph_data)
     cal = Calibration(amplitude=amp, phase=ph)
     res.json_file("calibration.json", cal.to_dict())
     runs_df = _runs_table(amp_fits, ph_fits)
     res.table("calibration_runs.csv", runs_df)
-    res.summary["calibration"] = _summary(cal, runs_df, noise, ph_noise)
     ctx.figure(calibration_figures, cal, amp_data, ph_data)
     res.status("calibration", "ok", f"amplitude run {amp.source.get('run')}, "
                                     f"{len(runs) or 1} amplitude / {len(ph_fits)} phase runs fitted")
     return CalibrationFits(calibration=cal, order=order, amplitude_runs=amp_fits,
-                           phase_runs=ph_fits)
+                           phase_runs=ph_fits, runs_table=runs_df, noise=noise,
+                           phase_noise=ph_noise)
+
+
+def calibration_summary(fits: CalibrationFits) -> dict:
+    """The ``calibration`` section of ``summary.json``."""
+    return _summary(fits.calibration, fits.runs_table, fits.noise, fits.phase_noise)
 
 
 def _stability_fits(fits: CalibrationFits | None, kind: str) -> dict | None:
@@ -134,22 +156,20 @@ def _stability_fits(fits: CalibrationFits | None, kind: str) -> dict | None:
     return fits.amplitude_fits(AMPLITUDE_ORDER) if kind == "amplitude" else fits.phase_runs
 
 
-def stability_step(ctx: Context, fits: CalibrationFits | None):
+def stability_step(ctx: Context, fits: CalibrationFits | None) -> "StabilityResults | None":
     """y(1) and phi(1) per run: mean, sd, drift test, Allan deviation (S2) ->
     ``stability_*.json``, Figs. S2, S3."""
     res = ctx.results
-    done = []
+    done, done_kinds = [], {}
+    cf = ctx.campaign
     for kind, name in (("amplitude", "calibration_amplitude.csv"),
                        ("phase", "calibration_phase.csv")):
-        path = ctx.folder / name
-        if not path.exists():
+        if not cf.has(name):
             continue
-        st = stability(path, kind=kind, fits=_stability_fits(fits, kind))
-        d = st.to_dict()
-        res.json_file(f"stability_{kind}.json", d)
-        res.summary.setdefault("stability", {})[kind] = {
-            k: d[k] for k in ("mean", "std", "relative_std", "n_runs", "span_days",
-                              "trend_per_day", "trend_per_day_err")}
+        runs = cf.amplitude_runs if kind == "amplitude" else cf.phase_runs
+        st = stability(runs, kind=kind, fits=_stability_fits(fits, kind))
+        res.json_file(f"stability_{kind}.json", st.to_dict())
+        done_kinds[kind] = st
         ctx.figure(stability_figures, st)
         done.append(f"{kind}: {st.n_runs} runs, sd {st.std:.3g}, trend "
                     f"{st.trend_per_day:+.2e} +/- {st.trend_per_day_err:.1e} /day")
@@ -157,4 +177,22 @@ def stability_step(ctx: Context, fits: CalibrationFits | None):
         res.status("stability", "skipped", "no calibration files")
         return None
     res.status("stability", "ok", "; ".join(done))
-    return True
+    return StabilityResults(done_kinds)
+
+
+@dataclass(frozen=True)
+class StabilityResults:
+    """What the stability step made: ``{kind: StabilityResult}`` (amplitude, phase)."""
+
+    by_kind: dict
+
+
+def stability_summary(st: StabilityResults) -> dict:
+    """The ``stability`` section of ``summary.json``."""
+    keys = ("mean", "std", "relative_std", "n_runs", "span_days", "trend_per_day",
+            "trend_per_day_err")
+    out = {}
+    for kind, r in st.by_kind.items():
+        d = r.to_dict()
+        out[kind] = {k: d[k] for k in keys}
+    return out

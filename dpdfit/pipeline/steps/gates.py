@@ -7,16 +7,41 @@ against the simulated sweep (``alignment_points.csv``), Figs. 3, 4, S7, S8.
 
 from __future__ import annotations
 
-from dpdfit.fits.alignment import align
+from dataclasses import dataclass
+
+import pandas as pd
+
+from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.fits.alignment import AlignmentFit, align
 from dpdfit.fits.counts import gate_fidelities, merge_parity
 from dpdfit.report.gate_plots import gate_figures
 
 from ..context import Context
 
-__all__ = ["gates_step", "closest_pair"]
+__all__ = ["gates_step", "closest_pair", "GateResults", "gates_summary"]
 
-#: laser-power fluctuation (dB) assumed by the alignment fit
-_SIGMA_DB = 0.2
+#: laser-power fluctuation (dB) assumed by the alignment fit: the lab's error model
+_SIGMA_DB = ERROR_MODEL.power_jitter_db
+
+
+@dataclass(frozen=True)
+class GateResults:
+    """What the gates step hands down: the gate table (fidelities per setting, with the
+    gate rates) and the alignment fit (None without gate rates or sweep)."""
+
+    table: pd.DataFrame
+    alignment: AlignmentFit | None = None
+
+
+def gates_summary(g: GateResults) -> dict:
+    """The ``gates`` section of ``summary.json``: fidelities per setting, the alignment."""
+    rec = {f"A={r['A']:g},dpd={int(r['dpd'])}": {"F": r["F"], "F_err": r["F_err"],
+                                                  "F_pop": r["F_pop"], "F_par": r["F_par"]}
+           for _, r in g.table.iterrows()}
+    out = {"fidelities": rec}
+    if g.alignment is not None:
+        out["alignment"] = g.alignment.to_dict()
+    return out
 
 
 def closest_pair(gate):
@@ -57,15 +82,10 @@ def gates_step(ctx: Context, sweep):
         cols = ["A", "dpd", "xi0_khz"] + (["xi0_err_khz"] if "xi0_err_khz" in rates else [])
         tab = tab.merge(rates[cols], on=["A", "dpd"], how="left")
     res.table("gate.csv", tab)
-    rec = {f"A={r['A']:g},dpd={int(r['dpd'])}": {"F": r["F"], "F_err": r["F_err"],
-                                                  "F_pop": r["F_pop"], "F_par": r["F_par"]}
-           for _, r in tab.iterrows()}
-    res.summary["gates"] = {"fidelities": rec}
     detail = f"{len(tab)} settings"
     fit = None
     if sweep is not None and "xi0_khz" in tab.columns and tab["xi0_khz"].notna().all():
         fit = align(tab, sweep, _SIGMA_DB)
-        res.summary["gates"]["alignment"] = fit.to_dict()
         res.table("alignment_points.csv", fit.points)
         detail += f"; alignment alpha = {fit.alpha_khz:.3f} +/- {fit.alpha_khz_err:.3f} kHz, " \
                   f"delta = {fit.delta:+.4f} +/- {fit.delta_err:.4f}"
@@ -74,4 +94,4 @@ def gates_step(ctx: Context, sweep):
         ctx.figure(gate_figures, tab, sweep, fit, _parity_by_setting(par), ts,
                    closest_pair(tab), ctx.meta["nbar_assumed"])
     res.status("gates", "ok", detail)
-    return tab
+    return GateResults(table=tab, alignment=fit)

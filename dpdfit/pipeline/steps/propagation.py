@@ -11,6 +11,8 @@ posterior is drawn in the corner plot.  -> ``propagation.json``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from dpdfit.analyses.propagation import propagate, threshold_distribution
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.drift import calibration_uncertainty
@@ -21,7 +23,7 @@ from dpdfit.report.posterior_plots import CORNER_DPI, corner_figure
 from ..context import Context
 from .calibration import CalibrationFits
 
-__all__ = ["propagation_step"]
+__all__ = ["propagation_step", "PropagationResults", "propagation_summary"]
 
 #: seed of the posterior chain and of the predictive draws
 _SEED = 1
@@ -98,7 +100,21 @@ def propagation_step(ctx: Context, fits: CalibrationFits | None, A=0.5,
         ctx.figure(_corner, _corner_posterior(df, fits, unc.posterior), dpi=CORNER_DPI)
     out = _propagate(ctx, unc, fits.calibration.phase, A, stale_days, draws)
     res.json_file("propagation.json", out)
-    res.summary["propagation"] = _summary(out, A, draws, stale_days)
     res.status("propagation", "ok", f"A = {A:g}, {draws} posterior draws, stale "
                                     + ", ".join(f"{d:g}" for d in stale_days) + " days")
-    return out
+    return PropagationResults(by_age=out, A=A, draws=draws, stale_days=tuple(stale_days))
+
+
+@dataclass(frozen=True)
+class PropagationResults:
+    """What the propagation step made: ``{"stale_days=D": result}`` at amplitude ``A``."""
+
+    by_age: dict
+    A: float
+    draws: int
+    stale_days: tuple
+
+
+def propagation_summary(p: PropagationResults) -> dict:
+    """The ``propagation`` section of ``summary.json``."""
+    return _summary(p.by_age, p.A, p.draws, p.stale_days)

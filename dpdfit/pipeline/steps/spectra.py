@@ -9,6 +9,8 @@ re-analyses the bundled raw heterodyne traces and checks them against
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
@@ -22,7 +24,38 @@ from dpdfit.recordings.traces import load_trace
 from ..context import Context
 from .calibration import CalibrationFits
 
-__all__ = ["sweep_step", "spectra_step", "traces_step"]
+__all__ = ["sweep_step", "spectra_step", "traces_step", "MeasuredSpectra", "TracesCheck",
+           "sweep_summary", "spectra_summary", "traces_summary"]
+
+
+@dataclass(frozen=True)
+class MeasuredSpectra:
+    """What the spectra step made: the measured-spectra table and its headline numbers."""
+
+    table: pd.DataFrame
+    headline: dict
+
+
+@dataclass(frozen=True)
+class TracesCheck:
+    """What the traces step made: the re-analysed tones beside spectra.csv's."""
+
+    table: pd.DataFrame
+    n_traces: int
+
+
+def sweep_summary(sweep: pd.DataFrame) -> dict:
+    """The ``sweep`` section of ``summary.json``: the threshold efficiencies."""
+    return thresholds(sweep)
+
+
+def spectra_summary(m: MeasuredSpectra) -> dict:
+    return m.headline
+
+
+def traces_summary(t: TracesCheck) -> dict:
+    diff = t.table["difference_dB"].abs().max() if len(t.table) else np.nan
+    return {"n_traces": t.n_traces, "max_abs_difference_to_spectra_csv_dB": float(diff)}
 
 
 def sweep_step(ctx: Context, fits: CalibrationFits | None):
@@ -36,7 +69,6 @@ def sweep_step(ctx: Context, fits: CalibrationFits | None):
                       eta_ref=camp["eta_ref"], formula=ctx.formula)
     df = run_sweep(TransferFunction.from_calibration(fits.calibration), cfg)
     res.table("sweep.csv", df, dict(df.attrs))
-    res.summary["sweep"] = thresholds(df)
     res.status("sweep", "ok", f"{len(cfg.amplitudes)} amplitudes x 2 flags, formula {ctx.formula}")
     return df
 
@@ -51,9 +83,8 @@ def spectra_step(ctx: Context, sweep):
     m, summary = measured_spectra(ctx.campaign.spectra, sweep, nbar=ctx.meta["nbar_assumed"],
                                   formula=ctx.formula)
     res.table("spectra_measured.csv", m)
-    res.summary["spectra"] = summary
     res.status("spectra", "ok", f"{summary['n_amplitudes']} amplitudes with both flags")
-    return m
+    return MeasuredSpectra(table=m, headline=summary)
 
 
 def _trace_rows(folder, i, r, idx_path, raw) -> list[dict]:
@@ -86,18 +117,16 @@ def traces_step(ctx: Context):
         res.status("traces", "skipped", "traces.csv not found")
         return
     idx = ctx.campaign.traces
-    # the spectra file as recorded (not validated: a check of the traces, not of the file)
+    # the spectra as the spectra step read them; a spectra file that step refused
+    # leaves the traces unchecked against it (the spectra step reports why)
     raw = None
-    if (folder / "spectra.csv").exists():
-        raw = pd.read_csv(folder / "spectra.csv", comment="#")
-        # a value that is not a number matches no trace (the spectra step reports it)
-        for col in ("A", "dpd", "n", "P_dB"):
-            if col in raw.columns:
-                raw[col] = pd.to_numeric(raw[col], errors="coerce")
+    if ctx.campaign.has("spectra.csv"):
+        try:
+            raw = ctx.campaign.spectra
+        except InputError:
+            raw = None
     rows = [row for i, r in idx.iterrows() for row in _trace_rows(folder, i, r, idx_path, raw)]
     chk = pd.DataFrame(rows)
     res.table("traces_check.csv", chk)
-    diff = chk["difference_dB"].abs().max() if len(chk) else np.nan
-    res.summary["traces"] = {"n_traces": int(len(idx)),
-                             "max_abs_difference_to_spectra_csv_dB": float(diff)}
     res.status("traces", "ok", f"{len(idx)} raw traces re-analysed")
+    return TracesCheck(table=chk, n_traces=int(len(idx)))

@@ -14,15 +14,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import get
-from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
+from dpdfit.core.defaults import (AMPLITUDE_ORDER, ERROR_MODEL, ETA_LD, ETA_REF, NU_HZ,
+                                  XI0_SPECTRA_HZ)
 from dpdfit.errors import InputError
-from dpdfit.models.gate_sim import NDOT, P_DET, P_PREP, T2_S
 from dpdfit.simulation.aom_truth import A_CORR, PHI_1, HeterodyneNoise, PhotodiodeNoise
 
 __all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "parse_effects", "CampaignConfig", "rng_for"]
 
-#: Seed of the bundled campaign (``datasets/synthetic_campaign``).
-DEFAULT_SEED = 20260329
+#: Seed of the bundled campaign (``datasets/synthetic_campaign``): ``ERROR_MODEL.seed``.
+DEFAULT_SEED = ERROR_MODEL.seed
 
 #: Effects that can be concealed in a simulated campaign: name -> (unit, meaning).
 SIMULATOR_EFFECTS = {
@@ -100,7 +100,7 @@ class CampaignConfig:
     heterodyne_phase: HeterodyneNoise = field(default_factory=HeterodyneNoise)
     detector_nonlinearity: float = 0.0
     # predistortion
-    lut_points: int = 4096
+    lut_points: int = ERROR_MODEL.table_points
     order: int = AMPLITUDE_ORDER
     stale_days: float = 0.0
     table_drift: float = 0.0
@@ -115,7 +115,7 @@ class CampaignConfig:
     xi0_spec: float = XI0_SPECTRA_HZ
     trace_amplitudes: tuple = tuple(np.round(np.linspace(0.05, 1.0, 39), 4))
     trace_noise_rms: float = 0.015
-    power_jitter_db: float = 0.2
+    power_jitter_db: float = ERROR_MODEL.power_jitter_db
     bundled_traces: tuple = ((0.5, 0), (0.5, 1))
     spectra_harmonics: tuple = (-1, 0, 1, 2, 3, 4)
     #: "traces": synthesise every heterodyne trace and extract its tones (S4);
@@ -125,14 +125,15 @@ class CampaignConfig:
     # gate experiments (Supplement S7, main text)
     gate_amplitudes: tuple = (0.4, 0.5, 0.6, 0.7, 0.8)
     eta_ld: float = ETA_LD
-    nbar: float = NBAR
+    # the lab's error model (dpdfit.core.defaults.ERROR_MODEL) is the nominal truth
+    nbar: float = ERROR_MODEL.nbar
     alpha_khz: float = 3.42
-    xi0_rel_err: float = 0.01
-    T2: float = T2_S
+    xi0_rel_err: float = ERROR_MODEL.xi0_rel_err
+    T2: float = ERROR_MODEL.T2_s
     extra_dephasing: float = 0.0
-    ndot: float = NDOT
-    p_prep: float = P_PREP
-    p_det: float = P_DET
+    ndot: float = ERROR_MODEL.heating_quanta_per_s
+    p_prep: float = ERROR_MODEL.p_prep
+    p_det: float = ERROR_MODEL.p_det
     gate_power_offset_db: float = 0.0
     scan_shots: tuple = ((625, 625), (625, 625), (500, 625), (625, 400))
     time_scan_A: float = 0.5

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 
 from .config import CampaignConfig, rng_for
@@ -19,7 +20,7 @@ from .optics import gate_spectrum
 
 __all__ = ["gate_tables"]
 
-_PHASES = np.arange(16) * 2 * np.pi / 16          # analysis phases of the parity scans
+_PHASES = ERROR_MODEL.analysis_phases()           # analysis phases of the parity scans
 _SCAN_SHOTS = 625                                  # shots per time-scan point
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 
@@ -44,7 +45,7 @@ def _campaign_json(cfg: CampaignConfig, nominal: CampaignConfig, cal_truth: dict
                                 "order": cfg.order, "interpolation": "linear"},
         "phase_run_for_model": f"P{cfg.n_phase_runs:03d}",
         "gate_waveform": "Cardioid(1,2)",
-        "parity_phases": 16, "nominal_shots": 625, **rec,
+        "parity_phases": ERROR_MODEL.parity_phases, "nominal_shots": 625, **rec,
         # the lab's error model (its own characterisation, Table S3), not the truth
         "error_model": {"nbar": nominal.nbar, "T2_s": nominal.T2,
                         "heating_quanta_per_s": nominal.ndot, "p_prep": nominal.p_prep,

@@ -1,4 +1,4 @@
-"""Outputs (issue #17 item 6): one publication, checked before work, a rerun clears what it owned.
+"""Outputs: one publication, checked before work, a rerun clears what it owned.
 
 Every output of a command -- tables, JSON, figures -- is staged and published
 in one step; Ctrl-C before or during that step leaves the previous results
@@ -19,7 +19,7 @@ import pytest
 import dpdfit.recordings.outputs as outputs
 from dpdfit.cli.main import main
 from dpdfit.errors import InputError
-from dpdfit.pipeline.analysis import LEGACY_OUTPUTS, Analysis, previous_outputs
+from dpdfit.pipeline.analysis import Analysis, previous_outputs
 from dpdfit.recordings.outputs import (atomic_write_text, check_output_file,
                                        check_output_folder, staged_outputs)
 
@@ -148,15 +148,18 @@ def test_rerun_deletes_what_the_previous_run_owned_and_nothing_else(tmp_path):
                                   "summary.md"]
 
 
-def test_rerun_over_a_summary_without_outputs_clears_the_legacy_names(tmp_path):
+def test_rerun_over_a_summary_without_outputs_deletes_nothing(tmp_path):
+    """A results folder whose summary.json lists no outputs owns nothing: a rerun
+    writes its files and leaves every other file alone."""
     out = tmp_path / "results"
     out.mkdir()
     (out / "summary.json").write_text(json.dumps({"analyses": {}}))
     for name in ("gate.csv", "alignment_points.csv", "mine.csv"):
         (out / name).write_text("old")
-    assert set(LEGACY_OUTPUTS) <= previous_outputs(out)
+    assert previous_outputs(out) == set()
     _analysis(tmp_path, {"budget.json": "{}\n"}, None).save(out)
-    assert sorted(_snapshot(out)) == ["budget.json", "mine.csv", "summary.json", "summary.md"]
+    assert sorted(_snapshot(out)) == ["alignment_points.csv", "budget.json", "gate.csv",
+                                      "mine.csv", "summary.json", "summary.md"]
 
 
 def test_a_folder_without_a_dpdfit_summary_owns_nothing(tmp_path):

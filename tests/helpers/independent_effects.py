@@ -1,5 +1,5 @@
 """Independent implementations of two concealed effects, for the generalisation test
-of the diagnosis (issue #7 item 5).
+of the diagnosis.
 
 The diagnosis' catalog (:mod:`dpdfit.analyses.diagnosis.effects`) models AOM memory as a single-pole
 response and a stale calibration as an amplitude-axis scaling of the day's

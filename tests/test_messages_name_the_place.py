@@ -1,4 +1,4 @@
-"""Issue #17, item 8 (the 'mediocre' messages): every message names its file (and row).
+"""Every message names its file (and row), so a user can find what to fix.
 
 * not-invertible and ``y(1) <= 0`` calibrations, bad alignment uncertainties:
   the file (and column/row) in the one line;
@@ -105,13 +105,13 @@ def test_a_transfer_function_without_source_keeps_its_plain_message():
 
 @pytest.mark.parametrize("col, value, need", [("F_err", 0.0, "> 0"),
                                                ("xi0_err_khz", -1.0, ">= 0")])
-def test_align_names_file_column_and_row_of_a_bad_uncertainty(made, tmp_path, capsys, col,
-                                                              value, need):
-    g = pd.read_csv(made["gate"])
+def test_align_names_file_column_and_row_of_a_bad_uncertainty(cli_outputs, tmp_path, capsys,
+                                                              col, value, need):
+    g = pd.read_csv(cli_outputs["gate"])
     g.loc[2, col] = value
     p = tmp_path / "gate.csv"
     g.to_csv(p, index=False)
-    _bad(capsys, ["align", "--gate", p, "--sweep", made["sweep"]],
+    _bad(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
          [str(p), f"column '{col}'", "row 3", f"must be {need}", "(line 4)"], [p])
 
 
@@ -153,15 +153,15 @@ def test_stability_refuses_a_line_pasted_twice(tmp_path, capsys):
         stability(df)
 
 
-def test_align_and_budget_refuse_a_line_pasted_twice(made, tmp_path, capsys):
-    g = _with_line_repeated(made["gate"], tmp_path / "gate.csv", 2)
-    _bad(capsys, ["align", "--gate", g, "--sweep", made["sweep"]],
+def test_align_and_budget_refuse_a_line_pasted_twice(cli_outputs, tmp_path, capsys):
+    g = _with_line_repeated(cli_outputs["gate"], tmp_path / "gate.csv", 2)
+    _bad(capsys, ["align", "--gate", g, "--sweep", cli_outputs["sweep"]],
          [str(g), "row 3", "repeats row 2", "duplicated line"], [g])
-    s = _with_line_repeated(made["sweep"], tmp_path / "sweep.csv", 6)
+    s = _with_line_repeated(cli_outputs["sweep"], tmp_path / "sweep.csv", 6)
     l6, l7 = data_line(s, 6), data_line(s, 7)      # sweep.csv starts with '#' header lines
     text = s.read_text().splitlines()
     assert l7 == l6 + 1 and l6 > 7 and text[l6 - 1] == text[l7 - 1]
-    _bad(capsys, ["align", "--gate", made["gate"], "--sweep", s],
+    _bad(capsys, ["align", "--gate", cli_outputs["gate"], "--sweep", s],
          [str(s), "row 7", f"repeats row 6 (line {l6})", "duplicated line", f"(line {l7})"], [s])
     r = _with_line_repeated(CAMP / "gate_rates.csv", tmp_path / "rates.csv", 1)
     _bad(capsys, ["budget", "--gate-rates", r],
@@ -310,13 +310,14 @@ def test_load_calibration_with_a_missing_key_names_file_and_key(tmp_path):
 
 
 
-def test_align_names_the_gate_row_outside_the_sweep(made, tmp_path, capsys):
+def test_align_names_the_gate_row_outside_the_sweep(cli_outputs, tmp_path, capsys):
     narrow = tmp_path / "narrow.csv"
-    assert main(["sweep", str(made["cal"]), "-o", str(narrow), "--amplitudes", "0.5:1:11"]) == 0
+    assert main(["sweep", str(cli_outputs["cal"]), "-o", str(narrow),
+                 "--amplitudes", "0.5:1:11"]) == 0
     capsys.readouterr()
-    _bad(capsys, ["align", "--gate", made["gate"], "--sweep", narrow],
-         [str(made["gate"]), "column 'A', row 1", "A=0.4 is outside the sweep's range [0.5, 1]",
-          "(line 2)"], [made["gate"], narrow])
+    _bad(capsys, ["align", "--gate", cli_outputs["gate"], "--sweep", narrow],
+         [str(cli_outputs["gate"]), "column 'A', row 1",
+          "A=0.4 is outside the sweep's range [0.5, 1]", "(line 2)"], [cli_outputs["gate"], narrow])
 
 
 def test_campaign_folder_refuses_a_calibration_line_pasted_twice(tmp_path):

@@ -1,6 +1,6 @@
-"""Re-run the broken-input cases named in issue #17 and classify each outcome.
+"""Re-run a fixed set of broken-input cases and classify each outcome.
 
-    python scripts/issue17_cases.py            # table + counts on stdout
+    python scripts/broken_input_cases.py       # table + counts on stdout
 
 Each case is one command (run in-process through ``dpdfit.cli.main.main``) on
 a broken copy of the bundled data, or one Python-API call.  Outcomes:
@@ -12,7 +12,10 @@ a broken copy of the bundled data, or one Python-API call.  Outcomes:
 ``vague``  exit 2 with one line that does not name the place;
 ``wrong``  anything else (traceback, exit 0 with NaN/empty output, a changed input).
 
-The issue's 477-case sweep was not kept; these are the cases its text names.
+Each case belongs to a group (first column): ``calibration`` (a NaN in a calibration
+file), ``option`` (an option value out of range or NaN), ``table`` (bad rows in a
+sweep or gate table), ``analyze`` (a broken campaign folder), ``diagnose`` (an
+impossible count) and ``message`` (a refusal must name its file, column or row).
 """
 
 from __future__ import annotations
@@ -107,7 +110,7 @@ def made(tmp):
 
 
 def cases(tmp):
-    """(item, name, outcome, detail) of every case."""
+    """(group, name, outcome, detail) of every case."""
     cal, sweep, gate = made(tmp)
     d = json.loads(cal.read_text())
     d["amplitude"]["coefficients"][3] = float("nan")
@@ -115,11 +118,11 @@ def cases(tmp):
     nan_cal.write_text(json.dumps(d))
     o = tmp / "o"
     o.mkdir()
-    yield from (("1", f"NaN coefficient: {c}", *classify([c, nan_cal, "-o", o / "x.csv"],
-                                                         "nan_cal.json", [nan_cal]))
-                for c in ("lut", "sweep"))
-    yield "2", "sweep --nu 1e12", *classify(["sweep", cal, "--nu", "1e12", "-o", o / "s.csv"],
-                                            "--nu")
+    yield from (("calibration", f"NaN coefficient: {c}", *classify([c, nan_cal, "-o", o / "x.csv"],
+                                                                   "nan_cal.json", [nan_cal]))
+                          for c in ("lut", "sweep"))
+    yield "option", "sweep --nu 1e12", *classify(["sweep", cal, "--nu", "1e12", "-o", o / "s.csv"],
+                                                 "--nu")
     runs = CAMP / "calibration_amplitude.csv"
     for argv, opt in ((["sweep", cal, "--nbar", "nan", "-o", o / "s.csv"], "--nbar"),
                       (["estimate", "--powers-db", "0:-40,1:0,2:0,3:-30", "--nbar", "nan"],
@@ -131,10 +134,10 @@ def cases(tmp):
                        "--sigma-db"),
                       (["thresholds", sweep, "--A-corr", "2"], "--A-corr"),
                       (["thresholds", sweep, "--A-corr", "nan"], "--A-corr")):
-        yield "3", " ".join(map(str, argv[:1] + argv[-2:])), *classify(argv, opt)
+        yield "option", " ".join(map(str, argv[:1] + argv[-2:])), *classify(argv, opt)
     yield from _table_cases(tmp, cal, sweep, gate, o)
     yield from _analyze_cases(tmp, o)
-    yield from _mediocre_cases(tmp, cal, sweep, gate, o)
+    yield from _message_cases(tmp, cal, sweep, gate, o)
 
 
 def _table_cases(tmp, cal, sweep, gate, o):
@@ -142,9 +145,9 @@ def _table_cases(tmp, cal, sweep, gate, o):
         row = df[df["sideband"] == "mean"].iloc[[0]] if "sideband" in df else df.iloc[[0]]
         return pd.concat([df, row])
     dsw = edit_csv(sweep, tmp / "dup_sweep.csv", dup_mean)
-    yield "4", "sweep.csv duplicated mean row: thresholds", *classify(["thresholds", dsw],
-                                                                      "dup_sweep.csv", [dsw])
-    yield "4", "sweep.csv duplicated mean row: align", *classify(
+    yield "table", "sweep.csv duplicated mean row: thresholds", *classify(["thresholds", dsw],
+                                                                          "dup_sweep.csv", [dsw])
+    yield "table", "sweep.csv duplicated mean row: align", *classify(
         ["align", "--gate", gate, "--sweep", dsw], "dup_sweep.csv", [dsw])
 
     def a15(df):
@@ -152,12 +155,12 @@ def _table_cases(tmp, cal, sweep, gate, o):
         df.loc[df.index[df["sideband"] == "mean"][0], "A"] = 1.5
         return df
     asw = edit_csv(sweep, tmp / "a15_sweep.csv", a15)
-    yield "4", "sweep.csv A=1.5 on a mean row", *classify(["thresholds", asw], "a15_sweep.csv",
-                                                          [asw])
+    yield "table", "sweep.csv A=1.5 on a mean row", *classify(["thresholds", asw], "a15_sweep.csv",
+                                                              [asw])
     gr = CAMP / "gate_rates.csv"
     dgr = edit_csv(gr, tmp / "dup_rates.csv", lambda df: pd.concat([df, df.iloc[[0]]]))
     args = ["fidelity", "--populations", CAMP / "populations.csv", "--parity", CAMP / "parity.csv"]
-    yield "5", "gate_rates.csv duplicated row", *classify(
+    yield "table", "gate_rates.csv duplicated row", *classify(
         args + ["--gate-rates", dgr, "-o", o / "g.csv"], "dup_rates.csv", [dgr])
 
     def a15r(df):
@@ -165,16 +168,18 @@ def _table_cases(tmp, cal, sweep, gate, o):
         df.loc[df.index[0], "A"] = 1.5
         return df
     agr = edit_csv(gr, tmp / "a15_rates.csv", a15r)
-    yield "5", "gate_rates.csv A=1.5", *classify(args + ["--gate-rates", agr, "-o", o / "g.csv"],
-                                                 "a15_rates.csv", [agr])
+    yield "table", "gate_rates.csv A=1.5", *classify(
+        args + ["--gate-rates", agr, "-o", o / "g.csv"],
+        "a15_rates.csv", [agr])
 
     def f17(df):
         df = df.copy()
         df.loc[df.index[0], "F"] = 1.7
         return df
     fg = edit_csv(gate, tmp / "f17_gate.csv", f17)
-    yield "5", "align F=1.7", *classify(["align", "--gate", fg, "--sweep", sweep], "f17_gate.csv",
-                                        [fg])
+    yield "table", "align F=1.7", *classify(
+        ["align", "--gate", fg, "--sweep", sweep], "f17_gate.csv",
+        [fg])
 
 
 def _camp_copy(tmp, name, edit=None):
@@ -197,7 +202,7 @@ def _analyze_cases(tmp, o):
         return edit
     for col in ("A", "P_dB"):
         c = _camp_copy(tmp, f"text_{col}", text_in(col))
-        yield "6", f"analyze: text in spectra.csv {col}", *_analyze_failed(
+        yield "analyze", f"analyze: text in spectra.csv {col}", *_analyze_failed(
             _analyze(c, o / f"r_{col}"), ["spectra.csv", f"'{col}'"])
     for name, meta in (("list", [1, 2]), ("order", "eight")):
         def edit(dst, meta=meta):
@@ -205,11 +210,11 @@ def _analyze_cases(tmp, o):
             (dst / "campaign.json").write_text(json.dumps(meta if name == "list" else
                                                           {**m, "order": meta}))
         c = _camp_copy(tmp, f"cj_{name}", edit)
-        yield "6", f"analyze: campaign.json {name}", *classify(_analyze(c, o / f"r_{name}"),
-                                                               "campaign.json")
+        yield "analyze", f"analyze: campaign.json {name}", *classify(_analyze(c, o / f"r_{name}"),
+                                                                     "campaign.json")
     empty = tmp / "empty"
     empty.mkdir()
-    yield "6", "analyze: empty folder", *classify(_analyze(empty, o / "r_empty"), "empty")
+    yield "analyze", "analyze: empty folder", *classify(_analyze(empty, o / "r_empty"), "empty")
 
 
 def _analyze_failed(argv, places):
@@ -222,58 +227,59 @@ def _analyze_failed(argv, places):
     return ("clean" if ok else "vague"), (lines[0] if lines else f"exit {code}")
 
 
-def _mediocre_cases(tmp, cal, sweep, gate, o):
+def _message_cases(tmp, cal, sweep, gate, o):
     from dpdfit.fits.calibration import load_calibration
     from dpdfit.recordings.tables import read_calibration
-    yield "8", "analyze -o <input file>", *classify(
+    yield "message", "analyze -o <input file>", *classify(
         _analyze(CAMP, CAMP / "spectra.csv"), "spectra.csv", [CAMP / "spectra.csv"])
     f = tmp / "afile"
     f.write_text("x")
-    yield "8", "--plot pointing at a file", *classify(
+    yield "message", "--plot pointing at a file", *classify(
         ["sweep", cal, "-o", o / "s2.csv", "--plot", f], ["--plot", "afile"])
     dup = edit_csv(AMP, tmp / "dup_amp.csv", lambda df: pd.concat([df, df.iloc[[3]]]))
-    yield "8", "calibrate: exact duplicate line", *classify(
+    yield "message", "calibrate: exact duplicate line", *classify(
         ["calibrate", "--amplitude", dup, "-o", o / "c2.json"], "dup_amp.csv", [dup])
     dup_runs = edit_csv(CAMP / "calibration_amplitude.csv", tmp / "dup_runs.csv",
                         lambda df: pd.concat([df, df.iloc[[3]]]))
-    yield "8", "stability: exact duplicate line", *classify(["stability", dup_runs],
-                                                           "dup_runs.csv", [dup_runs])
+    yield "message", "stability: exact duplicate line", *classify(["stability", dup_runs],
+                                                                 "dup_runs.csv", [dup_runs])
     dg = edit_csv(gate, tmp / "dup_gate.csv", lambda df: pd.concat([df, df.iloc[[0]]]))
-    yield "8", "align: exact duplicate line", *classify(["align", "--gate", dg, "--sweep", sweep],
-                                                       "dup_gate.csv", [dg])
+    yield "message", "align: exact duplicate line", *classify(
+        ["align", "--gate", dg, "--sweep", sweep],
+        "dup_gate.csv", [dg])
     dgr = edit_csv(CAMP / "gate_rates.csv", tmp / "dup_rates_b.csv",
                    lambda df: pd.concat([df, df.iloc[[0]]]))
-    yield "8", "budget: exact duplicate line", *classify(["budget", "--gate-rates", dgr],
-                                                        "dup_rates_b.csv", [dgr])
+    yield "message", "budget: exact duplicate line", *classify(["budget", "--gate-rates", dgr],
+                                                              "dup_rates_b.csv", [dgr])
 
     def degrees(df):
         df = df.copy()
         df["phase_rad"] = np.degrees(df["phase_rad"])
         return df
     par = edit_csv(CAMP / "parity.csv", tmp / "deg_parity.csv", degrees)
-    yield "8", "parity phases in degrees", *classify(
+    yield "message", "parity phases in degrees", *classify(
         ["fidelity", "--populations", CAMP / "populations.csv", "--parity", par],
         "deg_parity.csv", [par], check=lambda out, err: True if "degree" in err else
         "no warning about degrees")
     nocj = _camp_copy(tmp, "no_cj", lambda d: (d / "campaign.json").unlink())
-    yield "8", "analyze: missing campaign.json", *classify(_analyze(nocj, o / "r_nocj"),
-                                                           "campaign.json")
+    yield "message", "analyze: missing campaign.json", *classify(_analyze(nocj, o / "r_nocj"),
+                                                                 "campaign.json")
     old = os.umask(0o022)
     try:
         run(["lut", cal, "-o", o / "mode.csv"])
     finally:
         os.umask(old)
     mode = (o / "mode.csv").stat().st_mode & 0o777
-    yield "8", "output mode under umask 022", ("ok" if mode == 0o644 else "wrong"), oct(mode)
-    yield "8", "API: calibration CSV is a folder", *api_case(
+    yield "message", "output mode under umask 022", ("ok" if mode == 0o644 else "wrong"), oct(mode)
+    yield "message", "API: calibration CSV is a folder", *api_case(
         lambda: read_calibration(tmp, "amplitude"))
     yield from _location_cases(tmp, cal, sweep, gate, o)
-    yield "8", "API: calibration JSON missing key", *api_case(
+    yield "message", "API: calibration JSON missing key", *api_case(
         lambda: load_calibration(_json(tmp / "k.json", {"phase": None})))
 
 
 def _location_cases(tmp, cal, sweep, gate, o):
-    """Messages the issue found without file/column/row, and the n00 > shots time scan."""
+    """Messages that must name their file/column/row, and the n00 > shots time scan."""
     def bend(df):  # the response falls above A = 0.8: no monotone inverse
         df = df.copy()
         hi = df["A"] > 0.8
@@ -288,7 +294,7 @@ def _location_cases(tmp, cal, sweep, gate, o):
         if m is None:
             return "no monotonicity report"
         return True if float(m.group(1)) > a_corr else f"falls at {m.group(1)} < A_corr {a_corr}"
-    yield "8", "calibrate: fit falling above A_corr", *classify(
+    yield "message", "calibrate: fit falling above A_corr", *classify(
         ["calibrate", "--amplitude", bent, "-o", o / "bent.json"], "bent_amp.csv", [bent],
         check=used_range_invertible)
 
@@ -298,18 +304,20 @@ def _location_cases(tmp, cal, sweep, gate, o):
         df.loc[m, "power"] = df.loc[df["A"] <= 0.3, "power"].iloc[-1] - (df.loc[m, "A"] - 0.3) / 2
         return df
     dipped = edit_csv(AMP, tmp / "dip_amp.csv", dip)
-    yield "8", "calibrate: fit falling below A_corr", *classify(
+    yield "message", "calibrate: fit falling below A_corr", *classify(
         ["calibrate", "--amplitude", dipped, "-o", o / "dip.json"], "dip_amp.csv", [dipped])
     neg = edit_csv(gate, tmp / "negerr_gate.csv",
                    lambda df: df.assign(xi0_err_khz=[-1.0] + list(df["xi0_err_khz"][1:])))
-    yield "8", "align: xi0_err_khz < 0", *classify(["align", "--gate", neg, "--sweep", sweep],
-                                                  ["negerr_gate.csv", "xi0_err_khz"], [neg])
+    yield "message", "align: xi0_err_khz < 0", *classify(
+        ["align", "--gate", neg, "--sweep", sweep],
+        ["negerr_gate.csv", "xi0_err_khz"], [neg])
 
     def n00(dst):
         edit_csv(dst / "time_scans.csv", dst / "time_scans.csv",
                  lambda df: df.assign(n00=[900] + list(df["n00"][1:])))
     c = _camp_copy(tmp, "n00", n00)
-    yield "7", "diagnose: n00 > shots", *classify(["diagnose", c], ["time_scans.csv", "n00"])
+    yield "diagnose", "diagnose: n00 > shots", *classify(
+        ["diagnose", c], ["time_scans.csv", "n00"])
 
 
 def _json(path, obj):
@@ -322,8 +330,8 @@ def main():
     with tempfile.TemporaryDirectory() as t:
         rows = list(cases(Path(t)))
     width = max(len(r[1]) for r in rows)
-    for item, name, outcome, detail in rows:
-        print(f"{item:>2}  {name:<{width}}  {outcome:<6} {detail[:150]}")
+    for group, name, outcome, detail in rows:
+        print(f"{group:<11}  {name:<{width}}  {outcome:<6} {detail[:150]}")
     counts = pd.Series([r[2] for r in rows]).value_counts()
     print("\n" + "  ".join(f"{k}: {v}" for k, v in counts.items()), f"(of {len(rows)})")
     return 0 if "wrong" not in counts else 1

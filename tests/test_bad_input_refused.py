@@ -1,4 +1,4 @@
-"""Bad input (round 17): one line 'dpdfit: error: ...', exit status 2, inputs untouched.
+"""Bad input: one line 'dpdfit: error: ...', exit status 2, inputs untouched.
 
 NaN calibration coefficients, a sweep grid too large to allocate, NaN and
 out-of-range numeric options, duplicated or out-of-range rows of sweep, gate
@@ -47,12 +47,12 @@ def _bad(capsys, argv, needles, inputs=()):
 
 
 
-# ----------------------------------------------------------------------------- 1. calibration
+# ----------------------------------------------------------------------------- calibration
 
 
 @pytest.mark.parametrize("key", ["coefficients", "covariance"])
-def test_nan_in_calibration_json_is_named_by_file_and_key(made, tmp_path, capsys, key):
-    d = json.loads(made["cal"].read_text())
+def test_nan_in_calibration_json_is_named_by_file_and_key(cli_outputs, tmp_path, capsys, key):
+    d = json.loads(cli_outputs["cal"].read_text())
     if key == "coefficients":
         d["amplitude"][key][3] = float("nan")
     else:
@@ -67,8 +67,8 @@ def test_nan_in_calibration_json_is_named_by_file_and_key(made, tmp_path, capsys
     assert exc.value.file == str(p)
 
 
-def test_calibration_coefficients_of_the_wrong_length(made, tmp_path, capsys):
-    d = json.loads(made["cal"].read_text())
+def test_calibration_coefficients_of_the_wrong_length(cli_outputs, tmp_path, capsys):
+    d = json.loads(cli_outputs["cal"].read_text())
     d["amplitude"]["coefficients"] = d["amplitude"]["coefficients"][:-1]
     p = tmp_path / "short_cal.json"
     p.write_text(json.dumps(d))
@@ -76,13 +76,13 @@ def test_calibration_coefficients_of_the_wrong_length(made, tmp_path, capsys):
          [str(p), "key 'amplitude.coefficients'", "shape"], [p])
 
 
-# ----------------------------------------------------------------------------- 2. sweep size
+# ----------------------------------------------------------------------------- sweep size
 
 
-def test_sweep_refuses_a_sample_grid_too_large(made, tmp_path, capsys):
+def test_sweep_refuses_a_sample_grid_too_large(cli_outputs, tmp_path, capsys):
     out = tmp_path / "s.csv"
-    line = _bad(capsys, ["sweep", made["cal"], "--nu", "1e12", "-o", out],
-                ["option --nu", "--xi0", "samples", "limit"], [made["cal"]])
+    line = _bad(capsys, ["sweep", cli_outputs["cal"], "--nu", "1e12", "-o", out],
+                ["option --nu", "--xi0", "samples", "limit"], [cli_outputs["cal"]])
     assert "9.0" in line or "900169200" in line
     assert not out.exists()
     with pytest.raises(InputError, match="MAX_SWEEP_SAMPLES"):
@@ -90,11 +90,11 @@ def test_sweep_refuses_a_sample_grid_too_large(made, tmp_path, capsys):
     assert check_sweep_size(SweepConfig()).n_samples * 101 < MAX_SWEEP_SAMPLES
 
 
-# ----------------------------------------------------------------------------- 3. options
+# ----------------------------------------------------------------------------- options
 
 
-def _option_cases(made, tmp):
-    cal, sweep, gate = made["cal"], made["sweep"], made["gate"]
+def _option_cases(cli_outputs, tmp):
+    cal, sweep, gate = cli_outputs["cal"], cli_outputs["sweep"], cli_outputs["gate"]
     runs = CAMP / "calibration_amplitude.csv"
     return [
         (["sweep", cal, "--nbar", "nan", "-o", tmp / "x.csv"], "--nbar"),
@@ -119,22 +119,22 @@ def _option_cases(made, tmp):
 
 
 @pytest.mark.parametrize("case", range(17))
-def test_bad_numeric_option_is_one_line_naming_it(made, tmp_path, capsys, case):
-    argv, opt = _option_cases(made, tmp_path)[case]
+def test_bad_numeric_option_is_one_line_naming_it(cli_outputs, tmp_path, capsys, case):
+    argv, opt = _option_cases(cli_outputs, tmp_path)[case]
     inputs = [a for a in argv if isinstance(a, Path) and a.is_file()]
     _bad(capsys, argv, [f"option {opt}:"], inputs)
     assert list(tmp_path.iterdir()) == []
 
 
-def test_help_and_good_options_still_work(made, capsys):
+def test_help_and_good_options_still_work(cli_outputs, capsys):
     assert main(["im-table", "--nbar", "0"]) == 0
-    assert main(["thresholds", str(made["sweep"]), "--A-corr", "1"]) == 0
+    assert main(["thresholds", str(cli_outputs["sweep"]), "--A-corr", "1"]) == 0
     assert main(["estimate", "--powers-db", "0:-40,1:0,2:0,3:-30", "--nbar", "0.1"]) == 0
     assert main(["im-table", "--help"]) == 0
     capsys.readouterr()
 
 
-# ----------------------------------------------------------------------------- 4. sweep table
+# ----------------------------------------------------------------------------- sweep table
 
 
 def _edit_csv(src, dst, edit):
@@ -147,26 +147,26 @@ def _edit_csv(src, dst, edit):
     return dst
 
 
-def test_duplicated_mean_row_of_a_sweep(made, tmp_path, capsys):
+def test_duplicated_mean_row_of_a_sweep(cli_outputs, tmp_path, capsys):
     def dup(df):
         return pd.concat([df, df[df["sideband"] == "mean"].iloc[[5]]], ignore_index=True)
-    p = _edit_csv(made["sweep"], tmp_path / "dup.csv", dup)
+    p = _edit_csv(cli_outputs["sweep"], tmp_path / "dup.csv", dup)
     n = len(pd.read_csv(p, comment="#"))
-    for argv in (["thresholds", p], ["align", "--gate", made["gate"], "--sweep", p]):
+    for argv in (["thresholds", p], ["align", "--gate", cli_outputs["gate"], "--sweep", p]):
         _bad(capsys, argv, [str(p), "column 'sideband'", f"row {n}", "duplicated"],
-             [p, made["gate"]])
+             [p, cli_outputs["gate"]])
 
 
-def test_sweep_row_with_A_above_one(made, tmp_path, capsys):
+def test_sweep_row_with_A_above_one(cli_outputs, tmp_path, capsys):
     def big(df):
         i = int(np.flatnonzero(df["sideband"] == "mean")[2])
         df.loc[i, "A"] = 1.5
         return df
-    p = _edit_csv(made["sweep"], tmp_path / "bigA.csv", big)
+    p = _edit_csv(cli_outputs["sweep"], tmp_path / "bigA.csv", big)
     _bad(capsys, ["thresholds", p], [str(p), "column 'A'", "1.5"], [p])
 
 
-# ----------------------------------------------------------------------------- 5. gate tables
+# ----------------------------------------------------------------------------- gate tables
 
 
 def _fidelity(rates, out):
@@ -193,28 +193,29 @@ def test_gate_rate_out_of_range(tmp_path, capsys, col, value):
 
 
 @pytest.mark.parametrize("col, value", [("F", 1.7), ("A", 1.5), ("xi0_khz", 0.0)])
-def test_align_gate_table_out_of_range(made, tmp_path, capsys, col, value):
+def test_align_gate_table_out_of_range(cli_outputs, tmp_path, capsys, col, value):
     def edit(df):
         df.loc[1, col] = value
         return df
-    p = _edit_csv(made["gate"], tmp_path / "gate.csv", edit)
-    _bad(capsys, ["align", "--gate", p, "--sweep", made["sweep"]],
-         [str(p), f"column '{col}'", "row 2"], [p, made["sweep"]])
+    p = _edit_csv(cli_outputs["gate"], tmp_path / "gate.csv", edit)
+    _bad(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
+         [str(p), f"column '{col}'", "row 2"], [p, cli_outputs["sweep"]])
 
 
-def test_align_gate_table_duplicated_row(made, tmp_path, capsys):
-    p = _edit_csv(made["gate"], tmp_path / "gate.csv",
+def test_align_gate_table_duplicated_row(cli_outputs, tmp_path, capsys):
+    p = _edit_csv(cli_outputs["gate"], tmp_path / "gate.csv",
                   lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True))
     n = len(pd.read_csv(p))
-    _bad(capsys, ["align", "--gate", p, "--sweep", made["sweep"]],
-         [str(p), f"row {n}", "duplicated"], [p, made["sweep"]])
+    _bad(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
+         [str(p), f"row {n}", "duplicated"], [p, cli_outputs["sweep"]])
 
 
-# ----------------------------------------------------------------------------- 7. time scans
+# ----------------------------------------------------------------------------- time scans
 
 
-@pytest.mark.parametrize("with_n01_10", [True, False])
-def test_diagnose_refuses_time_scan_counts_above_shots(tmp_path, capsys, with_n01_10):
+def _time_scan_counts_above_shots(tmp_path, with_n01_10):
+    """A copy of the bundled campaign whose first time-scan row counts 900 of 625 shots:
+    the folder, its time_scans.csv and what the one error line must name."""
     camp = tmp_path / "camp"
     shutil.copytree(CAMP, camp)
     ts = camp / "time_scans.csv"
@@ -224,14 +225,26 @@ def test_diagnose_refuses_time_scan_counts_above_shots(tmp_path, capsys, with_n0
     df.loc[0, "n00"] = 900
     df.loc[0, "shots"] = 625
     df.to_csv(ts, index=False)
-    needles = [str(ts), "column 'shots'", "row 1", "900", "625"]
+    return camp, ts, [str(ts), "column 'shots'", "row 1", "900", "625"]
+
+
+@pytest.mark.parametrize("with_n01_10", [True, False])
+def test_diagnose_refuses_time_scan_counts_above_shots(tmp_path, capsys, with_n01_10):
+    camp, ts, needles = _time_scan_counts_above_shots(tmp_path, with_n01_10)
     _bad(capsys, ["diagnose", camp, "--pairs", "0"], needles, [ts])
+
+
+@pytest.mark.slow      # analyze runs every other step before it exits 2
+@pytest.mark.parametrize("with_n01_10", [True, False])
+def test_analyze_refuses_time_scan_counts_above_shots_as_diagnose_does(tmp_path, capsys,
+                                                                       with_n01_10):
+    camp, ts, needles = _time_scan_counts_above_shots(tmp_path, with_n01_10)
     # analyze (which logs its steps on stderr) refuses the same file by the same rule
     code, _, err = _run(["analyze", camp, "-o", tmp_path / "r", "--no-plots"], capsys)
     assert code == 2 and all(n in err for n in needles), err
 
 
-# ----------------------------------------------------------------------------- 8. messages
+# ----------------------------------------------------------------------------- messages
 
 
 def test_count_message_has_plain_numbers(tmp_path, capsys):

@@ -1,4 +1,4 @@
-"""Shared pieces of the property-based bad-input tests (issue #17 item 2).
+"""Shared pieces of the property-based bad-input tests.
 
 Strategies that mutate a valid CSV or JSON file (a cell replaced by NaN, inf,
 text, empty, huge, negative or out-of-range values; a column dropped; a row
@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 
 from dpdfit.errors import DpdfitError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 AOM = ROOT / "datasets" / "synthetic_aom"
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 
