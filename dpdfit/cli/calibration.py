@@ -22,11 +22,13 @@ from dpdfit.core.version import __version__
 from dpdfit.errors import DpdfitError, FitError, InputError, NotInvertibleError
 from dpdfit.fits.calibration import (Calibration, calibrate_amplitude, calibrate_phase,
                                      load_calibration)
+from dpdfit.fits.calibration.shared import run_record
 from dpdfit.fits.polyfit import parse_powers, polyfit
 from dpdfit.models.transfer import TransferFunction, predistortion_table
 from dpdfit.recordings.outputs import (atomic_write_json, refuse_overwriting_inputs, sha256_file,
                                        staged_outputs, to_jsonable)
-from dpdfit.recordings.tables import list_runs, read_calibration, read_table
+from dpdfit.recordings.calibration_runs import calibration_runs_data
+from dpdfit.recordings.tables import read_calibration, read_calibration_table, read_table
 
 __all__ = ["add_polyfit_command", "add_calibrate_command", "add_lut_command",
            "cmd_polyfit", "cmd_calibrate", "cmd_lut"]
@@ -94,17 +96,13 @@ def _order_range(spec: str):
 
 def _amplitude_runs(args) -> list[dict]:
     """Fit every amplitude run of ``--amplitude``; print one line per run."""
-    amp_df = read_table(args.amplitude, ["A", "power"], ["power_err", "run", "timestamp"],
-                        ranges={"A": (0, 1)}, positive=["power_err"], distinct_rows=True)
+    runs = calibration_runs_data(read_calibration_table(args.amplitude, "amplitude"),
+                                 "amplitude")
     out = []
     print(f"{'run':>12s}  {'timestamp':25s}  {'A_corr':>10s}  {'stderr':>9s}  monotone  red.chi2")
-    for r in list_runs(amp_df) or [None]:
-        cal = calibrate_amplitude(read_calibration(args.amplitude, "amplitude", r), args.order)
-        rec = {"run": r, "timestamp": cal.source.get("timestamp"), "A_corr": cal.A_corr,
-               "A_corr_stderr": cal.A_corr_stderr, "monotone": cal.monotone,
-               "reduced_chi2": cal.reduced_chi2, "coefficients": cal.coefficients.tolist(),
-               "stderr": cal.stderr.tolist(), "raw_coefficients": cal.raw_coefficients.tolist(),
-               "raw_covariance": cal.raw_covariance.tolist(), "n_points": cal.n_points}
+    for r, data in runs.items():
+        cal = calibrate_amplitude(data, args.order)
+        rec = run_record(cal, "amplitude")
         out.append(rec)
         print(f"{str(r):>12s}  {str(rec['timestamp']):25s}  {cal.A_corr:10.6f}  "
               f"{cal.A_corr_stderr:9.6f}  {'yes' if cal.monotone else 'NO':8s}  "
@@ -114,17 +112,12 @@ def _amplitude_runs(args) -> list[dict]:
 
 def _phase_runs(args) -> list[dict]:
     """Fit every phase run of ``--phase``; print one line per run."""
-    ph_df = read_table(args.phase, ["A", "phase_rad"], ["phase_err", "run", "timestamp"],
-                       ranges={"A": (0, 1)}, positive=["phase_err"], distinct_rows=True)
+    runs = calibration_runs_data(read_calibration_table(args.phase, "phase"), "phase")
     out = []
     print(f"{'phase run':>12s}  {'timestamp':25s}  {'phi(1)':>10s}  {'stderr':>9s}")
-    for r in list_runs(ph_df) or [None]:
-        ph = calibrate_phase(read_calibration(args.phase, "phase", r), args.phase_order,
-                             args.phase_min_A, args.phase_max_A)
-        rec = {"run": r, "timestamp": ph.source.get("timestamp"), "phi_at_1": ph.phi_at_1,
-               "phi_at_1_stderr": ph.phi_at_1_stderr, "coefficients": ph.coefficients.tolist(),
-               "stderr": ph.stderr.tolist(), "covariance": ph.covariance.tolist(),
-               "reduced_chi2": ph.reduced_chi2, "n_points": ph.n_points}
+    for r, data in runs.items():
+        ph = calibrate_phase(data, args.phase_order, args.phase_min_A, args.phase_max_A)
+        rec = run_record(ph, "phase")
         out.append(rec)
         print(f"{str(r):>12s}  {str(rec['timestamp']):25s}  {ph.phi_at_1:10.6f}  "
               f"{ph.phi_at_1_stderr:9.6f}")

@@ -14,7 +14,7 @@ from dpdfit.recordings.outputs import file_sha256
 from dpdfit.recordings.tables import CalibrationData
 
 __all__ = ["frozen_array", "json_float", "vander", "gaussian_ic", "run_source",
-           "nonmonotone_intervals"]
+           "nonmonotone_intervals", "run_record", "RUN_RECORD_KEYS"]
 
 
 def frozen_array(a) -> np.ndarray:
@@ -43,6 +43,23 @@ def gaussian_ic(chi2: float, n: int, n_coef: int, sigma: np.ndarray | None):
         m2ll = n * np.log(2 * np.pi * chi2 / n) + n
         k = n_coef + 1
     return -0.5 * m2ll, m2ll + 2 * k, m2ll + k * np.log(n), k
+
+
+#: the keys of a fit's ``to_dict`` in one run's record (``dpdfit calibrate --all-runs``)
+RUN_RECORD_KEYS = {
+    "amplitude": ("A_corr", "A_corr_stderr", "monotone", "reduced_chi2", "coefficients",
+                  "stderr", "raw_coefficients", "raw_covariance", "n_points"),
+    "phase": ("phi_at_1", "phi_at_1_stderr", "coefficients", "stderr", "covariance",
+              "reduced_chi2", "n_points"),
+}
+
+
+def run_record(cal, kind: str) -> dict:
+    """One run's record: its label and timestamp, then :data:`RUN_RECORD_KEYS` of the fit's
+    ``to_dict`` (the calibration JSON schema is written in ``to_dict`` alone)."""
+    d = cal.to_dict()
+    return {"run": cal.source.get("run"), "timestamp": cal.source.get("timestamp"),
+            **{k: d[k] for k in RUN_RECORD_KEYS[kind]}}
 
 
 def run_source(data: CalibrationData) -> dict:
