@@ -13,7 +13,8 @@ from dpdfit.errors import DpdfitError
 from dpdfit.fits.posterior import ConvergenceError, PosteriorResult, sample_amplitude_posterior
 from dpdfit.fits.drift import drift_model
 from dpdfit.analyses.propagation import propagate, recalibration
-from dpdfit.report.posterior_plots import plot_corner
+from dpdfit.report.figure_io import save_figures
+from dpdfit.report.posterior_plots import corner_figure
 from dpdfit.cli.propagate import add_propagate_command
 from dpdfit.analyses.sweep import SweepConfig, run_sweep
 from dpdfit.models.transfer import TransferFunction
@@ -66,9 +67,8 @@ def test_posterior_result_structure(posterior, tmp_path):
     assert "K = 8" in r.report() and "independent samples" in r.report()
     with pytest.raises(Exception):
         r.a_draws[0, 0] = 2.0
-    with pytest.deprecated_call():                    # the deprecated writer to a file
-        out = plot_corner(r, tmp_path / "corner.png")
-    assert (tmp_path / "corner.png").stat().st_size > 1000 and out.endswith("corner.png")
+    out = save_figures({"corner": corner_figure(r)}, tmp_path)
+    assert (tmp_path / "corner.png").stat().st_size > 1000 and out[0].endswith("corner.png")
 
 
 def test_noise_parameter_without_power_err():
