@@ -24,8 +24,6 @@ import hashlib
 import json
 import logging
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -39,6 +37,7 @@ from .artiq import ResultsFile, read_results_file
 from .campaign_folder import CampaignFolder
 from .mapped_columns import column_values, fail
 from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
+from .outputs import staged_folder
 
 __all__ = ["ImportedCampaign", "import_campaign", "GATE_TABLES", "COUNT_COLUMNS"]
 
@@ -81,20 +80,12 @@ class ImportedCampaign:
         if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
             raise InputError("exists and is not empty: dpdfit import writes a new campaign "
                              "folder and never overwrites one", file=str(folder))
-        folder.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=folder.parent))
-        try:
+        with staged_folder(folder) as tmp:
             for name, df in self.tables.items():
                 df.to_csv(tmp / f"{name}.csv", index=False)
             (tmp / "campaign.json").write_text(json.dumps(self.meta, indent=2) + "\n",
                                                encoding="utf-8")
             self._check(tmp)
-            if folder.exists():
-                folder.rmdir()
-            os.replace(tmp, folder)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
         return folder
 
     def _check(self, tmp: Path) -> None:

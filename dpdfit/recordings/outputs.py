@@ -16,6 +16,7 @@ import contextvars
 import hashlib
 import json
 import os
+import shutil
 import signal
 import tempfile
 import threading
@@ -27,7 +28,7 @@ from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 
 __all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "file_sha256",
-           "remember_sha256", "refuse_overwriting_inputs", "staged_outputs", "Stage",
+           "remember_sha256", "staged_folder", "refuse_overwriting_inputs", "staged_outputs", "Stage",
            "check_output_folder", "check_output_file",
            "atomic_write_text", "atomic_write_json", "to_jsonable"]
 
@@ -245,6 +246,31 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` to ``path`` atomically."""
     with staged_outputs() as stage:
         stage(path).write_text(text)
+
+
+@contextlib.contextmanager
+def staged_folder(out: str | os.PathLike) -> Iterator[Path]:
+    """A new folder ``out`` that appears whole or not at all.
+
+    Yields a temporary folder beside ``out`` to write into; when the block ends
+    without error it gets the permissions the umask gives a new folder (``mkdtemp``
+    makes it private) and replaces ``out``, which must not exist or be empty.  On
+    any error or interrupt the temporary folder is removed and ``out`` is untouched.
+    """
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        yield tmp
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o777 & ~umask)
+        if out.exists():
+            out.rmdir()
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
 
 
 def atomic_write_json(path: str | os.PathLike, obj) -> None:

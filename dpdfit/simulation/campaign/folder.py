@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import hashlib
 import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import pandas as pd
 
 from dpdfit.errors import InputError
+from dpdfit.recordings.outputs import staged_folder
 
 __all__ = ["CAMPAIGN_FILES", "csv_text", "check_new_folder", "write_folder", "campaign_hashes"]
 
@@ -37,23 +36,12 @@ def write_folder(out: Path, files: dict, bundled: dict) -> None:
     Files are written into a temporary folder beside ``out`` and moved into
     place only when complete.
     """
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with staged_folder(out) as tmp:
         (tmp / "traces").mkdir()
         for name, text in files.items():
             (tmp / name).write_text(text)
         for name, data in bundled.items():
             (tmp / name).write_bytes(data)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)            # mkdtemp makes it private
-        if out.exists():
-            out.rmdir()
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def campaign_hashes(folder: str | os.PathLike) -> dict:
