@@ -1,6 +1,6 @@
 """How often `analyze` opens each recording file and fits each calibration run.
 
-    python benchmarks/analyze_io.py [CAMPAIGN_DIR] [--diagnosis]
+    python benchmarks/analyze_io.py [CAMPAIGN_DIR] [--diagnosis] [--json PATH]
 
 Runs :func:`dpdfit.analyze` (no figures; the diagnosis only with
 ``--diagnosis``) on the campaign (default: the bundled one) with the opening
@@ -25,6 +25,7 @@ import numpy as np
 
 import dpdfit
 from dpdfit.fits.calibration import amplitude as amplitude_module
+from record import add_json_option, summary_line, write_record
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -34,6 +35,7 @@ def main(argv=None) -> int:
     p.add_argument("campaign", nargs="?", default=ROOT / "datasets" / "synthetic_campaign",
                    type=Path)
     p.add_argument("--diagnosis", action="store_true")
+    add_json_option(p)
     args = p.parse_args(argv)
     folder = args.campaign.resolve()
     opens = collections.Counter()
@@ -74,6 +76,15 @@ def main(argv=None) -> int:
     per_run = collections.Counter(fits.values())
     print(f"amplitude fits: {sum(fits.values())} for {len(fits)} distinct (run data, order); "
           "fits per (run, order): " + ", ".join(f"{k}x: {v}" for k, v in sorted(per_run.items())))
+    title = f"{folder.name}{' (with the diagnosis)' if args.diagnosis else ''}"
+    rows = [{"table": f"file opens, analyze {title}", "file": f, "opens": n, "target": 1}
+            for f, n in sorted(opens.items())]
+    rows += [{"table": "amplitude fits", "fits per (run data, order)": k,
+              "(run data, order) pairs": v, "target": "1 fit each"}
+             for k, v in sorted(per_run.items())]
+    rows.append({"table": "amplitude fits", "fits per (run data, order)": "all",
+                 "(run data, order) pairs": len(fits), "total fits": sum(fits.values())})
+    write_record(args.json, "analyze_io", rows, description=summary_line(__doc__))
     return 0
 
 

@@ -7,10 +7,10 @@ fraction of runs whose 1-sigma interval covers the truth (target 68.3 %),
 the bias in units of the mean error bar, and the ratio of the scatter of the
 estimates to the mean reported error.
 
-    python benchmarks/calibration_coverage.py [N]
+    python benchmarks/calibration_coverage.py [N] [--json PATH]
 """
 
-import sys
+import argparse
 import time
 
 import numpy as np
@@ -19,6 +19,9 @@ from dpdfit.simulation.aom_truth import (BraggAOM, HeterodyneNoise, PhotodiodeNo
                               simulate_amplitude_run, simulate_phase_run)
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
 from dpdfit.models.transfer import TransferFunction
+from record import add_json_option, summary_line, write_record
+
+ROWS = []
 
 
 def summary(name, est, se, truth):
@@ -27,9 +30,14 @@ def summary(name, est, se, truth):
     print(f"{name:38s} N={n}  coverage {100 * cover:5.1f} % (binomial sd {100 * np.sqrt(0.683 * 0.317 / n):.1f} %)"
           f"  bias/se {np.mean(est - truth) / se.mean():+.3f}  sd/se {est.std(ddof=1) / se.mean():.3f}"
           f"  mean se {se.mean():.2e}")
+    ROWS.append({"table": "coverage of the reported 1-sigma error", "quantity": name, "N": n,
+                 "coverage [%]": 100 * cover, "target [%]": 68.3,
+                 "binomial sd [%]": 100 * np.sqrt(0.683 * 0.317 / n),
+                 "bias / se": np.mean(est - truth) / se.mean(),
+                 "sd / se": est.std(ddof=1) / se.mean(), "mean se": se.mean()})
 
 
-def main(n=1000):
+def main(n=1000, json_path=None):
     aom = BraggAOM()
     A = np.linspace(0, 1, 201)
     t0 = time.perf_counter()
@@ -60,8 +68,19 @@ def main(n=1000):
         t = np.linspace(0, tf.A_corr, 100001)
         worst = max(worst, float(np.max(np.abs(tf.f_am(tf.inverse_am(t)) - t))))
     print(f"inverse: max |f_AM(f_AM^-1(y)) - y| on [0, A_corr] over 20 fits x 1e5 points: {worst:.2e}")
-    print(f"total time {time.perf_counter() - t0:.1f} s")
+    total = time.perf_counter() - t0
+    print(f"total time {total:.1f} s")
+    ROWS.append({"table": "inverse accuracy and time",
+                 "quantity": "max |f_AM(f_AM^-1(y)) - y| on [0, A_corr], 20 fits x 1e5 points",
+                 "value": worst})
+    ROWS.append({"table": "inverse accuracy and time", "quantity": "total time [s]",
+                 "value": total})
+    write_record(json_path, "calibration_coverage", ROWS, description=summary_line(__doc__))
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 1000)
+    ap = add_json_option(argparse.ArgumentParser(description=summary_line(__doc__)))
+    ap.add_argument("n", nargs="?", type=int, default=1000, metavar="N",
+                    help="simulated calibrations per case (default 1000)")
+    a = ap.parse_args()
+    main(a.n, a.json)

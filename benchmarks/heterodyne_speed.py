@@ -1,6 +1,6 @@
 """Accuracy and speed of dpdfit.fits.heterodyne.trace_tone_powers (Supplement S4).
 
-Run:  python benchmarks/heterodyne_speed.py [repeats]
+Run:  python benchmarks/heterodyne_speed.py [repeats] [--json PATH]
 
 1. Flat-top amplitude error: a noise-free beat trace at the paper's settings
    (fs = 1 GS/s, N = 2^21 samples = 2.1 ms, f_det = 20 MHz, nu = 1.84 MHz,
@@ -20,6 +20,7 @@ Run:  python benchmarks/heterodyne_speed.py [repeats]
 
 from __future__ import annotations
 
+import argparse
 import math
 import pathlib
 import sys
@@ -38,6 +39,7 @@ except ImportError:                      # run from a source checkout
 
 import scipy.fft
 
+from record import add_json_option, summary_line, write_record  # noqa: E402
 FS, N, FDET, NU, XI0 = 1e9, 2**21, 20e6, 1.84e6, 20e3
 AMPS = {0: 0.03, 1: 1.0, 2: 0.6, 3: 0.05}
 
@@ -95,7 +97,11 @@ def timings(repeats):
 
 
 def main(argv):
-    repeats = max(7, int(argv[1]) if len(argv) > 1 else 9)
+    ap = add_json_option(argparse.ArgumentParser(description=summary_line(__doc__)))
+    ap.add_argument("repeats", nargs="?", type=int, default=9,
+                    help="interleaved timing runs (default 9, at least 7)")
+    args = ap.parse_args(argv[1:])
+    repeats = max(7, args.repeats)
     print(f"Heterodyne tone powers: fs = {FS:g} S/s, N = {N} (2^21), f_det = {FDET:g} Hz, "
           f"nu = {NU:g} Hz, xi0 = {XI0:g} Hz, bin = {FS / N:.2f} Hz\n")
     print("1. flat-top amplitude error |P_dB - 20 log10 a| (noise-free, all tones shifted)")
@@ -107,8 +113,21 @@ def main(argv):
     worst_im = max(r[2] for r in rows)
     print(f"   max over offsets: gate {worst_gate:.4f} dB, IM {worst_im:.4f} dB, "
           f"all {max(worst_gate, worst_im):.4f} dB (target <= 0.02 dB)")
+    scallop = scalloping()
     print(f"   bare window scalloping (single tone, 101 offsets, nearest bin): "
-          f"{scalloping():.4f} dB\n")
+          f"{scallop:.4f} dB\n")
+    summary = "summary"
+    record = [
+        {"table": summary, "quantity": "max amplitude error over offsets, gate tones n = 1, 2 [dB]",
+         "value": worst_gate, "target": "<= 0.02"},
+        {"table": summary, "quantity": "max amplitude error over offsets, IM tones n = 0, 3 [dB]",
+         "value": worst_im, "target": "<= 0.02"},
+        {"table": summary, "quantity": "bare window scalloping (single tone, 101 offsets, "
+                                       "nearest bin) [dB]", "value": scallop},
+    ]
+    offsets = "flat-top amplitude error |P_dB - 20 log10 a| (noise-free, all tones shifted)"
+    record += [{"table": offsets, "offset [bins]": frac, "gate n=1,2 [dB]": eg,
+                "IM n=0,3 [dB]": ei, "all valid": ok} for frac, eg, ei, ok in rows]
 
     print(f"2. time per call, median of {repeats} interleaved runs, N = 2^21 float64")
     t = timings(repeats)
@@ -118,6 +137,16 @@ def main(argv):
     print(f"   ratio trace_tone_powers / numpy.fft.rfft = {ratio:.2f} (target <= 2.0)")
     print(f"   scipy.signal.periodogram alone / numpy.fft.rfft = "
           f"{t['scipy.signal.periodogram(flattop)'] / t['numpy.fft.rfft']:.2f}")
+    record[2:2] = [
+        {"table": summary, "quantity": "ratio trace_tone_powers / numpy.fft.rfft",
+         "value": ratio, "target": "<= 2.0"},
+        {"table": summary, "quantity": "ratio scipy.signal.periodogram / numpy.fft.rfft",
+         "value": t["scipy.signal.periodogram(flattop)"] / t["numpy.fft.rfft"]},
+    ]
+    timing = f"time per call, median of {repeats} interleaved runs, N = 2^21 float64"
+    record += [{"table": timing, "function": k, "time [ms]": v * 1e3,
+                "ratio to numpy.fft.rfft": v / t["numpy.fft.rfft"]} for k, v in t.items()]
+    write_record(args.json, "heterodyne_speed", record, description=summary_line(__doc__))
 
 
 if __name__ == "__main__":

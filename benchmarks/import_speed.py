@@ -1,6 +1,6 @@
 """Speed and memory of `dpdfit import` on 200 ARTIQ results files.
 
-    python benchmarks/import_speed.py [--files 200] [--shots 400] [--repeats 5]
+    python benchmarks/import_speed.py [--files 200] [--shots 400] [--repeats 5] [--json PATH]
 
 Writes one amplitude calibration and FILES-1 parity scans (16 phases, per-shot
 outcome arrays of SHOTS shots: the heaviest shape a lab records) as ARTIQ/ndscan
@@ -26,6 +26,7 @@ import numpy as np
 from dpdfit.recordings.campaign_import import import_campaign
 from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,
                                              write_results_file)
+from record import add_json_option, summary_line, write_record
 
 TARGET_S = 5.0
 MAPPING = '''\
@@ -68,6 +69,7 @@ def main(argv=None) -> int:
     p.add_argument("--files", type=int, default=200)
     p.add_argument("--shots", type=int, default=400)
     p.add_argument("--repeats", type=int, default=5)
+    add_json_option(p)
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         lab = Path(tmp) / "lab"
@@ -91,6 +93,21 @@ def main(argv=None) -> int:
           f"per file; ratio to the {TARGET_S:g} s target {med / TARGET_S:.2f}")
     print(f"peak memory: Python heap {heap / 1e6:.1f} MB (tracemalloc), process maximum "
           f"resident {rss:.0f} MB")
+    rows = [
+        {"quantity": "results files", "value": args.files},
+        {"quantity": "size of the files [MB]", "value": size / 1e6},
+        {"quantity": "shots per point", "value": args.shots},
+        {"quantity": f"import + write, median of {args.repeats} runs [s]", "value": med,
+         "target": f"<= {TARGET_S:g}"},
+        {"quantity": "import + write, min [s]", "value": min(times)},
+        {"quantity": "import + write, max [s]", "value": max(times)},
+        {"quantity": "per file [ms]", "value": 1e3 * med / args.files},
+        {"quantity": "ratio of the median to the target", "value": med / TARGET_S,
+         "target": "<= 1"},
+        {"quantity": "peak Python heap (tracemalloc, separate run) [MB]", "value": heap / 1e6},
+        {"quantity": "process maximum resident size [MB]", "value": rss},
+    ]
+    write_record(args.json, "import_speed", rows, description=summary_line(__doc__))
     return 0
 
 

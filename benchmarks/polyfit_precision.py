@@ -1,6 +1,6 @@
 """Precision and speed of dpdfit.fits.polyfit against plain double least squares.
 
-Run:  python benchmarks/polyfit_precision.py [repeats]
+Run:  python benchmarks/polyfit_precision.py [repeats] [--json PATH]
 
 For two ill-conditioned monomial designs (degree 10 with constant on
 x in [-9, -3], raw condition number ~1e15; powers 1..8 on x in [0, 1]), with
@@ -20,6 +20,7 @@ followed by the median wall time per fit of polyfit and lstsq.
 
 from __future__ import annotations
 
+import argparse
 import math
 import pathlib
 import sys
@@ -39,6 +40,7 @@ except ImportError:                      # run from a source checkout
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 from tests.test_polyfit import hard_case, no_constant_case  # noqa: E402
 from tests.test_polyfit import mp_reference as _mp_reference  # noqa: E402
+from record import add_json_option, summary_line, write_record  # noqa: E402
 
 CASES = [
     ("degree 10 with constant, x in [-9,-3], 60 points", hard_case),
@@ -102,7 +104,8 @@ def median_time(fn, repeats):
 
 
 # --------------------------------------------------------------------------
-def main(repeats=200):
+def main(repeats=200, json_path=None):
+    rows = []
     print(__doc__.split("\n\n")[0])
     print(f"numpy {np.__version__}, mpmath {mpmath.__version__}; "
           f"digits = min over coefficients of -log10(relative error vs 50-digit mpmath)\n")
@@ -116,6 +119,23 @@ def main(repeats=200):
             uc, us = lstsq_fit(x, y, powers, sigma, truncate=False)
             nc = numpy_polyfit(x, y, powers, sigma)
             label = "sigma given" if with_sigma else "sigma from residuals"
+            rank = np.linalg.matrix_rank(weighted_vandermonde(x, y, powers, sigma)[0])
+            digits_table = "significant digits against the 50-digit mpmath solution"
+            rows.append({"table": "conditioning", "problem": title, "sigma": label,
+                         "cond (weighted Vandermonde)": res.condition_number,
+                         "cond after power-of-two column scaling": res.condition_number_scaled,
+                         "polyfit refinement iterations": res.refinement_iterations,
+                         "converged": bool(res.converged)})
+            for method, c, s_ in (
+                    ("dpdfit.fits.polyfit", digits(res.coefficients, ref_c),
+                     digits(res.stderr, ref_s)),
+                    (f"np.linalg.lstsq, raw Vandermonde (default rcond: rank {rank} of "
+                     f"{len(powers)})", digits(lc, ref_c), digits(ls, ref_s)),
+                    ("np.linalg.lstsq, no singular-value cut-off", digits(uc, ref_c),
+                     digits(us, ref_s)),
+                    ("np.polynomial.polynomial.polyfit", digits(nc, ref_c), None)):
+                rows.append({"table": digits_table, "problem": title, "sigma": label,
+                             "method": method, "coefficient digits": c, "stderr digits": s_})
             print(f"  [{label}]  cond(weighted Vandermonde) = {res.condition_number:.3g}, "
                   f"after power-of-two column scaling {res.condition_number_scaled:.3g}")
             print(f"    {'method':<40}{'coef digits':>12}{'stderr digits':>15}")
@@ -125,7 +145,7 @@ def main(repeats=200):
                   f"{'converged' if res.converged else 'NOT converged'})")
             print(f"    {'np.linalg.lstsq, raw Vandermonde':<40}{digits(lc, ref_c):>12.1f}"
                   f"{digits(ls, ref_s):>15.1f}   (numpy default rcond: "
-                  f"rank {np.linalg.matrix_rank(weighted_vandermonde(x, y, powers, sigma)[0])}"
+                  f"rank {rank}"
                   f" of {len(powers)})")
             print(f"    {'  same, no singular-value cut-off':<40}{digits(uc, ref_c):>12.1f}"
                   f"{digits(us, ref_s):>15.1f}")
@@ -141,8 +161,23 @@ def main(repeats=200):
                       f"lstsq {t_lstsq * 1e3:.3f} ms (coefficients only; "
                       f"{t_both * 1e3:.3f} ms with Vandermonde + pinv covariance); "
                       f"ratio {t_ours / t_lstsq:.0f}x / {t_ours / t_both:.0f}x")
+                rows.append({"table": f"median time per fit over {repeats} runs (sigma given)",
+                             "problem": title,
+                             "polyfit, coefficients + covariance + statistics [ms]": t_ours * 1e3,
+                             "lstsq, coefficients only [ms]": t_lstsq * 1e3,
+                             "lstsq with Vandermonde + pinv covariance [ms]": t_both * 1e3,
+                             "ratio polyfit / lstsq": t_ours / t_lstsq,
+                             "ratio polyfit / (lstsq + pinv)": t_ours / t_both})
         print()
+    write_record(json_path, "polyfit_precision", rows, description=summary_line(__doc__),
+                 notes=[f"numpy {np.__version__}, mpmath {mpmath.__version__}; digits = min "
+                        "over coefficients of -log10(relative error vs 50-digit mpmath), "
+                        "17 when exact."])
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 200)
+    ap = add_json_option(argparse.ArgumentParser(description=summary_line(__doc__)))
+    ap.add_argument("repeats", nargs="?", type=int, default=200,
+                    help="timed fits per method (default 200)")
+    a = ap.parse_args()
+    main(a.repeats, a.json)

@@ -14,12 +14,13 @@
 2. Wall time of ``propagate`` for 10^4 draws at one A, both DPD flags
    (posterior already sampled), and of the whole pipeline from a runs table.
 
-Run: ``python benchmarks/posterior_speed.py``  (targets: ESS/s ratio >= 10,
+Run: ``python benchmarks/posterior_speed.py [--json PATH]``  (targets: ESS/s ratio >= 10,
 propagation <= 10 s).
 """
 
 from __future__ import annotations
 
+import argparse
 import time
 
 import numpy as np
@@ -29,6 +30,7 @@ from dpdfit.simulation.aom_truth import BraggAOM, PhotodiodeNoise, simulate_ampl
 from dpdfit.fits.calibration import fit_amplitude
 from dpdfit.analyses.propagation import propagate
 from dpdfit.fits.posterior import sample_amplitude_posterior
+from record import add_json_option, summary_line, write_record
 
 
 def ess(chain):
@@ -64,7 +66,7 @@ def run_lmfit(A, P, S, fit, nwalkers, steps, burn, seed):
     return n, t, wall
 
 
-def main():
+def main(json_path=None):
     rng = np.random.default_rng(2026)
     A = np.linspace(0, 1, 201)
     df = simulate_amplitude_run(BraggAOM(), A, rng, PhotodiodeNoise())
@@ -86,6 +88,12 @@ def main():
     base = rows[0][2] / rows[0][3]
     for name, tau, n, wall in rows[1:]:
         print(f"ESS/s ratio {name} / lmfit: {n / wall / base:.0f}x  (target >= 10)")
+    samplers = f"posterior: {nw} walkers x {steps} steps ({burn} burn-in), K = 8, 201 points"
+    record = [{"table": samplers, "sampler": name, "tau": tau, "ESS": n, "wall [s]": wall,
+               "ESS/s": n / wall, "ESS/s ratio to lmfit": n / wall / base,
+               "target ratio": None if i == 0 else ">= 10"}
+              for i, (name, tau, n, wall) in enumerate(rows)]
+    prop = "propagation"
 
     # --- propagation
     post = sample_amplitude_posterior(A, P, S, 8, n_walkers=32, n_steps=400, seed=2, fit=fit)
@@ -99,6 +107,13 @@ def main():
           f"(best {min(times):.3f} s; target <= 10 s)")
     d = res.to_dict()
     print(f"  F_est dpd {d['dpd']['F_est_median']:.6f}, no_dpd {d['no_dpd']['F_est_median']:.6f}")
+    record += [
+        {"table": prop, "quantity": "propagate 10^4 draws at A = 0.5, both flags: median of 3 [s]",
+         "value": float(np.median(times)), "target": "<= 10"},
+        {"table": prop, "quantity": "same, best of 3 [s]", "value": min(times)},
+        {"table": prop, "quantity": "F_est median, dpd", "value": d["dpd"]["F_est_median"]},
+        {"table": prop, "quantity": "F_est median, no_dpd", "value": d["no_dpd"]["F_est_median"]},
+    ]
 
     # whole pipeline from a runs table: 34 runs, fits + posterior + drift + 10^4 draws
     frames = []
@@ -112,9 +127,15 @@ def main():
     runs = pd.concat(frames, ignore_index=True)
     t0 = time.perf_counter()
     res = propagate(runs, 0.5, stale_days=3, draws=10_000, seed=0, recalibration_loss=1e-4)
+    t_full = time.perf_counter() - t0
     print(f"full pipeline (34 runs fitted, posterior, drift model, 10^4 draws, recalibration): "
-          f"{time.perf_counter() - t0:.2f} s")
+          f"{t_full:.2f} s")
+    record.append({"table": prop, "quantity": "full pipeline from a runs table (34 runs fitted, "
+                   "posterior, drift model, 10^4 draws, recalibration), one run [s]",
+                   "value": t_full})
+    write_record(json_path, "posterior_speed", record, description=summary_line(__doc__))
 
 
 if __name__ == "__main__":
-    main()
+    ap = add_json_option(argparse.ArgumentParser(description=summary_line(__doc__)))
+    main(ap.parse_args().json)

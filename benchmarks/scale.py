@@ -4,6 +4,7 @@
     python benchmarks/scale.py                       # 1x, 4x, 16x without the diagnosis
     python benchmarks/scale.py --sizes 1,4 --diagnosis
     python benchmarks/scale.py --traces-only --out report.json
+    python benchmarks/scale.py --json benchmarks/scale.json   # also the common JSON record
 
 Campaigns k x the bundled one (``datasets/synthetic_campaign``), cached under
 ``/tmp/dpdfit-scale`` (``--cache``), are built as follows:
@@ -53,6 +54,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from record import add_json_option, summary_line, write_record
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
@@ -309,6 +312,53 @@ def table(camp: dict, traces: dict) -> str:
     return "\n".join(lines)
 
 
+def record_rows(camp: dict, traces: dict) -> list[dict]:
+    """The table above as rows of the common record (benchmarks/record.py)."""
+    rows = []
+    if camp:
+        sizes = sorted(camp)
+        steps = "analyze per step: median wall time and traced peak above the step's start"
+        for st in (*STAGES, "analyze"):
+            if st == "analyze":
+                t = [camp[k]["total_s"] for k in sizes]
+                m = [camp[k]["maxrss_bytes"] for k in sizes]
+            else:
+                t = [camp[k]["time_s"].get(st, np.nan) for k in sizes]
+                m = [camp[k]["peak_bytes"].get(st, np.nan) for k in sizes]
+                if not np.isfinite(t).any():
+                    continue
+            row = {"table": steps, "step": st if st != "analyze" else
+                   "analyze (memory: ru_maxrss)"}
+            row.update({f"time {k}x [s]": v for k, v in zip(sizes, t)})
+            row["time exponent"] = exponent(sizes, t)
+            row.update({f"memory {k}x [MiB]": v / 2**20 for k, v in zip(sizes, m)})
+            row["memory exponent"] = exponent(sizes, m)
+            row["target exponent"] = "<= 1.1"
+            rows.append(row)
+        for k in sizes:
+            r = camp[k]["size"]["rows"]
+            rows.append({"table": "campaign sizes", "size": f"{k}x",
+                         "diagnosis": camp[k]["diagnosis"],
+                         **{f"{f} rows": r.get(f, 0) for f in
+                            ("calibration_amplitude.csv", "calibration_phase.csv",
+                             "spectra.csv", "populations.csv", "parity.csv")},
+                         "bytes on disk [MiB]": camp[k]["size"]["bytes"] / 2**20})
+    if traces:
+        for m in sorted(traces):
+            tr = traces[m]
+            rows.append({"table": "trace (load_trace + trace_tone_powers)",
+                         "samples": f"2^{m}", "time [s]": tr["total_s"],
+                         "load [s]": tr["load_s"], "tones [s]": tr["tones_s"],
+                         "traced peak [MiB]": tr["peak_bytes"] / 2**20,
+                         "maxrss [MiB]": tr["maxrss_bytes"] / 2**20})
+        ms = sorted(traces)
+        n = [2.0 ** m for m in ms]
+        rows.append({"table": "trace growth exponents (log-log slope against samples)",
+                     "time exponent": exponent(n, [traces[m]["total_s"] for m in ms]),
+                     "traced peak exponent": exponent(n, [traces[m]["peak_bytes"] for m in ms])})
+    return rows
+
+
 def _main_child(argv):
     kind = argv[0]
     if kind == "analyze":
@@ -329,6 +379,7 @@ def main(argv=None):
     ap.add_argument("--campaigns-only", action="store_true")
     ap.add_argument("--cache", default="/tmp/dpdfit-scale", help="generated campaigns, traces")
     ap.add_argument("--out", help="write the report JSON here (and the table beside it, .txt)")
+    add_json_option(ap)
     a = ap.parse_args(argv)
     cache = Path(a.cache)
     cache.mkdir(parents=True, exist_ok=True)
@@ -354,6 +405,9 @@ def main(argv=None):
     if a.out:
         Path(a.out).write_text(json.dumps(report, indent=1, default=float) + "\n")
         Path(a.out).with_suffix(".txt").write_text(txt + "\n")
+    write_record(a.json, "scale", record_rows(camp, traces), description=summary_line(__doc__),
+                 notes=[f"{a.repeat} child run(s) per point (medians); total wall "
+                        f"{report['wall_s']:.0f} s."])
 
 
 if __name__ == "__main__":
