@@ -96,3 +96,25 @@ intersphinx_mapping = with_offline_fallback(intersphinx_mapping, HERE / "_build"
 html_theme = "furo"
 html_title = f"dpdfit {release}"
 html_static_path = ["_static"]
+
+
+# napoleon reads the text before a colon on the first line of an attribute's or a
+# property's docstring as its type ("one line: what is missing" -> type "one line",
+# cross-referenced).  dpdfit's attribute and property docstrings are prose (the types
+# come from the annotations), so they are given back as written after napoleon ran.
+_PROSE_DOCSTRINGS: dict = {}
+
+
+def _keep_prose(app, what, name, obj, options, lines):
+    if what in ("attribute", "data", "property"):
+        _PROSE_DOCSTRINGS[name] = list(lines)
+
+
+def _restore_prose(app, what, name, obj, options, lines):
+    if what in ("attribute", "data", "property") and name in _PROSE_DOCSTRINGS:
+        lines[:] = _PROSE_DOCSTRINGS.pop(name)
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _keep_prose, priority=400)    # napoleon: 500
+    app.connect("autodoc-process-docstring", _restore_prose, priority=600)

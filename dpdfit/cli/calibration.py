@@ -38,6 +38,8 @@ __all__ = ["add_polyfit_command", "add_calibrate_command", "add_lut_command",
 
 
 def cmd_polyfit(args) -> int:
+    """``dpdfit polyfit``: weighted polynomial fit of two CSV columns (report with the
+    covariance, or JSON; ``-o`` also writes the JSON)."""
     cols = [args.x, args.y]
     df = read_table(args.file, cols + ([args.sigma] if args.sigma else []),
                     positive=[args.sigma] if args.sigma else [])
@@ -148,6 +150,9 @@ def _check_invertible(amp, data) -> None:
 
 
 def cmd_calibrate(args) -> int:
+    """``dpdfit calibrate``: fit the AOM amplitude (and phase) transfer functions of
+    one run, or of every run with ``--all-runs``; writes ``calibration.json`` and the
+    Fig. 1 panels when asked, prints the report (or JSON)."""
     inputs = [args.amplitude] + ([args.phase] if args.phase else [])
     refuse_overwriting_inputs([args.output], inputs)
     if args.phase and not args.phase_min_A < args.phase_max_A:
@@ -241,6 +246,8 @@ def _lut_provenance(args, amp, a_star, rolloff) -> dict:
 
 
 def cmd_lut(args) -> int:
+    """``dpdfit lut``: write the predistortion table of a ``calibration.json`` as CSV,
+    ``.npy`` and ``.json`` (its provenance), all three or none."""
     out_csv = Path(args.output)
     if out_csv.suffix.lower() != ".csv":
         raise InputError("output must end in .csv (the .npy and .json are written beside it)",

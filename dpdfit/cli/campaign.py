@@ -19,6 +19,8 @@ __all__ = ["add_simulate_campaign_command", "add_analyze_command", "cmd_simulate
 
 
 def cmd_simulate_campaign(args) -> int:
+    """``dpdfit simulate-campaign``: write a synthetic campaign folder (seeded,
+    optionally with concealed effects)."""
     from dpdfit.simulation.campaign import parse_effects, simulate_campaign
     effects = parse_effects(args.effects)
     simulate_campaign(args.outdir, seed=args.seed, effects=effects, progress=args.progress)
@@ -43,6 +45,9 @@ def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_analyze(args) -> int:
+    """``dpdfit analyze``: every analysis of a campaign folder (or of an import
+    mapping) into a results folder; prints one status line per analysis and exits
+    with 2 if any analysis failed."""
     from dpdfit.pipeline.analyze import analyze
     if not args.no_plots:
         from dpdfit.report.figure_io import use_noninteractive_backend

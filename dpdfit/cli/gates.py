@@ -50,6 +50,8 @@ def _print_gate_table(records) -> None:
 
 
 def cmd_fidelity(args) -> int:
+    """``dpdfit fidelity``: Bell fidelities per setting from raw population and parity
+    counts (table or JSON; ``-o`` writes the CSV, ``--plot`` the parity fringes)."""
     outs = [args.output] if args.output else []
     refuse_overwriting_inputs(outs, [args.populations, args.parity, args.gate_rates])
     tab = _gate_table(args.populations, args.parity, args.interval, args.gate_rates)
@@ -108,6 +110,8 @@ def _sigma_db(text: str) -> float:
 
 
 def cmd_align(args) -> int:
+    """``dpdfit align``: fit the scale ``alpha`` (kHz) and offset ``delta`` that put a
+    sweep's photodiode curves onto the gate table (report or JSON, ``--plot`` the figures)."""
     from dpdfit.analyses.sweep import read_sweep_table
     from dpdfit.fits.alignment import align
     gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],

@@ -66,6 +66,8 @@ def _imported_before(folder: Path) -> bool:
 
 
 def cmd_import(args) -> int:
+    """``dpdfit import``: build a campaign folder from ARTIQ results files as a mapping
+    says; prints what was imported."""
     from dpdfit.recordings.campaign_import import import_campaign
     imported = import_campaign(args.mapping, complete_only=args.complete_only or None)
     out = imported.write(args.output)
@@ -79,9 +81,9 @@ def add_import_command(subparsers) -> argparse.ArgumentParser:
     c = subparsers.add_parser(
         "import", help="import ARTIQ results files (ndscan scans) into a campaign folder",
         description="Build a campaign folder from a lab's ARTIQ results files, as a TOML "
-                    "mapping says (examples/import/*.toml; README 'Importing ARTIQ results "
-                    "files').  Every row keeps its source file and rid; campaign.json lists "
-                    "the files with their SHA-256.")
+                    "mapping says (the .toml files in examples/import; README 'Importing "
+                    "ARTIQ results files').  Every row keeps its source file and rid; "
+                    "campaign.json lists the files with their SHA-256.")
     c.add_argument("mapping", metavar="MAP.toml", help="the mapping file")
     c.add_argument("-o", "--output", required=True, metavar="CAMPAIGN_DIR",
                    help="new campaign folder (must not exist, or be empty)")

@@ -47,6 +47,9 @@ def _float_arg(name, value, positive=True):
 
 
 def cmd_sweep(args) -> int:
+    """``dpdfit sweep``: simulate the amplitude sweep of a calibration (spectra, F_est,
+    eta_bar, r_rel per amplitude and DPD flag) into a CSV table; prints the threshold
+    efficiencies."""
     from dpdfit.analyses.sweep import (SweepConfig, check_sweep_size, parse_amplitudes,
                                        run_sweep, thresholds)
     out = Path(args.output)
@@ -136,6 +139,8 @@ def _parse_powers_db(spec: str) -> tuple[tuple, np.ndarray]:
 
 
 def cmd_estimate(args) -> int:
+    """``dpdfit estimate``: closed-form Bell-fidelity estimate F_est from one
+    sideband's tone powers (dB per harmonic); refuses a non-finite estimate."""
     from dpdfit.models.fidelity import estimate
     harm, P = _parse_powers_db(args.powers_db)
     with np.errstate(all="ignore"):      # a non-finite estimate is refused below
@@ -170,6 +175,8 @@ def add_estimate_command(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_im_table(args) -> int:
+    """``dpdfit im-table``: the required gate-to-IM power ratios (dB) per infidelity
+    level, for an IM tone at harmonic n = 0 or n = 3 (Table S2; report or JSON)."""
     from dpdfit.models.im_requirements import im_requirements
     tab = im_requirements(nbar=args.nbar, formula=args.formula, as_printed=args.as_printed)
     if args.json:
@@ -201,6 +208,8 @@ def add_im_table_command(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_thresholds(args) -> int:
+    """``dpdfit thresholds``: ``eta_bar_corr`` and the threshold efficiencies of a sweep
+    table (``A_corr`` from its header, or ``--A-corr``)."""
     from dpdfit.analyses.sweep import read_sweep_table, thresholds
     df = read_sweep_table(args.sweep)
     A_corr = args.A_corr if args.A_corr is not None else df.attrs.get("A_corr")

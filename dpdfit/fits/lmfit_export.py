@@ -102,8 +102,8 @@ def amplitude_parameters(cal, raw: bool = False):
 
 
 def phase_parameters(cal):
-    """:class:`~dpdfit.fits.calibration.PhaseCalibration` as ``lmfit.Parameters`` ``b_1 .. b_K``
-    (rad)."""
+    """:class:`~dpdfit.fits.calibration.PhaseCalibration` as ``lmfit.Parameters``
+    ``b_1`` to ``b_K`` (rad)."""
     return to_parameters([f"b_{p}" for p in cal.powers], cal.coefficients, cal.covariance)
 
 

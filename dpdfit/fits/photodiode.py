@@ -46,6 +46,7 @@ class PowerNoise(Displayable):
     n_points: int
 
     def sigma(self, P) -> np.ndarray:
+        """1-sigma noise of a recorded power ``P``, ``sqrt(a^2 + (b P)^2)`` (power units)."""
         P = np.asarray(P, dtype=float)
         return np.sqrt(self.a ** 2 + (self.b * P) ** 2)
 
@@ -117,6 +118,7 @@ class PhaseNoise(Displayable):
     n_points: int
 
     def sigma(self, A) -> np.ndarray:
+        """1-sigma noise (rad) of a recorded phase at amplitude ``A``, ``sqrt(c^2 + (d/A)^2)``."""
         A = np.asarray(A, dtype=float)
         return np.sqrt(self.c ** 2 + (self.d / np.maximum(A, 1e-6)) ** 2)
 

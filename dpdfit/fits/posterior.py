@@ -159,12 +159,15 @@ class PosteriorResult(Displayable):
 
     @property
     def tau_max(self) -> float:
+        """The longest integrated autocorrelation time (steps) over the parameters."""
         return float(np.max(self.tau))
 
     def A_corr_summary(self) -> dict:
+        """Median, 68 % and 95 % quantiles of the ``A_corr = y(1)`` draws (``q16``, ...)."""
         return {k: float(v) for k, v in quantile_summary(self.A_corr_draws).items()}
 
     def coefficient_summary(self) -> dict:
+        """Median, 68 % and 95 % quantiles of the ``a_k`` draws, as lists over k."""
         q = quantile_summary(self.a_draws)
         return {k: np.asarray(v).tolist() for k, v in q.items()}
 

@@ -32,7 +32,7 @@ Bell-state fidelity for a thermal mode with mean phonon number ``nbar``:
 ``U = D(alpha S) exp(-i Phi_s S^2)``, ``S = (sigma_x1 + sigma_x2)/2``, with
 ``|alpha|^2 = R^2/2`` (``F, G`` are the position/momentum quadratures
 ``sqrt(2) Re/Im alpha``) and ``Phi_s = Phi + F G/2`` the symmetric (gauge
-invariant) area, starting from |00> with a thermal mode::
+invariant) area, starting from ``|00>`` with a thermal mode::
 
     F_B = [3 + exp(-2 (nbar+1/2) R^2)]/8 + exp(-(nbar+1/2) R^2/2)/2 * sin(Phi + F G/2),
 
@@ -283,6 +283,7 @@ class Estimate(Displayable):
 
     @property
     def eps_est(self):
+        """The estimated Bell infidelity ``1 - F_est``."""
         return 1.0 - self.F_est
 
     def to_dict(self) -> dict:

@@ -53,6 +53,8 @@ class FieldSpectrum:
         return 10 * np.log10(np.maximum(np.abs(c) ** 2, _TINY))
 
     def index(self, n: int) -> int:
+        """Position of harmonic ``n`` on the last axis of ``blue``/``red`` (ValueError if
+        absent)."""
         return self.harmonics.index(int(n))
 
 

@@ -104,12 +104,12 @@ class TransferFunction:
         return _poly(np.asarray(A, dtype=float), self.am_powers, self.am_coefficients)
 
     def f_am(self, x):
-        """Amplitude response f_AM(x): odd, |x| clipped to 1 (S6.1)."""
+        """Amplitude response ``f_AM(x)``: odd, ``|x|`` clipped to 1 (S6.1)."""
         x = np.asarray(x, dtype=float)
         return np.sign(x) * self.y(np.minimum(np.abs(x), 1.0))
 
     def f_pm(self, x):
-        """Phase response f_PM(x) in rad: even, |x| clipped to 1 (S6.1)."""
+        """Phase response ``f_PM(x)`` in rad: even, ``|x|`` clipped to 1 (S6.1)."""
         x = np.abs(np.asarray(x, dtype=float))
         if not self.pm_powers:
             return np.zeros_like(x)
@@ -121,7 +121,7 @@ class TransferFunction:
         Parameters
         ----------
         x : array_like
-            RF envelope samples (normalised units, |x| = A).
+            RF envelope samples (normalised units, ``|x| = A``).
         am_only : bool
             Drop the phase response (AM-only model).
 

@@ -127,10 +127,12 @@ class Grid:
 
     @property
     def duration(self) -> float:
+        """Record length in seconds, ``n_samples / fs``."""
         return self.n_samples / self.fs
 
     @property
     def t(self) -> np.ndarray:
+        """Sample times in seconds, ``0, 1/fs, ..., (n_samples - 1)/fs``."""
         return np.arange(self.n_samples) / self.fs
 
     def bin(self, freq_hz):

@@ -140,6 +140,7 @@ class Analysis:
 
     @property
     def failures(self) -> list:
+        """The analyses that failed, one ``"<analysis>: <error>"`` line each (empty: none)."""
         return list(self.summary.get("failures", []))
 
     @property
@@ -170,10 +171,14 @@ class Analysis:
 
     @property
     def calibration_runs(self) -> pd.DataFrame | None:
+        """The per-run fits of the calibration runs (``calibration_runs.csv``), None when
+        not produced."""
         return self.table("calibration_runs")
 
     @property
     def sweep(self) -> pd.DataFrame | None:
+        """The simulated amplitude sweep of the calibration (``sweep.csv``), None when not
+        produced."""
         return self.table("sweep")
 
     @property
@@ -183,6 +188,8 @@ class Analysis:
 
     @property
     def alignment_points(self) -> pd.DataFrame | None:
+        """The alignment fit's points (``alignment_points.csv``: inputs, ``r_rel``,
+        ``F_PD``, ``eta_bar``, residuals), None when not produced."""
         return self.table("alignment_points")
 
     @property

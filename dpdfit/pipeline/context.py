@@ -35,6 +35,7 @@ class Results:
         self.statuses: dict = {}
 
     def text(self, name, text):
+        """A text file ``name`` (e.g. ``summary.md``) with the content ``text``."""
         self.files[name] = text
 
     def json_file(self, name, obj):
@@ -42,9 +43,13 @@ class Results:
         self.files[name] = ("json", obj)
 
     def table(self, name, df, meta=None):
+        """A CSV file ``name`` of the DataFrame ``df``, with ``meta`` written as
+        ``# key: value`` header lines."""
         self.files[name] = ("csv", df, meta or {})
 
     def status(self, analysis, state, detail=""):
+        """Record an analysis's status: ``state`` ``"ok"``, ``"skipped"`` or ``"failed"``,
+        with a one-line ``detail``."""
         self.statuses[analysis] = {"status": state, "detail": detail}
 
 
@@ -69,6 +74,7 @@ class Context:
 
     @property
     def folder(self) -> Path:
+        """The campaign folder's path."""
         return self.campaign.path
 
     def figure(self, draw, *args, dpi: float = DPI, **kwargs) -> None:

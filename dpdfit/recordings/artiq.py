@@ -125,6 +125,7 @@ class NdscanScan:
 
     @property
     def n_points(self) -> int:
+        """Number of scan points (length of the first axis, else of a channel; 0 if none)."""
         q = self.axes[0] if self.axes else next(iter(self.channels.values()), None)
         return 0 if q is None else len(q.values)
 
@@ -136,6 +137,7 @@ class NdscanScan:
         raise KeyError(name)
 
     def channel(self, name: str) -> Quantity:
+        """A result channel by its name (KeyError if the scan has none of that name)."""
         return self.channels[name]
 
     def points(self, shown: bool = False) -> pd.DataFrame:

@@ -149,9 +149,11 @@ class CampaignFolder:
 
     # ------------------------------------------------------------------ basics
     def file(self, name: str) -> Path:
+        """Path of the folder's file ``name`` (whether or not it exists)."""
         return self.path / name
 
     def has(self, name: str) -> bool:
+        """The folder has a file ``name``."""
         return (self.path / name).exists()
 
     def require(self, name: str, what: str) -> Path:
@@ -163,10 +165,12 @@ class CampaignFolder:
 
     @property
     def nu(self) -> float:
+        """Sideband detuning ``nu`` of the gate tones from the carrier (Hz), ``nu_hz``."""
         return self.meta["nu_hz"]
 
     @property
     def xi0_spectra(self) -> float:
+        """Gate detuning ``xi0`` of the recorded spectra (Hz), ``xi0_spectra_hz``."""
         return self.meta["xi0_spectra_hz"]
 
     @property
@@ -177,6 +181,7 @@ class CampaignFolder:
 
     @property
     def phase_run(self) -> str:
+        """The phase run the model uses (``phase_run_for_model``; ``latest`` if not named)."""
         run = self.raw_meta.get("phase_run_for_model")
         return "latest" if run is None else str(run)
 
@@ -200,12 +205,15 @@ class CampaignFolder:
 
     @functools.cached_property
     def phase_runs(self) -> pd.DataFrame | None:
+        """Every phase calibration run (validated ``calibration_phase.csv``), None without
+        the file."""
         if not self.has("calibration_phase.csv"):
             return None
         return read_calibration_table(self.file("calibration_phase.csv"), "phase")
 
     @functools.cached_property
     def phase_model(self) -> CalibrationData | None:
+        """The phase run of the model (:attr:`phase_run`), None without a phase file."""
         if self.phase_runs is None:
             return None
         run = self.phase_run if list_runs(self.phase_runs) else None
@@ -257,11 +265,15 @@ class CampaignFolder:
     # -------------------------------------------------------------------- gates
     @functools.cached_property
     def populations(self) -> pd.DataFrame | None:
+        """Validated ``populations.csv`` (``A, dpd, scan, n_even, shots``, see
+        :func:`~.counts.read_populations`), None without the file."""
         return read_populations(self.file("populations.csv")) if self.has(
             "populations.csv") else None
 
     @functools.cached_property
     def parity(self) -> pd.DataFrame | None:
+        """Validated ``parity.csv`` (``A, dpd, scan, phase_rad, n_even, shots``, see
+        :func:`~.counts.read_parity`), None without the file."""
         return read_parity(self.file("parity.csv")) if self.has("parity.csv") else None
 
     @functools.cached_property
@@ -311,6 +323,8 @@ class CampaignFolder:
 
     @functools.cached_property
     def traces(self) -> pd.DataFrame | None:
+        """The heterodyne traces listed in ``traces.csv`` (``file, A, dpd, fs, fdet, nu,
+        xi0``; rates and frequencies in Hz), None without the file."""
         if not self.has("traces.csv"):
             return None
         return read_table(self.file("traces.csv"), ["file", "A", "dpd", "fs", "fdet", "nu", "xi0"],

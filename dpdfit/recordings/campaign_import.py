@@ -63,6 +63,8 @@ class ImportedCampaign:
     mapping: Mapping | None = field(default=None, repr=False)
 
     def report(self) -> str:
+        """What was imported, as text: rows and source files per table, then the
+        warnings and the incomplete scans skipped, one line each."""
         lines = [f"{t:22s} {len(df):6d} rows from {df['source_file'].nunique()} files"
                  for t, df in self.tables.items()]
         lines += [f"warning: {w}" for w in self.warnings]

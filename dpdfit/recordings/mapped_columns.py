@@ -26,6 +26,28 @@ _INTEGER = tuple(c for c, (k, _) in COLUMN_KINDS.items() if k == "number")
 
 
 def fail(spec: ColumnSpec, rf: ResultsFile, msg: str, scan=None, dataset=None):
+    """Raise the InputError of a refused column value: ``msg`` prefixed with the ndscan
+    root and dataset when given, the mapping key and line appended, naming ``rf``'s
+    file.
+
+    Parameters
+    ----------
+    spec : ColumnSpec
+        The column being read.
+    rf : ResultsFile
+        The results file being read.
+    msg : str
+        What is wrong with the value.
+    scan : NdscanScan, optional
+        The scan the source reads (its root is named).
+    dataset : str, optional
+        The HDF5 dataset the value came from.
+
+    Raises
+    ------
+    InputError
+        Always.
+    """
     where = []
     if scan is not None:
         where.append(f"root '{scan.root}'")

@@ -83,6 +83,8 @@ class ColumnSpec:
     count: object = None
 
     def where(self) -> str:
+        """The mapping key of this column and its line, for messages:
+        ``mapping key '...' (line N)``."""
         return f"mapping key '{self.key}'" + (f" (line {self.line})" if self.line else "")
 
 
@@ -112,6 +114,7 @@ class Mapping:
 
     @property
     def folder(self) -> Path:
+        """The folder of the mapping file: relative ``files`` patterns are resolved against it."""
         return self.path.parent
 
 

@@ -146,6 +146,7 @@ class Stage:
 
     @property
     def finals(self) -> list[Path]:
+        """The final paths of the staged files, in the order they were staged."""
         return [final for _, final in self.staged]
 
     def _makedirs(self, folder: Path) -> None:

@@ -110,7 +110,7 @@ class BraggAOM:
         return self.phi_1 * self.u(A) ** 2
 
     def field(self, x):
-        """Optical field for a (complex) RF envelope ``x`` (|x| = A), normalised like y.
+        """Optical field for a (complex) RF envelope ``x`` (``|x| = A``), normalised like y.
 
         Same form as the paper's Eq. (aom-forward) but with the physical
         transfer functions; drive beyond ``|x| = 1`` is *not* clipped (the
@@ -163,6 +163,8 @@ class PhotodiodeNoise:
     rel: float = 1.0e-3
 
     def sigma(self, p_true):
+        """1-sigma noise of the recorded power at true power ``p_true``,
+        ``sqrt(sigma_0^2 + (rel p_true)^2)``."""
         return np.sqrt(self.sigma_0 ** 2 + (self.rel * np.asarray(p_true)) ** 2)
 
 

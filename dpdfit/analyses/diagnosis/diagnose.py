@@ -98,6 +98,14 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
         The fits of the model's amplitude and phase runs at the campaign's order,
         when the caller has made them (``dpdfit analyze`` does): not refitted.
 
+    Returns
+    -------
+    Diagnosis
+        The verdict, the named effects (form, parameters, sizes) and the reduced
+        chi2 per observable before and after.
+
+    Notes
+    -----
     BLAS runs single-threaded meanwhile: the engine's many small matrix products
     are 1.5x slower with threaded BLAS, and the independent fits and engine runs
     use the cores instead (:mod:`dpdfit.core.parallel`).

@@ -79,6 +79,7 @@ class FitResult:
         return {k[len(pre):]: v for k, v in self.params.items() if k.startswith(pre)}
 
     def errors_of(self, name: str) -> dict:
+        """One effect's parameter errors (1 sigma) by its own names, like :meth:`params_of`."""
         pre = name + "."
         return {k[len(pre):]: v for k, v in self.params_err.items() if k.startswith(pre)}
 
@@ -89,17 +90,21 @@ class FitResult:
 
     @property
     def dof(self) -> int:
+        """Degrees of freedom, observations minus free parameters (at least 1)."""
         return max(self.n_obs - self.n_par, 1)
 
     @property
     def bic(self) -> float:
+        """Bayesian information criterion ``chi2 + n_par ln(n_obs)`` (the ranking compares it)."""
         return self.chi2 + self.n_par * np.log(self.n_obs)
 
     @property
     def p_fit(self) -> float:
+        """The fit's chi2 p-value (probability of a larger chi2 at :attr:`dof`)."""
         return float(chi2_dist.sf(self.chi2, self.dof))
 
     def redchi(self) -> dict:
+        """Reduced chi2 per observable, ``{observable: chi2 / points}``."""
         return {k: self.chi2_by_observable[k] / max(self.n_by_observable[k], 1)
                 for k in self.chi2_by_observable}
 

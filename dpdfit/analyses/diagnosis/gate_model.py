@@ -380,6 +380,7 @@ class GateModel:
 
     @property
     def n_time_scans(self) -> int:
+        """Number of time-scan settings ``(A, dpd)`` the model predicts."""
         return len(self.ts_keys)
 
     def rate_error_db(self) -> float:

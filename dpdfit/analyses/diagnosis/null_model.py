@@ -58,6 +58,8 @@ class ToneNoise:
     n_second_differences: int
 
     def to_dict(self) -> dict:
+        """The noise as a JSON-ready dict: ``noise_floor``, ``tone_repeatability_db``,
+        ``trace_power_jitter_db``, ``n_second_differences``."""
         return {"noise_floor": self.floor.to_dict(), "tone_repeatability_db": self.s_tone_db,
                 "trace_power_jitter_db": self.s_trace_db,
                 "n_second_differences": self.n_second_differences}

@@ -106,19 +106,26 @@ class Objective:
         self.eff_params = [k for k, _ in effect_pars]
 
     def params(self, x) -> dict:
+        """The full parameter set at the free parameters ``x``: the fixed ones and ``x`` by name."""
         return {**self.fixed, **dict(zip(self.names, x))}
 
     def data(self, p) -> np.ndarray:
+        """Standardised data residuals at the parameter set ``p`` (priors left out;
+        non-finite as 0)."""
         z = self.prob.residuals(p, with_prior=False)
         return np.where(np.isfinite(z), z, 0.0)
 
     def prior_z(self, p) -> np.ndarray:
+        """Prior residuals ``(value - centre) / sigma`` of the nuisances with a finite
+        prior at ``p`` (the profiled calibration modes left out)."""
         prob = self.prob
         return np.array([(p.get(k, prob.center[k]) - prob.center[k]) / prob.prior[k]
                          for k in list(prob.prior) if k not in self.prof
                          and np.isfinite(prob.prior[k])])
 
     def linearise(self, x, d: dict) -> ModeProfile | None:
+        """The calibration modes' linear profile (:class:`ModeProfile`) around the free
+        parameters ``x`` with the modes at ``d`` (None when no mode is profiled)."""
         return ModeProfile(self.data, {**self.params(x), **d}, self.prof) if self.prof else None
 
     def fun(self, lin):
@@ -132,6 +139,8 @@ class Objective:
         return fun
 
     def modes_at(self, lin, x) -> dict:
+        """The profiled calibration modes' optimum ``{mode: value}`` at the free
+        parameters ``x`` under the linearisation ``lin`` (empty without one)."""
         if lin is None:
             return {}
         return dict(zip(self.prof, lin.solve(self.data(lin.point(self.params(x))))[1]))

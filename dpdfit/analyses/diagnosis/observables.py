@@ -129,14 +129,17 @@ class Campaign:
 
     @property
     def nu(self) -> float:
+        """Sideband detuning ``nu`` of the gate tones from the carrier (Hz), ``nu_hz``."""
         return float(self.meta["nu_hz"])
 
     @property
     def xi0_spectra(self) -> float:
+        """Gate detuning ``xi0`` of the recorded spectra (Hz), ``xi0_spectra_hz``."""
         return float(self.meta["xi0_spectra_hz"])
 
     @property
     def has_imbalance(self) -> bool:
+        """The gate recordings carry the population imbalance ``P00 - P11`` (``imb``)."""
         return self.gates is not None and bool(np.isfinite(self.gates["imb"]).any())
 
 

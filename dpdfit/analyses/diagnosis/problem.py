@@ -208,6 +208,8 @@ class Problem:
                                 pr["v_lin"], pr["v_quad"], logdet=logdet)
 
     def residuals(self, p: dict, with_prior: bool = True) -> np.ndarray:
+        """All standardised residuals at the parameter set ``p`` as one vector (the
+        :meth:`blocks` concatenated; ``with_prior``: with the priors' residuals)."""
         return np.concatenate([np.ravel(z) for _, z in self.blocks(p, with_prior)])
 
     def blocks(self, p: dict, with_prior: bool = True, whiten: bool = True,

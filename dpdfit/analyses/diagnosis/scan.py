@@ -20,7 +20,7 @@ significant first, without overlaps, while ``p_global < alpha``.
 Each reported interval carries a shape: the weighted straight-line fit of
 the residuals inside it (``offset`` at the interval centre, ``slope`` per
 unit of ``x``) and a label: ``"offset"`` when the slope is not significant
-(|t| < 2), ``"growing"``/``"shrinking"`` when the deviation's magnitude
+(``|t| < 2``), ``"growing"``/``"shrinking"`` when the deviation's magnitude
 increases/decreases with ``x``.
 """
 

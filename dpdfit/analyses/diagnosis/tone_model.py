@@ -380,6 +380,8 @@ class ToneModel:
         return _dB(self.tone_amplitudes(A, p))
 
     def features(self, p: dict) -> dict:
+        """The model's per-trace tone features at the parameter set ``p``, ``{name:
+        array}`` (:func:`~dpdfit.analyses.diagnosis.observables.tone_features`, values only)."""
         return {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
 
     def gate_tones(self, p: dict, A: float, dpd: int, harmonics=GATE_HARMONICS):

@@ -35,7 +35,7 @@ __all__ = ["locate_mismatches", "mismatch_evidence", "fidelity_cost", "explained
 ALPHA = 0.0027
 #: a fit is acceptable if its chi2 p-value is at least this
 ALPHA_FIT = 1e-4
-#: |delta BIC| that counts as decisive (Kass & Raftery: > 10 "very strong")
+#: ``|delta BIC|`` that counts as decisive (Kass & Raftery: > 10 "very strong")
 BIC_DECISIVE = 10.0
 #: an effect added on the side of a named effect must remove at least this fraction of
 #: the chi2 that the named effects of that side removed: less only refines their form
@@ -104,6 +104,8 @@ GATE_OBSERVABLES = ("F_pop", "imb", "C", "P00_t", "P11_t")
 
 
 def side_of_observable(name: str) -> str:
+    """The side of the model an observable belongs to: ``"gates"`` for
+    :data:`GATE_OBSERVABLES`, else ``"tones"``."""
     return "gates" if name in GATE_OBSERVABLES else "tones"
 
 

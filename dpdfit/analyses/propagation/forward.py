@@ -58,7 +58,7 @@ class BatchedForwardModel:
 
     def evaluate(self, a, dpd: int, db=None) -> dict:
         """Tone powers etc. for coefficient draws ``a`` (D, K); ``db`` (D, P) optional
-        phase-coefficient perturbations, to first order (|dphi| ~ 1e-3 rad: the
+        phase-coefficient perturbations, to first order (``|dphi| ~ 1e-3`` rad: the
         neglected second order is ~1e-6 of the tone amplitudes)."""
         a = np.atleast_2d(a)
         Mb, Mr = self.M[dpd]

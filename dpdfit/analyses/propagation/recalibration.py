@@ -15,7 +15,7 @@ from .forward import BatchedForwardModel
 
 __all__ = ["recalibration"]
 
-#: Largest |delta y(1)| searched, and the grid of trial shifts towards it.
+#: Largest ``|delta y(1)|`` searched, and the grid of trial shifts towards it.
 _DELTA_GRID = np.geomspace(1e-6, 0.2, 60)
 
 
@@ -42,7 +42,7 @@ def recalibration(calibration: AmplitudeCalibration, A: float, loss: float = 1e-
     :func:`dpdfit.fits.draws.shift_y1`).  Returns ``{"delta_y1", "delta_plus",
     "delta_minus", "loss", "A", "F_est_calibrated", "days_until", "sigma_drift",
     "rate_per_day"}``: ``delta_y1`` is the smaller in magnitude of the two signed
-    solutions (``None`` where a sign never reaches the loss within |delta| <= 0.2),
+    solutions (``None`` where a sign never reaches the loss within ``|delta| <= 0.2``),
     and ``days_until`` the staleness at which the drift model's ``sigma_drift(d)``
     reaches ``|delta_y1|`` (``None``: never).  ``forward``: the forward model of
     ``calibration``, ``phase`` and ``A`` if already built.

@@ -28,6 +28,8 @@ class PropagationResult(Displayable):
     recalibration: dict | None = None
 
     def summary(self) -> dict:
+        """Quantiles and point estimate of every sampled quantity, per DPD flag:
+        ``{flag: {"<quantity>_<median|q16|q84|q2.5|q97.5|point>": value}}``."""
         out = {}
         for flag, d in self.samples.items():
             row = {}

@@ -63,22 +63,29 @@ class StabilityResult(Displayable):
 
     @property
     def days(self) -> np.ndarray:
+        """Time of each run in days since the first run, in time order."""
         return np.array([r["day"] for r in self.runs])
 
     @property
     def values(self) -> np.ndarray:
+        """Each run's value (``y(1)`` or ``phi(1)`` in rad, see ``quantity``), in time order."""
         return np.array([r["value"] for r in self.runs])
 
     @property
     def stderrs(self) -> np.ndarray:
+        """Each run's fit error (1 sigma) of its value, in time order."""
         return np.array([r["stderr"] for r in self.runs])
 
     @property
     def trend_per_day(self) -> float:
+        """Fitted straight-line drift of the value, per day
+        (:func:`~dpdfit.analyses.stability.timeseries.drift_test`)."""
         return self.drift["trend_per_day"]
 
     @property
     def trend_per_day_err(self) -> float:
+        """1-sigma error of :attr:`trend_per_day`, per day (the excess run-to-run scatter
+        included)."""
         return self.drift["trend_per_day_err"]
 
     def to_dict(self) -> dict:

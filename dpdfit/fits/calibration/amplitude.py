@@ -109,6 +109,7 @@ class AmplitudeCalibration(ModelAdequacy, Displayable):
 
     @property
     def order(self) -> int:
+        """The polynomial order K of ``y(A)``, its highest power."""
         return max(self.powers)
 
     def y(self, A):
@@ -161,6 +162,7 @@ class AmplitudeCalibration(ModelAdequacy, Displayable):
 
     @classmethod
     def from_dict(cls, d: dict) -> "AmplitudeCalibration":
+        """The calibration from its :meth:`to_dict` form (missing keys defaulted; not validated)."""
         return cls(
             powers=tuple(int(p) for p in d["powers"]),
             coefficients=frozen_array(d["coefficients"]),

@@ -43,6 +43,8 @@ class Calibration(Displayable):
 
     @property
     def A_corr(self) -> float:
+        """``y(1)``, the largest correctable amplitude (normalised), of the amplitude
+        calibration."""
         return self.amplitude.A_corr
 
     def _display_rows(self) -> list[tuple]:
@@ -71,6 +73,8 @@ class Calibration(Displayable):
 
     @classmethod
     def from_dict(cls, d: dict, file: str | None = None) -> "Calibration":
+        """The calibration from the content of a ``calibration.json`` (``file``: its
+        name, for messages); not validated, :func:`load_calibration` checks a file first."""
         amp = AmplitudeCalibration.from_dict(d["amplitude"])
         ph = PhaseCalibration.from_dict(d["phase"]) if d.get("phase") else None
         return cls(amplitude=amp, phase=ph, created=d.get("created", ""), file=file)

@@ -69,6 +69,7 @@ class PhaseCalibration(ModelAdequacy, Displayable):
 
     @property
     def order(self) -> int:
+        """The polynomial order K of ``phi(A)``, its highest power."""
         return max(self.powers)
 
     @property
@@ -101,6 +102,8 @@ class PhaseCalibration(ModelAdequacy, Displayable):
 
     @classmethod
     def from_dict(cls, d: dict) -> "PhaseCalibration":
+        """The calibration from its :meth:`to_dict` form (``calibration.json``'s
+        ``phase``); older files' missing keys get defaults; not validated."""
         return cls(
             powers=tuple(int(p) for p in d["powers"]),
             coefficients=frozen_array(d["coefficients"]),

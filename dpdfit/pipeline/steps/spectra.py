@@ -50,10 +50,14 @@ def sweep_summary(sweep: pd.DataFrame) -> dict:
 
 
 def spectra_summary(m: MeasuredSpectra) -> dict:
+    """The ``spectra`` section of ``summary.json``: the measured spectra's headline
+    numbers, ``{"n_amplitudes", "R10_gain_dB_below_A_corr", "thresholds_measured"}``."""
     return m.headline
 
 
 def traces_summary(t: TracesCheck) -> dict:
+    """The ``traces`` section of ``summary.json``: the number of re-analysed traces and
+    the largest ``|difference|`` (dB) of their tone powers to ``spectra.csv``'s."""
     diff = t.table["difference_dB"].abs().max() if len(t.table) else np.nan
     return {"n_traces": t.n_traces, "max_abs_difference_to_spectra_csv_dB": float(diff)}
 

@@ -22,9 +22,14 @@ class ActiveEffects:
         self.tm = tm
 
     def filters(self, f):
+        """The present effects' linear filters ``H(f)`` of the complex drive envelope
+        at the frequencies ``f`` (Hz), in the order they apply."""
         out = [e.drive_filter(self.tm, v, f) for e, v in self.items]
         return [h for h in out if h is not None]
 
     def memories(self, f):
+        """The present effects' power memories ``(gain, H(f))`` at the frequencies
+        ``f`` (Hz): the field is multiplied by ``1 + gain s(t)``, ``s`` the drive power
+        through ``H``."""
         out = [e.power_memory(self.tm, v, f) for e, v in self.items]
         return [m for m in out if m is not None]

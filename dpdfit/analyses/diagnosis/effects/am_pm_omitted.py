@@ -10,7 +10,7 @@ Family: a phase that grows with the drive, in one of two places.
   replaces the baseline's nuisance ``pm_x`` (a campaign without a phase file
   has its AOM's phase as a nuisance with a narrow prior).
 
-Priors: flat, |dphi|, |dphi_x| <= 1 rad.  Size: the phase at full drive
+Priors: flat, ``|dphi|, |dphi_x| <= 1`` rad.  Size: the phase at full drive
 (rad).  Both phases change sign with the phase-sign convention of the
 recorded phase response.
 """
@@ -25,6 +25,9 @@ __all__ = ["AmPmOmitted", "EFFECT"]
 
 
 class AmPmOmitted(Effect):
+    """Missing AM-to-PM conversion: a phase growing with the drive, after the
+    AOM (``post``, catalog) or in the AOM itself (``aom``); see the module."""
+
     name = "am_pm_omitted"
     side = "tones"
     meaning = "AM-to-PM conversion left out of the model (phase at full drive ~ |y|^2)"

@@ -52,6 +52,10 @@ def slow_kernel(v: dict, f: np.ndarray) -> np.ndarray:
 
 
 class AomMemory(Effect):
+    """A modulator response with memory: a fast single-pole acoustic response
+    (``fast``, catalog) or a slow gain and phase following the drive power through
+    one or two time scales (``slow``, ``two_scales``, ``two_scales_delay``)."""
+
     name = "aom_memory"
     side = "tones"
     meaning = "the modulator's response has a memory (fast acoustic or slow thermal)"

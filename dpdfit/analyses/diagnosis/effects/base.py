@@ -127,6 +127,7 @@ class Size:
     meaning: str = ""
 
     def to_dict(self) -> dict:
+        """The size as a JSON-ready dict: ``value``, ``error``, ``unit``, ``meaning``."""
         return {"value": self.value, "error": self.error, "unit": self.unit,
                 "meaning": self.meaning}
 
@@ -147,7 +148,7 @@ class Effect:
     meaning: str = ""
     #: the family's parameters
     params: tuple = ()
-    #: its forms, the catalog form first (default: one form, every parameter free)
+    #: its forms, the catalog form first (if empty, one form with every parameter free)
     forms: tuple = ()
     #: considered by ``diagnose`` unless the caller names the effects
     default: bool = True
@@ -191,6 +192,8 @@ class Effect:
                        f"{', '.join(f.name for f in forms)})")
 
     def param(self, name: str, ctx=None) -> Param:
+        """The family's parameter named ``name`` (``ctx``: the campaign's forward model,
+        for families whose parameters depend on it)."""
         return next(p for p in self.parameters(ctx) if p.name == name)
 
     def values(self, p: dict, ctx=None) -> dict | None:

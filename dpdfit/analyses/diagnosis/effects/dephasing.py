@@ -68,6 +68,10 @@ _DURING = _profile_forms("", 1.0, "independent on each ion, a rate", "")
 
 
 class Dephasing(Effect):
+    """Extra qubit dephasing (rate in 1/s at the median gate time), independent on
+    each ion and/or common to both, during the gate or on the final state's
+    coherences."""
+
     name = "dephasing"
     side = "gates"
     meaning = "extra qubit dephasing (independent on each ion and/or common to both)"

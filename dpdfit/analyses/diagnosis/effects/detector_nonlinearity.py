@@ -8,7 +8,7 @@ A nonlinear detector bends every calibration run alike, so it leaves no
 run-to-run signature (unlike a stale calibration, which moves the runs taken
 after the recordings).
 
-Priors: flat, |k| <= 0.5, 0.3 <= q <= 4.  Size: ``k_det``, the relative
+Priors: flat, ``|k| <= 0.5``, ``0.3 <= q <= 4``.  Size: ``k_det``, the relative
 reading error at the curve's maximum power, and the exponent ``q``.
 """
 
@@ -40,6 +40,9 @@ def true_over_read(u, k, q):
 
 
 class DetectorNonlinearity(Effect):
+    """A nonlinear calibration photodiode, read ``P (1 + k (P/P_max)^q)``: the
+    table was built from the distorted curve (forms ``linear``, ``power``)."""
+
     name = "detector_nonlinearity"
     side = "tones"
     meaning = ("calibration photodiode read P (1 + k (P/P_max)^q): the table was built from "

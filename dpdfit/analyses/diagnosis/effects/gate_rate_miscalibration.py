@@ -7,7 +7,7 @@ the recorded rate is off by ``10^(-eps/20) - 1``.  Its response is quadratic
 and shares the lab's known per-scan jitter and rate-calibration scatter.
 
 Forms: ``offset`` (catalog), ``linear`` (a slope in A).  Priors: flat,
-|eps| <= 3 dB, |slope| <= 5 dB per unit A.  Sizes: ``rate_error``, the
+``|eps| <= 3`` dB, ``|slope| <= 5`` dB per unit A.  Sizes: ``rate_error``, the
 relative error of the recorded gate rate, ``xi0_recorded / xi0_actual - 1``
 at ``A_ref`` (the harness's main quantity), and ``rate_error_slope`` per unit A.
 """
@@ -24,6 +24,9 @@ _LN = np.log(10) / 20
 
 
 class GateRateMiscalibration(Effect):
+    """Recorded gate rates off by an optical-power error ``eps + slope (A - A_ref)``
+    dB at gate time (forms ``offset``, ``linear``)."""
+
     name = "gate_rate_miscalibration"
     side = "gates"
     meaning = "the optical power at gate time differs from the gate-rate calibration"

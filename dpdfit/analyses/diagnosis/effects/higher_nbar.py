@@ -13,6 +13,9 @@ __all__ = ["HigherNbar", "EFFECT"]
 
 
 class HigherNbar(Effect):
+    """A higher initial mean phonon number of the gate mode (``dnbar``, quanta);
+    not among the default effects."""
+
     name = "higher_nbar"
     side = "gates"
     meaning = "higher initial mean phonon number"

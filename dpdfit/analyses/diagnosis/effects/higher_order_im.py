@@ -1,7 +1,7 @@
 """``higher_order_im``: fifth-order field distortion ``y (1 + k5 r^4)`` beyond the
 calibrated transfer (IM5 and up), ``r = |y|/y(1)`` of the forward curve in use.
 
-Prior: flat, |k5| <= 0.5.  Size: ``k5``, the relative field change at full drive.
+Prior: flat, ``|k5| <= 0.5``.  Size: ``k5``, the relative field change at full drive.
 """
 
 from __future__ import annotations
@@ -14,6 +14,9 @@ __all__ = ["HigherOrderIM", "EFFECT"]
 
 
 class HigherOrderIM(Effect):
+    """Fifth-order field distortion ``y (1 + k5 r^4)`` beyond the calibrated
+    transfer (IM5 and up)."""
+
     name = "higher_order_im"
     side = "tones"
     meaning = "fifth-order field distortion beyond the calibrated transfer (IM5 and up)"

@@ -31,6 +31,9 @@ NBAR = Knob("initial.nbar", 0.2, "quanta", _nbar)
 
 
 class MotionalHeating(Effect):
+    """A hotter gate mode than the lab's model: heating during the gate
+    (``ndot``, quanta/ms), extra initial phonons (``dnbar``), or both."""
+
     name = "motional_heating"
     side = "gates"
     meaning = "the gate mode is hotter than the lab's model (heating during the gate, "\

@@ -25,6 +25,9 @@ __all__ = ["SpamOffset", "EFFECT"]
 
 
 class SpamOffset(Effect):
+    """State-preparation errors per ion beyond the lab's model: a total split
+    like the lab's (``total``) or a spectator level and a flip apart (``split``)."""
+
     name = "spam_offset"
     side = "gates"
     meaning = "state-preparation errors beyond the lab's model (a level outside the gate, "\

@@ -24,10 +24,10 @@ are data of every hypothesis (:mod:`dpdfit.analyses.diagnosis.problem`): a
 drifted AOM moves them (the ``aom`` forms predict by how much), a nonlinear
 detector bends every run alike.
 
-Priors: flat, |sa_i|, |st_i| <= 20 sd; -3 <= kappa <= 1; 0.1 <= tau_d <= 200
-days.  Size: ``y1_drift``, the fractional change of y(1) of the AOM since
-the table's run (``table``: today's y(1) over the table calibration's);
-``kappa`` and ``tau_d_days`` for the profile.
+Priors: flat, ``|sa_i|, |st_i| <= 20`` sd; ``-3 <= kappa <= 1``;
+``0.1 <= tau_d <= 200`` days.  Size: ``y1_drift``, the fractional change of
+y(1) of the AOM since the table's run (``table``: today's y(1) over the table
+calibration's); ``kappa`` and ``tau_d_days`` for the profile.
 """
 
 from __future__ import annotations
@@ -60,6 +60,10 @@ def drift_profile(v: dict, dt) -> np.ndarray:
 
 
 class StaleCalibration(Effect):
+    """A predistortion table that no longer matches the AOM: the AOM drifted along
+    the campaign's drift modes since the table's run (forms ``aom``, ``aom_all``,
+    ``aom_profile``), or the table belongs to another calibration (``table``)."""
+
     name = "stale_calibration"
     side = "tones"
     meaning = ("the predistortion table no longer matches the AOM: it drifted since the "
