@@ -199,7 +199,7 @@ def test_reduced_harness_runs_and_names_most_concealed_effects():
     This checks the machinery end to end and that most effects are named; it
     does NOT establish the diagnosis's targets (>= 90 % named, <= 5 % false alarms),
     which need the larger run of ``dpdfit harness`` (report committed as
-    ``benchmarks/harness_report.json``; measured values in the README).
+    ``benchmarks/harness_report.json``; measured values on the documentation's evidence page).
     """
     s = run_harness(per_effect=1, nulls=1, workers=2, seed=11)
     assert s["n_runs"] == len(concealed_effects()) + 1

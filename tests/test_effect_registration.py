@@ -51,10 +51,3 @@ def test_a_registered_effect_is_injected_named_and_sized(registered, tmp_path):
     size = d.effects[0]["sizes"]["phi7"]
     assert abs(size["value"] - phi7) < 3 * size["error"] + 0.05 * phi7, size
     assert np.isfinite(d.effects[0]["fidelity_cost"])
-
-
-def test_the_readme_catalog_table_is_the_registry_s():
-    from pathlib import Path
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = text.split("<!-- catalog -->\n", 1)[1].split("\n<!-- /catalog -->", 1)[0]
-    assert block == catalog_table()

@@ -139,7 +139,7 @@ def _check_invertible(amp, data) -> None:
     """Refuse (before anything is written) a fit with no inverse on [0, A_corr].
 
     A curve that rolls off after peaking above ``A_corr`` is invertible and kept
-    (``lut`` reports it, ``lut --strict`` refuses it); see the README.
+    (``lut`` reports it, ``lut --strict`` refuses it); see the documentation's calibration guide.
     """
     where = str(data.source) + (f", run {data.run}" if data.run else "")
     try:

@@ -41,7 +41,7 @@ examples:
   dpdfit COMMAND --help                                     # a command's options and example
 
 Also runnable as 'python -m dpdfit'.  In Python: dpdfit.analyze(folder) returns every
-result and table in memory; see the README."""
+result and table in memory; the documentation (docs/) has the details."""
 
 
 class _OneLineParser(argparse.ArgumentParser):

@@ -100,7 +100,7 @@ def add_sweep_command(subparsers) -> argparse.ArgumentParser:
     w.add_argument("--xi0", type=positive_float, default=XI0_SPECTRA_HZ, help="gate detuning, Hz (20e3)")
     w.add_argument("--nu", type=positive_float, default=NU_HZ, help="sideband detuning, Hz (1.84e6)")
     w.add_argument("--formula", choices=_FORMULAS, default=FORMULA,
-                   help=f"Bell-fidelity expression (default {FORMULA}; see README)")
+                   help=f"Bell-fidelity expression (default {FORMULA}; see the documentation's spectra guide)")
     w.add_argument("--eta-ref", type=fraction, default=ETA_REF,
                    help=f"peak diffraction efficiency ({ETA_REF:.2f})")
     w.add_argument("--anchor-A", type=fraction, default=0.4, help="r_rel anchor amplitude (0.4)")
@@ -182,7 +182,7 @@ def cmd_im_table(args) -> int:
     if args.json:
         print(json.dumps(to_jsonable(tab), indent=2))
     else:
-        what = ("as printed in Table S2 (assumptions: see README)" if args.as_printed
+        what = ("as printed in Table S2 (assumptions: see the documentation's spectra guide)" if args.as_printed
                 else f"formula {args.formula}, nbar {args.nbar:g}")
         print(f"required P_gate/P_IM (dB), {what}")
         print("  infidelity      n=0       n=3")

@@ -38,7 +38,7 @@ invariant) area, starting from ``|00>`` with a thermal mode::
 
 where ``R^2 = F^2 + G^2``.  Both agree for an ideal gate and at ``Phi = 0``;
 for small errors the printed expression gives twice the infidelity of the
-exact one (see README, "Fidelity formula").  The exact expression is checked
+exact one (documentation: docs/guide/spectra.md).  The exact expression is checked
 against a brute-force propagation of the two-ion spin-motion dynamics in the
 tests.
 

@@ -4,7 +4,7 @@ A single intermodulation tone added to the ideal Cardioid(1,2) spectrum (its
 sign from the cubic model, Omega calibrated on the gate tones) costs the
 infidelity :func:`im_infidelity`; :func:`im_requirements` solves for the
 power ratio that reaches each infidelity level.  ``as_printed=True``
-reproduces the printed Table S2 with the assumptions identified in the README.
+reproduces the printed Table S2 with the assumptions identified in the documentation (docs/guide/spectra.md).
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def im_requirements(nbar: float = NBAR, formula: str = FORMULA, levels=(1e-2, 1e
     each level; found by a bracketed root solve.
 
     ``as_printed=True`` reproduces the numbers printed in Table S2 (to
-    <= 0.05 dB) with the assumptions identified in the README: the printed
+    <= 0.05 dB) with the assumptions identified in the documentation (docs/guide/spectra.md): the printed
     fidelity expression, ``nbar = 0``, the IM amplitude quoted relative to the
     unit-normalised gate amplitude (so the quoted ratio is 1.76 dB above
     ``P_1/P_IM``), and the IM sign entered as a phase pi into the literal

@@ -1,7 +1,7 @@
 """The import mapping: which results files hold each campaign table, and where each column is.
 
 A mapping is a TOML file (read with :mod:`tomllib`); the annotated examples are
-``examples/import/*.toml`` and the README's "Importing ARTIQ results files".
+``examples/import/*.toml`` and the documentation's guide page "Importing lab recordings" (docs/guide/import.md).
 Its top-level keys:
 
 * ``[import]`` -- options of the import: ``complete_only`` (skip ndscan scans
