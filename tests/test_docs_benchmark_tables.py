@@ -17,8 +17,6 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("docutils")
-pytest.importorskip("sphinx")
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
