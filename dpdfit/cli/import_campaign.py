@@ -81,8 +81,8 @@ def add_import_command(subparsers) -> argparse.ArgumentParser:
     c = subparsers.add_parser(
         "import", help="import ARTIQ results files (ndscan scans) into a campaign folder",
         description="Build a campaign folder from a lab's ARTIQ results files, as a TOML "
-                    "mapping says (the .toml files in examples/import; README 'Importing "
-                    "ARTIQ results files').  Every row keeps its source file and rid; "
+                    "mapping says (the .toml files in examples/import; the documentation's "
+                    "guide page on importing lab recordings).  Every row keeps its source file and rid; "
                     "campaign.json lists the files with their SHA-256.")
     c.add_argument("mapping", metavar="MAP.toml", help="the mapping file")
     c.add_argument("-o", "--output", required=True, metavar="CAMPAIGN_DIR",

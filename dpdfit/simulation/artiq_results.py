@@ -30,7 +30,9 @@ __all__ = ["ARTIQ_VERSION", "MAPPINGS", "pyon_encode", "axis", "channel", "ndsca
 #: Version string written as ``artiq_version``.
 ARTIQ_VERSION = "8.0+unknown.beta"
 #: Folder of the annotated mapping files copied next to the results.
-MAPPINGS = Path(__file__).resolve().parents[2] / "examples" / "import"
+# package data (pyproject.toml), so the writer works from an installed dpdfit too;
+# examples/import/ links to these files
+MAPPINGS = Path(__file__).resolve().parent / "artiq_mappings"
 _TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
            "time_scans", "gate_rates")
 _RECORDED = ("spectra_recorded", "gates_recorded")
@@ -369,7 +371,7 @@ def _copy_mapping(name: str, campaign: dict, out_dir) -> Path:
     marker lines) is replaced by the campaign's keys when they differ."""
     source = MAPPINGS / name
     if not source.is_file():
-        raise DpdfitError(f"mapping file {source} not found (it ships in dpdfit's source tree)")
+        raise DpdfitError(f"mapping file {source} not found (it ships with dpdfit as package data)")
     text = source.read_text()
     wanted = {k: v for k, v in campaign.items() if k not in _RECORDED}
     if tomllib.loads(text).get("campaign") != wanted:
