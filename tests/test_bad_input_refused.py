@@ -15,6 +15,7 @@ import pytest
 
 from dpdfit.analyses.sweep import MAX_SWEEP_SAMPLES, SweepConfig, check_sweep_size
 from dpdfit.cli.main import main
+from tests.helpers.cli_refusal import assert_refused
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration import load_calibration
 
@@ -27,24 +28,6 @@ def _run(argv, capsys):
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
-
-
-def _bad(capsys, argv, needles, inputs=()):
-    """Exit 2, one stderr line naming ``needles``, every input file unchanged."""
-    inputs = [Path(p) for p in inputs]
-    before = {p: p.read_bytes() for p in inputs}
-    code, out, err = _run(argv, capsys)
-    lines = err.strip().splitlines()
-    assert code == 2, (code, out, err)
-    assert len(lines) == 1 and lines[0].startswith("dpdfit: error:"), err
-    for needle in needles:
-        assert needle in lines[0], lines[0]
-    assert "Traceback" not in err and "np.float64" not in lines[0]
-    for p, b in before.items():
-        assert p.read_bytes() == b
-    return lines[0]
-
-
 
 
 # ----------------------------------------------------------------------------- calibration
@@ -60,7 +43,7 @@ def test_nan_in_calibration_json_is_named_by_file_and_key(cli_outputs, tmp_path,
     p = tmp_path / "nan_cal.json"
     p.write_text(json.dumps(d))
     for argv in (["lut", p, "-o", tmp_path / "lut.csv"], ["sweep", p, "-o", tmp_path / "s.csv"]):
-        _bad(capsys, argv, [str(p), f"key 'amplitude.{key}'", "finite"], [p])
+        assert_refused(capsys, argv, [str(p), f"key 'amplitude.{key}'", "finite"], [p])
     assert not (tmp_path / "lut.csv").exists() and not (tmp_path / "s.csv").exists()
     with pytest.raises(InputError) as exc:
         load_calibration(p)
@@ -72,7 +55,7 @@ def test_calibration_coefficients_of_the_wrong_length(cli_outputs, tmp_path, cap
     d["amplitude"]["coefficients"] = d["amplitude"]["coefficients"][:-1]
     p = tmp_path / "short_cal.json"
     p.write_text(json.dumps(d))
-    _bad(capsys, ["lut", p, "-o", tmp_path / "lut.csv"],
+    assert_refused(capsys, ["lut", p, "-o", tmp_path / "lut.csv"],
          [str(p), "key 'amplitude.coefficients'", "shape"], [p])
 
 
@@ -81,7 +64,7 @@ def test_calibration_coefficients_of_the_wrong_length(cli_outputs, tmp_path, cap
 
 def test_sweep_refuses_a_sample_grid_too_large(cli_outputs, tmp_path, capsys):
     out = tmp_path / "s.csv"
-    line = _bad(capsys, ["sweep", cli_outputs["cal"], "--nu", "1e12", "-o", out],
+    line = assert_refused(capsys, ["sweep", cli_outputs["cal"], "--nu", "1e12", "-o", out],
                 ["option --nu", "--xi0", "samples", "limit"], [cli_outputs["cal"]])
     assert "9.0" in line or "900169200" in line
     assert not out.exists()
@@ -122,7 +105,7 @@ def _option_cases(cli_outputs, tmp):
 def test_bad_numeric_option_is_one_line_naming_it(cli_outputs, tmp_path, capsys, case):
     argv, opt = _option_cases(cli_outputs, tmp_path)[case]
     inputs = [a for a in argv if isinstance(a, Path) and a.is_file()]
-    _bad(capsys, argv, [f"option {opt}:"], inputs)
+    assert_refused(capsys, argv, [f"option {opt}:"], inputs)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -153,7 +136,7 @@ def test_duplicated_mean_row_of_a_sweep(cli_outputs, tmp_path, capsys):
     p = _edit_csv(cli_outputs["sweep"], tmp_path / "dup.csv", dup)
     n = len(pd.read_csv(p, comment="#"))
     for argv in (["thresholds", p], ["align", "--gate", cli_outputs["gate"], "--sweep", p]):
-        _bad(capsys, argv, [str(p), "column 'sideband'", f"row {n}", "duplicated"],
+        assert_refused(capsys, argv, [str(p), "column 'sideband'", f"row {n}", "duplicated"],
              [p, cli_outputs["gate"]])
 
 
@@ -163,7 +146,7 @@ def test_sweep_row_with_A_above_one(cli_outputs, tmp_path, capsys):
         df.loc[i, "A"] = 1.5
         return df
     p = _edit_csv(cli_outputs["sweep"], tmp_path / "bigA.csv", big)
-    _bad(capsys, ["thresholds", p], [str(p), "column 'A'", "1.5"], [p])
+    assert_refused(capsys, ["thresholds", p], [str(p), "column 'A'", "1.5"], [p])
 
 
 # ----------------------------------------------------------------------------- gate tables
@@ -178,7 +161,7 @@ def test_duplicated_gate_rate_row(tmp_path, capsys):
     p = _edit_csv(CAMP / "gate_rates.csv", tmp_path / "rates.csv",
                   lambda df: pd.concat([df, df.iloc[[1]]], ignore_index=True))
     n = len(pd.read_csv(p))
-    _bad(capsys, _fidelity(p, tmp_path / "g.csv"), [str(p), f"row {n}", "duplicated"], [p])
+    assert_refused(capsys, _fidelity(p, tmp_path / "g.csv"), [str(p), f"row {n}", "duplicated"], [p])
     assert not (tmp_path / "g.csv").exists()
 
 
@@ -188,7 +171,7 @@ def test_gate_rate_out_of_range(tmp_path, capsys, col, value):
         df.loc[0, col] = value
         return df
     p = _edit_csv(CAMP / "gate_rates.csv", tmp_path / "rates.csv", edit)
-    _bad(capsys, _fidelity(p, tmp_path / "g.csv"), [str(p), f"column '{col}'", "row 1"], [p])
+    assert_refused(capsys, _fidelity(p, tmp_path / "g.csv"), [str(p), f"column '{col}'", "row 1"], [p])
     assert not (tmp_path / "g.csv").exists()
 
 
@@ -198,7 +181,7 @@ def test_align_gate_table_out_of_range(cli_outputs, tmp_path, capsys, col, value
         df.loc[1, col] = value
         return df
     p = _edit_csv(cli_outputs["gate"], tmp_path / "gate.csv", edit)
-    _bad(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
+    assert_refused(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
          [str(p), f"column '{col}'", "row 2"], [p, cli_outputs["sweep"]])
 
 
@@ -206,7 +189,7 @@ def test_align_gate_table_duplicated_row(cli_outputs, tmp_path, capsys):
     p = _edit_csv(cli_outputs["gate"], tmp_path / "gate.csv",
                   lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True))
     n = len(pd.read_csv(p))
-    _bad(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
+    assert_refused(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
          [str(p), f"row {n}", "duplicated"], [p, cli_outputs["sweep"]])
 
 
@@ -231,7 +214,7 @@ def _time_scan_counts_above_shots(tmp_path, with_n01_10):
 @pytest.mark.parametrize("with_n01_10", [True, False])
 def test_diagnose_refuses_time_scan_counts_above_shots(tmp_path, capsys, with_n01_10):
     camp, ts, needles = _time_scan_counts_above_shots(tmp_path, with_n01_10)
-    _bad(capsys, ["diagnose", camp, "--pairs", "0"], needles, [ts])
+    assert_refused(capsys, ["diagnose", camp, "--pairs", "0"], needles, [ts])
 
 
 @pytest.mark.slow      # analyze runs every other step before it exits 2
@@ -250,14 +233,14 @@ def test_analyze_refuses_time_scan_counts_above_shots_as_diagnose_does(tmp_path,
 def test_count_message_has_plain_numbers(tmp_path, capsys):
     pop = tmp_path / "pop.csv"
     pop.write_text("A,dpd,scan,n00,n11,shots,n_even\n0.5,0,a,623.5,1,625,624\n")
-    _bad(capsys, ["fidelity", "--populations", pop, "--parity", CAMP / "parity.csv"],
+    assert_refused(capsys, ["fidelity", "--populations", pop, "--parity", CAMP / "parity.csv"],
          [str(pop), "column 'n00'", "row 1", "count 623.5 is not an integer"], [pop])
 
 
 def test_polyfit_too_few_points_names_the_file(tmp_path, capsys):
     p = tmp_path / "one.csv"
     p.write_text("A,power\n0.5,0.3\n")
-    _bad(capsys, ["polyfit", p, "--x", "A", "--y", "power", "--powers", "1:8"],
+    assert_refused(capsys, ["polyfit", p, "--x", "A", "--y", "power", "--powers", "1:8"],
          [f"{p}: 1 points for 8 coefficients"], [p])
 
 
@@ -265,7 +248,7 @@ def test_budget_gate_rates_duplicated_row(tmp_path, capsys):
     p = _edit_csv(CAMP / "gate_rates.csv", tmp_path / "rates.csv",
                   lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True))
     n = len(pd.read_csv(p))
-    _bad(capsys, ["budget", "--gate-rates", p], [str(p), f"row {n}", "duplicated"], [p])
+    assert_refused(capsys, ["budget", "--gate-rates", p], [str(p), f"row {n}", "duplicated"], [p])
 
 
 # ----------------------------------------------------------------------------- the API

@@ -27,6 +27,7 @@ from dpdfit.analyses.budget import load_budget_config, read_gate_rates
 from dpdfit.analyses.stability import stability
 from dpdfit.analyses.sweep import read_sweep_table
 from dpdfit.cli.main import main
+from tests.helpers.cli_refusal import assert_refused
 from dpdfit.errors import DpdfitError, InputError, NotInvertibleError, data_line
 from dpdfit.recordings.counts import DEGREES_SPAN_RAD, read_parity
 from dpdfit.recordings.tables import read_table
@@ -35,23 +36,6 @@ ROOT = Path(__file__).resolve().parents[1]
 AMP = ROOT / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
 PHASE = ROOT / "datasets" / "synthetic_aom" / "calibration_phase.csv"
 CAMP = ROOT / "datasets" / "synthetic_campaign"
-
-
-def _bad(capsys, argv, needles, inputs=()):
-    """Exit 2, one stderr line naming ``needles``, every input file unchanged."""
-    inputs = [Path(p) for p in inputs]
-    before = {p: p.read_bytes() for p in inputs}
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    lines = err.strip().splitlines()
-    assert code == 2, (code, out, err)
-    assert len(lines) == 1 and lines[0].startswith("dpdfit: error:"), err
-    for needle in needles:
-        assert needle in lines[0], lines[0]
-    assert "Traceback" not in err and "np.float64" not in lines[0]
-    for p, b in before.items():
-        assert p.read_bytes() == b
-    return lines[0]
 
 
 def _bad_calibration(tmp_path, coefficients, name):
@@ -79,7 +63,7 @@ def _with_line_repeated(src: Path, dst: Path, data_row: int) -> Path:
 def test_not_invertible_calibration_is_named_by_file(tmp_path, capsys):
     p = _bad_calibration(tmp_path, [1.0, -2.0, 1.25], "bad_cal.json")
     for argv in (["lut", p, "-o", tmp_path / "lut.csv"], ["sweep", p, "-o", tmp_path / "s.csv"]):
-        line = _bad(capsys, argv, [f"error: {p}: amplitude fit is not invertible",
+        line = assert_refused(capsys, argv, [f"error: {p}: amplitude fit is not invertible",
                                    "dy/dA <= 0 at A = 0.400000", "[0.4000, 0.6667]"], [p])
         assert "np.float64" not in line
     assert not (tmp_path / "lut.csv").exists() and not (tmp_path / "s.csv").exists()
@@ -91,7 +75,7 @@ def test_not_invertible_calibration_is_named_by_file(tmp_path, capsys):
 
 def test_negative_full_drive_amplitude_is_named_by_file(tmp_path, capsys):
     p = _bad_calibration(tmp_path, [1.0, -2.0, 0.5], "neg_cal.json")
-    _bad(capsys, ["lut", p, "-o", tmp_path / "lut.csv"],
+    assert_refused(capsys, ["lut", p, "-o", tmp_path / "lut.csv"],
          [f"error: {p}: fitted y(1) = -0.5 <= 0"], [p])
 
 
@@ -99,8 +83,6 @@ def test_a_transfer_function_without_source_keeps_its_plain_message():
     tf = dpdfit.TransferFunction((1, 2, 3), (1.0, -2.0, 1.25))
     with pytest.raises(NotInvertibleError, match=r"^amplitude fit is not invertible"):
         tf.invertibility()
-
-
 
 
 @pytest.mark.parametrize("col, value, need", [("F_err", 0.0, "> 0"),
@@ -111,7 +93,7 @@ def test_align_names_file_column_and_row_of_a_bad_uncertainty(cli_outputs, tmp_p
     g.loc[2, col] = value
     p = tmp_path / "gate.csv"
     g.to_csv(p, index=False)
-    _bad(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
+    assert_refused(capsys, ["align", "--gate", p, "--sweep", cli_outputs["sweep"]],
          [str(p), f"column '{col}'", "row 3", f"must be {need}", "(line 4)"], [p])
 
 
@@ -122,11 +104,11 @@ def test_calibrate_refuses_a_line_pasted_twice(tmp_path, capsys):
     # AMP: one comment line, the header, then data; data row 4 is line 6
     p = _with_line_repeated(AMP, tmp_path / "amp.csv", 4)
     for extra in ([], ["--all-runs"]):
-        _bad(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "c.json", *extra],
+        assert_refused(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "c.json", *extra],
              [str(p), "row 5: repeats row 4 (line 6) in every column", "(line 7)"], [p])
     assert not (tmp_path / "c.json").exists()
     q = _with_line_repeated(PHASE, tmp_path / "phase.csv", 10)
-    _bad(capsys, ["calibrate", "--amplitude", AMP, "--phase", q, "-o", tmp_path / "c.json"],
+    assert_refused(capsys, ["calibrate", "--amplitude", AMP, "--phase", q, "-o", tmp_path / "c.json"],
          [str(q), "row 11: repeats row 10", "in every column"], [q])
     with pytest.raises(InputError) as exc:
         dpdfit.read_calibration(p, "amplitude")
@@ -147,7 +129,7 @@ def test_repeated_amplitudes_with_different_readings_stay_accepted(tmp_path, cap
 
 def test_stability_refuses_a_line_pasted_twice(tmp_path, capsys):
     p = _with_line_repeated(CAMP / "calibration_amplitude.csv", tmp_path / "runs.csv", 7)
-    _bad(capsys, ["stability", p], [str(p), "row 8: repeats row 7", "in every column"], [p])
+    assert_refused(capsys, ["stability", p], [str(p), "row 8: repeats row 7", "in every column"], [p])
     df = pd.read_csv(p)
     with pytest.raises(InputError, match="row 8: repeats row 7 in every column"):
         stability(df)
@@ -155,16 +137,16 @@ def test_stability_refuses_a_line_pasted_twice(tmp_path, capsys):
 
 def test_align_and_budget_refuse_a_line_pasted_twice(cli_outputs, tmp_path, capsys):
     g = _with_line_repeated(cli_outputs["gate"], tmp_path / "gate.csv", 2)
-    _bad(capsys, ["align", "--gate", g, "--sweep", cli_outputs["sweep"]],
+    assert_refused(capsys, ["align", "--gate", g, "--sweep", cli_outputs["sweep"]],
          [str(g), "row 3", "repeats row 2", "duplicated line"], [g])
     s = _with_line_repeated(cli_outputs["sweep"], tmp_path / "sweep.csv", 6)
     l6, l7 = data_line(s, 6), data_line(s, 7)      # sweep.csv starts with '#' header lines
     text = s.read_text().splitlines()
     assert l7 == l6 + 1 and l6 > 7 and text[l6 - 1] == text[l7 - 1]
-    _bad(capsys, ["align", "--gate", cli_outputs["gate"], "--sweep", s],
+    assert_refused(capsys, ["align", "--gate", cli_outputs["gate"], "--sweep", s],
          [str(s), "row 7", f"repeats row 6 (line {l6})", "duplicated line", f"(line {l7})"], [s])
     r = _with_line_repeated(CAMP / "gate_rates.csv", tmp_path / "rates.csv", 1)
-    _bad(capsys, ["budget", "--gate-rates", r],
+    assert_refused(capsys, ["budget", "--gate-rates", r],
          [str(r), "row 2", "repeats row 1", "duplicated line"], [r])
 
 
@@ -188,7 +170,7 @@ def test_calibrate_refuses_a_non_invertible_fit_and_writes_nothing(tmp_path, cap
     p = tmp_path / "amp.csv"
     p.write_text("A,power,power_err\n" + "".join(f"{a:g},{v:.8g},0.0001\n" for a, v in zip(A, P)))
     out = tmp_path / "c.json"
-    line = _bad(capsys, ["calibrate", "--amplitude", p, "-o", out, "--plot", tmp_path / "fig"],
+    line = assert_refused(capsys, ["calibrate", "--amplitude", p, "-o", out, "--plot", tmp_path / "fig"],
                 [f"error: {p}: amplitude fit is not invertible", "dy/dA <= 0 at A = 0.4",
                  "dy/dA < 0 on [0.4", "nothing written"], [p])
     assert "0.666" in line or "0.667" in line
@@ -237,7 +219,7 @@ def test_rows_and_lines_with_comments_and_blank_lines(tmp_path, capsys):
     assert exc.value.row == 2 and exc.value.line == 7
     assert str(exc.value) == f"{p}, column 'power', row 2: value is NaN (line 7)"
     assert p.read_text().splitlines()[exc.value.line - 1] == "0.2,nan"
-    _bad(capsys, ["polyfit", p, "--x", "A", "--y", "power", "--powers", "0:1"],
+    assert_refused(capsys, ["polyfit", p, "--x", "A", "--y", "power", "--powers", "0:1"],
          ["row 2: value is NaN (line 7)"], [p])
 
 
@@ -309,13 +291,12 @@ def test_load_calibration_with_a_missing_key_names_file_and_key(tmp_path):
     assert exc.value.file == str(p)
 
 
-
 def test_align_names_the_gate_row_outside_the_sweep(cli_outputs, tmp_path, capsys):
     narrow = tmp_path / "narrow.csv"
     assert main(["sweep", str(cli_outputs["cal"]), "-o", str(narrow),
                  "--amplitudes", "0.5:1:11"]) == 0
     capsys.readouterr()
-    _bad(capsys, ["align", "--gate", cli_outputs["gate"], "--sweep", narrow],
+    assert_refused(capsys, ["align", "--gate", cli_outputs["gate"], "--sweep", narrow],
          [str(cli_outputs["gate"]), "column 'A', row 1",
           "A=0.4 is outside the sweep's range [0.5, 1]", "(line 2)"], [cli_outputs["gate"], narrow])
 

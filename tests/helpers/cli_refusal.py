@@ -1,0 +1,27 @@
+"""The command line's contract on bad input, asserted in one place."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from dpdfit.cli.main import main
+
+
+def assert_refused(capsys, argv, needles, inputs=()) -> str:
+    """Exit 2, one stderr line naming ``needles``, every input file unchanged.
+
+    Returns the error line.
+    """
+    inputs = [Path(p) for p in inputs]
+    before = {p: p.read_bytes() for p in inputs}
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert code == 2, (code, out, err)
+    assert len(lines) == 1 and lines[0].startswith("dpdfit: error:"), err
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    assert "Traceback" not in err and "np.float64" not in lines[0]
+    for p, b in before.items():
+        assert p.read_bytes() == b
+    return lines[0]
