@@ -27,14 +27,15 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import json
-import math
 import os
 import platform
 import shlex
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
+
+from dpdfit.core.jsonable import to_jsonable
+from dpdfit.recordings.outputs import atomic_write_text
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -122,23 +123,6 @@ def command_line(argv: list[str] | None = None) -> str:
     return shlex.join(["python", shown, *argv[1:]])
 
 
-def _plain(value):
-    """JSON-able value: numpy scalars/arrays to Python, non-finite floats to None."""
-    if hasattr(value, "item") and getattr(value, "ndim", 1) == 0:
-        value = value.item()
-    elif hasattr(value, "tolist"):
-        value = value.tolist()
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
 def make_record(name: str, rows: list[dict], *, description: str = "",
                 notes: list[str] | None = None, argv: list[str] | None = None) -> dict:
     """The record of one run (date taken now, in UTC)."""
@@ -148,7 +132,7 @@ def make_record(name: str, rows: list[dict], *, description: str = "",
         "command": command_line(argv),
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "machine": machine(),
-        "rows": _plain(rows),
+        "rows": to_jsonable(rows),
     }
     if notes:
         rec["notes"] = [str(n) for n in notes]
@@ -156,26 +140,12 @@ def make_record(name: str, rows: list[dict], *, description: str = "",
 
 
 def write_json(path: Path | str, data: dict) -> Path:
-    """Write ``data`` to ``path`` atomically (temporary file + rename in the same folder)."""
+    """Write ``data`` to ``path`` atomically, non-finite floats as ``null``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(_plain(data), fh, indent=1, allow_nan=False)
-            fh.write("\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)       # as open() would have made it
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    # dpdfit's own converter and atomic writer; paths (in commands, notes) as text
+    atomic_write_text(path, json.dumps(to_jsonable(data), indent=1, allow_nan=False,
+                                       default=str) + "\n")
     return path
 
 
