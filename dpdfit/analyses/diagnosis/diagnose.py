@@ -41,20 +41,23 @@ import time
 
 from threadpoolctl import threadpool_limits
 
+from dpdfit.analyses.diagnosis.alternatives import (addition_alternatives, propose,
+                                                    swap_alternatives)
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
 from dpdfit.analyses.diagnosis.fitting import (FitResult, combine_sides, fit_all, fit_effects,
                                                fit_hypothesis, param_side)
 from dpdfit.analyses.diagnosis.gate_model import GATE_NUISANCES
 from dpdfit.analyses.diagnosis.generic import generic_discrepancy
 from dpdfit.analyses.diagnosis.observables import Campaign, load_campaign
-from dpdfit.analyses.diagnosis.phase_sign import refit_other_sign, repredict_gates, tone_held
+from dpdfit.analyses.diagnosis.phase_sign import refit_other_sign, repredict_gates
 from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem
-from dpdfit.analyses.diagnosis.profile import profile_errors
+from dpdfit.analyses.diagnosis.named_effects import named_effects
 from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
                                                DOMINANT_FRACTION, EXPLAINED_FRACTION,
+                                               NULL_REDCHI_MAX, within_null_range,
                                                choose_first, decisive, explained_fraction,
-                                               fidelity_cost, locate_mismatches,
+                                               locate_mismatches,
                                                mismatch_evidence, rank_entry,
                                                side_evidence)
 from dpdfit.core.progress import progress_bar
@@ -145,11 +148,12 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
     evidence = mismatch_evidence(base.p_fit, mismatches, ranking)
     sides = side_evidence(base, mismatches, evidence)
     first, _ = (None, False) if not evidence else choose_first(ranking, len(ranking), sides)
-    chosen, steps, chain = None, [], []
+    chosen, steps, chain, tried = None, [], [], []
     if first is not None:
         chosen, chain = fits[first], [fits[first]]
         if pairs > 0:
-            chosen, steps, chain = _add_effects(prob, base, chosen, fits, ranking, pairs, sides)
+            chosen, steps, chain, tried = _add_effects(prob, base, chosen, fits, ranking,
+                                                       pairs, sides)
     lap("more effects")
     named = [] if chosen is None else list(chosen.effects)
     if (chosen is not None and chosen.p_fit < ALPHA_FIT
@@ -160,9 +164,16 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
     else:
         unnamed = None
     verdict = ("none" if not evidence else named[0] if named else "unexplained")
+    null_range = None
+    if verdict == "unexplained" and unnamed is None and within_null_range(base, mismatches):
+        # only the global chi2 says anything, nothing is located and every observable
+        # sits where the harness's null campaigns sit: recordings noisier than stated
+        verdict, null_range = "none", NULL_REDCHI_MAX
     verdict_fit = ("none" if chosen is None else "approximate"
                    if chosen.p_fit < ALPHA_FIT else "acceptable")
-    effects_out = (_named_effects(prob, base, chosen, named, chain)
+    alts = ([] if not named else swap_alternatives(fits, ranking, first, named, sides)
+            + addition_alternatives(tried, named))
+    effects_out = (named_effects(prob, base, chosen, named, chain, form_fits)
                    if chosen is not None else [])
     lap("sizes")
     after = chosen or base
@@ -174,6 +185,8 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
         # physics is missing, and how much of the excess chi2 it holds
         generic = generic_discrepancy(prob, (chosen or unnamed or base).all_params)
     one = fits[named[0]] if named else None
+    nxt = (propose(prob, chosen, alts, effects_out) if chosen is not None
+           and (alts or any(e.get("poorly_constrained") for e in effects_out)) else None)
     lap("report")
     return Diagnosis(
         campaign=str(camp.folder), mismatches=mismatches, ranking=ranking, verdict=verdict,
@@ -182,6 +195,9 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
         effects=effects_out, steps=steps,
         redchi_one=None if one is None else one.redchi(),
         extra={"mismatch_evidence": evidence, "verdict_fit": verdict_fit,
+               "alternatives": [a for a, _ in alts],
+               "next_measurement": nxt,
+               "null_range": null_range,
                "explained_fraction": (None if chosen is None
                                       else explained_fraction(base, chosen)),
                "nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
@@ -270,10 +286,12 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
     still leaves a mismatch, :func:`~dpdfit.analyses.diagnosis.verdict.side_evidence`)
     and, on the side of an effect already named, when
     it removes at least ``DOMINANT_FRACTION`` of what the named effects of that side
-    removed.  Returns the final fit and the steps (ranking entries of the candidates
-    tried, per step).
+    removed.  Decisive is judged on the tempered evidence, as for the first effect.
+    Returns the final fit, the steps (ranking entries of the candidates tried, per
+    step), the chain of fits (one per named effect) and, per step, the candidates'
+    ``(entry, fit)`` pairs with the fit added (or None), for the alternatives.
     """
-    steps, chain = [], [chosen]
+    steps, chain, tried = [], [chosen], []
     rebased = prob.gate is not None and _use_field_of(prob, chosen)
     while len(chosen.effects) < MAX_EFFECTS:
         named = set(chosen.effects)
@@ -314,6 +332,7 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
         # the best decisive candidate that is more than a refinement of the named ones
         added = next((f for entry, f in entries if decisive(entry, len(cands))
                       and _not_a_refinement(base, chosen, f)), None)
+        tried.append((entries, added))
         if added is None:
             break
         chosen = added
@@ -323,7 +342,7 @@ def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
         # the gates under the final field (the tone effects held at their joint fit)
         chosen = repredict_gates(prob, chosen, keep_sign=True)
         chain[-1] = chosen
-    return chosen, steps, chain
+    return chosen, steps, chain, tried
 
 
 def _fit_keys(prob: Problem, f: FitResult) -> set:
@@ -347,32 +366,3 @@ def _not_a_refinement(base: FitResult, chosen: FitResult, f: FitResult) -> bool:
 
     named_gain = side_chi2(base) - side_chi2(chosen)
     return side_chi2(chosen) - side_chi2(f) >= DOMINANT_FRACTION * max(named_gain, 0.0)
-
-
-def _group_chi2(f: FitResult) -> dict:
-    groups = {"tones": ("tones:", "runs:"), "gates": ("gates:", "time_scan:")}
-    return {g: sum(v for k, v in f.chi2_by_observable.items() if k.startswith(pre))
-            for g, pre in groups.items()}
-
-
-def _named_effects(prob: Problem, base: FitResult, chosen: FitResult, named: list,
-                   chain: list) -> list:
-    """Each named effect: its form, parameters, sizes (profile-likelihood errors where
-    the curvature error is poor), cost in Bell fidelity and the chi2 it removes per
-    observable group (against the named effects before it)."""
-    out = []
-    prev = [base] + chain[:-1]
-    for i, name in enumerate(named):
-        explains = None
-        if i < len(chain):
-            a, b = _group_chi2(prev[i]), _group_chi2(chain[i])
-            explains = {g: a[g] - b[g] for g in a}
-        sizes = profile_errors(prob, chosen, name)
-        cost = fidelity_cost(prob, chosen, name)
-        form = chosen.forms[chosen.effects.index(name)]
-        out.append({"effect": name, "form": form, "side": EFFECTS[name].side,
-                    "params": chosen.params_of(name), "params_err": chosen.errors_of(name),
-                    "sizes": {k: s.to_dict() for k, s in sizes.items()},
-                    "fidelity_cost": cost[0], "fidelity_cost_err": cost[1],
-                    "explains": explains, "meaning": EFFECTS[name].meaning})
-    return out

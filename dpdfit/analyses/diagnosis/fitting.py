@@ -57,6 +57,10 @@ class FitResult:
     free: tuple = ()
     at_bound: tuple = ()
     scales: tuple = ()
+    #: the standardised residuals of every data block at the optimum, ``((key, z), ...)``
+    #: (keys as :attr:`chi2_by_observable`): what the tempering of the evidence between
+    #: two fits reads (:mod:`dpdfit.analyses.diagnosis.tempering`)
+    blocks: tuple = field(default=(), repr=False, compare=False)
 
     @property
     def effects(self) -> tuple:
@@ -109,7 +113,7 @@ class FitResult:
                 for k in self.chi2_by_observable}
 
 
-def _result(obj: Objective, best: _Opt, best_lin) -> FitResult:
+def _result(obj: Objective, best, best_lin) -> FitResult:
     """The :class:`FitResult` of the solution ``best`` (modes profiled at ``best_lin``)."""
     names = obj.names
     x = best.x
@@ -144,10 +148,11 @@ def make_result(prob, hyp: list, p: dict, eff_params: list, fixed_eff: dict, cov
     sizes = {name: get(name).sizes(prob, p, cov, free, scales) for name, _ in hyp}
     # chi2 and counts of the model itself at the optimum (modes at their profiled values)
     n_data = int(np.isfinite(prob.residuals(p, with_prior=False)).sum())
-    chi_obs, n_obs = {}, {}
+    chi_obs, n_obs, blocks = {}, {}, []
     for lab, z in prob.blocks(p, with_prior=False):
-        z = z[np.isfinite(z)]
         key = f"{lab['kind']}:{lab['observable']}"
+        blocks.append((key, np.array(z, dtype=float)))
+        z = z[np.isfinite(z)]
         chi_obs[key] = float(np.sum(z ** 2))
         n_obs[key] = int(z.size)
     z_all = prob.residuals(p)
@@ -162,7 +167,7 @@ def make_result(prob, hyp: list, p: dict, eff_params: list, fixed_eff: dict, cov
                      n_par=len(prob.prior) + 1 + len(eff_params) - n_replaced,
                      chi2_by_observable=chi_obs, n_by_observable=n_obs, sizes=sizes,
                      cov=cov, free=tuple(free), scales=tuple(scales),
-                     at_bound=tuple(at_bound))
+                     at_bound=tuple(at_bound), blocks=tuple(blocks))
 
 
 def combine_sides(prob, a: FitResult, b: FitResult, side: str, hyp=None) -> FitResult:

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from dpdfit.analyses.diagnosis.alternatives import alternatives_sentence
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting import FitResult
 from dpdfit.analyses.diagnosis.verdict import ALPHA
@@ -22,8 +23,20 @@ CONVENTIONS = {"delta_bic": "BIC(effect) - BIC(baseline); negative favours the e
                           "(Wilks, chi2 with the effect's parameter count)",
                "params_err": "1 sigma, Gauss-Newton (J^T J)^-1, calibration modes profiled "
                              "out; NaN at a bound or for a form's fixed parameter",
-               "sizes": "the effect's size in a laboratory's terms, 1-sigma errors by the "
-                        "delta method (profile likelihood where a parameter sits at a bound)",
+               "sizes": "the effect's size in a laboratory's terms; error (1 sigma) = "
+                        "sqrt(tempering x error_statistical^2 + error_form^2): the delta-"
+                        "method error (profile likelihood where a parameter sits at a "
+                        "bound) inflated by the dispersion of the effect's evidence, and the "
+                        "spread over its family's forms weighted by their tempered evidence",
+               "delta_bic_tempered": "delta BIC with the chi2 difference divided by the "
+                                     "dispersion of the evidence (tempering, >= 1) that the "
+                                     "residuals show; decisions use it",
+               "alternatives": "hypotheses the tempered evidence does not separate from "
+                               "the named ones: delta_bic (raw) and delta_bic_tempered are "
+                               "theirs minus the named hypothesis's",
+               "next_measurement": "the single recording from the menu with the largest "
+                                   "expected delta BIC between the hypotheses in reach per "
+                                   "lab hour (Asimov, parameters held at their fits)",
                "fidelity_cost": "mean over the recorded gate settings of the Bell fidelity "
                                 "without the effect minus with it (gate side: (F_pop + C)/2 "
                                 "predicted; tone side: the spectral estimate F_est)",
@@ -118,8 +131,17 @@ class Diagnosis(Displayable):
                  f"  baseline chi2 = {self.baseline.chi2:.1f} for {self.baseline.dof} dof "
                  f"(p = {self.baseline_p_value:.2g})",
                  f"  verdict: {self.verdict}"
-                 + (f"   (named: {', '.join(self.named)})" if len(self.named) > 1 else ""),
-                 "", "  mismatches located:"]
+                 + (f"   (named: {', '.join(self.named)})" if len(self.named) > 1 else "")]
+        lines += [f"  {x}" for x in alternatives_sentence(self.verdict,
+                                                           ex.get("alternatives") or [])]
+        if ex.get("null_range") is not None:
+            lines.append(f"  the baseline's global chi2 is above its dof, but nothing is "
+                         f"located and every observable's reduced chi2 is at most "
+                         f"{ex['null_range']:g} (the harness's null range): nothing missing")
+        nxt = ex.get("next_measurement")
+        if nxt:
+            lines.append("  " + next_measurement_sentence(nxt))
+        lines += ["", "  mismatches located:"]
         lines += _mismatch_lines(self.mismatches)
         lines += ["", "  ranking of single effects (delta_bic, LRT p):"]
         lines += _ranking_lines(self.ranking)
@@ -133,7 +155,12 @@ class Diagnosis(Displayable):
                 lines.append(f"    {e['effect']} (form {e['form']}): cost in Bell fidelity "
                              f"{_pm(cost, e['fidelity_cost_err'])}")
                 for k, s in e["sizes"].items():
-                    lines.append(f"      {k:>24s} = {_pm(s['value'], s['error'])} {s['unit']}")
+                    parts = ("" if "error_statistical" not in s else
+                             f"   (statistical {_pm(s['error_statistical'], None)} x "
+                             f"sqrt({s['tempering']:.3g}) for the misfit, form "
+                             f"{_pm(s['error_form'], None)})")
+                    lines.append(f"      {k:>24s} = {_pm(s['value'], s['error'])} "
+                                 f"{s['unit']}{parts}")
         lines += ["", "  reduced chi2 per observable (baseline -> first effect -> final):"]
         one = self.redchi_one or {}
         for k in self.redchi_before:
@@ -157,6 +184,20 @@ class Diagnosis(Displayable):
             lines += ["", "  left out (absent from the folder):"]
             lines += [f"    {x}" for x in ex["left_out"]]
         return "\n".join(lines)
+
+
+def next_measurement_sentence(nxt: dict) -> str:
+    """One sentence: the recording that would decide, or why none could be proposed."""
+    if not nxt.get("what"):
+        return f"no further measurement could be proposed: {nxt.get('reason', 'unknown')}"
+    st = nxt.get("settings") or {}
+    how = ", ".join(f"{k} = {v if not isinstance(v, list) else ', '.join(map(str, v))}"
+                    for k, v in st.items())
+    mins = nxt.get("lab_seconds")
+    when = "" if mins is None else f", about {mins / 60:.0f} min of lab time"
+    return (f"the measurement that would decide: {nxt['what'].replace('_', ' ')} ({how}"
+            f"{when}), expected delta BIC {nxt.get('expected_delta_bic', float('nan')):.3g} "
+            f"between {' and '.join(nxt.get('separates') or [])}")
 
 
 def _pm(v, e) -> str:

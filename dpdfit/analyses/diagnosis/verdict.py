@@ -9,10 +9,13 @@
   a likelihood-ratio test (``p_value``: Wilks, chi2 with as many degrees of
   freedom as the effect has parameters); each single effect's ``impact`` on
   the fidelities is reported (:func:`fidelity_impact`).
-* **Verdict** (:func:`mismatch_evidence`, :func:`choose_verdict`): ``"none"``
-  when no test finds a mismatch; else the best effect if it is decisive and
-  leaves an acceptable fit, a pair ``"a+b"`` when only a pair does that, else
-  ``"unexplained"``.
+* **Verdict** (:func:`mismatch_evidence`, :func:`choose_first`): ``"none"``
+  when no test finds a mismatch; else the best effect if it is decisive (its
+  evidence tempered by the misfit the forms leave,
+  :mod:`~dpdfit.analyses.diagnosis.tempering`) and leaves an acceptable fit or
+  explains nearly all the mismatch, else ``"unexplained"``; candidates the
+  tempered evidence does not separate from it are its ``alternatives``
+  (:func:`alternatives_of`).
 """
 
 from __future__ import annotations
@@ -24,12 +27,13 @@ from dpdfit.analyses.diagnosis.effects import EFFECTS, effect_of_key
 from dpdfit.analyses.diagnosis.fitting import FitResult
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS
 from dpdfit.analyses.diagnosis.scan import scan_intervals
+from dpdfit.analyses.diagnosis.tempering import tempered_gap
 from dpdfit.models.fidelity import estimate
 
 __all__ = ["locate_mismatches", "mismatch_evidence", "fidelity_cost", "explained_fraction",
            "rank_entry", "decisive", "choose_first", "side_evidence", "side_of_observable",
            "GATE_OBSERVABLES", "ALPHA", "ALPHA_FIT", "BIC_DECISIVE",
-           "DOMINANT_FRACTION", "EXPLAINED_FRACTION"]
+           "DOMINANT_FRACTION", "EXPLAINED_FRACTION", "NULL_REDCHI_MAX", "within_null_range"]
 
 #: global false-alarm level of a mismatch (3 sigma)
 ALPHA = 0.0027
@@ -45,6 +49,23 @@ DOMINANT_FRACTION = 0.01
 #: explains at least this fraction of the baseline's excess chi2 (chi2 - dof): its form is
 #: then not exactly the catalog's; the report says how much is explained
 EXPLAINED_FRACTION = 0.95
+
+
+#: the largest reduced chi2 of one observable that the harness's null campaigns show
+#: (nothing concealed; the tone repeatability and the rate scatter learnt, as in any
+#: campaign): a campaign whose only evidence is the global chi2 test, with nothing
+#: located and every observable at or below this, is a null -- recordings a little
+#: noisier than stated -- not an ``unexplained`` mismatch
+NULL_REDCHI_MAX = 1.5
+
+
+def within_null_range(base: FitResult, mismatches: list) -> bool:
+    """Whether the baseline looks like a null campaign: no located interval and every
+    observable's reduced chi2 at most :data:`NULL_REDCHI_MAX`."""
+    if mismatches:
+        return False
+    red = base.redchi()
+    return bool(red) and max(red.values()) <= NULL_REDCHI_MAX
 
 
 def locate_mismatches(prob, p: dict) -> list:
@@ -93,7 +114,7 @@ def mismatch_evidence(p_base: float, mismatches: list, ranking: list) -> list[st
         out.append("located_interval")
     if gate_side:
         best = min(gate_side, key=lambda r: r["delta_bic"])
-        if best["p_value"] * len(singles) < ALPHA and best["delta_bic"] < -BIC_DECISIVE:
+        if decisive(best, len(singles)):
             out.append(f"targeted:{best['effect']}")
     return out
 
@@ -142,7 +163,8 @@ def _bell_fidelities(prob, p: dict, side: str, amps) -> np.ndarray:
                      for i in range(len(amps))]).ravel()
 
 
-def fidelity_cost(prob, f: FitResult, name: str) -> tuple[float, float]:
+def fidelity_cost(prob, f: FitResult, name: str, with_error: bool = True
+                  ) -> tuple[float, float]:
     """The cost in Bell fidelity of effect ``name`` at its fit ``f``: the mean over the
     recorded gate settings of the fidelity without it minus with it, and the 1-sigma
     error by the delta method over its free parameters.
@@ -165,7 +187,7 @@ def fidelity_cost(prob, f: FitResult, name: str) -> tuple[float, float]:
 
     c = cost(p1)
     free = [k for k in f.free if effect_of_key(k) is e]
-    if not free or f.cov is None:
+    if not with_error or not free or f.cov is None:
         return c, float("nan")
     idx = [f.free.index(k) for k in free]
     g = np.zeros(len(free))
@@ -189,6 +211,8 @@ def rank_entry(base: FitResult, f: FitResult, cost: tuple | None = None) -> dict
     added effect the model it was added to)."""
     dchi = base.chi2 - f.chi2
     k = f.n_par - base.n_par
+    # the evidence judged against the misfit the forms leave (dpdfit...tempering)
+    _, gap_t, tau = tempered_gap(base, f)
     single = len(f.effects) == 1
     params = f.params_of(f.effect) if single else dict(f.params)
     errs = f.errors_of(f.effect) if single else dict(f.params_err)
@@ -200,15 +224,22 @@ def rank_entry(base: FitResult, f: FitResult, cost: tuple | None = None) -> dict
             "explained_fraction": explained_fraction(base, f),
             "delta_bic": float(f.bic - base.bic),
             "p_value": float(chi2_dist.sf(max(dchi, 0.0), max(k, 1))), "delta_chi2": float(dchi),
+            "tempering": tau, "delta_bic_tempered": -gap_t,
+            "p_value_tempered": float(chi2_dist.sf(max(dchi, 0.0) / tau, max(k, 1))),
             "params": params, "params_err": errs,
             "sizes": sizes[f.effect] if single else sizes,
             "chi2": f.chi2, "dof": f.dof, "p_fit": f.p_fit}
 
 
 def decisive(entry: dict, n_tests: int) -> bool:
-    """A hypothesis is decisive against the one it extends: ``delta_bic < -BIC_DECISIVE``
-    and its likelihood-ratio p-value, Bonferroni-corrected over ``n_tests``, below ALPHA."""
-    return entry["delta_bic"] < -BIC_DECISIVE and entry["p_value"] * n_tests < ALPHA
+    """A hypothesis is decisive against the one it extends: its *tempered* delta BIC below
+    ``-BIC_DECISIVE`` and its tempered likelihood-ratio p-value, Bonferroni-corrected
+    over ``n_tests``, below ALPHA (the chi2 difference divided by the dispersion of the
+    evidence, :mod:`dpdfit.analyses.diagnosis.tempering`; entries without it: the raw
+    ones)."""
+    dbic = entry.get("delta_bic_tempered", entry["delta_bic"])
+    p = entry.get("p_value_tempered", entry["p_value"])
+    return dbic < -BIC_DECISIVE and p * n_tests < ALPHA
 
 
 def choose_first(ranking: list, n_tests: int, sides: set | None = None):

@@ -1,0 +1,159 @@
+"""Which hypotheses the recordings do not separate from the named effects.
+
+The diagnosis names the best hypothesis; this module lists every other one
+still *within reach* of it once the evidence is judged against the misfit the
+forms leave (:mod:`~dpdfit.analyses.diagnosis.tempering`):
+
+* a **swap**: another single effect that is itself decisive against the
+  baseline (tempered) and whose tempered BIC is within ``BIC_DECISIVE`` of the
+  named one's -- "stale_calibration, or detector_nonlinearity: these
+  recordings do not separate them"; and, at each step of the forward
+  selection, another candidate within ``BIC_DECISIVE`` (tempered) of the one
+  added;
+* an **addition**: a further effect that the raw likelihood would have
+  added (decisive before tempering) and that the tempered evidence still
+  favours (tempered delta BIC below 0), but not decisively -- "perhaps also
+  spam_offset".
+
+Each alternative is a dict: ``effect`` (the candidate), ``delta_bic`` (its BIC
+minus the named hypothesis's, raw: > 0 is worse; for an addition, the BIC of
+the named ones plus it minus theirs), ``delta_bic_tempered`` (the same with
+the chi2 difference divided by the dispersion of the evidence), ``tempering``
+(that dispersion, ``tau``), ``replaces`` (the named effect it would replace,
+None for an addition) and ``named`` (the complete set of effects the
+alternative stands for).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+
+import numpy as np
+
+from dpdfit.analyses.diagnosis.tempering import tempered_gap
+from dpdfit.analyses.diagnosis.verdict import ALPHA, BIC_DECISIVE, decisive
+
+__all__ = ["swap_alternatives", "addition_alternatives", "alternatives_sentence",
+           "shifted_hypothesis", "propose", "POORLY_CONSTRAINED"]
+
+log = logging.getLogger(__name__)
+
+
+def _entry(effect, raw, gap_t, tau, replaces, named) -> dict:
+    return {"effect": effect, "delta_bic": float(raw), "delta_bic_tempered": float(gap_t),
+            "tempering": float(tau), "replaces": replaces, "named": list(named)}
+
+
+def swap_alternatives(fits: dict, ranking: list, first: str, named: list,
+                      sides: set | None) -> list:
+    """Single effects the recordings do not separate from the first named one (module
+    doc): ``fits`` the single effects' fits by name, ``ranking`` their ranking entries.
+    Returns ``[(alternative dict, its fit)]``."""
+    out = []
+    n_tests = len(ranking)
+    for r in ranking:
+        e = r["effect"]
+        if e == first or e in named or "+" in e or e not in fits:
+            continue
+        if sides is not None and r["side"] not in sides:
+            continue
+        if not decisive(r, n_tests):
+            continue
+        raw, gap_t, tau = tempered_gap(fits[e], fits[first])
+        if gap_t < BIC_DECISIVE:
+            out.append((_entry(e, raw, gap_t, tau, first,
+                               [e] + [x for x in named if x != first]), fits[e]))
+    return out
+
+
+def addition_alternatives(steps: list, named: list) -> list:
+    """Alternatives from the forward selection's steps: ``steps`` is a list of
+    ``(entries, added)`` per step, ``entries`` the ``(ranking entry, fit)`` of each
+    candidate tried (its delta BIC against the named effects before the step),
+    ``added`` the fit added at that step or None (module doc).  Returns
+    ``[(alternative dict, its fit)]``."""
+    out = []
+    for entries, added in steps:
+        n = len(entries)
+        if added is None:
+            for entry, f in entries:
+                if (entry["delta_bic"] < -BIC_DECISIVE and entry["p_value"] * n < ALPHA
+                        and entry.get("delta_bic_tempered", entry["delta_bic"]) < 0):
+                    c = f.effects[-1]
+                    out.append((_entry(c, entry["delta_bic"], entry["delta_bic_tempered"],
+                                       entry.get("tempering", 1.0), None, list(named) + [c]),
+                                f))
+            continue
+        a = added.effects[-1]
+        for entry, f in entries:
+            c = f.effects[-1]
+            if f is added or c in named or not decisive(entry, n):
+                continue
+            raw, gap_t, tau = tempered_gap(f, added)
+            if gap_t < BIC_DECISIVE:
+                out.append((_entry(c, raw, gap_t, tau, a,
+                                   [c if x == a else x for x in named]), f))
+    return out
+
+
+#: a named effect's main size is poorly constrained when its error exceeds this fraction
+#: of its value: the next measurement is then the one that pins it down best
+POORLY_CONSTRAINED = 0.5
+
+
+def shifted_hypothesis(fit, name: str):
+    """``fit`` with effect ``name``'s free parameters moved by their 1-sigma errors away
+    from zero: the hypothesis a measurement pinning its size down must separate."""
+    moved = {}
+    for k, v in fit.params.items():
+        err = fit.params_err.get(k, float("nan"))
+        if k.startswith(name + ".") and k in fit.free and np.isfinite(err) and err > 0:
+            moved[k] = v + np.copysign(err, v if v != 0 else 1.0)
+    if not moved:
+        return None
+    return dataclasses.replace(fit, params={**fit.params, **moved},
+                               effect=fit.effect)
+
+
+def propose(prob, chosen, alternatives: list, named_effects: list) -> dict:
+    """The next measurement's JSON object (:mod:`..next_measurement`) for an ambiguous
+    verdict (the named fit against every alternative's fit) or, without alternatives,
+    for the named effects whose main size is poorly constrained (the fit against the
+    same fit with that effect moved by 1 sigma)."""
+    from dpdfit.analyses.diagnosis.next_measurement import propose_next_measurement
+    hyps = [chosen] + [f for _, f in alternatives]
+    if len(hyps) == 1:
+        for e in named_effects:
+            if e.get("poorly_constrained"):
+                alt = shifted_hypothesis(chosen, e["effect"])
+                if alt is not None:
+                    hyps.append(alt)
+                    break
+    if len(hyps) == 1:
+        return {"what": None, "reason": "no parameter of the poorly constrained effect "
+                                        "has an error to move it by"}
+    try:
+        return propose_next_measurement(prob, hyps).to_dict()
+    except Exception as exc:          # the verdict stands whatever the proposal does
+        log.warning("no next measurement could be proposed: %s", exc)
+        return {"what": None, "reason": f"the menu's simulation failed: "
+                                        f"{type(exc).__name__}: {exc}"}
+
+
+def alternatives_sentence(verdict: str, alternatives: list) -> list[str]:
+    """The report's words for the alternatives: one line per kind."""
+    if not alternatives:
+        return []
+    lines = []
+    swaps = [a for a in alternatives if a["replaces"] is not None]
+    adds = [a for a in alternatives if a["replaces"] is None]
+    for rep in dict.fromkeys(a["replaces"] for a in swaps):
+        others = [a["effect"] for a in swaps if a["replaces"] == rep]
+        lines.append(f"{rep}, or {', or '.join(others)}: these recordings do not "
+                     f"separate them")
+    if adds:
+        lines.append(f"perhaps also {', '.join(a['effect'] for a in adds)}: these "
+                     "recordings favour it, not decisively once the misfit the forms leave "
+                     "is counted")
+    return lines
