@@ -16,7 +16,8 @@ import numpy as np
 from dpdfit.errors import InputError
 
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
-           "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL"]
+           "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
+           "LAB_TIMES", "PHASE_RUN_NOISE_RAD"]
 
 #: sideband detuning nu of the gate tones from the carrier, Hz (S4)
 NU_HZ = 1.84e6
@@ -155,3 +156,35 @@ def _checked(key: str, value):
 
 #: the lab's error model: the default of the gate engine, the simulator and the diagnosis
 ERROR_MODEL = ErrorModel()
+
+
+@dataclass(frozen=True)
+class LabTimes:
+    """Lab time of each recording a diagnosis may propose next (seconds).
+
+    Used by :func:`dpdfit.analyses.diagnosis.next_measurement.propose_next_measurement`
+    to rank the menu by expected separation per lab hour; a lab passes its own
+    ``LabTimes(...)`` to change them.  The paper states shot counts but no
+    durations, so the values are typical trapped-ion lab figures, each argued below.
+    """
+
+    #: one amplitude calibration run: 101 amplitudes at ~3 s each (set the RF, let the
+    #: photodiode settle, average), 5 min -- the duration of the campaigns' recorded runs
+    amplitude_run_s: float = 300.0
+    #: one phase calibration run: 101 amplitudes at ~4 s each (the phase is averaged over
+    #: repetitions, Supplement "AOM phase response"), ~7 min as the campaigns' phase runs
+    phase_run_s: float = 400.0
+    #: one heterodyne trace (one amplitude, one DPD flag): upload the waveform, capture
+    #: and store the beat note, about a minute with the re-arming of the AWG
+    spectrum_trace_s: float = 60.0
+    #: one experimental shot: Doppler and sideband cooling (several ms) dominate the
+    #: 150-310 us gate and ~1 ms detection, so ~10 ms per shot (100 shots/s)
+    shot_s: float = 0.01
+
+
+#: the lab times of :class:`LabTimes` (the menu of next measurements)
+LAB_TIMES = LabTimes()
+#: noise (1 sigma, rad) of one point of a phase calibration run when the campaign has no
+#: phase runs to learn it from: the paper's run-to-run sd of phi(1), 0.0009 rad over six
+#: runs (Supplement, phase stability), rounded up
+PHASE_RUN_NOISE_RAD = 1e-3

@@ -17,8 +17,11 @@ Report keys (keep): ``confusion`` (truth -> verdict -> count),
 (fraction of the concealed campaigns whose verdict is the truth's effect),
 ``n_campaigns``, ``runs`` (per campaign ``campaign``, ``truth``, ``verdict``,
 ``seconds``, plus ``named``, ``named_correctly``, ``verdict_fit``, ``params``,
-``params_err``, ``sizes``, ``error``); with several concealed effects also
-``pairs_both_named`` and ``pairs_one_named``.
+``params_err``, ``sizes``, ``error``, ``alternatives``, ``next_measurement``,
+``redchi_before``); with several concealed effects also ``pairs_both_named`` and
+``pairs_one_named``.  Added: ``ambiguous`` (campaigns with alternatives in reach),
+``confidently_wrong`` (named wrongly with the truth's set neither named nor among the
+alternatives) and ``spurious_extra`` (every concealed effect named, and more).
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from dpdfit.errors import DpdfitError, InputError
 from dpdfit.simulation.dispatch import run_jobs
 
 __all__ = ["read_truth", "truth_effects", "campaign_folders", "run_external_one", "summarise_external",
+           "truth_in_reach", "spurious_extra",
            "run_external", "report_external"]
 
 
@@ -106,7 +110,26 @@ def run_external_one(job: dict) -> dict:
             "explained_fraction": d.extra.get("explained_fraction"),
             "params": None if chosen is None else chosen.params,
             "params_err": None if chosen is None else chosen.params_err,
+            "alternatives": d.extra.get("alternatives") or [],
+            "next_measurement": d.extra.get("next_measurement"),
+            "redchi_before": d.redchi_before,
             "left_out": d.extra.get("left_out"), "error": None}
+
+
+def truth_in_reach(r: dict, truth: list) -> bool:
+    """Whether the truth's set of effects is the named set or one of the alternatives'
+    (``truth`` sorted; empty for a null, which is in reach only as verdict ``none``)."""
+    if not truth:
+        return r.get("verdict") == "none"
+    if sorted(r.get("named") or []) == truth:
+        return True
+    return any(sorted(a.get("named") or []) == truth for a in r.get("alternatives") or [])
+
+
+def spurious_extra(r: dict, truth: list) -> bool:
+    """The named set holds every concealed effect and more."""
+    named = set(r.get("named") or [])
+    return bool(truth) and set(truth) < named
 
 
 def summarise_external(runs: list) -> dict:
@@ -126,7 +149,16 @@ def summarise_external(runs: list) -> dict:
             else r["verdict"] == r["truth"]
 
     secs = [r["seconds"] for r in runs]
+    known = [r for r in runs if r["truth"] != "unknown" and r["verdict"] != "refused"]
+
+    def truth_of(r):
+        return [] if r["truth"] == "none" else sorted(r["truth"].split("+"))
+
     out = {"n_campaigns": len(runs), "confusion": confusion,
+           "ambiguous": sum(bool(r.get("alternatives")) for r in known),
+           "confidently_wrong": sum(not ok(r) and not truth_in_reach(r, truth_of(r))
+                                    for r in known),
+           "spurious_extra": sum(spurious_extra(r, truth_of(r)) for r in known),
             "false_alarm_rate": (sum(r["verdict"] != "none" for r in nulls) / len(nulls)
                                  if nulls else None),
             "named_correctly": (sum(ok(r) for r in conc) / len(conc)
@@ -202,6 +234,10 @@ def report_external(s: dict) -> str:
         lines.append(f"  pairs: both named {share(s.get('pairs_both_named'), n)}, at least one "
                      f"{share(s.get('pairs_one_named'), n)}, called none "
                      f"{s.get('pairs_called_none')}/{n}")
+    if "ambiguous" in s:
+        lines.append(f"  ambiguous (alternatives in reach): {s['ambiguous']}; confidently "
+                     f"wrong (truth not named nor among the alternatives): "
+                     f"{s['confidently_wrong']}; spurious extra effect: {s['spurious_extra']}")
     lines += [f"  refused: {s['n_refused']}; seconds per campaign: median "
               f"{num(s['median_seconds'])}, max {num(s['max_seconds'])}", "",
               "  confusion (truth -> named):"]
@@ -216,6 +252,9 @@ def report_external(s: dict) -> str:
             f"  [{r['verdict_fit']}]" if r.get("verdict_fit") not in (None, "acceptable",
                                                                      "none") else "")
         named = "+".join(r.get("named") or []) or r["verdict"]
+        alts = r.get("alternatives") or []
+        if alts:
+            extra += "  or " + " | ".join("+".join(a["named"]) for a in alts)
         lines.append(f"    {mark} {r['campaign']:>8s}: truth {r['truth']:<40s} named "
                      f"{named:<40s} {r['seconds']:6.1f} s{extra}")
     return "\n".join(lines)

@@ -122,7 +122,10 @@ def propose(prob, chosen, alternatives: list, named_effects: list) -> dict:
     for the named effects whose main size is poorly constrained (the fit against the
     same fit with that effect moved by 1 sigma)."""
     from dpdfit.analyses.diagnosis.next_measurement import propose_next_measurement
-    hyps = [chosen] + [f for _, f in alternatives]
+    # the swaps first: they are the competing explanations; additions in reach differ
+    # from the verdict by a refinement, and the smallest separation would chase it
+    swaps = [f for a, f in alternatives if a["replaces"] is not None]
+    hyps = [chosen] + (swaps or [f for _, f in alternatives])
     if len(hyps) == 1:
         for e in named_effects:
             if e.get("poorly_constrained"):

@@ -155,22 +155,8 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
             chosen, steps, chain, tried = _add_effects(prob, base, chosen, fits, ranking,
                                                        pairs, sides)
     lap("more effects")
-    named = [] if chosen is None else list(chosen.effects)
-    if (chosen is not None and chosen.p_fit < ALPHA_FIT
-            and (explained_fraction(base, chosen) or 0.0) < EXPLAINED_FRACTION):
-        # no acceptable fit and much left: what is missing is not in the catalog
-        unnamed = chosen
-        named, chosen = [], None
-    else:
-        unnamed = None
-    verdict = ("none" if not evidence else named[0] if named else "unexplained")
-    null_range = None
-    if verdict == "unexplained" and unnamed is None and within_null_range(base, mismatches):
-        # only the global chi2 says anything, nothing is located and every observable
-        # sits where the harness's null campaigns sit: recordings noisier than stated
-        verdict, null_range = "none", NULL_REDCHI_MAX
-    verdict_fit = ("none" if chosen is None else "approximate"
-                   if chosen.p_fit < ALPHA_FIT else "acceptable")
+    verdict, verdict_fit, named, chosen, unnamed, null_range = _verdict(
+        base, chosen, evidence, mismatches)
     alts = ([] if not named else swap_alternatives(fits, ranking, first, named, sides)
             + addition_alternatives(tried, named))
     effects_out = (named_effects(prob, base, chosen, named, chain, form_fits)
@@ -210,6 +196,30 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
                "timing_seconds": timing,
                "warnings": list(camp.warnings), "left_out": list(camp.left_out)},
         series_before=prob.series(pb), series_after=prob.series(pa), context=prob)
+
+
+def _verdict(base: FitResult, chosen, evidence: list, mismatches: list):
+    """``(verdict, verdict_fit, named, chosen, unnamed, null_range)`` from the selected
+    fit (see :mod:`~dpdfit.analyses.diagnosis.verdict`): a chosen fit that is not
+    acceptable and explains too little is ``unnamed`` (not in the catalog); a campaign
+    whose only evidence is the global chi2, with every observable in the null range, is
+    ``none`` (``null_range``: the limit used)."""
+    named = [] if chosen is None else list(chosen.effects)
+    unnamed = None
+    if (chosen is not None and chosen.p_fit < ALPHA_FIT
+            and (explained_fraction(base, chosen) or 0.0) < EXPLAINED_FRACTION):
+        # no acceptable fit and much left: what is missing is not in the catalog
+        unnamed = chosen
+        named, chosen = [], None
+    verdict = ("none" if not evidence else named[0] if named else "unexplained")
+    null_range = None
+    if verdict == "unexplained" and unnamed is None and within_null_range(base, mismatches):
+        # only the global chi2 says anything, nothing is located and every observable
+        # sits where the harness's null campaigns sit: recordings noisier than stated
+        verdict, null_range = "none", NULL_REDCHI_MAX
+    verdict_fit = ("none" if chosen is None else "approximate"
+                   if chosen.p_fit < ALPHA_FIT else "acceptable")
+    return verdict, verdict_fit, named, chosen, unnamed, null_range
 
 
 def _side_nuisances(prob: Problem, base: FitResult, side: str) -> dict:

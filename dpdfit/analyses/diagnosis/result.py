@@ -14,7 +14,7 @@ from dpdfit.analyses.diagnosis.fitting import FitResult
 from dpdfit.analyses.diagnosis.verdict import ALPHA
 from dpdfit.core.display import Displayable
 
-__all__ = ["CONVENTIONS", "Diagnosis"]
+__all__ = ["CONVENTIONS", "Diagnosis", "next_measurement_sentence"]
 
 #: what the JSON's quantities mean
 CONVENTIONS = {"delta_bic": "BIC(effect) - BIC(baseline); negative favours the effect "
