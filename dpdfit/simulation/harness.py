@@ -27,6 +27,7 @@ command line is :mod:`dpdfit.cli.harness`.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import shutil
@@ -41,6 +42,8 @@ from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
+from dpdfit.simulation.closed_loop import (_named_correctly, ambiguity, close_loop,
+                                           loop_report_lines, loop_summary)
 from dpdfit.simulation.dispatch import run_jobs
 
 __all__ = ["harness_config", "concealed_effects", "PER_EFFECT", "NULLS", "PAIRS", "PLAN_SEED",
@@ -99,8 +102,10 @@ def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED
     return jobs
 
 
-def run_one(job: dict, workdir: str | None = None) -> dict:
-    """Simulate one harness campaign, diagnose it, compare with the truth."""
+def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> dict:
+    """Simulate one harness campaign, diagnose it, compare with the truth; with
+    ``closed_loop``, an ambiguous diagnosis's proposed measurement (and a random one)
+    is taken and diagnosed again (:func:`~dpdfit.simulation.closed_loop.close_loop`)."""
     from dpdfit.analyses.diagnosis.diagnose import diagnose
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     t0 = time.perf_counter()
@@ -122,7 +127,8 @@ def run_one(job: dict, workdir: str | None = None) -> dict:
            "redchi_before": _total_redchi(d.baseline), "redchi_after": _total_redchi(
                d.chosen or d.baseline),
            "ranking": [{k: r[k] for k in ("effect", "delta_bic", "p_value", "params",
-                                          "params_err")} for r in d.ranking[:4]]}
+                                          "params_err")} for r in d.ranking[:4]],
+           **ambiguity(d), "closed_loop": close_loop(job, d, workdir) if closed_loop else None}
     if concealed:
         out["truth_sizes"] = {e: get(e).truth(get(e).injected(v), truth, ctx=d.context)
                               for e, v in job["effects"].items()}
@@ -228,14 +234,15 @@ def _append_log(log: Path, record: dict) -> None:
 
 def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int | None = None,
                 scheduler: str | None = None, seed: int = PLAN_SEED, effects=None,
-                progress=None, log=None, pairs: int = PAIRS) -> dict:
+                progress=None, log=None, pairs: int = PAIRS, closed_loop: bool = True) -> dict:
     """Run the harness; returns the summary (see :func:`summarise`) with all runs.
 
     ``log``: path of a run log (JSON lines).  Every finished run is appended
     to it at once, so a stopped harness loses nothing; runs of the plan
     already in the log are not run again (re-running the same command resumes).
     ``progress``: None (a bar when stderr is a terminal), True, False, or a
-    callback ``progress(k_done, n_jobs)``.
+    callback ``progress(k_done, n_jobs)``.  ``closed_loop``: take the measurement
+    each ambiguous diagnosis proposes, and a random one, and diagnose again.
     """
     jobs = plan(per_effect, nulls, seed, effects, pairs)
     if workers is not None and workers < 1:
@@ -257,7 +264,8 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
         def failed(job, e):                 # reported as a run record, never dropped
             finished({**job, "error": f"{type(e).__name__}: {e}"})
 
-        run_jobs(run_one, todo, n_workers, scheduler, finished, failed)
+        fn = run_one if closed_loop else functools.partial(run_one, closed_loop=False)
+        run_jobs(fn, todo, n_workers, scheduler, finished, failed)
     # plan order, whatever order the runs finished in
     order = {_job_key(j): i for i, j in enumerate(jobs)}
     results.sort(key=lambda r: order[_job_key(r)])
@@ -274,12 +282,6 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
 def _num(v) -> float:
     """A number from a run record (``None``, JSON's NaN, becomes NaN)."""
     return float("nan") if v is None else float(v)
-
-
-def _named_correctly(r: dict) -> bool:
-    if "named_correctly" in r:
-        return bool(r["named_correctly"])
-    return r["verdict"] == r["concealed"]
 
 
 def _pulls(rs: list, effect: str) -> dict:
@@ -306,7 +308,8 @@ def _pulls(rs: list, effect: str) -> dict:
 def summarise(results: list) -> dict:
     """Confusion matrix, false-alarm rate, named correctly (singles, and both effects
     of pairs), recovery of each effect's main size (bias, pulls, their 1-sigma
-    coverage, over the runs that named it) and fit improvement; failed runs
+    coverage, over the runs that named it), fit improvement, ambiguity and the closed
+    loop (:func:`~dpdfit.simulation.closed_loop.loop_summary`); failed runs
     (records with ``error``) are counted apart and kept in ``runs``."""
     every, results = results, [r for r in results if "error" not in r]
     labels = sorted({r["concealed"] for r in results})
@@ -346,7 +349,7 @@ def summarise(results: list) -> dict:
             if pairs else None,
             "pairs_one_named": (sum(len(set(r.get("named") or []) & set(r["effects"])) >= 1
                                     for r in pairs) / len(pairs)) if pairs else None,
-            "recovery": recovery,
+            "recovery": recovery, **loop_summary(results),
             "median_redchi_before": float(np.median([r["redchi_before"] for r in conc]))
             if conc else None,
             "median_redchi_after": float(np.median([r["redchi_after"] for r in conc]))
@@ -380,6 +383,7 @@ def report(s: dict) -> str:
              f"  pairs, both named: {num(s.get('pairs_both_named'))}, at least one: "
              f"{num(s.get('pairs_one_named'))}",
              f"  false-alarm rate (nulls): {num(s['false_alarm_rate'])}",
+             *loop_report_lines(s),
              f"  diagnosis seconds: median {num(s.get('median_seconds_diagnosis'))}, max "
              f"{num(s.get('max_seconds_diagnosis'))}",
              f"  median reduced chi2 before -> after: {num(s['median_redchi_before'])} -> "

@@ -5,7 +5,10 @@ Supplement S2), its ``phi(1)`` within the gate day (over hours).  The gate
 day's truth is the last amplitude run's drift value with the last phase
 run's; the predistortion table is fitted to the gate day's run, to an older
 one (``stale_calibration``) or to an unrecorded run of the AOM before it
-drifted (``calibration_drift``).
+drifted (``calibration_drift``).  Runs of ``further`` (a further amplitude or
+phase run, :attr:`CampaignConfig.further`) come after the campaign's own runs,
+drifting on from the last, each from its own stream: the campaign's runs, the
+table and the gate day are drawn as without them.
 """
 
 from __future__ import annotations
@@ -58,7 +61,8 @@ def _amplitude_runs(cfg, rng, t0, grid):
     inner = np.sort(rng.uniform(0, cfg.amp_span_days, cfg.n_amp_runs - 2))
     days = np.concatenate([[0.0], inner, [cfg.amp_span_days]])
     days = np.sort(days + rng.uniform(0, 2 / 24, days.size))  # session start jitter
-    A_corr = cfg.A_corr_mean + ou_series(days, cfg.A_corr_sigma, cfg.A_corr_tau_days, rng)
+    A_corr = raw = cfg.A_corr_mean + ou_series(days, cfg.A_corr_sigma, cfg.A_corr_tau_days,
+                                               rng)
     if cfg.injected:
         k = table_index(cfg)
         rec = days[k] + cfg.recording_hours[0] / 24
@@ -72,7 +76,45 @@ def _amplitude_runs(cfg, rng, t0, grid):
         df.insert(0, "run", f"R{k + 1:03d}")
         rows.append(df)
         truth.append({"run": f"R{k + 1:03d}", "day": float(d), "A_corr": float(ac)})
+    _further_amplitude_runs(cfg, t0, grid, days, float(raw[-1]), rows, truth)
     return days, A_corr, rows, truth
+
+
+def _ou_step(x: float, dt: float, sigma: float, tau: float, rng) -> float:
+    """The drift ``dt`` after a value ``x`` (the step of :func:`ou_series`)."""
+    a = np.exp(-dt / tau)
+    return a * x + sigma * np.sqrt(1 - a * a) * rng.standard_normal()
+
+
+def _further_amplitude_runs(cfg, t0, grid, days, raw_last, rows, truth) -> None:
+    """The ``further`` amplitude runs, appended to ``rows`` and ``truth``.
+
+    Each is taken "now": one to two hours after the previous run (or after the
+    recordings, if no run followed them), its ``A_corr`` drifting on from the last
+    run's, moved by the injected effects like any run; ``days`` and the runs before
+    stay as they are (the table's run, the gate day).
+    """
+    k_day = table_index(cfg)
+    rec = days[k_day] + cfg.recording_hours[0] / 24
+    last = float(days[-1])
+    d = max(last, float(days[k_day]) + cfg.recording_hours[-1] / 24)
+    x, k = raw_last - cfg.A_corr_mean, cfg.n_amp_runs
+    for j, item in enumerate(cfg.further):
+        if item[0] != "amplitude_run":
+            continue
+        rng = rng_for(cfg, 8, j)
+        d += (1 + rng.uniform(0, 1)) / 24
+        x, last = _ou_step(x, d - last, cfg.A_corr_sigma, cfg.A_corr_tau_days, rng), d
+        ac = (cfg.A_corr_mean + x) * (1 + float(_aom_drift(
+            cfg, np.array([d - days[k_day]]), np.array([d - rec]))[0]))
+        aom = BraggAOM(A_corr=float(ac), phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
+        df = simulate_amplitude_run(aom, grid, rng, cfg.photodiode)
+        _detector(cfg, df)
+        df.insert(0, "timestamp", _iso(t0, d))
+        df.insert(0, "run", f"R{k + 1:03d}")
+        rows.append(df)
+        truth.append({"run": f"R{k + 1:03d}", "day": d, "A_corr": float(ac), "further": True})
+        k += 1
 
 
 def _phase_runs(cfg, rng, t0, grid, gate_day, A_corr_day):
@@ -88,7 +130,29 @@ def _phase_runs(cfg, rng, t0, grid, gate_day, A_corr_day):
         rows.append(df)
         truth.append({"run": f"P{k + 1:03d}", "hours_after_amplitude_run": float(h),
                       "phi_at_1": float(p1)})
+    _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, truth)
     return phi1, rows, truth
+
+
+def _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, truth):
+    """The ``further`` phase runs, appended to ``rows`` and ``truth``: each one step of
+    the phase-run schedule after the previous, ``phi(1)`` drifting on from there.  The
+    day's truth stays the last phase run of the campaign (the model's run)."""
+    step = cfg.phase_span_hours / max(cfg.n_phase_runs - 1, 1)
+    h, x, k = float(hours[-1]), float(phi1[-1]) - cfg.phi1_mean, cfg.n_phase_runs
+    for j, item in enumerate(cfg.further):
+        if item[0] != "phase_run":
+            continue
+        rng = rng_for(cfg, 8, j)
+        x, h = _ou_step(x, step, cfg.phi1_sigma, cfg.phi1_tau_hours, rng), h + step
+        aom = BraggAOM(A_corr=A_corr_day, phi_1=cfg.phi1_mean + x, eta_ref=cfg.eta_ref)
+        df = simulate_phase_run(aom, grid, rng, cfg.heterodyne_phase)
+        df.insert(0, "timestamp", _iso(t0, gate_day + h / 24))
+        df.insert(0, "run", f"P{k + 1:03d}")
+        rows.append(df)
+        truth.append({"run": f"P{k + 1:03d}", "hours_after_amplitude_run": h,
+                      "phi_at_1": cfg.phi1_mean + x, "further": True})
+        k += 1
 
 
 def _table_run(cfg, days, A_corr, amp_rows, grid, gate_day):

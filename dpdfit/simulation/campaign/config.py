@@ -148,6 +148,13 @@ class CampaignConfig:
     #: effects of the diagnosis's catalog injected with the given values, by their own
     #: hooks: ``((name, ((param, value), ...)), ...)`` (:meth:`inject`)
     injected: tuple = ()
+    #: recordings added after the campaign (one further measurement each, e.g. of the
+    #: closed loop, :mod:`dpdfit.simulation.closed_loop`): ``("amplitude_run",)``,
+    #: ``("phase_run",)``, ``("scan", A, dpd, shots_pop, shots_par)`` or
+    #: ``("time_scan", A, dpd, shots, points)`` (shots per point; points with ``t = 0``,
+    #: as ``time_scan_points``; parity shots per phase).  Item ``j`` draws only from its own
+    #: stream (purpose 8, ``j``), so every other recording is drawn as without it.
+    further: tuple = ()
 
     def inject(self, effects: dict) -> "CampaignConfig":
         """Config with catalog effects injected: ``{name: {param: value}}`` (values in
@@ -197,6 +204,7 @@ def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:
     """The random stream of one purpose: ``SeedSequence([cfg.seed, *key])``.
 
     Keys: 1 calibration drift, 2 amplitude run, 3 phase run, 4 trace, 5 gates,
-    7 the drifted calibration behind the table (``calibration_drift``).
+    7 the drifted calibration behind the table (``calibration_drift``), 8 the
+    further recordings (``further``, by index).
     """
     return np.random.default_rng(np.random.SeedSequence([cfg.seed, *key]))

@@ -4,7 +4,9 @@ Each setting (gate amplitude, DPD flag) drives the exact gate engine
 (:mod:`dpdfit.models.gate_sim`) with the optical tones the day's AOM
 produces; its ``xi0`` is calibrated with a relative error, and every scan
 carries a laser-power jitter (plus any systematic power offset).  All draws
-come from one random stream (purpose 5), in a fixed order.
+come from one random stream (purpose 5), in a fixed order; the ``further``
+scans and time scans (:attr:`CampaignConfig.further`) come after, each from
+its own stream, so that adding one leaves every other row as it was.
 """
 
 from __future__ import annotations
@@ -68,19 +70,68 @@ def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
                          "apparent_fidelity_mean_over_scans": float(np.mean(fids_app))})
 
 
-def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out):
-    """Time scan at ``cfg.time_scan_A`` of one flag: rows appended to ``out["time"]``."""
-    A = cfg.time_scan_A
+def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, A=None, shots=_SCAN_SHOTS,
+               points=None):
+    """Time scan at ``A`` (``cfg.time_scan_A``) of one flag: rows appended to ``out["time"]``."""
+    A = cfg.time_scan_A if A is None else A
+    points = cfg.time_scan_points if points is None else points
     xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
-    t = np.linspace(0, cfg.time_scan_max / xi_cal, cfg.time_scan_points)
+    t = np.linspace(0, cfg.time_scan_max / xi_cal, points)
     # a time scan is a gate run: it carries the systematic power offset
     # (no per-scan jitter is drawn, which keeps older campaigns' bytes)
     res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
                                     scan_times=t, **_engine(cfg, A, cfg.gate_power_offset_db))
-    counts = res.sample(rng, 0, 0, shots_scan=_SCAN_SHOTS)
+    counts = res.sample(rng, 0, 0, shots_scan=shots)
     for ti, cnt in zip(t, counts.scan_counts):
         out["time"].append({"A": A, "dpd": d, "t_us": ti * 1e6, "n00": int(cnt[0]),
-                            "n01_10": int(cnt[1]), "n11": int(cnt[2]), "shots": _SCAN_SHOTS})
+                            "n01_10": int(cnt[1]), "n11": int(cnt[2]), "shots": shots})
+
+
+def _rate(cfg, rng, eta_Omega0, A, d, n, b, c, out) -> None:
+    """The gate-rate calibration of a further recording's setting, unless it has one
+    (a new setting's ``xi0`` is calibrated, with its error, and recorded)."""
+    if any(r["A"] == A and r["dpd"] == d for r in out["rates"]):
+        return
+    xi_cal = gate_sim.calibrate_xi0(b, c, n, eta_Omega0) * (
+        1 + cfg.xi0_rel_err * rng.standard_normal())
+    out["rates"].append({"A": A, "dpd": d, "xi0_khz": xi_cal / 1e3,
+                         "xi0_err_khz": cfg.xi0_rel_err * xi_cal / 1e3})
+
+
+def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out) -> None:
+    """One further scan of a setting (the next scan label there): population rows if
+    ``shots_pop``, parity rows if ``shots_par``; a scan of no shots writes no rows."""
+    xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
+    label = 1 + max((r["scan"] for r in out["pop"] + out["par"]
+                     if r["A"] == A and r["dpd"] == d), default=0)
+    eps_db = cfg.gate_power_offset_db + cfg.power_jitter_db * rng.standard_normal()
+    res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
+                                    **_engine(cfg, A, eps_db))
+    counts = res.sample(rng, shots_pop, shots_par)
+    if shots_pop:
+        out["pop"].append({"A": A, "dpd": d, "scan": label, "n00": counts["n00"],
+                           "n01_10": counts["n01_10"], "n11": counts["n11"],
+                           "n_even": counts["n00"] + counts["n11"], "shots": shots_pop})
+    if shots_par:
+        for ph, k in zip(_PHASES, counts["parity_even"]):
+            out["par"].append({"A": A, "dpd": d, "scan": label, "phase_rad": float(ph),
+                               "n_even": int(k), "shots": shots_par})
+
+
+def _further_gates(cfg, aom, lut, eta_Omega0, out) -> None:
+    """The ``further`` scans and time scans, each from its own stream, appended to ``out``."""
+    for j, item in enumerate(cfg.further):
+        if item[0] not in ("scan", "time_scan"):
+            continue
+        rng = rng_for(cfg, 8, j)
+        A, d = float(item[1]), int(item[2])
+        n, b, c = gate_spectrum(cfg, aom, lut, A, d)
+        _rate(cfg, rng, eta_Omega0, A, d, n, b, c, out)
+        if item[0] == "scan":
+            _further_scan(cfg, rng, eta_Omega0, A, d, int(item[3]), int(item[4]), n, b, c, out)
+        else:
+            _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, A=A, shots=int(item[3]),
+                       points=int(item[4]))
 
 
 def gate_tables(cfg: CampaignConfig, aom, lut, progress):
@@ -100,5 +151,6 @@ def gate_tables(cfg: CampaignConfig, aom, lut, progress):
         for d in (0, 1):
             _time_scan(cfg, rng, eta_Omega0, d, *spectra[(cfg.time_scan_A, d)], out)
             p.update()
+    _further_gates(cfg, aom, lut, eta_Omega0, out)
     return (pd.DataFrame(out["pop"]), pd.DataFrame(out["par"]), pd.DataFrame(out["rates"]),
             pd.DataFrame(out["time"]), {"eta_Omega0": eta_Omega0, "settings": out["truth"]})

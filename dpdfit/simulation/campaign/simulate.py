@@ -72,6 +72,8 @@ def _jsonable_config(cfg: CampaignConfig) -> dict:
     d = {}
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
+        if f.name == "further" and not v:
+            continue        # keeps the truth.json of campaigns without them byte for byte
         if dataclasses.is_dataclass(v):
             v = {k: (abs(x) if isinstance(x, complex) else x)
                  for k, x in dataclasses.asdict(v).items()}
