@@ -124,8 +124,8 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
            "named_correctly": sorted(d.named) == concealed if concealed
            else d.verdict == "none",
            "seconds_simulation": t_sim, "seconds_diagnosis": d.seconds,
-           "redchi_before": _total_redchi(d.baseline), "redchi_after": _total_redchi(
-               d.chosen or d.baseline),
+           "redchi_before": _total_redchi(d.baseline), "redchi_by_observable": d.redchi_before,
+           "redchi_after": _total_redchi(d.chosen or d.baseline),
            "ranking": [{k: r[k] for k in ("effect", "delta_bic", "p_value", "params",
                                           "params_err")} for r in d.ranking[:4]],
            **ambiguity(d), "closed_loop": close_loop(job, d, workdir) if closed_loop else None}
