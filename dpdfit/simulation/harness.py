@@ -116,7 +116,9 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
         truth = simulate_campaign(folder, seed=job["seed"], config=cfg, progress=False)
         t_sim = time.perf_counter() - t0
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
+        c0 = time.process_time()
         d = diagnose(folder, progress=False)          # the harness has its own bar
+        cpu = time.process_time() - c0                # a paused worker shows wall >> CPU
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     concealed = sorted(job["effects"])
@@ -124,8 +126,10 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
            "named_correctly": sorted(d.named) == concealed if concealed
            else d.verdict == "none",
            "seconds_simulation": t_sim, "seconds_diagnosis": d.seconds,
-           "redchi_before": _total_redchi(d.baseline), "redchi_by_observable": d.redchi_before,
-           "redchi_after": _total_redchi(d.chosen or d.baseline),
+           "cpu_seconds_diagnosis": cpu,
+           "redchi_before": float(d.baseline.chi2 / d.baseline.dof),
+           "redchi_by_observable": d.redchi_before,
+           "redchi_after": float((d.chosen or d.baseline).chi2 / (d.chosen or d.baseline).dof),
            "ranking": [{k: r[k] for k in ("effect", "delta_bic", "p_value", "params",
                                           "params_err")} for r in d.ranking[:4]],
            **ambiguity(d), "closed_loop": close_loop(job, d, workdir) if closed_loop else None}
@@ -150,10 +154,6 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
                 out["fit_params"] = {m: fs["value"]}
                 out["fit_params_err"] = {m: fs["error"]}
     return out
-
-
-def _total_redchi(f) -> float:
-    return float(f.chi2 / f.dof)
 
 
 class _silent:
