@@ -176,3 +176,15 @@ def test_form_spread_and_misfit_enter_the_error():
     c, err, spread = honest_cost((0.002, 1e-4), {"catalog": 0.002, "other": 0.003},
                                  "catalog", forms, 1.0)
     assert c == 0.002 and spread > 0 and err > 1e-4
+
+
+@pytest.mark.parametrize("k_true, q", [(-0.1, 1.0), (0.08, 1.0), (-0.06, 1.5), (0.12, 0.7)])
+def test_detector_size_is_the_reading_error_at_full_power(k_true, q):
+    """The fitted k is relative to the curve's largest reading; the size is the reading
+    error at the largest true power: a detector reading P (1 + k_true (P/P_full)^q) has
+    k = k_true (1 + k_true)^q in reading units, and its size is k_true."""
+    from dpdfit.analyses.diagnosis.effects import EFFECTS
+    k_read = k_true * (1 + k_true) ** q
+    size = EFFECTS["detector_nonlinearity"].size_values(
+        None, {"detector_nonlinearity.k": k_read, "detector_nonlinearity.q": q})
+    assert size["k_det"][0] == pytest.approx(k_true, rel=1e-6)

@@ -9,7 +9,9 @@ run-to-run signature (unlike a stale calibration, which moves the runs taken
 after the recordings).
 
 Priors: flat, ``|k| <= 0.5``, ``0.3 <= q <= 4``.  Size: ``k_det``, the relative
-reading error at the curve's maximum power, and the exponent ``q``.
+reading error at the curve's maximum (true) power, reading / true - 1 there (``k``
+itself is relative to the largest reading: ``k_det = k / (1 + k)`` for ``q = 1``), and
+the exponent ``q``.
 """
 
 from __future__ import annotations
@@ -67,7 +69,12 @@ class DetectorNonlinearity(Effect):
 
     def size_values(self, ctx, p):
         v = self.values(p) or {}
-        return {"k_det": (v.get("k", 0.0), "1", "relative reading error at the maximum power"),
+        k, q = v.get("k", 0.0), v.get("q", 1.0)
+        # k is relative to the curve's largest *reading*; the lab's figure is the reading
+        # error at the largest *true* power, whose reading that is: read/true - 1 there
+        k_full = 1.0 / float(true_over_read(np.array(1.0), k, q)) - 1.0
+        return {"k_det": (k_full, "1", "relative reading error at the maximum power "
+                                       "(reading / true power - 1 at full drive)"),
                 "q": (v.get("q", 1.0), "1", "exponent of the reading error")}
 
     def inject_photodiode(self, v, power, p_full):
