@@ -148,7 +148,9 @@ def test_swap_alternatives_keep_the_candidates_in_reach():
 def test_additions_decisive_only_before_tempering_are_alternatives():
     f_add = SimpleNamespace(effects=("a", "c"))
     f_far = SimpleNamespace(effects=("a", "d"))
-    steps = [([(_entry("a+c", -40, -6), f_add), (_entry("a+d", -40, 12), f_far)], None)]
+    f_weak = SimpleNamespace(effects=("a", "e"))
+    steps = [([(_entry("a+c", -40, -7), f_add), (_entry("a+d", -40, 12), f_far),
+               (_entry("a+e", -40, -3), f_weak)], None)]
     alts = addition_alternatives(steps, ["a"])
     assert [(a["effect"], a["named"], a["replaces"]) for a, _ in alts] == [("c", ["a", "c"],
                                                                             None)]

@@ -12,8 +12,8 @@ forms leave (:mod:`~dpdfit.analyses.diagnosis.tempering`):
   added;
 * an **addition**: a further effect that the raw likelihood would have
   added (decisive before tempering) and that the tempered evidence still
-  favours (tempered delta BIC below 0), but not decisively -- "perhaps also
-  spam_offset".
+  favours strongly (tempered delta BIC at most ``-ADDITION_IN_REACH``), but not
+  decisively -- "perhaps also spam_offset".
 
 Each alternative is a dict: ``effect`` (the candidate), ``delta_bic`` (its BIC
 minus the named hypothesis's, raw: > 0 is worse; for an addition, the BIC of
@@ -34,7 +34,12 @@ import numpy as np
 from dpdfit.analyses.diagnosis.tempering import tempered_gap
 from dpdfit.analyses.diagnosis.verdict import ALPHA, BIC_DECISIVE, decisive
 
-__all__ = ["swap_alternatives", "addition_alternatives", "alternatives_sentence",
+#: an addition the tempered evidence does not decide is in reach when it still favours
+#: it "strongly" on Kass & Raftery's scale (a BIC difference of 6-10; 2-6 is "positive",
+#: the weakest evidence worth more than a mention): the simpler named set is the default
+ADDITION_IN_REACH = 6.0
+
+__all__ = ["ADDITION_IN_REACH", "swap_alternatives", "addition_alternatives", "alternatives_sentence",
            "shifted_hypothesis", "propose", "POORLY_CONSTRAINED"]
 
 log = logging.getLogger(__name__)
@@ -79,7 +84,8 @@ def addition_alternatives(steps: list, named: list) -> list:
         if added is None:
             for entry, f in entries:
                 if (entry["delta_bic"] < -BIC_DECISIVE and entry["p_value"] * n < ALPHA
-                        and entry.get("delta_bic_tempered", entry["delta_bic"]) < 0):
+                        and entry.get("delta_bic_tempered", entry["delta_bic"])
+                        <= -ADDITION_IN_REACH):
                     c = f.effects[-1]
                     out.append((_entry(c, entry["delta_bic"], entry["delta_bic_tempered"],
                                        entry.get("tempering", 1.0), None, list(named) + [c]),
