@@ -190,3 +190,19 @@ def test_detector_size_is_the_reading_error_at_full_power(k_true, q):
     size = EFFECTS["detector_nonlinearity"].size_values(
         None, {"detector_nonlinearity.k": k_read, "detector_nonlinearity.q": q})
     assert size["k_det"][0] == pytest.approx(k_true, rel=1e-6)
+
+
+def test_the_report_says_what_would_decide_or_why_nothing_can():
+    from dpdfit.analyses.diagnosis.result import next_measurement_sentence
+    none = next_measurement_sentence({"what": None, "reason": "no calibration runs to "
+                                                              "extend and no gate settings"})
+    assert none == ("no further measurement could be proposed: no calibration runs to "
+                    "extend and no gate settings")
+    one = next_measurement_sentence({"what": "amplitude_run", "settings": {"runs": 1},
+                                     "expected_delta_bic": 16.2, "lab_seconds": 300,
+                                     "separates": ["stale_calibration",
+                                                   "detector_nonlinearity"]})
+    assert one.startswith("the measurement that would decide: amplitude run (runs = 1, "
+                          "about 5 min of lab time)")
+    assert "between stale_calibration and detector_nonlinearity" in one
+    assert "\n" not in one
