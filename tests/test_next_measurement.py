@@ -22,7 +22,7 @@ from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES, LabTimes
 
 BUNDLED_CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
 CONTRACT_KEYS = {"what", "settings", "expected_delta_bic", "separates", "lab_seconds",
-                 "per_hour", "menu"}
+                 "per_hour", "menu", "decisive"}
 GATE_KINDS = {"populations", "parity", "time_scan"}
 
 
@@ -94,8 +94,9 @@ def test_amplitude_run_separation_is_the_asimov_chi2(tone_prob):
 def test_identical_hypotheses_separate_by_nothing(tone_prob):
     nm = propose_next_measurement(tone_prob, [DETECTOR, DETECTOR])
     assert isinstance(nm, NextMeasurement)
-    assert nm.what in KINDS and nm.reason is None
+    assert nm.what in KINDS and nm.reason.startswith("no recording of the menu separates")
     assert nm.expected_delta_bic == 0.0 and nm.per_hour == 0.0
+    assert nm.to_dict()["decisive"] is False
     assert all(m["expected_delta_bic"] == pytest.approx(0.0, abs=1e-12) for m in nm.menu)
     # nothing separates them: the shortest item is named, and the sentence says so
     assert nm.lab_seconds == min(m["lab_seconds"] for m in nm.menu)
@@ -122,7 +123,7 @@ def test_to_dict_has_exactly_the_contract_keys(tone_prob):
     nm = propose_next_measurement(tone_prob, [BASE, DETECTOR])
     d = nm.to_dict()
     assert set(d) == CONTRACT_KEYS
-    assert all(set(m) == CONTRACT_KEYS - {"menu"} for m in d["menu"])
+    assert all(set(m) - {"reason"} == CONTRACT_KEYS - {"menu"} for m in d["menu"])
     assert all(m["what"] in KINDS for m in d["menu"])
     s = nm.sentence()
     assert s.startswith("Next: spectra at A = ") and s.endswith(".") and s.count(". ") == 0
@@ -185,10 +186,14 @@ def test_gate_side_difference_picks_the_parity_scan_where_it_differs():
     N = 625 * ERROR_MODEL.parity_phases                  # typical shots per scan x phases
     assert nm.settings["shots"] == N
     C = 0.98 - 0.01                                       # the pair's mean contrast
-    assert nm.expected_delta_bic == pytest.approx(0.02 ** 2 / (2 * (1 - 0.75 * C ** 2) / N))
+    one_scan = 0.02 ** 2 / (2 * (1 - 0.75 * C ** 2) / N)
+    # repeated until decisive: ceil(10 / one scan) scans, each with its own noise
+    k = int(np.ceil(10.0 / one_scan))
+    assert nm.settings["scans"] == k and nm.lab_seconds == pytest.approx(k * N * 0.01)
+    assert nm.expected_delta_bic == pytest.approx(k * one_scan)
     pops = [m for m in nm.menu if m["what"] == "populations"]
     assert len(pops) == 2 and all(m["expected_delta_bic"] == 0.0 for m in pops)
-    assert nm.lab_seconds == pytest.approx(N * LAB_TIMES.shot_s)
+    assert nm.lab_seconds == pytest.approx(k * N * LAB_TIMES.shot_s)
 
 
 @pytest.mark.slow

@@ -180,6 +180,8 @@ class LabTimes:
     #: one experimental shot: Doppler and sideband cooling (several ms) dominate the
     #: 150-310 us gate and ~1 ms detection, so ~10 ms per shot (100 shots/s)
     shot_s: float = 0.01
+    #: the longest recording the diagnosis proposes (repeats included): a working day
+    max_seconds: float = 8 * 3600.0
 
 
 #: the lab times of :class:`LabTimes` (the menu of next measurements)

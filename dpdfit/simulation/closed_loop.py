@@ -131,6 +131,13 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
             raise InputError("spectra: no amplitudes given")
         return dataclasses.replace(cfg, trace_amplitudes=tuple(cfg.trace_amplitudes)
                                    + tuple(new))
+    scans = _positive_int(st.get("scans", 1), "scans")
+    if what in ("populations", "parity", "time_scan") and scans > 1:
+        # repeated scans, each with its own random power error: one after the other
+        one = {**measurement, "settings": {**st, "scans": 1}}
+        for _ in range(scans):
+            cfg = extend_config(cfg, one)
+        return cfg
     if what in ("populations", "parity"):
         A, d, shots = _setting(cfg, st)
         if what == "parity":

@@ -190,6 +190,8 @@ def next_measurement_sentence(nxt: dict) -> str:
     """One sentence: the recording that would decide, or why none could be proposed."""
     if not nxt.get("what"):
         return f"no further measurement could be proposed: {nxt.get('reason', 'unknown')}"
+    if nxt.get("decisive") is False and nxt.get("reason"):
+        return f"no single recording would decide: {nxt['reason']}"
     st = nxt.get("settings") or {}
     how = ", ".join(f"{k} = {v if not isinstance(v, list) else ', '.join(map(str, v))}"
                     for k, v in st.items())
