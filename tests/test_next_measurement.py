@@ -17,6 +17,7 @@ import pytest
 
 from dpdfit.analyses.diagnosis.fitting import FitResult
 from dpdfit.analyses.diagnosis.next_measurement import (KINDS, NextMeasurement,
+                                                        decisive_target,
                                                         propose_next_measurement)
 from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES, LabTimes
 
@@ -85,10 +86,13 @@ def test_amplitude_run_separation_is_the_asimov_chi2(tone_prob):
     sa = (3.0, -1.0, 0.5)[:len(tone_prob.tone.drift_modes)]
     nm = propose_next_measurement(tone_prob, [_stale(sa), DETECTOR])
     run = next(m for m in nm.menu if m["what"] == "amplitude_run")
-    assert run["expected_delta_bic"] == pytest.approx(float(np.sum(np.square(sa))))
-    assert run["settings"] == {"runs": 1}
-    assert run["per_hour"] == pytest.approx(run["expected_delta_bic"]
-                                            / (LAB_TIMES.amplitude_run_s / 3600))
+    one = float(np.sum(np.square(sa)))                  # one run: the Asimov chi2
+    k = int(np.ceil(decisive_target() / one))           # repeated until it decides
+    assert run["expected_delta_bic"] == pytest.approx(k * one)
+    assert run["settings"] == {"runs": k}
+    # the rate of separation per lab hour does not change with the repeats
+    assert run["per_hour"] == pytest.approx(one / (LAB_TIMES.amplitude_run_s / 3600))
+    assert run["lab_seconds"] == pytest.approx(k * LAB_TIMES.amplitude_run_s)
 
 
 def test_identical_hypotheses_separate_by_nothing(tone_prob):
@@ -136,7 +140,10 @@ def test_lab_times_rank_the_menu(tone_prob):
     assert propose_next_measurement(tone_prob, hyps).what == "spectra"
     slow = LabTimes(spectrum_trace_s=30 * 86400.0)
     nm = propose_next_measurement(tone_prob, hyps, lab=slow)
-    assert nm.what == "amplitude_run" and nm.expected_delta_bic == pytest.approx(16.0)
+    # one run separates by 16, two by 32: the first that decides with 95 % probability
+    assert decisive_target() == pytest.approx(27.14, abs=0.01)
+    assert nm.what == "amplitude_run" and nm.expected_delta_bic == pytest.approx(32.0)
+    assert nm.settings == {"runs": 2}
 
 
 def test_nothing_buildable_gives_a_reason():
@@ -188,7 +195,7 @@ def test_gate_side_difference_picks_the_parity_scan_where_it_differs():
     C = 0.98 - 0.01                                       # the pair's mean contrast
     one_scan = 0.02 ** 2 / (2 * (1 - 0.75 * C ** 2) / N)
     # repeated until decisive: ceil(10 / one scan) scans, each with its own noise
-    k = int(np.ceil(10.0 / one_scan))
+    k = int(np.ceil(decisive_target() / one_scan))
     assert nm.settings["scans"] == k and nm.lab_seconds == pytest.approx(k * N * 0.01)
     assert nm.expected_delta_bic == pytest.approx(k * one_scan)
     pops = [m for m in nm.menu if m["what"] == "populations"]

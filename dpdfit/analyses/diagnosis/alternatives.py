@@ -142,8 +142,9 @@ def propose(prob, chosen, alternatives: list, named_effects: list) -> dict:
     if len(hyps) == 1:
         return {"what": None, "reason": "no parameter of the poorly constrained effect "
                                         "has an error to move it by"}
+    tau = max([a["tempering"] for a, _ in alternatives] or [1.0])
     try:
-        return propose_next_measurement(prob, hyps).to_dict()
+        return propose_next_measurement(prob, hyps, tempering=tau).to_dict()
     except Exception as exc:          # the verdict stands whatever the proposal does
         log.warning("no next measurement could be proposed: %s", exc)
         return {"what": None, "reason": f"the menu's simulation failed: "

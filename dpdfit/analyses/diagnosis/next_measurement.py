@@ -50,6 +50,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.stats import norm
 
 from dpdfit.analyses.diagnosis.measurement_menu import (BUILDERS, RUN_AMPLITUDES,
                                                         SPECTRA_COUNTS, SPECTRA_GRID,
@@ -57,7 +58,8 @@ from dpdfit.analyses.diagnosis.measurement_menu import (BUILDERS, RUN_AMPLITUDES
 from dpdfit.analyses.diagnosis.verdict import BIC_DECISIVE
 from dpdfit.core.defaults import LAB_TIMES
 
-__all__ = ["NextMeasurement", "propose_next_measurement", "KINDS", "SPECTRA_GRID",
+__all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
+           "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID",
            "SPECTRA_COUNTS", "RUN_AMPLITUDES"]
 
 #: what a proposal may be
@@ -103,7 +105,7 @@ class NextMeasurement:
         if self.what is None:
             return {"what": None, "reason": self.reason}
         out = {k: getattr(self, k) for k in _KEYS}
-        out["decisive"] = bool(self.expected_delta_bic >= BIC_DECISIVE)
+        out["decisive"] = bool(self.reason is None)
         if self.reason:
             out["reason"] = self.reason
         out["menu"] = list(self.menu)
@@ -124,7 +126,24 @@ class NextMeasurement:
                 f"{_number(self.expected_delta_bic)}.")
 
 
-def propose_next_measurement(prob, hypotheses: list, lab=None) -> NextMeasurement:
+#: probability with which the proposed recording should make the tempered delta BIC
+#: decisive (``BIC_DECISIVE``) once taken
+DECIDE_PROBABILITY = 0.95
+
+
+def decisive_target(tempering: float = 1.0, probability: float = DECIDE_PROBABILITY
+                    ) -> float:
+    """The expected delta chi2 a recording must add so that its realised value, divided
+    by the dispersion of the evidence ``tempering``, exceeds ``BIC_DECISIVE`` with
+    ``probability``: the realised difference scatters about its expectation ``E`` with
+    variance ``4 E tempering``, so ``E - z 2 sqrt(E tempering) = BIC_DECISIVE tempering``,
+    ``E = tempering (z + sqrt(z^2 + BIC_DECISIVE))^2`` (27 for 95 % and no tempering)."""
+    z = float(norm.ppf(probability))
+    return float(tempering * (z + np.sqrt(z * z + BIC_DECISIVE)) ** 2)
+
+
+def propose_next_measurement(prob, hypotheses: list, lab=None,
+                             tempering: float = 1.0) -> NextMeasurement:
     """The single further recording that best separates ``hypotheses`` (module doc).
 
     Parameters
@@ -136,6 +155,10 @@ def propose_next_measurement(prob, hypotheses: list, lab=None) -> NextMeasuremen
         hypothesis with a poorly constrained parameter moved by its error.
     lab : dpdfit.core.defaults.LabTimes, optional
         Lab time of each recording (default :data:`~dpdfit.core.defaults.LAB_TIMES`).
+    tempering : float
+        The dispersion of the evidence between the hypotheses (>= 1): the diagnosis
+        divides the new recording's chi2 difference by about as much, so the
+        recording must add that much more (:func:`decisive_target`).
 
     Returns
     -------
@@ -157,10 +180,11 @@ def propose_next_measurement(prob, hypotheses: list, lab=None) -> NextMeasuremen
                          "per_hour": delta / (seconds / 3600.0)})
     if not menu:
         return NextMeasurement(None, reason=_why_none(prob))
-    menu = [_to_decisive(m, lab) for m in menu]
+    target = decisive_target(max(tempering, 1.0))
+    menu = [_to_decisive(m, lab, target) for m in menu]
     best = max(menu, key=lambda m: (m["decisive"], -m["lab_seconds"] if m["decisive"]
                                     else m["per_hour"], -m["lab_seconds"]))
-    if best["expected_delta_bic"] < BIC_DECISIVE:
+    if best["expected_delta_bic"] < target:
         best = {k: v for k, v in best.items() if k != "decisive"}
         return NextMeasurement(menu=menu, reason=(
             f"no recording of the menu separates them within "
@@ -169,17 +193,17 @@ def propose_next_measurement(prob, hypotheses: list, lab=None) -> NextMeasuremen
     return NextMeasurement(menu=menu, **{k: v for k, v in best.items() if k != "decisive"})
 
 
-def _to_decisive(m: dict, lab) -> dict:
-    """Menu item ``m`` repeated until its expected delta BIC reaches ``BIC_DECISIVE``
+def _to_decisive(m: dict, lab, target: float = BIC_DECISIVE) -> dict:
+    """Menu item ``m`` repeated until its expected delta BIC reaches ``target``
     (its separation grows with the repeats: independent runs, traces or scans, each
     with its own noise and power error), at most ``lab.max_seconds`` of lab time; the
     smallest unit when one already reaches it.  Spectra repeat their amplitudes (a
     repeated amplitude is recorded a hair apart)."""
     delta, secs = m["expected_delta_bic"], m["lab_seconds"]
-    m = {**m, "decisive": bool(delta >= BIC_DECISIVE)}
-    if delta >= BIC_DECISIVE or delta <= 0 or secs <= 0:
+    m = {**m, "decisive": bool(delta >= target)}
+    if delta >= target or delta <= 0 or secs <= 0:
         return m
-    k = int(min(np.ceil(BIC_DECISIVE / delta), max(lab.max_seconds // secs, 1)))
+    k = int(min(np.ceil(target / delta), max(lab.max_seconds // secs, 1)))
     if k <= 1:
         return m
     st = dict(m["settings"])
@@ -190,7 +214,7 @@ def _to_decisive(m: dict, lab) -> dict:
     else:
         st["scans"] = k * int(st.get("scans", 1))
     return {**m, "settings": st, "expected_delta_bic": k * delta, "lab_seconds": k * secs,
-            "per_hour": m["per_hour"], "decisive": bool(k * delta >= BIC_DECISIVE)}
+            "per_hour": m["per_hour"], "decisive": bool(k * delta >= target)}
 
 
 # ----------------------------------------------------------------- text
