@@ -201,7 +201,8 @@ def test_reduced_harness_runs_and_names_most_concealed_effects():
     which need the larger run of ``dpdfit harness`` (report committed as
     ``benchmarks/harness_report.json``; measured values on the documentation's evidence page).
     """
-    s = run_harness(per_effect=1, nulls=1, workers=2, seed=11)
+    # the closed loop has its own tests (test_closed_loop.py): not re-run here
+    s = run_harness(per_effect=1, nulls=1, workers=2, seed=11, closed_loop=False)
     assert s["n_runs"] == len(concealed_effects()) + 1
     labels = set(EFFECTS) | {"none", "unexplained"}
     for r in s["runs"]:

@@ -27,7 +27,8 @@ def cmd_harness(args) -> int:
         return _cmd_external(args)
     effects = tuple(args.effects.split(",")) if args.effects else None
     s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
-                    effects, progress=args.progress, log=args.log, pairs=args.pairs)
+                    effects, progress=args.progress, log=args.log, pairs=args.pairs,
+                    closed_loop=args.closed_loop)
     if args.output:
         write_report(s, args.output)
     if args.json:
@@ -83,6 +84,10 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
                    help="external mode: JSON, campaign id -> {\"effect\": ...}")
     s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
+    s.add_argument("--closed-loop", action=argparse.BooleanOptionalAction, default=True,
+                   help="for each ambiguous campaign, take the proposed next measurement (and "
+                        "a random one from the menu) under the truth and diagnose again "
+                        "(default: on)")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
     s.set_defaults(func=cmd_harness)
     return s
