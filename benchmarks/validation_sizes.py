@@ -5,7 +5,8 @@ files beside the campaign folders, and compares each named effect's size with th
 truth wherever the independent simulator defines the same quantity (the table
 ``SAME_QUANTITY`` below says which, and how its terms map to dpdfit's; quantities
 defined differently -- the AM-to-PM phase, the memory kernel, the common-mode
-dephasing time -- are left out, see docs/diagnosis/evidence.md).  Prints each
+dephasing time -- are left out, see docs/diagnosis/evidence.md; so is a quantity the
+named form holds fixed, e.g. the exponent of the linear detector form).  Prints each
 comparison with its pull ``(fitted - truth) / error`` and the fraction of |pull|
 <= 1 and <= 2.
 
@@ -55,6 +56,9 @@ def comparisons(report: dict, truth: dict) -> list:
                 except (KeyError, TypeError):
                     continue
                 s = sizes[name]
+                stat = s.get("error_statistical", s.get("error"))
+                if not stat or not np.isfinite(stat):
+                    continue              # held fixed by the named form: not a fitted size
                 err = s.get("error")
                 pull = ((s["value"] - want) / err) if err and np.isfinite(err) else None
                 rows.append({"campaign": r["campaign"], "effect": effect, "size": name,
