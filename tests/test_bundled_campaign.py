@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 from dpdfit.simulation.campaign import campaign_hashes, simulate_campaign
+from tests.helpers.same_campaign import assert_same_campaign
 
 BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
 SEED = 20260329
@@ -17,12 +18,14 @@ def quiet(label, total):
 
 
 @pytest.mark.slow
-def test_simulator_regenerates_bundled_campaign_bit_for_bit(tmp_path):
+def test_simulator_regenerates_bundled_campaign(tmp_path):
+    """Bit for bit where it was made; elsewhere equal up to the floating-point noise of
+    the processor's BLAS kernel (tests/helpers/same_campaign.py says how much)."""
     out = tmp_path / "regen"
     simulate_campaign(out, seed=SEED, progress=quiet)
     bundled = campaign_hashes(BUNDLED)
     bundled.pop("REALISM.md")             # written by scripts/make_campaign.py from the analysis
-    assert campaign_hashes(out) == bundled
+    assert_same_campaign(out, BUNDLED, campaign_hashes(out), bundled)
 
 
 def test_bundled_campaign_size():
