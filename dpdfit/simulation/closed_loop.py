@@ -27,6 +27,7 @@ import numpy as np
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
+from dpdfit.simulation.harness_external import truth_in_reach
 
 __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "REPEAT_STEP", "extend_config", "default_menu",
            "random_menu_choice", "close_loop", "ambiguity", "loop_summary",
@@ -327,14 +328,6 @@ def _named_correctly(r: dict) -> bool:
     return r["verdict"] == r["concealed"]
 
 
-def _truth_among_alternatives(r: dict) -> bool:
-    truth = sorted(r.get("effects") or {})
-    if not truth:                           # 'none' is never an alternative
-        return False
-    return any(sorted(a.get("named") or [a.get("effect")]) == truth
-               for a in r.get("alternatives") or ())
-
-
 def loop_summary(results: list) -> dict:
     """Ambiguity and closed-loop part of the harness summary.
 
@@ -355,7 +348,8 @@ def loop_summary(results: list) -> dict:
         when n is 0), ``n_failed`` (re-simulations or re-diagnoses that failed).
     """
     n = len(results)
-    wrong = [not _named_correctly(r) and not _truth_among_alternatives(r) for r in results]
+    wrong = [not _named_correctly(r)
+             and not truth_in_reach(r, sorted(r.get("effects") or {})) for r in results]
     loops = [r["closed_loop"] for r in results if r.get("closed_loop")]
 
     def rate(arm):
