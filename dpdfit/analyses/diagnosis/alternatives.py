@@ -118,8 +118,7 @@ def shifted_hypothesis(fit, name: str):
             moved[k] = v + np.copysign(err, v if v != 0 else 1.0)
     if not moved:
         return None
-    return dataclasses.replace(fit, params={**fit.params, **moved},
-                               effect=fit.effect)
+    return dataclasses.replace(fit, params={**fit.params, **moved})
 
 
 def propose(prob, chosen, alternatives: list, named_effects: list) -> dict:
