@@ -39,6 +39,7 @@ import pandas as pd
 from dpdfit.errors import DpdfitError, InputError
 
 from .pyon import PyonError, decode_pyon
+from .units import scale_from_metadata
 
 __all__ = ["Run", "Quantity", "NdscanScan", "ResultsFile", "read_results_file",
            "find_ndscan_roots", "h5py_module"]
@@ -274,7 +275,7 @@ def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
         spec = param.get("spec", {})
         fqn = param.get("fqn", f"axis_{i}")
         axes.append(_quantity(datasets, root, f"points.axis_{i}", fqn.split(".")[-1], name,
-                              unit=spec.get("unit", ""), scale=spec.get("scale", 1.0),
+                              unit=spec.get("unit", ""), scale=_spec_scale(spec),
                               type=param.get("type", "float"), fqn=fqn,
                               description=param.get("description", "")))
     channels = {}
@@ -286,7 +287,7 @@ def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
             continue               # not saved by default (ndscan's save_by_default=False)
         channels[cname] = _quantity(datasets, root, key, cname, name,
                                     unit=spec.get("unit", "") or "",
-                                    scale=spec.get("scale", 1.0) or 1.0,
+                                    scale=_spec_scale(spec),
                                     type=spec.get("type", "float"),
                                     description=spec.get("description", ""))
     completed = get("completed")
@@ -295,6 +296,14 @@ def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
                       completed=None if completed is None else bool(completed),
                       schema_revision=None if rev is None else int(rev), axes=tuple(axes),
                       channels=channels)
+
+
+def _spec_scale(spec: dict):
+    # ndscan always writes the scale; it defaults it from the unit as ARTIQ does
+    # (ndscan/experiment/parameters.py, result_channels.py), and so do we when absent
+    if spec.get("scale") is None:
+        return scale_from_metadata({"unit": spec.get("unit") or ""})
+    return spec["scale"]
 
 
 def _quantity(datasets, root, key, short, name, **kw) -> Quantity:

@@ -18,7 +18,7 @@ from dpdfit.errors import InputError
 
 from .artiq import ResultsFile
 from .mapping import ColumnSpec
-from .units import COLUMN_KINDS, UnitError, convert, stored_unit
+from .units import COLUMN_KINDS, UnitError, convert, scale_from_metadata, stored_unit
 
 __all__ = ["column_values", "fail"]
 
@@ -61,8 +61,9 @@ def column_values(spec: ColumnSpec, rf: ResultsFile, scan, n: int) -> np.ndarray
     """One column's ``n`` values from one results file, in the column's unit."""
     src, name = spec.source, spec.name
     file_unit, dataset = None, None
-    if src == "value":
+    if src == "value":                         # a constant is in the column's own unit
         v = np.full(n, name, dtype=object if isinstance(name, str) else None)
+        file_unit = COLUMN_KINDS[spec.column][1]
     elif src in ("axis", "channel"):
         try:
             q = scan.axis(name) if src == "axis" else scan.channel(name)
@@ -88,7 +89,8 @@ def column_values(spec: ColumnSpec, rf: ResultsFile, scan, n: int) -> np.ndarray
         dataset, v = name, np.asarray(raw)
         v = np.full(n, v[()]) if v.ndim == 0 else v
         if "unit" in attrs:
-            file_unit = stored_unit(str(attrs.get("unit")), attrs.get("scale", 1.0))
+            # ARTIQ's rule: no 'scale' means the unit's SI factor (kHz: stored in Hz)
+            file_unit = stored_unit(str(attrs.get("unit")), scale_from_metadata(attrs))
     else:                                                  # provenance
         value = {"rid": rf.run.rid, "file": rf.run.file,
                  "start_time": None if rf.run.start_time is None
@@ -162,7 +164,11 @@ def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset) -> np.ndarray:
     try:
         x = convert(x, unit or "", spec.column, full_scale_dbm=spec.full_scale_dbm)
     except UnitError as exc:
-        fail(spec, rf, str(exc), scan, dataset)
+        hint = ""
+        if spec.source in ("argument", "parameter") and not unit:
+            hint = (f"; {spec.source}s carry no unit and ARTIQ/ndscan keep numbers in SI: "
+                    "say the unit with 'unit'")
+        fail(spec, rf, str(exc) + hint, scan, dataset)
     if spec.column in _INTEGER:
         r = np.round(x)
         bad = r != x

@@ -5,7 +5,10 @@ kHz, ``phase_rad`` radians, ``A`` a fraction of full scale, ``P_dB`` dB).  A
 results file stores a quantity in some unit: ndscan and ARTIQ 8 give the unit
 it is *shown* in and the ``scale`` of that unit in SI, and store
 ``shown * scale``; :func:`stored_unit` turns that pair into the unit of the
-stored number ("us" with scale 1e-6 -> "s").  :func:`convert` brings stored
+stored number ("us" with scale 1e-6 -> "s").  A dataset written with a
+``unit`` and no ``scale`` has the scale ARTIQ's own tools give it
+(:func:`scale_from_metadata`): the SI factor of the unit, so a ``kHz`` dataset
+without ``scale`` holds Hz.  :func:`convert` brings stored
 values into the column's unit, or refuses a unit of another dimension.
 """
 
@@ -15,10 +18,51 @@ import math
 
 import numpy as np
 
-__all__ = ["COLUMN_KINDS", "stored_unit", "convert", "UnitError", "UNITS"]
+__all__ = ["COLUMN_KINDS", "stored_unit", "convert", "UnitError", "UNITS", "ARTIQ_UNITS",
+           "scale_from_metadata"]
 
 _PREFIX = {"": 1.0, "m": 1e-3, "u": 1e-6, "µ": 1e-6, "μ": 1e-6, "n": 1e-9, "p": 1e-12,
            "k": 1e3, "M": 1e6, "G": 1e9}
+
+
+def _artiq_units() -> dict:
+    # Copied from ARTIQ's artiq/language/units.py (m-labs/artiq at 3740b92e, 2025;
+    # last changed in 2022, when nW was added): each base unit with the prefixes
+    # it registers, the smallest prefix p = 1e-12 and a factor 1000 per step of
+    # "pnum_kMG" ("_" no prefix).  dpdfit does not depend on ARTIQ, so the table
+    # is generated here exactly as ARTIQ generates it.
+    out, prefixes = {}, "pnum_kMG"
+    for unit, allowed in (("s", "pnum_"), ("Hz", "m_kMG"), ("dB", "_"), ("V", "um_k"),
+                          ("A", "um_"), ("W", "num_")):
+        for i, p in enumerate(prefixes):
+            if p in allowed:
+                out[unit if p == "_" else p + unit] = 10.0 ** (3 * i - 12)
+    return out
+
+
+#: ARTIQ's units (``artiq.language.units``): name -> SI factor, e.g. ``"kHz": 1e3``
+ARTIQ_UNITS = _artiq_units()
+
+
+def scale_from_metadata(attrs) -> float:
+    """The scale of a dataset from its metadata, by ARTIQ's own rule
+    (``artiq/tools.py: scale_from_metadata``): ``scale`` when given, else the SI
+    factor of ``unit`` in ARTIQ's units (1 for a unit ARTIQ does not define).
+
+    Parameters
+    ----------
+    attrs : mapping
+        The dataset's metadata (HDF5 attributes ``unit``, ``scale``, ...).
+
+    Returns
+    -------
+    float
+        The factor such that the value shown in ``unit`` is ``stored / scale``.
+    """
+    unit = attrs.get("unit", "")
+    unit = unit.decode() if isinstance(unit, bytes) else str(unit or "")
+    return float(attrs["scale"]) if "scale" in attrs else ARTIQ_UNITS.get(unit, 1.0)
+
 
 #: kind -> {unit: size of the unit in the kind's reference unit}
 UNITS = {
