@@ -37,6 +37,8 @@ from .artiq import ResultsFile, read_results_file
 from .campaign_folder import CampaignFolder
 from .mapped_columns import column_values, fail
 from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
+from .name_patterns import matching_keys
+from .units import COLUMN_KINDS
 from .outputs import staged_folder
 
 __all__ = ["ImportedCampaign", "import_campaign", "GATE_TABLES", "COUNT_COLUMNS"]
@@ -179,24 +181,57 @@ def _relative(path: str, folder: Path) -> str:
 
 def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
     """The rows one results file contributes to one source's table."""
-    uses_scan = any(c.source in ("axis", "channel") for c in src.columns.values())
+    uses_scan = any(c.source in ("axis", "channel")
+                    or (c.expression is not None and any(
+                        f in ("axis", "channel") for f, _ in c.expression.references))
+                    for c in src.columns.values())
     scan = rf.scan(src.root) if uses_scan else None
-    if scan is not None:
-        n = _scan_points(scan, rf)
-    else:
-        lengths = {len(np.atleast_1d(rf.datasets[c.name][0])) for c in src.columns.values()
-                   if c.source == "dataset" and c.name in rf.datasets
-                   and np.ndim(rf.datasets[c.name][0]) > 0}
-        if len(lengths) > 1:
-            raise InputError(f"per-point datasets of different lengths {sorted(lengths)}",
-                             file=rf.run.file)
-        n = lengths.pop() if lengths else 1
-    cols = {c: column_values(spec, rf, scan, n) for c, spec in src.columns.items()}
-    df = pd.DataFrame(cols)
-    _check_counts(df, src, rf, scan)
+    keys = _pattern_keys(src, rf, scan) if src.placeholders else [{}]
+    parts = []
+    for key in keys:
+        columns = {c: spec.filled(key) for c, spec in src.columns.items()}
+        n = _scan_points(scan, rf) if scan is not None else _dataset_rows(columns, rf)
+        df = pd.DataFrame({c: column_values(spec, rf, scan, n) for c, spec in columns.items()})
+        for k, value in key.items():
+            df[k] = value
+        _check_counts(df, src, rf, scan)
+        df["_point"] = np.arange(n)
+        parts.append(df)
+    # one row per point and match, points in acquisition order
+    df = pd.concat(parts, ignore_index=True).sort_values("_point", kind="stable")
+    df = df.drop(columns="_point").reset_index(drop=True)
     df["source_file"] = rel
     df["source_rid"] = rf.run.rid if rf.run.rid is not None else -1
     return df, scan
+
+
+def _dataset_rows(columns: dict, rf: ResultsFile) -> int:
+    names = [c.name for c in columns.values() if c.source == "dataset"]
+    names += [n for c in columns.values() if c.expression is not None
+              for f, n in c.expression.references if f == "dataset"]
+    lengths = {len(np.atleast_1d(rf.datasets[n][0])) for n in names
+               if n in rf.datasets and np.ndim(rf.datasets[n][0]) > 0}
+    if len(lengths) > 1:
+        raise InputError(f"per-point datasets of different lengths {sorted(lengths)}",
+                         file=rf.run.file)
+    return lengths.pop() if lengths else 1
+
+
+def _pattern_keys(src: SourceSpec, rf: ResultsFile, scan) -> list[dict]:
+    """Every match of the source's name pattern among the file's names (name_patterns)."""
+    spec = next(c for c in src.columns.values() if c.placeholders)
+    source, pattern = spec.source, spec.name
+    if spec.expression is not None:
+        source, pattern = next((f, n) for f, n in spec.expression.references if "{" in n)
+    names = {"axis": lambda: [a.name for a in scan.axes],
+             "channel": lambda: list(scan.channels),
+             "dataset": lambda: list(rf.datasets)}[source]()
+    numeric = {k for k in src.placeholders if COLUMN_KINDS[k][0] == "number"}
+    keys = matching_keys(pattern, names, numeric)
+    if not keys:
+        fail(spec, rf, f"no {source} matches the pattern '{pattern}' (the file has: "
+              f"{', '.join(names[:12]) or 'none'}{', ...' if len(names) > 12 else ''})", scan)
+    return keys
 
 
 def _scan_points(scan, rf: ResultsFile) -> int:

@@ -12,6 +12,8 @@ mapping key with its line.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from dpdfit.errors import InputError
@@ -59,6 +61,21 @@ def fail(spec: ColumnSpec, rf: ResultsFile, msg: str, scan=None, dataset=None):
 
 def column_values(spec: ColumnSpec, rf: ResultsFile, scan, n: int) -> np.ndarray:
     """One column's ``n`` values from one results file, in the column's unit."""
+    if spec.source == "expr":
+        v, file_unit, dataset, tol = _computed(spec, rf, scan, n)
+    else:
+        (v, file_unit, dataset), tol = _found(spec, rf, scan, n), 0.0
+    if spec.count is not None:
+        v = _count(v, spec, rf, scan, dataset)
+    if spec.labels is not None:
+        v = _labelled(v, spec, rf, scan, dataset)
+    if spec.format is not None:
+        v = _formatted(v, spec, rf, scan, dataset)
+    return _in_unit(v, spec, spec.unit or file_unit, rf, scan, dataset, tol)
+
+
+def _found(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
+    """(values, the unit they are stored in or None, the HDF5 dataset) of a plain source."""
     src, name = spec.source, spec.name
     file_unit, dataset = None, None
     if src == "value":                         # a constant is in the column's own unit
@@ -98,13 +115,35 @@ def column_values(spec: ColumnSpec, rf: ResultsFile, scan, n: int) -> np.ndarray
         if value is None:
             fail(spec, rf, f"the results file has no '{name}'")
         v = np.full(n, value, dtype=object if isinstance(value, str) else None)
-    if spec.count is not None:
-        v = _count(v, spec, rf, scan, dataset)
-    if spec.labels is not None:
-        v = _labelled(v, spec, rf, scan, dataset)
-    if spec.format is not None:
-        v = _formatted(v, spec, rf, scan, dataset)
-    return _in_unit(v, spec, spec.unit or file_unit, rf, scan, dataset)
+    return v, file_unit, dataset
+
+
+def _computed(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
+    """(values, unit, None, integer tolerance) of an ``expr`` column: every source
+    read as stored, the result in the one unit they share (or ``unit``)."""
+    units, narrow = set(), [False]
+
+    def lookup(source, name):
+        v, unit, dataset = _found(replace(spec, source=source, name=name), rf, scan, n)
+        try:
+            x = np.asarray(v, dtype=float) if np.asarray(v).dtype.kind != "f" else v
+        except (TypeError, ValueError):
+            fail(spec, rf, f"{source}('{name}') is not a number (e.g. {v[0]!r})", scan, dataset)
+        if x.ndim != 1 or len(x) != n:
+            fail(spec, rf, f"{source}('{name}') has shape {x.shape}, not one value per row "
+                  f"({n})", scan, dataset)
+        narrow[0] |= x.dtype.itemsize < 8
+        if unit:
+            units.add(unit)
+        return x
+
+    v = spec.expression.evaluate(lookup)
+    if len(units) > 1 and spec.unit is None:
+        fail(spec, rf, f"the expression mixes the units {', '.join(sorted(units))}: say the "
+              "unit of its result with 'unit'", scan)
+    # a count computed from stored probabilities is an integer only up to their rounding
+    tol = 1e-6 if narrow[0] else 1e-9
+    return np.broadcast_to(v, (n,)).copy(), (units.pop() if units else ""), None, tol
 
 
 def _count(v, spec, rf, scan, dataset) -> np.ndarray:
@@ -146,7 +185,7 @@ def _formatted(v, spec, rf, scan, dataset) -> np.ndarray:
     return np.array(out, dtype=object)
 
 
-def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset) -> np.ndarray:
+def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset, tol: float = 0.0) -> np.ndarray:
     kind = COLUMN_KINDS[spec.column][0]
     if kind == "label":
         return np.asarray(v, dtype=object)
@@ -171,10 +210,12 @@ def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset) -> np.ndarray:
         fail(spec, rf, str(exc) + hint, scan, dataset)
     if spec.column in _INTEGER:
         r = np.round(x)
-        bad = r != x
+        bad = np.abs(r - x) > tol * np.maximum(1.0, np.abs(x))
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            fail(spec, rf, f"point {i + 1}: {spec.column} = {x[i]:g} must be an integer",
-                  scan, dataset)
+            why = " (not within rounding of an integer: write round(...) if the values " \
+                "were recorded rounded)" if spec.source == "expr" else ""
+            fail(spec, rf, f"point {i + 1}: {spec.column} = {x[i]:.10g} must be an "
+                  f"integer{why}", scan, dataset)
         return r.astype(np.int64)
     return x

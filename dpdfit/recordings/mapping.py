@@ -33,11 +33,13 @@ from __future__ import annotations
 import difflib
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from dpdfit.errors import InputError
 
+from .expressions import Expression, ExpressionError, parse_expression
+from .name_patterns import fill, placeholders
 from .units import COLUMN_KINDS
 
 __all__ = ["ColumnSpec", "SourceSpec", "Mapping", "read_mapping", "TABLE_COLUMNS",
@@ -60,7 +62,7 @@ CAMPAIGN_KEYS = ("name", "nu_hz", "xi0_spectra_hz", "nbar_assumed", "eta_ref", "
                  "gate_waveform", "nominal_shots", "parity_phases", "units", "generator",
                  "synthetic", "notes")
 #: where a column's values come from (exactly one per column)
-SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run")
+SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run", "expr")
 #: what may accompany the source
 MODIFIERS = ("unit", "full_scale_dbm", "format", "labels", "count")
 _RUN_FIELDS = ("rid", "start_time", "file")
@@ -81,6 +83,17 @@ class ColumnSpec:
     format: str | None = None
     labels: dict | None = None
     count: object = None
+    expression: Expression | None = None
+    placeholders: tuple = ()
+
+    def filled(self, key: dict) -> ColumnSpec:
+        """This column for one match of its name pattern (placeholders replaced)."""
+        if not self.placeholders:
+            return self
+        if self.expression is not None:
+            e = self.expression.filled(key)
+            return replace(self, name=e.text, expression=e, placeholders=())
+        return replace(self, name=fill(self.name, key), placeholders=())
 
     def where(self) -> str:
         """The mapping key of this column and its line, for messages:
@@ -100,6 +113,7 @@ class SourceSpec:
     key: str
     line: int | None = None
     files_line: int | None = None
+    placeholders: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -188,15 +202,38 @@ def _source(table: str, i: int, entry, err) -> SourceSpec:
         if c not in required + optional:
             err.unknown(f"{key}.columns.{c}", c, required + optional, f"column of {table}",
                         table, c)
-    missing = [c for c in required if c not in cols]
-    if table == "populations" and "n_even" not in cols and not {"n00", "n11"} <= set(cols):
+    columns = {c: _column(c, v, f"{key}.columns.{c}", err, table, i) for c, v in cols.items()}
+    keys = _placeholders(columns, required + optional, key, err, table)
+    given = set(cols) | set(keys)
+    missing = [c for c in required if c not in given]
+    if table == "populations" and "n_even" not in given and not {"n00", "n11"} <= given:
         missing.append("n_even (or n00 and n11)")
     if missing:
         err.bad(f"{key}.columns", f"misses the column(s) {', '.join(missing)}", table)
-    columns = {c: _column(c, v, f"{key}.columns.{c}", err, table, i) for c, v in cols.items()}
     return SourceSpec(table=table, index=i, files=tuple(files), root=root, columns=columns,
                       key=key, line=err.lines.find(table, None, i),
-                      files_line=err.lines.find(table, "files", i))
+                      files_line=err.lines.find(table, "files", i), placeholders=keys)
+
+
+def _placeholders(columns: dict, known: tuple, key: str, err, table: str) -> tuple:
+    """The placeholders of a source's name patterns: each a column of the table that
+    the source does not give otherwise, and the same in every pattern."""
+    patterned = {c: s.placeholders for c, s in columns.items() if s.placeholders}
+    if not patterned:
+        return ()
+    first, keys = next(iter(patterned.items()))
+    for c, ks in patterned.items():
+        for k in ks:
+            if k not in known:
+                err.unknown(f"{key}.columns.{c}", k, known, f"placeholder (a column of {table})",
+                            table, c)
+            if k in columns:
+                err.bad(f"{key}.columns.{c}", f"placeholder '{{{k}}}' names the column {k}, "
+                        "which this source also gives: drop one", table, c)
+        if set(ks) != set(keys):
+            err.bad(f"{key}.columns.{c}", f"its placeholders ({', '.join(ks)}) differ from "
+                    f"those of {first} ({', '.join(keys)})", table, c)
+    return keys
 
 
 def _column(column: str, v, key: str, err, table: str, index: int) -> ColumnSpec:
@@ -216,6 +253,16 @@ def _column(column: str, v, key: str, err, table: str, index: int) -> ColumnSpec
     if source == "run" and name not in _RUN_FIELDS:
         err.bad(f"{key}.run", f"must be one of {', '.join(_RUN_FIELDS)}, got '{name}'",
                 table, column)
+    expression, keys = None, placeholders(name)
+    if source == "expr":
+        try:
+            expression = parse_expression(name)
+        except ExpressionError as exc:
+            err.bad(f"{key}.expr", str(exc), table, column)
+        keys = tuple(dict.fromkeys(k for _, n in expression.references
+                                   for k in placeholders(n)))
+    elif source in ("value", "run", "argument", "parameter"):
+        keys = ()
     unit = v.get("unit")
     if unit is not None and not isinstance(unit, str):
         err.bad(f"{key}.unit", "must be a string", table, column)
@@ -235,7 +282,8 @@ def _column(column: str, v, key: str, err, table: str, index: int) -> ColumnSpec
         err.bad(key, "no unit rule for this column", table, column)
     return ColumnSpec(column, source, name, key, line, unit=unit,
                       full_scale_dbm=None if fs is None else float(fs), format=v.get("format"),
-                      labels=labels, count=count)
+                      labels=labels, count=count, expression=expression,
+                      placeholders=keys)
 
 
 class _Lines:
