@@ -123,6 +123,7 @@ class NdscanScan:
     schema_revision: int | None
     axes: tuple = ()
     channels: dict = field(default_factory=dict)
+    subscans: dict = field(default_factory=dict)
 
     @property
     def n_points(self) -> int:
@@ -136,6 +137,12 @@ class NdscanScan:
             if name in (a.name, a.fqn):
                 return a
         raise KeyError(name)
+
+    def subscan(self, name: str, file: str | None = None) -> NdscanScan:
+        """Subscan ``name`` as a scan of its own: one point per inner point, the outer
+        point's axes and channels repeated (:func:`~.ndscan_subscans.flatten_subscan`)."""
+        from .ndscan_subscans import flatten_subscan
+        return flatten_subscan(self, name, file)
 
     def channel(self, name: str) -> Quantity:
         """A result channel by its name (KeyError if the scan has none of that name)."""
@@ -278,11 +285,13 @@ def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
                               unit=spec.get("unit", ""), scale=_spec_scale(spec),
                               type=param.get("type", "float"), fqn=fqn,
                               description=param.get("description", "")))
-    channels = {}
+    channels, subscans = {}, {}
     for cname, spec in _json(datasets, root + "channels", name).items():
-        if spec.get("type") == "subscan":
-            continue
         key = ("points.channel_" if spec_axes else "point.") + cname
+        if spec.get("type") == "subscan":     # "<scan>_spec": each point's subscan schema
+            subscans[cname[:-len("_spec")] if cname.endswith("_spec") else cname] = \
+                _subscan_schema(datasets.get(root + key, (None,))[0])
+            continue
         if root + key not in datasets:
             continue               # not saved by default (ndscan's save_by_default=False)
         channels[cname] = _quantity(datasets, root, key, cname, name,
@@ -295,7 +304,19 @@ def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
     return NdscanScan(root=root, source_id=get("source_id"), fragment_fqn=get("fragment_fqn"),
                       completed=None if completed is None else bool(completed),
                       schema_revision=None if rev is None else int(rev), axes=tuple(axes),
-                      channels=channels)
+                      channels=channels, subscans=subscans)
+
+
+def _subscan_schema(values) -> dict:
+    # the schema ndscan pushes with every point (JSON text); the first one that parses
+    for text in np.atleast_1d(values if values is not None else []):
+        try:
+            spec = json.loads(text)
+        except (TypeError, ValueError):
+            continue
+        if isinstance(spec, dict):
+            return spec
+    return {}
 
 
 def _spec_scale(spec: dict):

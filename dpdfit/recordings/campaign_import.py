@@ -185,7 +185,9 @@ def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
                     or (c.expression is not None and any(
                         f in ("axis", "channel") for f, _ in c.expression.references))
                     for c in src.columns.values())
-    scan = rf.scan(src.root) if uses_scan else None
+    scan = rf.scan(src.root) if uses_scan or src.subscan else None
+    if src.subscan:                      # one row per inner point (ndscan_subscans)
+        scan = scan.subscan(src.subscan, rf.run.file)
     keys = _pattern_keys(src, rf, scan) if src.placeholders else [{}]
     parts = []
     for key in keys:

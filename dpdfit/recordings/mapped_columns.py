@@ -185,6 +185,14 @@ def _formatted(v, spec, rf, scan, dataset) -> np.ndarray:
     return np.array(out, dtype=object)
 
 
+def _why_arrays(spec: ColumnSpec, scan) -> str:
+    for sub in (scan.subscans if scan is not None else ()):
+        if str(spec.name).startswith(sub + "_"):
+            return (f"it belongs to the ndscan subscan '{sub}': give the source "
+                    f"subscan = \"{sub}\" and name the subscan's own axes and channels")
+    return "per-shot outcomes need 'count'"
+
+
 def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset, tol: float = 0.0) -> np.ndarray:
     kind = COLUMN_KINDS[spec.column][0]
     if kind == "label":
@@ -195,7 +203,7 @@ def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset, tol: float = 0.0) -> 
         fail(spec, rf, f"values are not numbers (e.g. {v[0]!r})", scan, dataset)
     if x.ndim != 1:
         fail(spec, rf, f"one value per point expected, got an array of shape {x.shape} "
-              "(per-shot outcomes need 'count')", scan, dataset)
+              f"({_why_arrays(spec, scan)})", scan, dataset)
     bad = ~np.isfinite(x)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])

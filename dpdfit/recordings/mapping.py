@@ -66,7 +66,7 @@ SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run"
 #: what may accompany the source
 MODIFIERS = ("unit", "full_scale_dbm", "format", "labels", "count")
 _RUN_FIELDS = ("rid", "start_time", "file")
-_SOURCE_KEYS = ("files", "root", "columns")
+_SOURCE_KEYS = ("files", "root", "subscan", "columns")
 
 
 @dataclass(frozen=True)
@@ -114,6 +114,7 @@ class SourceSpec:
     line: int | None = None
     files_line: int | None = None
     placeholders: tuple = ()
+    subscan: str | None = None
 
 
 @dataclass(frozen=True)
@@ -195,6 +196,9 @@ def _source(table: str, i: int, entry, err) -> SourceSpec:
     root = entry.get("root")
     if root is not None and not isinstance(root, str):
         err.bad(f"{key}.root", "must be a string (an ndscan root prefix)", table)
+    subscan = entry.get("subscan")
+    if subscan is not None and not (isinstance(subscan, str) and subscan):
+        err.bad(f"{key}.subscan", "must be a string (the name of an ndscan subscan)", table)
     cols = entry.get("columns", {})
     err.table(cols, f"{key}.columns", table)
     required, optional = TABLE_COLUMNS[table]
@@ -212,7 +216,8 @@ def _source(table: str, i: int, entry, err) -> SourceSpec:
         err.bad(f"{key}.columns", f"misses the column(s) {', '.join(missing)}", table)
     return SourceSpec(table=table, index=i, files=tuple(files), root=root, columns=columns,
                       key=key, line=err.lines.find(table, None, i),
-                      files_line=err.lines.find(table, "files", i), placeholders=keys)
+                      files_line=err.lines.find(table, "files", i), placeholders=keys,
+                      subscan=subscan)
 
 
 def _placeholders(columns: dict, known: tuple, key: str, err, table: str) -> tuple:

@@ -83,9 +83,9 @@ def _axis_desc(fqn: str, ax: dict) -> dict:
 
 
 def _channel_desc(name: str, ch: dict) -> dict:
-    kind = _kind(ch["values"])
+    kind = ch.get("type") or _kind(ch["values"])
     desc = {"path": name, "description": name.replace("_", " "), "type": kind}
-    if kind != "opaque":
+    if kind not in ("opaque", "subscan"):
         desc.update(scale=ch["scale"], unit=ch["unit"])
     return desc
 
