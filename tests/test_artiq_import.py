@@ -91,7 +91,8 @@ def test_an_interrupted_scan_is_imported_with_a_warning(per_shot_set, caplog):
     assert extra == 8                       # half of the 16 phases of one more scan
     last = imp.tables["parity"].iloc[-extra:]
     assert (last["scan"] == _bundled("parity")["scan"].max() + 1).all()
-    assert "did not complete" in caplog.text
+    # the library only returns it: the command line prints it once, after writing
+    assert "did not complete" not in caplog.text
 
 
 def test_every_row_names_its_results_file_and_campaign_json_their_hashes(ndscan_set):

@@ -84,9 +84,12 @@ EXAMPLES = {
     "simulate-campaign": "dpdfit simulate-campaign out/campaign --seed 7 "
                          "--effects aom_memory=0.5",
     "analyze": "dpdfit analyze datasets/synthetic_campaign -o results --no-diagnosis",
-    "import": "python scripts/make_artiq_results.py datasets/synthetic_campaign out/lab "
-              "--shape ndscan\n"
+    "import": "dpdfit simulate-campaign out/campaign --seed 7     # or your campaign "
+              "folder\n"
+              "dpdfit write-artiq-results out/campaign out/lab --shape ndscan\n"
               "dpdfit import out/lab/mapping.toml -o out/imported_campaign",
+    "write-artiq-results": "dpdfit write-artiq-results out/campaign out/lab --shape "
+                           "per-shot",
 }
 
 

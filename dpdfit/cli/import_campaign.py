@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import logging
 import os
 import sys
 import tempfile
@@ -17,7 +18,10 @@ from pathlib import Path
 
 from dpdfit.errors import InputError
 
-__all__ = ["add_import_command", "cmd_import", "campaign_argument", "is_mapping"]
+__all__ = ["add_import_command", "cmd_import", "campaign_argument", "is_mapping",
+           "add_write_artiq_results_command", "cmd_write_artiq_results"]
+
+log = logging.getLogger(__name__)
 
 
 def is_mapping(path) -> bool:
@@ -40,7 +44,7 @@ def campaign_argument(path, complete_only: bool = False, keep_in=None):
     if keep_in is None:
         with tempfile.TemporaryDirectory(prefix="dpdfit-import-") as tmp:
             folder = imported.write(Path(tmp) / "campaign")
-            print(imported.report(), file=sys.stderr)    # stdout may be JSON
+            _tell(imported, sys.stderr)                  # stdout may be JSON
             yield folder
         return
     target = Path(keep_in) / "imported_campaign"
@@ -54,8 +58,16 @@ def campaign_argument(path, complete_only: bool = False, keep_in=None):
             new_old = Path(tmp) / "previous"
             os.replace(target, new_old)
         os.replace(new, target)
-    print(imported.report(), file=sys.stderr)
+    _tell(imported, sys.stderr)
     yield target
+
+
+def _tell(imported, out) -> None:
+    """What was imported (to ``out``), then each warning once, on stderr: only once
+    the campaign is written, so that an error is never preceded by warnings."""
+    print(imported.report(notes=False), file=out)
+    for note in imported.notes():
+        log.warning("%s", note)
 
 
 def _imported_before(folder: Path) -> bool:
@@ -69,9 +81,10 @@ def cmd_import(args) -> int:
     """``dpdfit import``: build a campaign folder from ARTIQ results files as a mapping
     says; prints what was imported."""
     from dpdfit.recordings.campaign_import import import_campaign
-    imported = import_campaign(args.mapping, complete_only=args.complete_only or None)
+    imported = import_campaign(args.mapping, complete_only=args.complete_only or None,
+                               progress=args.progress)
     out = imported.write(args.output)
-    print(imported.report())
+    _tell(imported, sys.stdout)
     print(f"wrote campaign {out}")
     return 0
 
@@ -90,5 +103,45 @@ def add_import_command(subparsers) -> argparse.ArgumentParser:
     c.add_argument("--complete-only", action="store_true",
                    help="skip ndscan scans that did not complete (default: import them "
                         "with a warning)")
+    c.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar over the results files on stderr (default: when "
+                        "stderr is a terminal)")
     c.set_defaults(func=cmd_import)
+    return c
+
+
+def cmd_write_artiq_results(args) -> int:
+    """``dpdfit write-artiq-results``: a campaign folder as ARTIQ results files plus
+    the mapping that imports them back."""
+    from dpdfit.simulation.artiq_results import write_ndscan_campaign, write_per_shot_campaign
+    if args.out_dir.exists() and any(args.out_dir.iterdir()):
+        raise InputError("exists and is not empty (the mapping's globs would pick up its "
+                         "old files); choose a new folder", file=str(args.out_dir))
+    if args.shape == "ndscan":
+        mapping = write_ndscan_campaign(args.campaign_dir, args.out_dir)
+    else:
+        mapping = write_per_shot_campaign(args.campaign_dir, args.out_dir, seed=args.seed)
+    files = sorted(args.out_dir.glob("results/*/*/*.h5"))
+    print(f"wrote {len(files)} results files and {mapping}")
+    return 0
+
+
+def add_write_artiq_results_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``dpdfit write-artiq-results`` on an argparse sub-parsers object."""
+    c = subparsers.add_parser(
+        "write-artiq-results", help="write a campaign folder as ARTIQ results files "
+                                    "(to try dpdfit import)",
+        description="Write a campaign folder's tables as the HDF5 results files an ARTIQ "
+                    "master and ndscan write (results/<date>/<hour>/<rid>-<Class>.h5), "
+                    "together with OUT_DIR/mapping.toml, which imports them back.  "
+                    "--shape ndscan: every table as ndscan scans (imported back bit for "
+                    "bit); per-shot: per-shot outcome arrays, phases in turns, plain "
+                    "datasets, an old-ndscan file and an interrupted scan.  Needs h5py.")
+    c.add_argument("campaign_dir", type=Path, metavar="CAMPAIGN_DIR")
+    c.add_argument("out_dir", type=Path, metavar="OUT_DIR",
+                   help="new folder for results/ and mapping.toml")
+    c.add_argument("--shape", choices=("ndscan", "per-shot"), default="ndscan",
+                   help="layout of the files (default: ndscan)")
+    c.add_argument("--seed", type=int, default=0, help="seed of the per-shot outcomes (0)")
+    c.set_defaults(func=cmd_write_artiq_results)
     return c

@@ -89,8 +89,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_fidelity_command(sub)
     add_align_command(sub)
     add_simulate_campaign_command(sub)
-    from dpdfit.cli.import_campaign import add_import_command
+    from dpdfit.cli.import_campaign import add_import_command, add_write_artiq_results_command
     add_import_command(sub)
+    add_write_artiq_results_command(sub)
     add_analyze_command(sub)
     describe(sub)
     return p

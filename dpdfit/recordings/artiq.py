@@ -198,11 +198,14 @@ def find_ndscan_roots(names) -> list[str]:
     return sorted(roots)
 
 
-def read_results_file(path) -> ResultsFile:
-    """Read an ARTIQ results file (module doc).  InputError if it is not one."""
+def read_results_file(path, name: str | None = None) -> ResultsFile:
+    """Read an ARTIQ results file (module doc).  InputError if it is not one.
+
+    ``name`` is how messages and :attr:`Run.file` name the file (default: ``path``;
+    the import names it relative to its mapping)."""
     h5py = h5py_module()
     path = Path(path)
-    name = str(path)
+    name = str(path) if name is None else str(name)
     try:
         raw = path.read_bytes()
     except OSError as exc:

@@ -22,7 +22,6 @@ from __future__ import annotations
 import glob
 import hashlib
 import json
-import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 
@@ -42,8 +42,6 @@ from .units import COLUMN_KINDS
 from .outputs import staged_folder
 
 __all__ = ["ImportedCampaign", "import_campaign", "GATE_TABLES", "COUNT_COLUMNS"]
-
-log = logging.getLogger(__name__)
 
 #: tables recorded with the gates (their earliest run is campaign.json's gates_recorded)
 GATE_TABLES = ("populations", "parity", "time_scans", "gate_rates")
@@ -64,14 +62,17 @@ class ImportedCampaign:
     skipped: tuple = ()
     mapping: Mapping | None = field(default=None, repr=False)
 
-    def report(self) -> str:
-        """What was imported, as text: rows and source files per table, then the
-        warnings and the incomplete scans skipped, one line each."""
+    def report(self, notes: bool = True) -> str:
+        """What was imported, as text: rows and source files per table, then (with
+        ``notes``) the warnings and the incomplete scans skipped, one line each."""
         lines = [f"{t:22s} {len(df):6d} rows from {df['source_file'].nunique()} files"
                  for t, df in self.tables.items()]
-        lines += [f"warning: {w}" for w in self.warnings]
-        lines += [f"skipped (incomplete): {s}" for s in self.skipped]
-        return "\n".join(lines)
+        return "\n".join(lines + (list(self.notes()) if notes else []))
+
+    def notes(self) -> tuple:
+        """The warnings and the incomplete scans skipped, one line each."""
+        return tuple([f"warning: {w}" for w in self.warnings]
+                     + [f"skipped (incomplete): {s}" for s in self.skipped])
 
     def write(self, folder) -> Path:
         """Write the campaign folder (atomically: it appears complete or not at all).
@@ -114,8 +115,14 @@ def _traced(exc: InputError, table: str, df: pd.DataFrame) -> InputError:
     return InputError(f"imported {table}: {msg}")
 
 
-def import_campaign(mapping, *, complete_only: bool | None = None) -> ImportedCampaign:
+def import_campaign(mapping, *, complete_only: bool | None = None,
+                    progress: bool | None = None) -> ImportedCampaign:
     """Build the campaign tables a mapping describes (module doc).
+
+    Each results file is read once, for every source that names it, and only its
+    rows and provenance are kept, so a month of results files streams through.
+    Nothing is logged: the warnings are the result's ``warnings`` (the command
+    line prints them after the campaign is written, so that an error comes first).
 
     Parameters
     ----------
@@ -124,26 +131,31 @@ def import_campaign(mapping, *, complete_only: bool | None = None) -> ImportedCa
     complete_only : bool, optional
         Skip ndscan scans that did not complete (default: the mapping's
         ``[import] complete_only``, else import them with a warning).
+    progress : bool, optional
+        A progress bar over the files (default: when stderr is a terminal).
     """
     m = mapping if isinstance(mapping, Mapping) else read_mapping(mapping)
     complete_only = m.complete_only if complete_only is None else complete_only
-    files = {}                                       # each results file read once
-    chunks = {t: [] for t in TABLE_COLUMNS}
-    warnings, skipped = [], []
+    plan = {}                                    # results file -> the sources naming it
     for src in m.sources:
         for path in _expand(m, src):
-            if path not in files:
-                files[path] = read_results_file(path)
-            rf = files[path]
-            rel = _relative(path, m.folder)
-            df, scan = _rows(src, rf, rel)
+            plan.setdefault(path, []).append(src)
+    runs, chunks = {}, {t: [] for t in TABLE_COLUMNS}
+    warnings, skipped = [], []
+    for path, sources in progress_bar(plan.items(), total=len(plan), desc="import",
+                                      unit="file", progress=progress):
+        rel = _relative(path, m.folder)
+        rf = read_results_file(path, name=rel)
+        runs[path] = rf.run
+        for src in sources:
+            df, scan, notes = _rows(src, rf, rel)
+            warnings += notes
             if scan is not None and scan.completed is False:
                 what = f"{rel}: ndscan root '{scan.root}' did not complete ({len(df)} points)"
                 if complete_only:
                     skipped.append(what)
                     continue
-                warnings.append(what + ", imported")
-                log.warning("%s; imported (--complete-only skips it)", what)
+                warnings.append(what + "; imported (--complete-only skips it)")
             t0 = _NEVER if rf.run.start_time is None else rf.run.start_time
             chunks[src.table].append(((t0, rf.run.rid or 0, src.index), df))
     tables = {}
@@ -155,8 +167,8 @@ def import_campaign(mapping, *, complete_only: bool | None = None) -> ImportedCa
         if t in _SCAN_KEYS and "scan" not in df.columns:
             df.insert(2, "scan", df.groupby(_SCAN_KEYS[t], sort=False).cumcount() + 1)
         tables[t] = _ordered(df, t)
-    meta = _meta(m, files, chunks, warnings)
-    return ImportedCampaign(tables=tables, meta=meta, warnings=tuple(warnings),
+    meta = _meta(m, runs, chunks, warnings)
+    return ImportedCampaign(tables=tables, meta=meta, warnings=tuple(dict.fromkeys(warnings)),
                             skipped=tuple(skipped), mapping=m)
 
 
@@ -189,10 +201,14 @@ def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
     if src.subscan:                      # one row per inner point (ndscan_subscans)
         scan = scan.subscan(src.subscan, rf.run.file)
     keys = _pattern_keys(src, rf, scan) if src.placeholders else [{}]
-    parts = []
+    parts, notes = [], []
     for key in keys:
         columns = {c: spec.filled(key) for c, spec in src.columns.items()}
-        n = _scan_points(scan, rf) if scan is not None else _dataset_rows(columns, rf)
+        if scan is not None:
+            n, note = _scan_points(scan, rf)
+            notes += [note] if note else []
+        else:
+            n = _dataset_rows(columns, rf)
         df = pd.DataFrame({c: column_values(spec, rf, scan, n) for c, spec in columns.items()})
         for k, value in key.items():
             df[k] = value
@@ -204,7 +220,7 @@ def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
     df = df.drop(columns="_point").reset_index(drop=True)
     df["source_file"] = rel
     df["source_rid"] = rf.run.rid if rf.run.rid is not None else -1
-    return df, scan
+    return df, scan, notes
 
 
 def _dataset_rows(columns: dict, rf: ResultsFile) -> int:
@@ -236,7 +252,9 @@ def _pattern_keys(src: SourceSpec, rf: ResultsFile, scan) -> list[dict]:
     return keys
 
 
-def _scan_points(scan, rf: ResultsFile) -> int:
+def _scan_points(scan, rf: ResultsFile):
+    """(points, a warning or None): an interrupted scan may end inside a point, whose
+    partial last point is dropped, as ndscan's tools do."""
     qs = (*scan.axes, *scan.channels.values())
     lengths = {q.dataset: len(q.values) for q in qs}
     n = min(lengths.values()) if lengths else 0
@@ -247,10 +265,9 @@ def _scan_points(scan, rf: ResultsFile) -> int:
             raise InputError(f"root '{scan.root}': dataset '{longest}' has {lengths[longest]} "
                              f"points but '{shortest}' has {lengths[shortest]}",
                              file=rf.run.file)
-        # an interrupted scan may end inside a point: drop it, as ndscan's tools do
-        log.warning("%s: root '%s' interrupted inside a point: its last partial point dropped",
-                    rf.run.file, scan.root)
-    return n
+        return n, (f"{rf.run.file}: root '{scan.root}' interrupted inside a point: its last "
+                   "partial point dropped")
+    return n, None
 
 
 def _check_counts(df: pd.DataFrame, src: SourceSpec, rf: ResultsFile, scan) -> None:
@@ -279,7 +296,7 @@ def _ordered(df: pd.DataFrame, table: str) -> pd.DataFrame:
     return df[doc + ["source_file", "source_rid"]]
 
 
-def _meta(m: Mapping, files: dict, chunks: dict, warnings: list) -> dict:
+def _meta(m: Mapping, runs: dict, chunks: dict, warnings: list) -> dict:
     meta = json.loads(json.dumps(m.campaign, default=str))   # TOML dates become text
     used = {t: sorted({p[1]["source_file"].iloc[0] for p in parts if len(p[1])})
             for t, parts in chunks.items()}
@@ -293,13 +310,13 @@ def _meta(m: Mapping, files: dict, chunks: dict, warnings: list) -> dict:
     if "gates_recorded" not in meta and earliest(GATE_TABLES):
         meta["gates_recorded"] = earliest(GATE_TABLES)
     sources = []
-    for path, rf in files.items():
+    for path, run in runs.items():
         rel = _relative(path, m.folder)
-        sources.append({"file": rel, "sha256": rf.run.sha256, "rid": rf.run.rid,
-                        "start_time": None if rf.run.start_time is None
-                        else rf.run.start_time.isoformat(),
-                        "class_name": rf.run.expid.get("class_name"),
-                        "artiq_version": rf.run.artiq_version,
+        sources.append({"file": rel, "sha256": run.sha256, "rid": run.rid,
+                        "start_time": None if run.start_time is None
+                        else run.start_time.isoformat(),
+                        "class_name": run.expid.get("class_name"),
+                        "artiq_version": run.artiq_version,
                         "tables": [t for t, fs in used.items() if rel in fs]})
     meta["imported"] = {"dpdfit": __version__, "mapping": _relative(str(m.path), m.folder),
                         "mapping_sha256": hashlib.sha256(m.text.encode()).hexdigest(),

@@ -1,0 +1,62 @@
+"""What ``dpdfit import`` says: each warning once on stderr, after the campaign is
+written (so an error is never preceded by warnings), every path relative to the mapping."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("h5py")
+
+from dpdfit.cli.main import main  # noqa: E402
+from dpdfit.simulation.artiq_results import write_per_shot_campaign  # noqa: E402
+
+BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """Per-shot results files with one interrupted parity scan, and their mapping."""
+    out = tmp_path_factory.mktemp("per_shot_lab") / "lab"
+    write_per_shot_campaign(BUNDLED, out, seed=3)
+    return out
+
+
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, [x for x in err.splitlines() if x.strip()]
+
+
+def test_a_warning_is_printed_once_on_stderr_with_the_path_relative_to_the_mapping(
+        lab, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)                     # the mapping is elsewhere
+    code, out, err = _run(["import", lab / "mapping.toml", "-o", "c", "--no-progress"], capsys)
+    assert code == 0
+    assert "did not complete" not in out
+    warned = [x for x in err if "did not complete" in x]
+    assert len(warned) == 1 and warned[0].startswith("warning: results/"), err
+    assert len(err) == 1, err
+
+
+def test_complete_only_says_once_what_it_skipped(lab, tmp_path, capsys):
+    code, out, err = _run(["import", lab / "mapping.toml", "-o", tmp_path / "c",
+                           "--complete-only"], capsys)
+    assert code == 0 and "did not complete" not in out
+    assert len(err) == 1 and err[0].startswith("skipped (incomplete): results/"), err
+
+
+def test_an_error_comes_alone_and_names_the_file_relative_to_the_mapping(
+        lab, tmp_path, capsys, monkeypatch):
+    text = (lab / "mapping.toml").read_text()
+    mapping = lab.parent / "bad_mapping.toml"
+    mapping.write_text(text.replace('phase_rad = { axis = "phase", unit = "turn" }',
+                                    'phase_rad = { axis = "phase", unit = "V" }')
+                       .replace('"results/', '"lab/results/'))
+    monkeypatch.chdir(tmp_path)
+    code, out, err = _run(["import", mapping, "-o", "c"], capsys)
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith("dpdfit: error: lab/results/"), err[0]
+    assert "unit 'V' does not convert to phase_rad" in err[0]
+    assert not (tmp_path / "c").exists()
