@@ -60,3 +60,13 @@ def test_an_error_comes_alone_and_names_the_file_relative_to_the_mapping(
     assert err[0].startswith("dpdfit: error: lab/results/"), err[0]
     assert "unit 'V' does not convert to phase_rad" in err[0]
     assert not (tmp_path / "c").exists()
+
+
+def test_write_artiq_results_then_import_as_the_help_example_does(tmp_path, capsys):
+    lab = tmp_path / "lab"
+    code, out, err = _run(["write-artiq-results", BUNDLED, lab, "--shape", "ndscan"], capsys)
+    assert code == 0 and "mapping.toml" in out and not err
+    code, out, err = _run(["import", lab / "mapping.toml", "-o", tmp_path / "c"], capsys)
+    assert code == 0 and "wrote campaign" in out and not err
+    code, _, err = _run(["write-artiq-results", BUNDLED, lab], capsys)
+    assert code == 2 and len(err) == 1 and "exists and is not empty" in err[0]

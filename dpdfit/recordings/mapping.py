@@ -12,18 +12,23 @@ Its top-level keys:
   -- one entry per *source* of that campaign table: ``files`` (a glob or a list
   of globs, relative to the mapping file; ``**`` allowed), optional ``root``
   (the ndscan root prefix, a glob; default the file's only root) and
-  ``columns``, one key per campaign column.
+  ``columns``, one key per campaign column; optional ``subscan`` (an ndscan
+  subscan of that root: one row per inner point, :mod:`.ndscan_subscans`).
 
 A column is a constant (a bare value, or ``{ value = ... }``) or exactly one of
 ``axis`` (ndscan axis: short name or fqn), ``channel`` (ndscan result channel),
 ``argument`` (the run's expid argument), ``parameter`` (an ndscan parameter
 overridden for the whole run), ``dataset`` (a plain archived dataset: one value
-per point, or one for all), ``run`` (``rid``, ``start_time`` or ``file``), with
-the modifiers ``unit`` (the unit the stored values are in; else what the file
-says, else the column's own), ``full_scale_dbm`` (``A`` given in dBm),
+per point, or one for all), ``run`` (``rid``, ``start_time`` or ``file``),
+``expr`` (a computed value, :mod:`.expressions`), with the modifiers ``unit`` (the unit the stored values are in; else what the file
+says; a constant is in the column's own), ``full_scale_dbm`` (``A`` given in dBm),
 ``format`` (:meth:`str.format` of the value), ``labels`` (codes to names) and
 ``count`` (per-shot outcomes: the number of shots whose outcome is in the
 value or list given; ``"all"`` every recorded shot).
+
+A source name with placeholders (``channel = "P_{sideband}_{n}"``) is a
+pattern: every matching name gives rows, the placeholders' columns read from
+the name (:mod:`.name_patterns`).
 
 Any key dpdfit does not know is an error naming the key and its line.
 """
