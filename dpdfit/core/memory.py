@@ -21,7 +21,8 @@ import os
 from dpdfit.errors import InputError
 
 __all__ = ["MAX_MEMORY_GB", "MEMORY_ENV", "TRACE_BYTES_PER_SAMPLE", "TABLE_BYTES_PER_FILE_BYTE",
-           "memory_limit_bytes", "check_memory"]
+           "ENGINE_BYTES_PER_AMPLITUDE", "SCAN_BYTES_PER_INTERVAL", "memory_limit_bytes",
+           "check_memory"]
 
 #: Default memory limit of one analysis, GB (10^9 bytes).
 MAX_MEMORY_GB = 16.0
@@ -38,6 +39,21 @@ TRACE_BYTES_PER_SAMPLE = 48
 #: (every cell a string first, then the numeric columns; measured ~6 B of
 #: resident memory per file byte on a 7 MB calibration file).
 TABLE_BYTES_PER_FILE_BYTE = 12
+
+#: Peak bytes per complex amplitude of the state the gate engine integrates
+#: (:mod:`dpdfit.models.gate_sim`): the density matrix of the master equation,
+#: ``(spin states x n_fock)^2`` amplitudes, or the Schrodinger columns,
+#: ``spin states x n_fock x thermal levels``.  DOP853 keeps 16 stage copies of the
+#: state, its dense output and the right-hand side's work arrays: measured 561 B
+#: (master equation) and ~500 B (Schrodinger) of traced peak per amplitude, flat
+#: from n_fock = 30 to 200 (``benchmarks/engine_memory.py``).
+ENGINE_BYTES_PER_AMPLITUDE = 640
+
+#: Peak bytes per interval of the diagnosis's interval scan
+#: (:func:`dpdfit.analyses.diagnosis.scan.scan_intervals`, ``n (n + 1) / 2``
+#: intervals of a series of ``n`` points: their ends, lengths, statistics and
+#: p-values); measured 81 B at n = 500 to 2000 (``benchmarks/engine_memory.py``).
+SCAN_BYTES_PER_INTERVAL = 96
 
 
 def _physical_bytes() -> int | None:

@@ -42,11 +42,11 @@ import copy
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
+from dpdfit.analyses.diagnosis.engine_runs import run_settings
 from dpdfit.analyses.diagnosis.fringes import PHASES, collapse, contrast, decohere
 from dpdfit.analyses.diagnosis.knob_response import (KNOB_MULTIPLES, POWER_STEP_DB,
                                                      response_tables)
 from dpdfit.core.defaults import ERROR_MODEL
-from dpdfit.core.parallel import pmap
 from dpdfit.models import gate_sim
 
 __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES", "ENGINE_PRECISION",
@@ -90,7 +90,7 @@ class GateModel:
         self.p_det = float(em["p_det"])
         self.sig_jit = float(sig_jit)
         g = camp.gates
-        self.gates = g
+        self.gates, self.folder = g, getattr(camp, "folder", None)
         self.ts = camp.time_scans
         self.keys = [(float(r.A), int(r.dpd)) for r in g.itertuples()]
         self.xi = {k: float(x) for k, x in zip(self.keys, g.xi0_hz)}
@@ -172,7 +172,7 @@ class GateModel:
                 **self.nominal, phases=PHASES, scan_times=self._scan_times(key),
                 **({"spectator": False, "flip": False} if two_ion_only else {}),
                 **ENGINE_PRECISION)))
-        runs = dict(zip(keys, pmap(gate_sim.setting_branches, calls)))
+        runs = dict(zip(keys, run_settings(calls, keys, self.folder)))
         if two_ion_only:
             runs = {k: {**self.base[k], **r} for k, r in runs.items()}
         return runs
@@ -194,7 +194,8 @@ class GateModel:
                                   dict(**knob.perturb(self.nominal, mult * knob.step), **kw)))
                     where.append((key, (knob.key, mult)))
         out = {}
-        for (key, name), run in zip(where, pmap(gate_sim.setting_branches, calls)):
+        for (key, name), run in zip(where, run_settings(calls, [w[0] for w in where],
+                                                        self.folder)):
             out.setdefault(key, {})[name] = run
         return out
 

@@ -32,6 +32,7 @@ import numpy as np
 from scipy.stats import norm
 
 from dpdfit.core.display import Displayable
+from dpdfit.core.memory import SCAN_BYTES_PER_INTERVAL, check_memory
 from dpdfit.errors import InputError
 
 __all__ = ["Deviation", "scan_intervals"]
@@ -130,6 +131,10 @@ def scan_intervals(x, z, *, min_points: int = 2, alpha: float = 0.0027, n_series
     n = x.size
     if n < min_points:
         return []
+    # the intervals [i, j) with j - i >= k = min_points: (n + 1 - k)(n + 2 - k)/2 of them
+    check_memory((n + 1 - min_points) * (n + 2 - min_points) / 2 * SCAN_BYTES_PER_INTERVAL,
+                 f"the interval scan of a residual series of {n} points",
+                 hint="record fewer points per series or set DPDFIT_MAX_MEMORY_GB")
     c = np.concatenate([[0.0], np.cumsum(z)])
     i, j = np.triu_indices(n + 1, k=min_points)          # interval [i, j) with j - i >= min_points
     m = (j - i).astype(float)

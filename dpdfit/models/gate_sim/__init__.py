@@ -23,6 +23,7 @@ Modules (each documents the method it implements)
 -------------------------------------------------
 ``drive``        optical field convention, Hamiltonian, tone amplitudes, ``xi0`` calibration
 ``fock``         thermal initial state, Fock-space cutoff
+``size``         the state's dimensions and memory, checked before an integration
 ``integrators``  Schrodinger and Lindblad equations, DOP853 step loop; decoherence model
 ``evolve``       :func:`evolve`, :func:`evolve_lindblad`: reduced spin states at given times
 ``states``       analysis pulse, outcome/parity probabilities, Bell fidelities, gate target
@@ -33,8 +34,9 @@ Modules (each documents the method it implements)
 
 from .drive import ETA, calibrate_xi0, field_amplitudes
 from .evolve import evolve, evolve_lindblad
-from .fock import THERMAL_TAIL, displacement_bound, fock_cutoff, thermal_weights
+from .fock import THERMAL_TAIL, displacement_bound, fock_cutoff, thermal_levels, thermal_weights
 from .results import SampledCounts, SettingProbabilities
+from .size import EngineSize, check_engine_size, engine_size, setting_size
 from .setting import (NDOT, P_DET, P_PREP, T2_S, parity_even, populations, setting_branches,
                       simulate_setting)
 from .spam import confusion, mix_branches
@@ -47,5 +49,6 @@ __all__ = [
     "evolve", "evolve_lindblad", "analysis_rotation", "outcome_probabilities",
     "parity_outcomes", "confusion", "state_bell_fidelity", "bell_fidelity_max", "gate_target",
     "populations", "parity_even", "SettingProbabilities", "SampledCounts", "simulate_setting",
-    "mix_branches", "setting_branches",
+    "mix_branches", "setting_branches", "thermal_levels", "EngineSize", "engine_size",
+    "check_engine_size", "setting_size",
 ]

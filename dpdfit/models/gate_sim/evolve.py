@@ -10,6 +10,7 @@ non-commuting drives, where ``B`` is only the first-order displacement)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -18,18 +19,22 @@ from dpdfit.errors import InputError
 
 from ._validate import check_times, check_tones, positive
 from .drive import Drive
-from .fock import displacement_bound, fock_cutoff, thermal_weights
+from .fock import thermal_weights
 from .integrators import integrate_lindblad, integrate_schrodinger
+from .size import check_engine_size, engine_size
 
 __all__ = ["evolve", "evolve_lindblad"]
 
 _MONITOR_TOL = 1e-12     # top-level population allowed along the integration
 
 
-def _integrate(kind, drive, N, auto, p, tau, rtol, atol, initial, gamma, heat, gamma_c,
+def _integrate(kind, drive, size, auto, p, tau, rtol, atol, initial, gamma, heat, gamma_c,
                monitor=_MONITOR_TOL):
-    """Integrate, enlarging an automatic ``n_fock`` until the top level stays empty."""
+    """Integrate, enlarging an automatic ``n_fock`` until the top level stays empty (each
+    size checked against the memory limit first)."""
+    N = size.n_fock
     for _ in range(6):
+        check_engine_size(dataclasses.replace(size, n_fock=N))
         if kind == "pure":
             out, top, nfev = integrate_schrodinger(drive, N, p, tau, rtol, atol, initial)
         else:
@@ -56,17 +61,17 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
     t1 = np.atleast_1d(t)
     # fock_tol: the population neglected in the thermal tail, above the cutoff and at
     # the top level along the way (default: the engine's 1e-10 / 1e-14 / 1e-12)
+    size = engine_size(b, c, n, eta_Omega0, xi0, float(t1.max()) if t1.size else 0.0, nbar,
+                       n_ions=n_ions, lindblad=kind != "pure", n_fock=n_fock, fock_tol=fock_tol)
+    N, B = size.n_fock, size.B
+    if N < size.n_thermal + 1:
+        raise InputError(f"n_fock={N} too small for the thermal sum "
+                         f"(m_max={size.n_thermal - 1})")
+    check_engine_size(size)          # before the thermal weights and the state are made
     p = thermal_weights(nbar) if fock_tol is None else thermal_weights(nbar, fock_tol)
-    t_max = float(t1.max()) if t1.size else 0.0
-    B = displacement_bound(b, c, n, eta_Omega0, xi0, max(t_max, 1e-300), n_ions)
-    auto = n_fock is None
-    N = (int(n_fock) if not auto else fock_cutoff(nbar, B) if fock_tol is None
-         else fock_cutoff(nbar, B, fock_tol, tail=fock_tol))
-    if N < p.size + 1:
-        raise InputError(f"n_fock={N} too small for the thermal sum (m_max={p.size - 1})")
     drive = Drive(b, c, n, eta_Omega0, xi0, n_ions)
-    out, top, nfev, N = _integrate(kind, drive, N, auto, p, t1 * xi0, rtol, atol, int(initial),
-                                   gamma, heat, gamma_c,
+    out, top, nfev, N = _integrate(kind, drive, size, n_fock is None, p, t1 * xi0, rtol, atol,
+                                   int(initial), gamma, heat, gamma_c,
                                    _MONITOR_TOL if fock_tol is None else 10 * fock_tol)
     rho = np.array(out).reshape((t1.size, drive.dim, drive.dim)) if out else \
         np.zeros((0, drive.dim, drive.dim), dtype=complex)

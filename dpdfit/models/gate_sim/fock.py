@@ -23,11 +23,35 @@ from scipy.linalg import expm
 
 from ._validate import check_tones, positive
 
-__all__ = ["THERMAL_TAIL", "thermal_weights", "displacement_bound", "fock_cutoff"]
+__all__ = ["THERMAL_TAIL", "thermal_levels", "thermal_weights", "displacement_bound",
+           "fock_cutoff"]
 
 #: Neglected thermal tail weight.
 THERMAL_TAIL = 1e-10
 _RULE_TOL = 1e-14        # displaced thermal population allowed on levels >= n_fock - 1
+# above this displacement bound (or 800 thermal levels) the cutoff is the closed-form rule,
+# capped at _MAX_FOCK: such a Fock space never fits in memory, and the size guard refuses it
+_CLOSED_FORM_B = 1e9
+_MAX_FOCK = 10 ** 18
+
+
+def thermal_levels(nbar, tail=THERMAL_TAIL) -> int:
+    """Number of thermal Fock levels ``m_max + 1`` that :func:`thermal_weights` keeps,
+    without making them (the size of the engine's state is checked before it is made)."""
+    nbar = positive("nbar", nbar, allow_zero=True)
+    if nbar == 0:
+        return 1
+    q = nbar / (1.0 + nbar)
+    if q == 1.0:                                   # nbar beyond 1e16: no finite truncation
+        return _MAX_FOCK
+    m_max = max(0, int(math.ceil(math.log(tail) / math.log(q))) - 1)
+    if m_max > 10 ** 7:                            # far beyond any memory: skip the rounding
+        return min(m_max + 1, _MAX_FOCK)
+    while q ** (m_max + 1) >= tail:
+        m_max += 1
+    while m_max > 0 and q ** m_max < tail:
+        m_max -= 1
+    return m_max + 1
 
 
 def thermal_weights(nbar, tail=THERMAL_TAIL):
@@ -44,12 +68,7 @@ def thermal_weights(nbar, tail=THERMAL_TAIL):
     if nbar == 0:
         return np.array([1.0])
     q = nbar / (1.0 + nbar)
-    m_max = max(0, int(math.ceil(math.log(tail) / math.log(q))) - 1)
-    while q ** (m_max + 1) >= tail:
-        m_max += 1
-    while m_max > 0 and q ** m_max < tail:
-        m_max -= 1
-    p = (1.0 - q) * q ** np.arange(m_max + 1)
+    p = (1.0 - q) * q ** np.arange(thermal_levels(nbar, tail))
     return p / p.sum()
 
 
@@ -91,5 +110,9 @@ def _cutoff_cached(B_key: int, nbar_key: float, tol: float, tail: float) -> int:
 def fock_cutoff(nbar, B, tol=_RULE_TOL, tail=THERMAL_TAIL):
     """Fock dimension for a thermal state displaced by up to ``B`` (module docstring);
     ``tail``: the thermal weights' neglected tail."""
-    return _cutoff_cached(int(math.ceil(max(B, 0.0) * 1000)), float(nbar), float(tol),
-                          float(tail))
+    B = max(float(B), 0.0)
+    levels = thermal_levels(nbar, tail)
+    if not B < _CLOSED_FORM_B or levels > 800:     # the closed-form rule (below), unrounded
+        x = math.sqrt(levels - 1) + B
+        return int(min(x * x + 12.0 * B + 20.0, _MAX_FOCK))
+    return _cutoff_cached(int(math.ceil(B * 1000)), float(nbar), float(tol), float(tail))
