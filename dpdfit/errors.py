@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["DpdfitError", "InputError", "FitError", "NotInvertibleError", "data_line"]
+__all__ = ["DpdfitError", "InputError", "ImplausibleValueError", "FitError",
+           "NotInvertibleError", "data_line"]
 
 #: Files larger than this are not scanned for a row's line number (the message keeps the row).
 _MAX_SCAN_BYTES = 200_000_000
@@ -102,6 +103,14 @@ class InputError(DpdfitError):
             where.append(f"row {row}")
         prefix = ", ".join(where)
         super().__init__(f"{prefix}: {message}" if prefix else message)
+
+
+class ImplausibleValueError(InputError):
+    """A value its file's format allows but no real campaign holds: a unit slip (a gate
+    rate in Hz under the kHz label, phases in degrees, an amplitude in percent, a
+    fraction in place of the shots).  ``dpdfit analyze`` refuses the whole campaign
+    for it, where a malformed file only fails the analyses that read it
+    (:mod:`dpdfit.recordings.plausibility`)."""
 
 
 class FitError(DpdfitError):

@@ -5,7 +5,7 @@
 * rows identical in every column (a line pasted twice) refused by
   ``calibrate``, ``stability``, ``align`` and ``budget``, naming both rows;
 * ``calibrate`` refuses a non-invertible amplitude fit and writes nothing;
-* parity phases in degrees: a warning naming file and column;
+* parity phases in degrees: refused, naming file and column;
 * a row's message gives the file's line number, right with ``#`` comments and
   blank lines before the data;
 * the public readers raise :class:`~dpdfit.errors.DpdfitError` (never
@@ -28,8 +28,10 @@ from dpdfit.analyses.stability import stability
 from dpdfit.analyses.sweep import read_sweep_table
 from dpdfit.cli.main import main
 from tests.helpers.cli_refusal import assert_refused
-from dpdfit.errors import DpdfitError, InputError, NotInvertibleError, data_line
-from dpdfit.recordings.counts import DEGREES_SPAN_RAD, read_parity
+from dpdfit.errors import (DpdfitError, ImplausibleValueError, InputError, NotInvertibleError,
+                           data_line)
+from dpdfit.recordings.counts import read_parity
+from dpdfit.recordings.plausibility import DEGREES_SPAN_RAD
 from dpdfit.recordings.tables import read_table
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -180,32 +182,29 @@ def test_calibrate_refuses_a_non_invertible_fit_and_writes_nothing(tmp_path, cap
 # ----------------------------------------------------------------------------- 4. degrees
 
 
-def test_parity_phases_in_degrees_give_a_warning(tmp_path, caplog):
+def test_parity_phases_in_degrees_are_refused(tmp_path, caplog):
     d = pd.read_csv(CAMP / "parity.csv", comment="#")
     d["phase_rad"] = np.degrees(d["phase_rad"])
     p = tmp_path / "parity_deg.csv"
     d.to_csv(p, index=False)
-    with caplog.at_level(logging.WARNING, logger="dpdfit"):
+    with pytest.raises(ImplausibleValueError) as exc:
         read_parity(p)
-    msgs = [r.getMessage() for r in caplog.records if r.name.startswith("dpdfit")]
-    assert len(msgs) == 1, msgs
-    assert str(p) in msgs[0] and "column 'phase_rad'" in msgs[0] and "degrees" in msgs[0]
-    caplog.clear()
+    msg = str(exc.value)
+    assert str(p) in msg and "column 'phase_rad'" in msg and "in degrees?" in msg
+    assert "\n" not in msg
     with caplog.at_level(logging.WARNING, logger="dpdfit"):
         read_parity(CAMP / "parity.csv")
     assert not [r for r in caplog.records if "degrees" in r.getMessage()]
     assert DEGREES_SPAN_RAD == pytest.approx(4 * math.pi)
 
 
-def test_degrees_warning_reaches_the_cli_stderr(tmp_path, capsys):
+def test_degrees_refusal_reaches_the_cli(tmp_path, capsys):
     d = pd.read_csv(CAMP / "parity.csv", comment="#")
     d["phase_rad"] = np.degrees(d["phase_rad"])
     p = tmp_path / "parity_deg.csv"
     d.to_csv(p, index=False)
-    assert main(["fidelity", "--populations", str(CAMP / "populations.csv"),
-                 "--parity", str(p)]) == 0
-    err = capsys.readouterr().err
-    assert f"{p}, column 'phase_rad'" in err and "look like degrees" in err
+    assert_refused(capsys, ["fidelity", "--populations", CAMP / "populations.csv", "--parity", p],
+                   [f"{p}, column 'phase_rad'", "in degrees?"], [p])
 
 
 # ----------------------------------------------------------------------------- 5. lines

@@ -3,7 +3,9 @@
 Each analysis reads only the files it needs; a missing file skips that
 analysis (with the reason in the summary), a malformed file stops that
 analysis with the one-line error naming file, column and row, and the others
-go on.  The results folder is checked before any work; all outputs, figures
+go on.  A value no real campaign holds (a unit slip:
+:mod:`dpdfit.recordings.plausibility`) refuses the whole campaign before any
+analysis runs, and nothing is written.  The results folder is checked before any work; all outputs, figures
 included, are staged and published together at the end (Ctrl-C leaves a
 previous results folder exactly as it was), and what a previous run wrote
 there and this one does not is deleted in the same step.
@@ -131,6 +133,7 @@ class _Collect(logging.Handler):
 def _analysis(folder: Path, formula, plots, diagnosis, bar) -> Analysis:
     """Run the steps; everything in memory (figures queued, drawn by ``Analysis.save``)."""
     cf = CampaignFolder(folder)
+    cf.check_plausible()           # a unit slip refuses the campaign before any analysis
     ctx = Context(campaign=cf, results=Results(), formula=formula,
                   figures=[] if plots else None)
     res = ctx.results

@@ -48,10 +48,11 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
-from dpdfit.errors import InputError
+from dpdfit.errors import ImplausibleValueError, InputError
 
-from .counts import read_parity, read_populations
+from .counts import read_parity, read_populations, shots_below_one
 from .gate_rates import read_gate_rates
+from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
 from .tables import read_calibration_table, read_table
 
@@ -278,10 +279,15 @@ class CampaignFolder:
 
     @functools.cached_property
     def gate_rates(self) -> pd.DataFrame | None:
-        """``A, dpd, xi0_khz`` (+ ``xi0_err_khz``): :func:`~.gate_rates.read_gate_rates`."""
+        """``A, dpd, xi0_khz`` (+ ``xi0_err_khz``): :func:`~.gate_rates.read_gate_rates`,
+        each rate checked against ``nu_hz`` and ``xi0_spectra_hz``
+        (:func:`~.plausibility.check_gate_rates`)."""
         if not self.has("gate_rates.csv"):
             return None
-        return read_gate_rates(self.file("gate_rates.csv"))
+        df = read_gate_rates(self.file("gate_rates.csv"))
+        check_gate_rates(df, self.nu, self.xi0_spectra, str(self.file("gate_rates.csv")),
+                         self.defaults_used, str(self.file("campaign.json")))
+        return df
 
     @functools.cached_property
     def time_scans(self) -> pd.DataFrame | None:
@@ -294,11 +300,15 @@ class CampaignFolder:
         counts = ["n00", "n11", "shots"] + (["n01_10"] if "n01_10" in ts.columns else [])
         for c in counts:
             v = ts[c].to_numpy()
-            bad = (v < 0) | (v != np.round(v)) | ((v == 0) if c == "shots" else False)
+            few = (v < 1) if c == "shots" else np.zeros(v.shape, dtype=bool)
+            bad = few | (v < 0) | (v != np.round(v))
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
-                what = "shots must be > 0" if c == "shots" else "must be a non-negative integer"
-                raise InputError(f"count {v[i]:g}: {what}", file=str(path), column=c, row=i + 1)
+                if few[i]:
+                    raise ImplausibleValueError(shots_below_one(v[i]), file=str(path),
+                                                column=c, row=i + 1)
+                raise InputError(f"count {v[i]:g}: must be a non-negative integer",
+                                 file=str(path), column=c, row=i + 1)
         if "n01_10" in ts.columns:
             tot = ts["n00"] + ts["n01_10"] + ts["n11"]
             bad = (tot != ts["shots"]).to_numpy()
@@ -328,7 +338,22 @@ class CampaignFolder:
         if not self.has("traces.csv"):
             return None
         return read_table(self.file("traces.csv"), ["file", "A", "dpd", "fs", "fdet", "nu", "xi0"],
-                          numeric=["A", "dpd", "fs", "fdet", "nu", "xi0"])
+                          numeric=["A", "dpd", "fs", "fdet", "nu", "xi0"],
+                          ranges={"A": (0, 1), "dpd": (0, 1)})
+
+    def check_plausible(self) -> None:
+        """Read every table the folder has and raise the first
+        :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
+        :mod:`~dpdfit.recordings.plausibility`): such a campaign is refused as a whole.
+        A file that is malformed is left to the analyses that read it."""
+        for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
+                     "gate_rates", "time_scans", "traces"):
+            try:
+                getattr(self, name)
+            except ImplausibleValueError:
+                raise
+            except InputError:
+                continue
 
     # -------------------------------------------------------------- left out
     def left_out(self) -> list[str]:

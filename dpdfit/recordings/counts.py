@@ -2,9 +2,10 @@
 
 :func:`read_populations` and :func:`read_parity` read a file through
 :func:`~dpdfit.recordings.tables.read_table` and check every count once
-(integer, non-negative, at most ``shots``), the settings (``dpd`` 0 or 1,
-``A`` in [0, 1]), the scan labels and duplicated rows, and the parity
-fringe's design (at least 3 distinct analysis phases).  A problem is one
+(integer, non-negative, at most ``shots``, at least one shot), the settings
+(``dpd`` 0 or 1, ``A`` in [0, 1]), the scan labels and duplicated rows, and the
+parity fringe's design (at least 3 distinct analysis phases, no scan spanning
+degrees: :mod:`dpdfit.recordings.plausibility`).  A problem is one
 :class:`~dpdfit.errors.InputError` naming the file, the column and the data
 row.  The few checks that the fits repeat on frames built in Python
 (:func:`check_counts`, :func:`fringe_points`, :func:`grid_keys`) are public
@@ -13,30 +14,28 @@ here so that they are written once.
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 
 import numpy as np
 import pandas as pd
 
-from dpdfit.errors import InputError, data_line
+from dpdfit.errors import ImplausibleValueError, InputError, data_line
 
+from .plausibility import check_phase_span
 from .tables import read_table
 
-__all__ = ["PHASE_GRID_RAD", "DEGREES_SPAN_RAD", "read_populations", "read_parity",
-           "check_counts", "grid_keys", "fringe_points", "setting_label"]
+__all__ = ["PHASE_GRID_RAD", "read_populations", "read_parity", "check_counts", "grid_keys",
+           "fringe_points", "setting_label", "shots_below_one"]
 
 #: Phase grid (rad) on which repeated parity scans are compared and merged (S7.4).
 PHASE_GRID_RAD = 0.01
-#: A scan whose analysis phases span more than this (rad) looks like degrees: a fringe
-#: (period pi in phi) is fully sampled by a span of pi, a scan over one 2*pi turn of the
-#: analysis pulse's phase is the usual design, and twice that (4*pi, four fringe periods)
-#: leaves room for over-scanned radian scans; a degree scan of even a quarter fringe
-#: (45 deg) already spans 45 > 4*pi = 12.6.
-DEGREES_SPAN_RAD = 4 * math.pi
 
-log = logging.getLogger(__name__)
+
+def shots_below_one(shots) -> str:
+    """The message refusing ``shots < 1`` (one line, with the likely slip)."""
+    return (f"shots = {float(shots):g} is below 1 (a row with no shots): an aborted scan, "
+            "or a fraction or probability in place of the number of shots?")
 
 
 def setting_label(A, dpd) -> str:
@@ -72,8 +71,13 @@ def _plain(value) -> str:
 
 def check_counts(df: pd.DataFrame, cols, file) -> None:
     """Check the count columns ``cols`` (with ``shots``) of ``df``: integer, non-negative,
-    ``shots > 0``, counts <= shots; InputError naming ``file``, column and row (position + 1)."""
+    ``shots >= 1``, counts <= shots; InputError naming ``file``, column and row (position + 1)."""
     vals = {c: pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float) for c in cols}
+    few = vals["shots"] < 1
+    if few.any():
+        i = int(np.flatnonzero(few)[0])
+        raise ImplausibleValueError(shots_below_one(vals["shots"][i]), file=file,
+                                    column="shots", row=i + 1)
     for c in cols:
         arr = vals[c]
         bad = ~(arr == np.round(arr))                 # also NaN and non-numbers
@@ -86,11 +90,6 @@ def check_counts(df: pd.DataFrame, cols, file) -> None:
             i = int(np.flatnonzero(bad)[0])
             raise InputError(f"count {arr[i]:g} is negative", file=file, column=c, row=i + 1)
     shots = vals["shots"]
-    bad = shots <= 0
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise InputError(f"shots = {shots[i]:g}: a setting with no shots (shots must be > 0)",
-                         file=file, column="shots", row=i + 1)
     for c in cols:
         if c == "shots":
             continue
@@ -166,7 +165,7 @@ def read_populations(path: str | os.PathLike) -> pd.DataFrame:
     ``n00 + n11``).  Extra columns allowed, ``#`` lines are comments.
 
     Bad input raises InputError naming file, column and row: counts not
-    integer, negative or above ``shots``; ``shots <= 0``; ``dpd`` not 0/1;
+    integer, negative or above ``shots``; ``shots < 1``; ``dpd`` not 0/1;
     ``A`` outside [0, 1]; the same ``(A, dpd, scan)`` in two rows.
 
     Returns
@@ -231,32 +230,19 @@ def _check_fringe_design(df, grid, file):
                 column="phase_rad", row=int(g.index[0]) + 1)
 
 
-def _warn_degrees(df, file) -> None:
-    """Log a warning when a scan's phases span more than :data:`DEGREES_SPAN_RAD`."""
-    phases = df.groupby(["A", "dpd", "scan"], sort=False)["phase_rad"]
-    span = phases.max() - phases.min()
-    if span.empty or not span.max() > DEGREES_SPAN_RAD:
-        return
-    (A, dpd, scan), widest = span.idxmax(), float(span.max())
-    log.warning("%s, column 'phase_rad': the phases of setting %s, scan %s span %g, more than "
-                "4*pi = %.4g: they look like degrees (radians expected; convert with "
-                "phase_rad = phase_deg * pi / 180)", file, setting_label(A, dpd), scan, widest,
-                DEGREES_SPAN_RAD)
-
-
 def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.DataFrame:
     """Read and validate a parity-fringe file ``A, dpd, scan, phase_rad, n_even, shots``.
 
     Bad input raises InputError naming file, column and row: counts not
-    integer, negative or above ``shots``; ``shots <= 0``; ``dpd`` not 0/1;
+    integer, negative or above ``shots``; ``shots < 1``; ``dpd`` not 0/1;
     ``A`` outside [0, 1]; the same phase grid point twice in one scan; a
     setting with fewer than 3 distinct analysis phases (modulo pi, since
     ``phi`` and ``phi + pi`` measure the same fringe point), or with all its
     phases on one fringe axis (equal modulo pi/2).  Scans whose phases jitter
     around a common set are accepted (see
     :func:`dpdfit.fits.counts.merge_parity`).  Phases spanning more than
-    :data:`DEGREES_SPAN_RAD` in one scan are logged as a warning (they look
-    like degrees; radians are expected).
+    :data:`~dpdfit.recordings.plausibility.DEGREES_SPAN_RAD` in one scan are
+    refused (degrees; radians are expected).
 
     Returns
     -------
@@ -270,9 +256,10 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
     _check_dpd(df, name)
     _check_scan(df, name)
     check_counts(df, ["n_even", "shots"], name)
+    check_phase_span(df, "phase_rad", ["A", "dpd", "scan"], name,
+                     lambda k: f"setting {setting_label(k[0], k[1])}, scan {k[2]}")
     _check_phase_duplicates(df, grid, name)
     _check_fringe_design(df, grid, name)
-    _warn_degrees(df, name)
     if not float(grid) > 0:                       # as merge_parity requires
         raise InputError(f"phase grid {float(grid):g} must be > 0")
     df.attrs["source"] = name

@@ -16,8 +16,9 @@ Calibration files
     optional ``run`` and ``timestamp`` (ISO 8601) when one file holds several
     calibration runs.
 ``calibration_phase.csv``
-    ``A``, ``phase_rad`` (optical phase shift, rad), optional ``phase_err``
-    (rad), ``run``, ``timestamp``.
+    ``A``, ``phase_rad`` (optical phase shift, rad; a run spanning more than
+    4*pi is refused as degrees), optional ``phase_err`` (rad), ``run``,
+    ``timestamp``.
 
 Extra columns are allowed and ignored.
 """
@@ -31,16 +32,17 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.core.memory import TABLE_BYTES_PER_FILE_BYTE, check_memory
-from dpdfit.errors import InputError, data_line
+from dpdfit.errors import ImplausibleValueError, InputError, data_line
 from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, CalibrationData,
                                                 calibration_data, calibration_runs_data,
                                                 list_runs, select_run)
 from dpdfit.recordings.outputs import remember_sha256
+from dpdfit.recordings.plausibility import check_phase_span
 from dpdfit.recordings.repeats import check_duplicates
 
 __all__ = ["read_table", "CalibrationData", "read_calibration", "read_calibration_runs",
            "read_calibration_table", "select_run", "list_runs", "check_duplicates",
-           "check_repeated_rows", "require_file"]
+           "check_repeated_rows", "require_file", "check_calibration_phases", "RANGE_CAUSES"]
 
 
 def _row(index: int) -> int:
@@ -191,13 +193,21 @@ def _shown(text) -> str:
     return repr(text[:60]) if ("\n" in text or "\r" in text or len(text) > 60) else f"'{text}'"
 
 
+#: the likely slip behind a value outside its column's documented range
+RANGE_CAUSES = {"A": "A is the normalised RF amplitude (1 = maximum diffraction): a "
+                     "percentage, a DAC value or dB in its place?"}
+
+
 def _check_bounds(column: pd.Series, name: str, col: str, lo: float, hi: float) -> None:
     arr = column.to_numpy(dtype=float)
     bad = (arr < lo) | (arr > hi)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise InputError(f"value {arr[i]:g} is outside [{lo:g}, {hi:g}]", file=name,
-                         column=col, row=_row(i))
+        msg = f"value {arr[i]:g} is outside [{lo:g}, {hi:g}]"
+        if col in RANGE_CAUSES:
+            raise ImplausibleValueError(f"{msg}: {RANGE_CAUSES[col]}", file=name, column=col,
+                                        row=_row(i))
+        raise InputError(msg, file=name, column=col, row=_row(i))
 
 
 def _check_unique_keys(df: pd.DataFrame, keys: list[str], name: str) -> None:
@@ -281,7 +291,18 @@ def _calibration_table(path: str | os.PathLike, kind: str) -> tuple[pd.DataFrame
     value_col, err_col = CALIBRATION_COLUMNS[kind]
     df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
                     ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
+    if kind == "phase":
+        check_calibration_phases(df, str(path))
     return df, value_col, err_col
+
+
+def check_calibration_phases(df: pd.DataFrame, name: str) -> None:
+    """Refuse a phase calibration whose ``phase_rad`` spans degrees within a run
+    (:func:`~dpdfit.recordings.plausibility.check_phase_span`; the whole file without
+    a ``run`` column)."""
+    keys = ["run"] if "run" in df.columns else []
+    check_phase_span(df, "phase_rad", keys, name,
+                     lambda k: f"run {k[0]}" if k else "the calibration")
 
 
 def read_calibration_table(path: str | os.PathLike, kind: str) -> pd.DataFrame:

@@ -313,6 +313,7 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None) -> Cam
     (not refitted).
     """
     cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
+    cf.check_plausible()                 # a unit slip anywhere refuses the campaign
     cal_noise = {}
     amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise, calibration)
     warnings = []

@@ -8,7 +8,8 @@ import pandas as pd
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
-from dpdfit.recordings.tables import check_repeated_rows, list_runs, read_table
+from dpdfit.recordings.tables import (check_calibration_phases, check_repeated_rows, list_runs,
+                                      read_table)
 
 from .result import StabilityResult
 from .timeseries import allan_deviation, drift_test
@@ -55,11 +56,15 @@ def _check_frame(df: pd.DataFrame, kind: str) -> tuple[pd.DataFrame, str]:
 
 def _load(df_or_path, kind: str) -> tuple[pd.DataFrame, str]:
     if isinstance(df_or_path, pd.DataFrame):
-        return _check_frame(df_or_path, kind)
-    value_col, err_col = _COLUMNS[kind]
-    df = read_table(df_or_path, ["A", value_col], [err_col, "run", "timestamp"],
-                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
-    return df, str(df_or_path)
+        df, name = _check_frame(df_or_path, kind)
+    else:
+        value_col, err_col = _COLUMNS[kind]
+        df = read_table(df_or_path, ["A", value_col], [err_col, "run", "timestamp"],
+                        ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
+        name = str(df_or_path)
+    if kind == "phase":                    # phases in degrees: refused as by the readers
+        check_calibration_phases(df, name)
+    return df, name
 
 
 def _run_labels(df: pd.DataFrame, name: str) -> list[str]:
