@@ -217,9 +217,12 @@ def read_results_file(path, name: str | None = None) -> ResultsFile:
             run = _run(f, name, hashlib.sha256(raw).hexdigest())
             datasets = {}
             if "datasets" in f:
-                for k, d in f["datasets"].items():
+                # a key with "/" is a nested group in the file (ARTIQ's h5py writes it so);
+                # it is read under its key, "group/name"
+                def take(k, d):
                     if isinstance(d, h5py.Dataset):
                         datasets[k] = (_plain(d[()]), dict(d.attrs))
+                f["datasets"].visititems(take)
     except OSError as exc:
         raise InputError(f"not a readable HDF5 file ({exc})", file=name) from None
     scans = {r: _scan(datasets, r, name) for r in find_ndscan_roots(datasets)}

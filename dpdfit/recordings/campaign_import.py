@@ -212,8 +212,10 @@ def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
         df = pd.DataFrame({c: column_values(spec, rf, scan, n) for c, spec in columns.items()})
         for k, value in key.items():
             df[k] = value
-        _check_counts(df, src, rf, scan)
         df["_point"] = np.arange(n)
+        df, note = _unmeasured_dropped(df, columns, rel)
+        notes += [note] if note else []
+        _check_counts(df, src, rf, scan)
         parts.append(df)
     # one row per point and match, points in acquisition order
     df = pd.concat(parts, ignore_index=True).sort_values("_point", kind="stable")
@@ -221,6 +223,20 @@ def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
     df["source_file"] = rel
     df["source_rid"] = rf.run.rid if rf.run.rid is not None else -1
     return df, scan, notes
+
+
+def _unmeasured_dropped(df: pd.DataFrame, columns: dict, rel: str):
+    """Drop the points where a ``count = "all"`` column found no outcome at all: an
+    array pre-filled with NaN (or empty) that the run never reached."""
+    counted = [c for c, spec in columns.items() if spec.count == "all"]
+    if not counted or df.empty:
+        return df, None
+    none = (df[counted] == 0).any(axis=1).to_numpy()
+    if not none.any():
+        return df, None
+    note = (f"{rel}: {int(none.sum())} of {len(df)} points of '{columns[counted[0]].name}' "
+            "hold no outcome (NaN or empty: never measured): dropped")
+    return df.loc[~none].reset_index(drop=True), note
 
 
 def _dataset_rows(columns: dict, rf: ResultsFile) -> int:
@@ -283,7 +299,8 @@ def _check_counts(df: pd.DataFrame, src: SourceSpec, rf: ResultsFile, scan) -> N
                 if scan is not None and spec.source in ("axis", "channel"):
                     ds = (scan.axis(spec.name) if spec.source == "axis"
                           else scan.channel(spec.name)).dataset
-                fail(spec, rf, f"point {i + 1}: {c} = {df[c].iloc[i]} exceeds shots = "
+                point = int(df["_point"].iloc[i]) + 1 if "_point" in df else i + 1
+                fail(spec, rf, f"point {point}: {c} = {df[c].iloc[i]} exceeds shots = "
                       f"{df['shots'].iloc[i]}", scan, ds)
 
 

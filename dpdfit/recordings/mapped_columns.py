@@ -98,7 +98,8 @@ def _found(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
         if name not in pool:
             fail(spec, rf, f"the run has no {src} '{name}' (it has: "
                   f"{', '.join(map(str, pool)) or 'none'})")
-        v = np.full(n, pool[name], dtype=object if isinstance(pool[name], str) else None)
+        value = _scannable(pool[name], spec, rf)
+        v = np.full(n, value, dtype=object if isinstance(value, str) else None)
     elif src == "dataset":
         if name not in rf.datasets:
             fail(spec, rf, f"no dataset '{name}'")
@@ -116,6 +117,17 @@ def _found(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
             fail(spec, rf, f"the results file has no '{name}'")
         v = np.full(n, value, dtype=object if isinstance(value, str) else None)
     return v, file_unit, dataset
+
+
+def _scannable(value, spec: ColumnSpec, rf: ResultsFile):
+    """An argument's value; a Scannable argument (ARTIQ's ``{"ty": "NoScan", "value":
+    ...}``) held fixed gives its value, one that was scanned is refused."""
+    if isinstance(value, dict) and "ty" in value:
+        if value["ty"] == "NoScan" and "value" in value:
+            return value["value"]
+        fail(spec, rf, f"argument '{spec.name}' is a {value['ty']} (scanned): its values "
+              "are in the run's datasets; map the dataset instead")
+    return value
 
 
 def _computed(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
@@ -150,11 +162,16 @@ def _count(v, spec, rf, scan, dataset) -> np.ndarray:
     rows = list(v) if v.dtype == object or v.ndim == 2 else None
     if rows is None:
         fail(spec, rf, "'count' needs per-shot outcomes (one array per point)", scan, dataset)
-    if spec.count == "all":
-        return np.array([len(np.asarray(r).ravel()) for r in rows], dtype=np.int64)
+    if spec.count == "all":                  # NaN marks a shot never taken (pre-filled)
+        return np.array([int(np.count_nonzero(~_missing(np.asarray(r).ravel())))
+                         for r in rows], dtype=np.int64)
     want = np.atleast_1d(spec.count)
     return np.array([int(np.isin(np.asarray(r).ravel(), want).sum()) for r in rows],
                     dtype=np.int64)
+
+
+def _missing(r: np.ndarray) -> np.ndarray:
+    return np.isnan(r) if r.dtype.kind == "f" else np.zeros(r.shape, dtype=bool)
 
 
 def _labelled(v, spec, rf, scan, dataset) -> np.ndarray:
