@@ -70,3 +70,33 @@ def test_write_artiq_results_then_import_as_the_help_example_does(tmp_path, caps
     assert code == 0 and "wrote campaign" in out and not err
     code, _, err = _run(["write-artiq-results", BUNDLED, lab], capsys)
     assert code == 2 and len(err) == 1 and "exists and is not empty" in err[0]
+
+
+@pytest.fixture(scope="module")
+def rates_in_hz_labelled_khz(tmp_path_factory):
+    """Results files whose gate-rate mapping says kHz for values stored in Hz."""
+    from dpdfit.simulation.artiq_results import write_ndscan_campaign
+    lab = tmp_path_factory.mktemp("rates_lab") / "lab"
+    mapping = write_ndscan_campaign(BUNDLED, lab)
+    text = mapping.read_text()
+    for col, ch in (("xi0_khz", "xi0"), ("xi0_err_khz", "xi0_err")):
+        old = f'{col} = {{ channel = "{ch}" }}'
+        assert old in text
+        text = text.replace(old, f'{col} = {{ channel = "{ch}", unit = "kHz" }}')
+    mapping.write_text(text)
+    return mapping
+
+
+@pytest.mark.parametrize("command", [["import", "-o", "OUT"], ["analyze", "-o", "OUT"],
+                                     ["diagnose", "--json"]])
+def test_rates_a_thousand_times_too_large_are_refused_in_one_line(
+        rates_in_hz_labelled_khz, tmp_path, capsys, command):
+    from tests.helpers.cli_refusal import assert_refused
+    out = tmp_path / "out"
+    argv = [command[0], rates_in_hz_labelled_khz] + [out if a == "OUT" else a
+                                                     for a in command[1:]]
+    line = assert_refused(capsys, argv, ["imported gate_rates (row 1, column 'xi0_khz')",
+                                         "gate rate 3349 kHz exceeds the mode frequency "
+                                         "1840 kHz", "stored in Hz with unit kHz?"],
+                          inputs=[rates_in_hz_labelled_khz])
+    assert "(line" not in line and not out.exists()

@@ -51,13 +51,20 @@ def campaign_argument(path, complete_only: bool = False, keep_in=None):
     if target.exists() and not _imported_before(target):
         raise InputError("exists and is not a campaign dpdfit imported: not replaced",
                          file=str(target))
-    Path(keep_in).mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix=".imported_campaign.", dir=keep_in) as tmp:
-        new = imported.write(Path(tmp) / "campaign")
-        if target.exists():
-            new_old = Path(tmp) / "previous"
-            os.replace(target, new_old)
-        os.replace(new, target)
+    keep_in = Path(keep_in)
+    created = not keep_in.exists()
+    keep_in.mkdir(parents=True, exist_ok=True)
+    try:
+        with tempfile.TemporaryDirectory(prefix=".imported_campaign.", dir=keep_in) as tmp:
+            new = imported.write(Path(tmp) / "campaign")
+            if target.exists():
+                new_old = Path(tmp) / "previous"
+                os.replace(target, new_old)
+            os.replace(new, target)
+    except BaseException:
+        if created and not any(keep_in.iterdir()):      # a refused import leaves nothing
+            keep_in.rmdir()
+        raise
     _tell(imported, sys.stderr)
     yield target
 

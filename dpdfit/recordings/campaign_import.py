@@ -23,6 +23,7 @@ import glob
 import hashlib
 import json
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -107,7 +108,8 @@ class ImportedCampaign:
 
 
 def _traced(exc: InputError, table: str, df: pd.DataFrame) -> InputError:
-    msg = str(exc).split(": ", 1)[-1]
+    # the row's line in the staged CSV means nothing to the user: the results file does
+    msg = re.sub(r" \(line \d+\)$", "", str(exc).split(": ", 1)[-1])
     if exc.row is not None and 1 <= exc.row <= len(df):
         r = df.iloc[exc.row - 1]
         return InputError(f"imported {table} (row {exc.row}, column '{exc.column}'): {msg}",
