@@ -173,3 +173,23 @@ shots = { dataset = "Rabi_Exp_Counts", count = "all" }
     assert (ts["n00"] + ts["n11"] == ts["shots"]).all()
     assert any("7 of 10 points of 'Rabi_Exp_Counts' hold no outcome" in w
                for w in imp.warnings)
+
+
+def test_an_aborted_run_in_a_months_glob_can_be_skipped_with_a_warning(tmp_path):
+    mapping = _raman_layout(tmp_path, {"ty": "NoScan", "value": 0.96})
+    # a run stopped before its first point: the scanned value never archived
+    _artiq5_file(tmp_path / "results/2019-10-01/13/000006390-Ba_Raman.h5",
+                 {"sum11": np.zeros(0, np.int32), "sum12": np.zeros(0, np.int32)},
+                 {"amplitude__scan": {"ty": "NoScan", "value": 0.96}}, rid=6390)
+    with pytest.raises(InputError, match="000006390-Ba_Raman.h5: no dataset 'scan_x'"):
+        import_campaign(mapping)
+    imp = import_campaign(mapping, skip_bad_files=True)
+    assert len(imp.tables["time_scans"]) == 36
+    assert sum("000006390-Ba_Raman.h5" in w and "skipped" in w for w in imp.warnings) == 1
+
+
+def test_skipping_never_hides_a_mapping_that_reads_no_file(tmp_path):
+    mapping = _raman_layout(tmp_path, {"ty": "NoScan", "value": 0.96})
+    mapping.write_text(mapping.read_text().replace('dataset = "scan_x"', 'dataset = "scan_y"'))
+    with pytest.raises(InputError, match="no dataset 'scan_y'"):
+        import_campaign(mapping, skip_bad_files=True)

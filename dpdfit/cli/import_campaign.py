@@ -89,7 +89,8 @@ def cmd_import(args) -> int:
     says; prints what was imported."""
     from dpdfit.recordings.campaign_import import import_campaign
     imported = import_campaign(args.mapping, complete_only=args.complete_only or None,
-                               progress=args.progress)
+                               progress=args.progress,
+                               skip_bad_files=args.skip_bad_files or None)
     out = imported.write(args.output)
     _tell(imported, sys.stdout)
     print(f"wrote campaign {out}")
@@ -110,6 +111,9 @@ def add_import_command(subparsers) -> argparse.ArgumentParser:
     c.add_argument("--complete-only", action="store_true",
                    help="skip ndscan scans that did not complete (default: import them "
                         "with a warning)")
+    c.add_argument("--skip-bad-files", action="store_true",
+                   help="skip a results file that cannot be read or mapped (an aborted "
+                        "run), with a warning each (default: it stops the import)")
     c.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar over the results files on stderr (default: when "
                         "stderr is a terminal)")

@@ -118,7 +118,8 @@ def _traced(exc: InputError, table: str, df: pd.DataFrame) -> InputError:
 
 
 def import_campaign(mapping, *, complete_only: bool | None = None,
-                    progress: bool | None = None) -> ImportedCampaign:
+                    progress: bool | None = None,
+                    skip_bad_files: bool | None = None) -> ImportedCampaign:
     """Build the campaign tables a mapping describes (module doc).
 
     Each results file is read once, for every source that names it, and only its
@@ -135,22 +136,43 @@ def import_campaign(mapping, *, complete_only: bool | None = None,
         ``[import] complete_only``, else import them with a warning).
     progress : bool, optional
         A progress bar over the files (default: when stderr is a terminal).
+    skip_bad_files : bool, optional
+        Skip a results file that cannot be read, or that a source cannot take rows
+        from, with a warning naming it and why (default: the mapping's ``[import]
+        skip_bad_files``, else such a file stops the import).  A source that takes no
+        file at all still stops it, with the first file's error.
     """
     m = mapping if isinstance(mapping, Mapping) else read_mapping(mapping)
     complete_only = m.complete_only if complete_only is None else complete_only
+    skip = m.skip_bad_files if skip_bad_files is None else skip_bad_files
     plan = {}                                    # results file -> the sources naming it
     for src in m.sources:
         for path in _expand(m, src):
             plan.setdefault(path, []).append(src)
     runs, chunks = {}, {t: [] for t in TABLE_COLUMNS}
-    warnings, skipped = [], []
+    warnings, skipped, refused = [], [], {}
     for path, sources in progress_bar(plan.items(), total=len(plan), desc="import",
                                       unit="file", progress=progress):
         rel = _relative(path, m.folder)
-        rf = read_results_file(path, name=rel)
+        try:
+            rf = read_results_file(path, name=rel)
+        except InputError as exc:
+            if not skip:
+                raise
+            for src in sources:
+                refused.setdefault(src.key, exc)
+            warnings.append(f"{exc}; skipped (--skip-bad-files)")
+            continue
         runs[path] = rf.run
         for src in sources:
-            df, scan, notes = _rows(src, rf, rel)
+            try:
+                df, scan, notes = _rows(src, rf, rel)
+            except InputError as exc:
+                if not skip:
+                    raise
+                refused.setdefault(src.key, exc)
+                warnings.append(f"{exc}; skipped for {src.key} (--skip-bad-files)")
+                continue
             warnings += notes
             if scan is not None and scan.completed is False:
                 what = f"{rel}: ndscan root '{scan.root}' did not complete ({len(df)} points)"
@@ -160,6 +182,9 @@ def import_campaign(mapping, *, complete_only: bool | None = None,
                 warnings.append(what + "; imported (--complete-only skips it)")
             t0 = _NEVER if rf.run.start_time is None else rf.run.start_time
             chunks[src.table].append(((t0, rf.run.rid or 0, src.index), df))
+    for src in m.sources:                 # a mapping mistake must not skip every file
+        if src.key in refused and not any(p[0][2] == src.index for p in chunks[src.table]):
+            raise refused[src.key]
     tables = {}
     for t, parts in chunks.items():
         if not parts:

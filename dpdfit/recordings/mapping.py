@@ -5,7 +5,9 @@ A mapping is a TOML file (read with :mod:`tomllib`); the annotated examples are
 Its top-level keys:
 
 * ``[import]`` -- options of the import: ``complete_only`` (skip ndscan scans
-  that did not complete; the command's ``--complete-only``).
+  that did not complete; the command's ``--complete-only``) and
+  ``skip_bad_files`` (skip, with a warning each, the results files a source
+  cannot read; ``--skip-bad-files``).
 * ``[campaign]`` -- keys of ``campaign.json`` (:data:`CAMPAIGN_KEYS`), copied.
 * ``[[calibration_amplitude]]``, ``[[calibration_phase]]``, ``[[spectra]]``,
   ``[[populations]]``, ``[[parity]]``, ``[[time_scans]]``, ``[[gate_rates]]``
@@ -72,6 +74,7 @@ SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run"
 MODIFIERS = ("unit", "full_scale_dbm", "format", "labels", "count")
 _RUN_FIELDS = ("rid", "start_time", "file")
 _SOURCE_KEYS = ("files", "root", "subscan", "columns")
+_IMPORT_OPTIONS = ("complete_only", "skip_bad_files")
 
 
 @dataclass(frozen=True)
@@ -131,6 +134,7 @@ class Mapping:
     sources: tuple
     complete_only: bool = False
     text: str = field(default="", repr=False)
+    skip_bad_files: bool = False
 
     @property
     def folder(self) -> Path:
@@ -159,11 +163,12 @@ def read_mapping(path) -> Mapping:
     opts = doc.get("import", {})
     err.table(opts, "import")
     for k in opts:
-        if k != "complete_only":
-            err.unknown(f"import.{k}", k, ("complete_only",), "key of [import]")
+        if k not in _IMPORT_OPTIONS:
+            err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]")
+    for k in _IMPORT_OPTIONS:
+        if not isinstance(opts.get(k, False), bool):
+            err.bad(f"import.{k}", "must be true or false")
     complete_only = opts.get("complete_only", False)
-    if not isinstance(complete_only, bool):
-        err.bad("import.complete_only", "must be true or false")
     campaign = doc.get("campaign", {})
     err.table(campaign, "campaign")
     for k in campaign:
@@ -184,7 +189,8 @@ def read_mapping(path) -> Mapping:
         err.bad("", "has no [[calibration_amplitude]]: every analysis needs the amplitude "
                 "calibration")
     return Mapping(path=path, campaign=campaign, sources=tuple(sources),
-                   complete_only=complete_only, text=text)
+                   complete_only=complete_only, text=text,
+                   skip_bad_files=opts.get("skip_bad_files", False))
 
 
 def _source(table: str, i: int, entry, err) -> SourceSpec:
