@@ -21,10 +21,9 @@ from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.recordings.mapping import read_mapping  # noqa: E402
 from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
                                              write_results_file)
+from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
 
 BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
-CALIBRATION = ('[[calibration_amplitude]]\nfiles = "results/**/*.h5"\n'
-               '[calibration_amplitude.columns]\nA = 0.5\npower = 1.0\n\n')
 
 
 def _bundled(table: str) -> pd.DataFrame:
@@ -33,7 +32,7 @@ def _bundled(table: str) -> pd.DataFrame:
 
 def _write_mapping(folder: Path, text: str) -> Path:
     path = folder / "map.toml"
-    path.write_text(CALIBRATION + text)
+    path.write_text(CALIBRATION_STUB + text)
     return path
 
 

@@ -21,15 +21,10 @@ from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
                                              write_results_file)
 from dpdfit.simulation.ndscan_subscan_results import subscan_channels  # noqa: E402
+from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
 
 BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
-MAPPING = '''[[calibration_amplitude]]
-files = "results/**/*.h5"
-[calibration_amplitude.columns]
-A = 0.5
-power = 1.0
-
-[[time_scans]]
+MAPPING = CALIBRATION_STUB.replace("{", "{{").replace("}", "}}") + '''[[time_scans]]
 files = "results/**/*.h5"
 subscan = "{subscan}"
 [time_scans.columns]

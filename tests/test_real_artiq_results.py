@@ -20,6 +20,7 @@ from dpdfit.errors import InputError  # noqa: E402
 from dpdfit.recordings.artiq import read_results_file  # noqa: E402
 from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.recordings.units import scale_from_metadata, stored_unit  # noqa: E402
+from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
 
 REAL = Path(__file__).parent / "data" / "real_artiq_results" / "haeffnerlab_photonics"
 PHOTONICS = REAL / "000071085-track_sideband_with_seq.h5"
@@ -150,13 +151,7 @@ def test_shots_never_taken_in_a_nan_prefilled_array_are_not_counted(tmp_path):
     _artiq5_file(tmp_path / "results/2023-09-12/09/000001374-Rabi_Flopping.h5",
                  {"Rabi_Exp_Counts": counts, "t": np.arange(10) * 1e-6}, {}, rid=1374)
     mapping = tmp_path / "map.toml"
-    mapping.write_text('''
-[[calibration_amplitude]]
-files = "results/**/*.h5"
-[calibration_amplitude.columns]
-A = 0.5
-power = 1.0
-
+    mapping.write_text(CALIBRATION_STUB + '''
 [[time_scans]]
 files = "results/**/*.h5"
 [time_scans.columns]
