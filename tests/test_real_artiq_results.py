@@ -188,3 +188,11 @@ def test_skipping_never_hides_a_mapping_that_reads_no_file(tmp_path):
     mapping.write_text(mapping.read_text().replace('dataset = "scan_x"', 'dataset = "scan_y"'))
     with pytest.raises(InputError, match="no dataset 'scan_y'"):
         import_campaign(mapping, skip_bad_files=True)
+
+
+def test_a_plain_scan_shorter_than_its_scan_argument_planned_is_warned(tmp_path):
+    mapping = _raman_layout(tmp_path, {"ty": "NoScan", "value": 0.96})
+    imp = import_campaign(mapping)                  # 36 points of a 500-point RangeScan
+    assert len(imp.tables["time_scans"]) == 36
+    assert any("36 points recorded of the 500 its scan argument 'raman_time__scan' planned"
+               in w for w in imp.warnings)

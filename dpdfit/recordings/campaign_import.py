@@ -233,9 +233,10 @@ def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
         columns = {c: spec.filled(key) for c, spec in src.columns.items()}
         if scan is not None:
             n, note = _scan_points(scan, rf)
-            notes += [note] if note else []
         else:
             n = _dataset_rows(columns, rf)
+            note = _fewer_than_planned(rf, n)
+        notes += [note] if note else []
         df = pd.DataFrame({c: column_values(spec, rf, scan, n) for c, spec in columns.items()})
         for k, value in key.items():
             df[k] = value
@@ -264,6 +265,21 @@ def _unmeasured_dropped(df: pd.DataFrame, columns: dict, rel: str):
     note = (f"{rel}: {int(none.sum())} of {len(df)} points of '{columns[counted[0]].name}' "
             "hold no outcome (NaN or empty: never measured): dropped")
     return df.loc[~none].reset_index(drop=True), note
+
+
+def _fewer_than_planned(rf: ResultsFile, n: int) -> str | None:
+    """A warning when a run without ndscan (no ``completed`` flag) recorded fewer points
+    than its one scanned Scannable argument planned: an interrupted scan looks short."""
+    planned = {k: v.get("npoints", len(v.get("sequence") or ()))
+               for k, v in rf.run.arguments.items()
+               if isinstance(v, dict) and v.get("ty") not in (None, "NoScan")}
+    if len(planned) != 1 or n <= 1:
+        return None
+    (name, total), = planned.items()
+    if isinstance(total, int) and n < total:
+        return (f"{rf.run.file}: {n} points recorded of the {total} its scan argument "
+                f"'{name}' planned: interrupted? (imported as recorded)")
+    return None
 
 
 def _dataset_rows(columns: dict, rf: ResultsFile) -> int:
