@@ -156,3 +156,27 @@ def test_a_pattern_that_matches_no_channel_says_what_the_file_has(tmp_path):
     with pytest.raises(InputError, match=r"no channel matches the pattern 'P_\{sideband\}_\{n\}'"
                                          r" \(the file has: power_red_1\)"):
         import_campaign(mapping)
+
+
+def test_a_column_of_a_per_point_table_dataset(tmp_path):
+    """One dataset holding a row per point (counts of 00, 01/10 and 11 side by side)."""
+    ts = _bundled("time_scans").query("dpd == 1")
+    table = ts[["n00", "n01_10", "n11"]].to_numpy()
+    write_results_file(tmp_path, 1, "TimeScan", 1.7e9, {"table": table,
+                                                        "t": ts["t_us"].to_numpy() * 1e-6},
+                       arguments={"amplitude": 0.5})
+    mapping = _write_mapping(tmp_path, (
+        '[[time_scans]]\nfiles = "results/**/*.h5"\n[time_scans.columns]\n'
+        'A = { argument = "amplitude" }\ndpd = 1\nt_us = { dataset = "t", unit = "s" }\n'
+        'n00 = { expr = "dataset(\'table\')[:, 0]" }\n'
+        'n01_10 = { expr = "dataset(\'table\')[:, 1]" }\n'
+        'n11 = { expr = "dataset(\'table\')[:, -1]" }\n'
+        'shots = { expr = "sum([dataset(\'table\')[:, 0], dataset(\'table\')[:, 1], '
+        'dataset(\'table\')[:, 2]])" }\n'))
+    got = import_campaign(mapping).tables["time_scans"]
+    for c in ("n00", "n01_10", "n11", "shots"):
+        np.testing.assert_array_equal(got[c].to_numpy(), ts[c].to_numpy(), err_msg=c)
+    mapping.write_text(mapping.read_text().replace("[:, -1]", "[:, 3]"))
+    with pytest.raises(InputError, match=r"dataset\('table'\)\[:, 3\]: the values have shape "
+                                         r"\(25, 3\), no column 3"):
+        import_campaign(mapping)

@@ -7,6 +7,8 @@ A mapping column may be ``{ expr = "..." }``, an expression such as
 * the sources a column names: ``axis('name')``, ``channel('name')``,
   ``dataset('name')``, ``argument('name')``, ``parameter('fqn')`` (each with one
   string, the name, as the column sources ``axis = ...`` etc. take it);
+* ``source[:, k]``, column ``k`` of a source that holds a row of values per point
+  (``dataset('ratio_list')[:, 2]``);
 * numbers, ``+ - * / // % **`` and unary ``-``/``+``;
 * ``round(x)`` (or ``round(x, digits)``) and ``sum([a, b, ...])``;
 
@@ -36,7 +38,8 @@ _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
            ast.Pow: operator.pow}
 _UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 _ALLOWED = ("numbers, + - * / // % **, round(x[, digits]), sum([...]) and the sources "
-            + ", ".join(f"{f}('name')" for f in SOURCE_FUNCTIONS))
+            + ", ".join(f"{f}('name')" for f in SOURCE_FUNCTIONS) + " (or a column of one, "
+            "dataset('name')[:, k])")
 
 
 class ExpressionError(ValueError):
@@ -52,8 +55,9 @@ class Expression:
     tree: ast.Expression
 
     def evaluate(self, lookup) -> np.ndarray:
-        """The expression's value, elementwise: ``lookup(source, name)`` gives each
-        source's values (an array, one per row, or a scalar)."""
+        """The expression's value, elementwise: ``lookup(source, name, column)`` gives
+        each source's values (an array, one per row, or a scalar), or with an integer
+        ``column`` that column of a source holding a row of values per point."""
         return np.asarray(_value(self.tree.body, lookup), dtype=float)
 
     def filled(self, key: dict) -> Expression:
@@ -93,8 +97,27 @@ def _check(node, refs: list) -> None:
         _check(node.operand, refs)
     elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
         _check_call(node, node.func.id, refs)
+    elif isinstance(node, ast.Subscript) and _column_of(node) is not None:
+        _check_call(node.value, node.value.func.id, refs)
     else:
         _refuse(node)
+
+
+def _column_of(node: ast.Subscript):
+    """``k`` of ``source(...)[:, k]`` (a whole number), else None."""
+    sl, v = node.slice, node.value
+    if not (isinstance(v, ast.Call) and isinstance(v.func, ast.Name)
+            and v.func.id in SOURCE_FUNCTIONS and isinstance(sl, ast.Tuple)
+            and len(sl.elts) == 2):
+        return None
+    every, k = sl.elts
+    if not (isinstance(every, ast.Slice) and every.lower is None and every.upper is None
+            and every.step is None):
+        return None
+    if isinstance(k, ast.UnaryOp) and isinstance(k.op, ast.USub) \
+            and isinstance(k.operand, ast.Constant) and type(k.operand.value) is int:
+        return -k.operand.value
+    return k.value if isinstance(k, ast.Constant) and type(k.value) is int else None
 
 
 def _check_call(node: ast.Call, fn: str, refs: list) -> None:
@@ -127,9 +150,11 @@ def _value(node, lookup):
                                           np.asarray(_value(node.right, lookup), dtype=float))
     if isinstance(node, ast.UnaryOp):
         return _UNARY[type(node.op)](np.asarray(_value(node.operand, lookup), dtype=float))
+    if isinstance(node, ast.Subscript):
+        return lookup(node.value.func.id, node.value.args[0].value, _column_of(node))
     fn, args = node.func.id, node.args
     if fn in SOURCE_FUNCTIONS:
-        return lookup(fn, args[0].value)
+        return lookup(fn, args[0].value, None)
     if fn == "round":
         digits = args[1].value if len(args) == 2 else 0
         return np.round(np.asarray(_value(args[0], lookup), dtype=float), digits)

@@ -135,12 +135,17 @@ def _computed(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
     read as stored, the result in the one unit they share (or ``unit``)."""
     units, narrow = set(), [False]
 
-    def lookup(source, name):
+    def lookup(source, name, column=None):
         v, unit, dataset = _found(replace(spec, source=source, name=name), rf, scan, n)
         try:
             x = np.asarray(v, dtype=float) if np.asarray(v).dtype.kind != "f" else v
         except (TypeError, ValueError):
             fail(spec, rf, f"{source}('{name}') is not a number (e.g. {v[0]!r})", scan, dataset)
+        if column is not None:
+            if x.ndim != 2 or not -x.shape[1] <= column < x.shape[1]:
+                fail(spec, rf, f"{source}('{name}')[:, {column}]: the values have shape "
+                      f"{x.shape}, no column {column}", scan, dataset)
+            x = x[:, column]
         if x.ndim != 1 or len(x) != n:
             fail(spec, rf, f"{source}('{name}') has shape {x.shape}, not one value per row "
                   f"({n})", scan, dataset)
