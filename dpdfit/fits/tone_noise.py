@@ -104,10 +104,6 @@ def _nll_adjusted(theta, x, A6, idx, T, h=1e-3):
         return float(g0.sum() + 0.5 * np.sum(np.log(np.maximum(d2, 1e-12))))
 
 
-def _nll(theta, x, A6, idx, T):
-    return float(_nll_series(theta, x, A6, idx, T).sum())
-
-
 def estimate_noise_floor(P_raw: np.ndarray, A: np.ndarray, im: np.ndarray) -> NoiseFloor:
     """Noise floor from the IM tones where they flatten at low drive (see module doc).
 

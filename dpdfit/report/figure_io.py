@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
 __all__ = ["DPI", "new_figure", "single_axes", "panel_grid", "root_figure", "save_figures",
-           "save_png", "pyplot", "use_noninteractive_backend"]
+           "use_noninteractive_backend"]
 
 #: resolution of every PNG figure (unless a module says otherwise)
 DPI = 130
@@ -83,19 +83,6 @@ def save_figures(figures: Mapping[str, Figure], outdir: str | os.PathLike, *,
             fig.savefig(stage(path), dpi=res, format="png")
             written.append(path)
     return written
-
-
-def save_png(fig, stage, outdir: str | os.PathLike, name: str) -> str:
-    """Write ``fig`` as ``outdir/name`` through ``stage``; returns the path (kept for old callers)."""
-    path = os.path.join(outdir, name)
-    fig.savefig(stage(path), dpi=DPI, format="png")
-    return path
-
-
-def pyplot():
-    """``matplotlib.pyplot`` as it is (no backend is chosen; kept for old callers)."""
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def use_noninteractive_backend() -> None:

@@ -18,7 +18,6 @@ relative scatter (:mod:`dpdfit.analyses.diagnosis.rate_scatter`).
 from __future__ import annotations
 
 import dataclasses
-from contextlib import contextmanager
 
 import numpy as np
 import pandas as pd
@@ -170,17 +169,6 @@ class Problem:
         self.gate.set_rate_scatter(rel)
         for k in range(self.gate.n_time_scans):
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
-
-    @contextmanager
-    def swapped_models(self):
-        """A block in which the tone model, the gate model and the priors may be swapped
-        (another phase-sign convention, a rebased gate model); restored on exit."""
-        saved = self.tone, self.gate, dict(self.prior)
-        try:
-            yield self
-        finally:
-            self.tone, self.gate, self.prior = saved
-            self._cache_key = None
 
     # -------------------------------------------------------------- residuals
     def _is_tone_key(self, k: str) -> bool:

@@ -20,11 +20,7 @@ import pandas as pd
 from dpdfit.errors import InputError
 from dpdfit.recordings.counts import PHASE_GRID_RAD, check_counts, grid_keys
 
-__all__ = ["NEAR_MISS", "pool_populations", "merge_parity"]
-
-#: A grid-consistency threshold (rad) that :func:`merge_parity` does not apply: scans
-#: are never refused for jittered phases.  Kept public so code that imports it still runs.
-NEAR_MISS = 0.05
+__all__ = ["pool_populations", "merge_parity"]
 
 
 def _source(df):
@@ -96,8 +92,7 @@ def pool_populations(df: pd.DataFrame) -> pd.DataFrame:
     return out.sort_values(["dpd", "A"], kind="stable").reset_index(drop=True)
 
 
-def merge_parity(df: pd.DataFrame, grid: float = PHASE_GRID_RAD, near_miss: float = NEAR_MISS
-                 ) -> pd.DataFrame:
+def merge_parity(df: pd.DataFrame, grid: float = PHASE_GRID_RAD) -> pd.DataFrame:
     """Merge repeated parity scans at the count level (S7.4).
 
     Phases are rounded to a common grid (``round(phi / grid)``, default
@@ -106,7 +101,6 @@ def merge_parity(df: pd.DataFrame, grid: float = PHASE_GRID_RAD, near_miss: floa
     :func:`gate_fidelities` fits the exact likelihood of every recorded phase
     instead, so scans whose phases jitter around a common set (each scan's
     own analysis-phase offset, recorded as is) are never refused.
-    ``near_miss`` is accepted for compatibility and unused.
 
     Returns
     -------

@@ -43,7 +43,7 @@ import numpy as np
 __all__ = [
     "SPLITTER", "max_split_abs",
     "two_sum", "fast_two_sum", "split", "two_prod",
-    "dd", "dd_neg", "dd_add", "dd_sub", "dd_add_d", "dd_mul",
+    "dd", "dd_add", "dd_sub", "dd_add_d", "dd_mul",
     "dd_mul_d", "dd_div_d", "dd_sum", "dd_dot", "dd_to_float",
 ]
 
@@ -95,11 +95,6 @@ def dd(hi, lo=None):
     hi = np.asarray(hi, dtype=np.float64)
     lo = np.zeros_like(hi) if lo is None else np.asarray(lo, dtype=np.float64)
     return hi, lo
-
-
-def dd_neg(a):
-    """``-a``."""
-    return -a[0], -a[1]
 
 
 def dd_add(a, b):
