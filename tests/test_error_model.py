@@ -36,12 +36,14 @@ def test_campaign_keys_are_those_of_the_bundled_campaign():
 
 def test_round_trip_and_overlay():
     other = ErrorModel(T2_s=0.04, p_det=1e-4, parity_phases=8, seed=7)
-    assert ErrorModel.from_dict(other.to_dict()) == other
-    assert ErrorModel.from_dict(ERROR_MODEL.to_dict()) == ERROR_MODEL
+    assert ErrorModel(**other.to_dict()) == other
+    assert ErrorModel.from_dict(other.campaign_dict(), base=other) == other
+    assert ErrorModel.from_dict(ERROR_MODEL.campaign_dict()) == ERROR_MODEL
     assert ErrorModel.from_dict({}) == ERROR_MODEL
     # a campaign's error_model over the defaults; over another base
     assert ErrorModel.from_dict({"T2_s": 0.04}) == dataclasses.replace(ERROR_MODEL, T2_s=0.04)
-    assert ErrorModel.from_dict({"seed": 1}, base=other) == dataclasses.replace(other, seed=1)
+    assert ErrorModel.from_dict({"p_prep": 0.01}, base=other) == dataclasses.replace(
+        other, p_prep=0.01)
     # JSON integers become floats, as the campaign's values are read
     em = ErrorModel.from_dict({"heating_quanta_per_s": 5})
     assert em == ERROR_MODEL and isinstance(em.heating_quanta_per_s, float)
@@ -54,12 +56,28 @@ def test_unknown_key_is_refused_by_name():
         ErrorModel.from_dict({"CAMPAIGN_KEYS": ()})
 
 
+@pytest.mark.parametrize("key, near", [("T2", "T2_s"), ("power_jitter", "power_jitter_db"),
+                                       ("seed", None), ("parity_phases", None),
+                                       ("table_points", None), ("colour", None)])
+def test_a_key_that_is_no_error_model_key_is_refused_in_one_line(key, near):
+    """The fields of the simulator and of the parity scans are no error-model keys."""
+    with pytest.raises(InputError) as exc:
+        ErrorModel.from_dict({key: 1})
+    msg = str(exc.value)
+    assert "\n" not in msg and f"unknown error_model key '{key}'" in msg
+    assert ("did you mean" not in msg) if near is None else f"did you mean '{near}'?" in msg
+    assert "T2_s" in msg
+
+
 @pytest.mark.parametrize("key, value", [("p_prep", "0.003"), ("p_det", -1e-5), ("p_det", 1.5),
                                         ("T2_s", 0.0), ("nbar", float("nan")), ("seed", 1.5),
                                         ("parity_phases", 0), ("power_jitter_db", True)])
 def test_bad_value_is_refused_by_name(key, value):
     with pytest.raises(InputError, match=f"'{key}'"):
-        ErrorModel.from_dict({key: value})
+        if key in ErrorModel.CAMPAIGN_KEYS:
+            ErrorModel.from_dict({key: value})
+        else:
+            ErrorModel(**{key: value})
 
 
 def test_frozen():

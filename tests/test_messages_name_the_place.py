@@ -23,7 +23,7 @@ import pandas as pd
 import pytest
 
 import dpdfit
-from dpdfit.analyses.budget import load_budget_config, read_gate_rates
+from dpdfit.analyses.budget import gate_rates_khz, load_budget_config
 from dpdfit.analyses.stability import stability
 from dpdfit.analyses.sweep import read_sweep_table
 from dpdfit.cli.main import main
@@ -249,7 +249,7 @@ READERS = {
     "read_parity": dpdfit.read_parity,
     "load_trace": dpdfit.load_trace,
     "read_sweep_table": read_sweep_table,
-    "read_gate_rates": read_gate_rates,
+    "gate_rates_khz": gate_rates_khz,
     "load_budget_config": load_budget_config,
     "analyze": dpdfit.analyze,
 }

@@ -23,7 +23,7 @@ from hypothesis.extra import numpy as hnp
 from tests.helpers.prop_mutations import (base_texts, csv_mutations, json_mutations,
                                           mutate_csv, mutate_json, outcome)
 
-from dpdfit.analyses.budget import read_gate_rates
+from dpdfit.analyses.budget import gate_rates_khz
 from dpdfit.analyses.sweep import read_sweep_table
 from dpdfit.fits.calibration import load_calibration
 from dpdfit.recordings.campaign_folder import CampaignFolder
@@ -74,7 +74,7 @@ READERS = {
                               _check_calibration),
     "populations.csv": ("populations", "populations.csv", read_populations, _check_counts),
     "parity.csv": ("parity", "parity.csv", read_parity, _check_counts),
-    "gate_rates.csv (budget)": ("gate_rates", "gate_rates.csv", read_gate_rates,
+    "gate_rates.csv (budget)": ("gate_rates", "gate_rates.csv", gate_rates_khz,
                                 lambda r: (len(r) > 0 and np.isfinite(r).all()
                                            and (np.asarray(r) > 0).all()) or _no("rates")),
     "gate_rates.csv (campaign)": ("gate_rates", "gate_rates.csv", _campaign_reader("gate_rates"),

@@ -6,7 +6,7 @@ import argparse
 import json
 import math
 
-from dpdfit.analyses.budget import (error_budget, load_budget_config, read_gate_rates,
+from dpdfit.analyses.budget import (error_budget, gate_rates_khz, load_budget_config,
                                     validate_budget_config)
 from dpdfit.cli.options import finite_float, unit_interval
 from dpdfit.errors import InputError
@@ -33,7 +33,7 @@ def cmd_budget(args) -> int:
             raise InputError(f"--delta-err must be >= 0, got {args.delta_err}")
         cfg["delta"]["error"] = float(args.delta_err)
     if args.gate_rates:
-        cfg["gate"]["rates_khz"] = read_gate_rates(args.gate_rates)
+        cfg["gate"]["rates_khz"] = gate_rates_khz(args.gate_rates)
     res = error_budget(cfg)
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))

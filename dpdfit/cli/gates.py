@@ -25,18 +25,16 @@ __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_ali
 def _gate_table(pop_path, par_path, interval, rates_path=None):
     from dpdfit.fits.counts import gate_fidelities
     from dpdfit.recordings.counts import read_parity, read_populations
-    rates = None
-    if rates_path:  # read (and validated) first: before the count files' fits and warnings
-        rates = read_table(rates_path, ["A", "dpd", "xi0_khz", "xi0_err_khz"],
-                           ranges={"A": (0.0, 1.0), "dpd": (0, 1)},
-                           positive=["xi0_khz", "xi0_err_khz"], unique=["A", "dpd"])
-        rates["dpd"] = rates["dpd"].astype(int)
+    from dpdfit.recordings.gate_rates import read_gate_rates
+    # read (and validated) first, by the campaign's own reader: before the count files'
+    # fits and warnings
+    rates = read_gate_rates(rates_path) if rates_path else None
     pop = read_populations(pop_path)
     par = read_parity(par_path)
     tab = gate_fidelities(pop, par, interval=interval)
     if rates is not None:
-        tab = tab.merge(rates[["A", "dpd", "xi0_khz", "xi0_err_khz"]], on=["A", "dpd"],
-                        how="left")
+        cols = ["A", "dpd", "xi0_khz"] + (["xi0_err_khz"] if "xi0_err_khz" in rates else [])
+        tab = tab.merge(rates[cols], on=["A", "dpd"], how="left")
     return tab
 
 
@@ -89,7 +87,7 @@ def add_fidelity_command(subparsers) -> argparse.ArgumentParser:
     f.add_argument("--interval", choices=["wilson", "clopper-pearson"], default="wilson",
                    help="population interval near 1 (wilson)")
     f.add_argument("--gate-rates", metavar="RATES.csv",
-                   help="A, dpd, xi0_khz, xi0_err_khz: joined into -o")
+                   help="A, dpd, xi0_khz (+ xi0_err_khz): joined into -o")
     f.add_argument("-o", "--output", metavar="GATE.csv", help="write the table as CSV")
     f.add_argument("--json", action="store_true",
                    help="print a JSON list (one record per A, dpd)")

@@ -7,6 +7,7 @@ falls back to is taken from here, so that a lab changes it in one place.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from dataclasses import dataclass
 from typing import ClassVar
@@ -114,17 +115,24 @@ class ErrorModel:
 
     @classmethod
     def from_dict(cls, values: dict, base: ErrorModel | None = None) -> ErrorModel:
-        """``base`` (default :data:`ERROR_MODEL`) with the fields ``values`` names replaced.
+        """``base`` (default :data:`ERROR_MODEL`) with the error-model keys ``values``
+        names replaced.
 
-        ``values`` may be a campaign's ``error_model`` object or :meth:`to_dict`'s
-        output; an unknown key or a bad value is an :class:`InputError` naming it.
+        ``values`` is a campaign's ``error_model`` object: only the
+        :attr:`CAMPAIGN_KEYS` (:meth:`campaign_dict`'s output).  Any other key (the
+        campaign's ``parity_phases``, the simulator's ``table_points`` and ``seed``
+        included) or a bad value is an :class:`InputError` naming it, with the
+        nearest error-model key when there is one.  ``ErrorModel(**d)`` takes
+        :meth:`to_dict`'s output.
         """
         if not isinstance(values, dict):
             raise InputError(f"error_model must be an object/dict, got {type(values).__name__}")
-        known = [f.name for f in dataclasses.fields(cls)]
         for key in values:
-            if key not in known:
-                raise InputError(f"unknown error_model key '{key}' (known: {', '.join(known)})")
+            if key not in cls.CAMPAIGN_KEYS:
+                near = difflib.get_close_matches(str(key), cls.CAMPAIGN_KEYS, n=1)
+                hint = f" (did you mean '{near[0]}'?)" if near else ""
+                raise InputError(f"unknown error_model key '{key}'{hint}; the error-model "
+                                 f"keys are {', '.join(cls.CAMPAIGN_KEYS)}")
         return dataclasses.replace(ERROR_MODEL if base is None else base, **values)
 
     def analysis_phases(self) -> np.ndarray:

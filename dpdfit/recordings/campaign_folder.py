@@ -50,6 +50,7 @@ import pandas as pd
 from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.errors import ImplausibleValueError, InputError
 
+from .columns import CAMPAIGN_TABLES, missing_optional_columns
 from .counts import read_parity, read_populations, shots_below_one
 from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
@@ -231,7 +232,7 @@ class CampaignFolder:
     def spectra(self) -> pd.DataFrame:
         """``A, dpd, sideband, n, P_dB, valid`` (+ ``snr_db`` when recorded)."""
         path = self.require("spectra.csv", "the spectra analysis")
-        df = read_table(path, ["A", "dpd", "sideband", "n", "P_dB"], ["valid", "snr_db"],
+        df = read_table(path, *(list(c) for c in CAMPAIGN_TABLES["spectra"]),
                         numeric=["A", "dpd", "n", "P_dB"], ranges={"A": (0, 1), "dpd": (0, 1)})
         bad = ~df["sideband"].isin(["red", "blue"])
         if bad.any():
@@ -295,7 +296,7 @@ class CampaignFolder:
         if not self.has("time_scans.csv"):
             return None
         path = self.file("time_scans.csv")
-        ts = read_table(path, ["A", "dpd", "t_us", "n00", "n11", "shots"], ["n01_10"],
+        ts = read_table(path, *(list(c) for c in CAMPAIGN_TABLES["time_scans"]),
                         ranges={"A": (0, 1), "dpd": (0, 1)})
         counts = ["n00", "n11", "shots"] + (["n01_10"] if "n01_10" in ts.columns else [])
         for c in counts:
@@ -345,22 +346,27 @@ class CampaignFolder:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
         :mod:`~dpdfit.recordings.plausibility`): such a campaign is refused as a whole.
-        A file that is malformed is left to the analyses that read it."""
+        A file that is malformed is left to the analyses that read it, except
+        ``time_scans.csv`` (counts above the shots, say), which no analysis of its own
+        reads: it is refused here, at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
                      "gate_rates", "time_scans", "traces"):
             try:
                 getattr(self, name)
-            except ImplausibleValueError:
-                raise
-            except InputError:
-                continue
+            except InputError as exc:
+                if isinstance(exc, ImplausibleValueError) or name == "time_scans":
+                    raise
 
     # -------------------------------------------------------------- left out
     def left_out(self) -> list[str]:
-        """What is absent from the folder, one line each (nothing if complete)."""
+        """What is absent from the folder, one line each (nothing if complete): optional
+        files, optional columns of the files present, defaulted campaign.json keys."""
         out = [f"{name} absent ({what})" for name, what in FILES.items()
                if name not in ("campaign.json", "calibration_amplitude.csv")
                and not self.has(name)]
+        for table in CAMPAIGN_TABLES:          # a file absent lacks no column
+            if missing := missing_optional_columns(self.file(f"{table}.csv"), table):
+                out.append(f"{table}.csv has no optional column {', '.join(missing)}")
         if self.defaults_used:
             out.append("campaign.json: default for " + ", ".join(
                 f"{k} = {META_DEFAULTS[k]:g}" for k in self.defaults_used))

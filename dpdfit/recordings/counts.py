@@ -22,6 +22,7 @@ import pandas as pd
 
 from dpdfit.errors import ImplausibleValueError, InputError, data_line
 
+from .columns import CAMPAIGN_TABLES
 from .plausibility import check_phase_span
 from .tables import read_table
 
@@ -175,8 +176,8 @@ def read_populations(path: str | os.PathLike) -> pd.DataFrame:
         always present; the index is the 0-based data row.
     """
     name = str(path)
-    optional = ["n_even", "n00", "n01_10", "n11"]
-    df = read_table(path, ["A", "dpd", "scan", "shots"], optional,
+    required, optional = (list(c) for c in CAMPAIGN_TABLES["populations"])
+    df = read_table(path, required, optional,
                     numeric=["A", "dpd", "shots"] + optional, ranges={"A": (0.0, 1.0)})
     trio = [c for c in ("n00", "n01_10", "n11") if c in df.columns]
     if "n_even" not in df.columns and len(trio) < 3:
@@ -250,7 +251,7 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
         As read (``dpd`` int, ``scan`` str); the index is the 0-based data row.
     """
     name = str(path)
-    df = read_table(path, ["A", "dpd", "scan", "phase_rad", "n_even", "shots"],
+    df = read_table(path, list(CAMPAIGN_TABLES["parity"][0]),
                     numeric=["A", "dpd", "phase_rad", "n_even", "shots"],
                     ranges={"A": (0.0, 1.0)})
     _check_dpd(df, name)

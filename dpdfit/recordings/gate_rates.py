@@ -1,7 +1,7 @@
 """``gate_rates.csv``: the calibrated gate rate of each setting, read by one set of rules.
 
-The campaign folder, the budget (``dpdfit budget --gate-rates``) and the
-pipeline read gate rates through :func:`read_gate_rates`.
+The campaign folder, the budget (``dpdfit budget --gate-rates``), ``dpdfit fidelity
+--gate-rates`` and the pipeline read gate rates through :func:`read_gate_rates`.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import pandas as pd
 
 from dpdfit.errors import InputError
 
+from .columns import CAMPAIGN_TABLES
 from .tables import read_table
 
 __all__ = ["read_gate_rates", "MIN_GATE_RATE_KHZ"]
@@ -29,7 +30,8 @@ def read_gate_rates(path: str | os.PathLike) -> pd.DataFrame:
     an :class:`~dpdfit.errors.InputError` names file, column and row.
     """
     name = str(path)
-    df = read_table(path, ["A", "dpd", "xi0_khz"], ["xi0_err_khz"],
+    required, optional = CAMPAIGN_TABLES["gate_rates"]
+    df = read_table(path, list(required), list(optional),
                     ranges={"A": (0.0, 1.0), "dpd": (0, 1)},
                     positive=["xi0_khz", "xi0_err_khz"], unique=["A", "dpd"])
     v = df["dpd"].to_numpy()

@@ -45,6 +45,7 @@ from pathlib import Path
 
 from dpdfit.errors import InputError
 
+from .columns import CAMPAIGN_TABLES
 from .expressions import Expression, ExpressionError, parse_expression
 from .name_patterns import fill, placeholders
 from .units import COLUMN_KINDS
@@ -52,16 +53,18 @@ from .units import COLUMN_KINDS
 __all__ = ["ColumnSpec", "SourceSpec", "Mapping", "read_mapping", "TABLE_COLUMNS",
            "CAMPAIGN_KEYS", "SOURCES", "MODIFIERS"]
 
-#: campaign table -> (required columns, optional columns), as the campaign folder reads them
-TABLE_COLUMNS = {
-    "calibration_amplitude": (("A", "power"), ("power_err", "run", "timestamp")),
-    "calibration_phase": (("A", "phase_rad"), ("phase_err", "run", "timestamp")),
-    "spectra": (("A", "dpd", "sideband", "n", "P_dB"), ("valid", "snr_db")),
-    "populations": (("A", "dpd", "shots"), ("scan", "n_even", "n00", "n01_10", "n11")),
-    "parity": (("A", "dpd", "phase_rad", "n_even", "shots"), ("scan",)),
-    "time_scans": (("A", "dpd", "t_us", "n00", "n11", "shots"), ("n01_10",)),
-    "gate_rates": (("A", "dpd", "xi0_khz"), ("xi0_err_khz",)),
-}
+
+def _mapped(required: tuple, optional: tuple) -> tuple:
+    """A table's columns in a mapping: the readers' own, with ``scan`` optional (the
+    import numbers a setting's scans when no column gives them)."""
+    if "scan" not in required:
+        return required, optional
+    return tuple(c for c in required if c != "scan"), ("scan", *optional)
+
+
+#: campaign table -> (required columns, optional columns) of a mapping: derived from the
+#: readers' (:data:`~dpdfit.recordings.columns.CAMPAIGN_TABLES`)
+TABLE_COLUMNS = {table: _mapped(*cols) for table, cols in CAMPAIGN_TABLES.items()}
 #: keys of campaign.json that a mapping may set (the campaign folder's; informational ones too)
 CAMPAIGN_KEYS = ("name", "nu_hz", "xi0_spectra_hz", "nbar_assumed", "eta_ref", "eta_ld",
                  "order", "predistortion_table", "phase_run_for_model", "error_model",

@@ -36,6 +36,7 @@ from dpdfit.errors import ImplausibleValueError, InputError, data_line
 from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, CalibrationData,
                                                 calibration_data, calibration_runs_data,
                                                 list_runs, select_run)
+from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
 from dpdfit.recordings.repeats import check_duplicates
@@ -289,7 +290,8 @@ def _timestamps(column: pd.Series, name: str) -> pd.Series:
 def _calibration_table(path: str | os.PathLike, kind: str) -> tuple[pd.DataFrame, str, str]:
     """The whole calibration file, validated, and its value and error columns."""
     value_col, err_col = CALIBRATION_COLUMNS[kind]
-    df = read_table(path, ["A", value_col], [err_col, "run", "timestamp"],
+    required, optional = CAMPAIGN_TABLES[f"calibration_{kind}"]
+    df = read_table(path, list(required), list(optional),
                     ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
     if kind == "phase":
         check_calibration_phases(df, str(path))

@@ -34,13 +34,13 @@ engine), :mod:`.config` (the TOML configuration, its keys and defaults),
 (:func:`error_budget`).  The command is :mod:`dpdfit.cli.budget`.
 """
 
-from .config import DEFAULT_CONFIG, load_budget_config, read_gate_rates, validate_budget_config
+from .config import DEFAULT_CONFIG, gate_rates_khz, load_budget_config, validate_budget_config
 from .losses import (DEPHASING_COEFFICIENT, dephasing_loss, detection_loss, heating_coefficient,
                      heating_loss, preparation_loss)
 from .monte_carlo import error_budget
 from .result import PAPER_TABLE, SOURCES, BudgetResult
 
 __all__ = ["DEFAULT_CONFIG", "SOURCES", "PAPER_TABLE", "BudgetResult", "error_budget",
-           "load_budget_config", "validate_budget_config", "read_gate_rates",
+           "load_budget_config", "validate_budget_config", "gate_rates_khz",
            "heating_coefficient", "DEPHASING_COEFFICIENT", "preparation_loss", "dephasing_loss",
            "heating_loss", "detection_loss"]

@@ -48,12 +48,12 @@ from pathlib import Path
 
 from dpdfit.errors import InputError
 from dpdfit.recordings.gate_rates import MIN_GATE_RATE_KHZ
-from dpdfit.recordings.gate_rates import read_gate_rates as read_gate_rates_table
+from dpdfit.recordings.gate_rates import read_gate_rates
 from dpdfit.recordings.tables import require_file
 
 from .losses import DEPHASING_COEFFICIENT
 
-__all__ = ["DEFAULT_CONFIG", "validate_budget_config", "load_budget_config", "read_gate_rates",
+__all__ = ["DEFAULT_CONFIG", "validate_budget_config", "load_budget_config", "gate_rates_khz",
            "MIN_GATE_RATE_KHZ"]
 
 
@@ -176,8 +176,8 @@ def load_budget_config(path) -> dict:
         raise InputError(str(exc), file=str(path)) from None
 
 
-def read_gate_rates(path) -> list[float]:
+def gate_rates_khz(path) -> list[float]:
     """Gate rates ``xi0`` [kHz] of a gate-rate file (``A, dpd, xi0_khz``), read by the one
     reader of such files (:func:`dpdfit.recordings.gate_rates.read_gate_rates`: A in
     [0, 1], dpd 0/1, xi0_khz > 0, no (A, dpd) twice; InputError names file, column, row)."""
-    return [float(x) for x in read_gate_rates_table(path)["xi0_khz"]]
+    return [float(x) for x in read_gate_rates(path)["xi0_khz"]]

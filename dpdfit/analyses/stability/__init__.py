@@ -27,7 +27,8 @@ the command: :mod:`dpdfit.cli.stability`.
 """
 
 from .result import StabilityResult
-from .runs import stability
+from .runs import missing_stability_columns, stability
 from .timeseries import allan_deviation, drift_test
 
-__all__ = ["StabilityResult", "stability", "drift_test", "allan_deviation"]
+__all__ = ["StabilityResult", "stability", "drift_test", "allan_deviation",
+           "missing_stability_columns"]

@@ -14,7 +14,7 @@ from dpdfit.recordings.tables import (check_calibration_phases, check_repeated_r
 from .result import StabilityResult
 from .timeseries import allan_deviation, drift_test
 
-__all__ = ["stability"]
+__all__ = ["stability", "missing_stability_columns"]
 
 _COLUMNS = {"amplitude": ("power", "power_err"), "phase": ("phase_rad", "phase_err")}
 _DEFAULT_ORDER = {"amplitude": AMPLITUDE_ORDER, "phase": PHASE_ORDER}
@@ -65,6 +65,12 @@ def _load(df_or_path, kind: str) -> tuple[pd.DataFrame, str]:
     if kind == "phase":                    # phases in degrees: refused as by the readers
         check_calibration_phases(df, name)
     return df, name
+
+
+def missing_stability_columns(df: pd.DataFrame) -> list[str]:
+    """The optional calibration columns the stability needs and ``df`` lacks (``run``
+    labels the runs, ``timestamp`` places them in time): an empty list when it can run."""
+    return [c for c in ("run", "timestamp") if c not in df.columns]
 
 
 def _run_labels(df: pd.DataFrame, name: str) -> list[str]:

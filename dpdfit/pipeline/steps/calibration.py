@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from dpdfit.analyses.stability import stability
+from dpdfit.analyses.stability import missing_stability_columns, stability
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.calibration import Calibration, calibrate_amplitude, calibrate_phase
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
@@ -158,15 +158,21 @@ def _stability_fits(fits: CalibrationFits | None, kind: str) -> dict | None:
 
 def stability_step(ctx: Context, fits: CalibrationFits | None) -> "StabilityResults | None":
     """y(1) and phi(1) per run: mean, sd, drift test, Allan deviation (S2) ->
-    ``stability_*.json``, Figs. S2, S3."""
+    ``stability_*.json``, Figs. S2, S3.  A file without ``run`` or ``timestamp``
+    (optional columns) is skipped, with the reason."""
     res = ctx.results
-    done, done_kinds = [], {}
+    done, done_kinds, skipped = [], {}, []
     cf = ctx.campaign
     for kind, name in (("amplitude", "calibration_amplitude.csv"),
                        ("phase", "calibration_phase.csv")):
         if not cf.has(name):
             continue
         runs = cf.amplitude_runs if kind == "amplitude" else cf.phase_runs
+        missing = missing_stability_columns(runs)
+        if missing:
+            skipped.append(f"{name} has no {' or '.join(missing)} column (the stability "
+                           "needs run and timestamp)")
+            continue
         st = stability(runs, kind=kind, fits=_stability_fits(fits, kind))
         res.json_file(f"stability_{kind}.json", st.to_dict())
         done_kinds[kind] = st
@@ -174,9 +180,9 @@ def stability_step(ctx: Context, fits: CalibrationFits | None) -> "StabilityResu
         done.append(f"{kind}: {st.n_runs} runs, sd {st.std:.3g}, trend "
                     f"{st.trend_per_day:+.2e} +/- {st.trend_per_day_err:.1e} /day")
     if not done:
-        res.status("stability", "skipped", "no calibration files")
+        res.status("stability", "skipped", "; ".join(skipped) or "no calibration files")
         return None
-    res.status("stability", "ok", "; ".join(done))
+    res.status("stability", "ok", "; ".join(done + [f"skipped: {s}" for s in skipped]))
     return StabilityResults(done_kinds)
 
 
