@@ -76,7 +76,7 @@ ADD_NFEV = 40
 
 def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
              with_gates: bool = True, run_fits: dict | None = None,
-             progress: bool | None = None, calibration=None) -> Diagnosis:
+             progress: bool | None = None, calibration=None, noise=None) -> Diagnosis:
     """Diagnose a campaign (see module doc).
 
     Parameters
@@ -100,6 +100,11 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
     calibration : Calibration, optional
         The fits of the model's amplitude and phase runs at the campaign's order,
         when the caller has made them (``dpdfit analyze`` does): not refitted.
+    noise : tuple, optional
+        ``(power noise, phase noise)``: the noise models of the calibration runs
+        (:class:`~dpdfit.fits.photodiode.PowerNoise`, ``PhaseNoise`` or None each) when
+        the caller has learnt them from every run (``dpdfit analyze``'s calibration
+        step does): the runs are not refitted for them.
 
     Returns
     -------
@@ -118,11 +123,12 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
         get(e)                                            # a KeyError naming the known ones
     with (threadpool_limits(limits=1, user_api="blas"),
           progress_bar(total=6, desc="diagnose", progress=progress) as bar):
-        return _diagnose(campaign, effects, pairs, with_gates, run_fits, calibration, bar)
+        return _diagnose(campaign, effects, pairs, with_gates, run_fits, calibration, noise,
+                         bar)
 
 
 def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibration,
-              bar) -> Diagnosis:
+              noise, bar) -> Diagnosis:
     t0 = time.perf_counter()
     timing = {}
 
@@ -131,13 +137,17 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
         bar.update()
 
     camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign, run_fits,
-                                                                         calibration)
+                                                                         calibration, noise)
     effects = tuple(e for e in effects if (with_gates and camp.gates is not None)
                     or EFFECTS[e].side == "tones")
     prob = Problem(camp, with_gates=with_gates, effects=effects)
     effects = tuple(e for e in effects if EFFECTS[e].supports(prob))
     lap("null model")
     base = fit_hypothesis(prob, ())
+    # the baseline's series and null model now: an effect's fit may re-choose the
+    # phase-sign convention (phase_sign.repredict_gates), and the figures' baseline must
+    # be the one behind redchi_before
+    series_before, null_model = prob.series(dict(base.nuisances)), prob.null_model(base)
     mismatches = locate_mismatches(prob, dict(base.nuisances))
     lap("baseline")
     fits, form_fits = _fit_singles(prob, base, effects)
@@ -163,8 +173,7 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
                    if chosen is not None else [])
     lap("sizes")
     after = chosen or base
-    pb = dict(base.nuisances)
-    pa = pb if chosen is None else chosen.all_params
+    pa = dict(base.nuisances) if chosen is None else chosen.all_params
     generic = None
     if verdict == "unexplained" or verdict_fit == "approximate":
         # the located mismatches with a smooth generic term in their place: where the
@@ -188,14 +197,14 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
                                       else explained_fraction(base, chosen)),
                "nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
                              **{k: v[0] for k, v in GATE_NUISANCES.items()}},
-               "null_model": prob.null_model(base),
+               "null_model": null_model,
                "generic": generic,
                "recording_times": {k: v.isoformat() for k, v in camp.recorded.items()},
                "runs_after_recordings": (None if camp.runs_after is None
                                          else list(camp.runs_after.runs)),
                "timing_seconds": timing,
                "warnings": list(camp.warnings), "left_out": list(camp.left_out)},
-        series_before=prob.series(pb), series_after=prob.series(pa), context=prob)
+        series_before=series_before, series_after=prob.series(pa), context=prob)
 
 
 def _verdict(base: FitResult, chosen, evidence: list, mismatches: list):

@@ -28,6 +28,7 @@ and :mod:`dpdfit.analyses.diagnosis.gate_model`.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -36,7 +37,7 @@ import pandas as pd
 
 from dpdfit.analyses.diagnosis.calibration_drift import RunsAfter, drift_modes, runs_after_recordings
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
-from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
+from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase, fit_amplitude
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.fits.counts import fit_parity
 from dpdfit.errors import InputError
@@ -150,10 +151,29 @@ def _residual_frame(cal, A, value, err) -> pd.DataFrame:
     return pd.DataFrame({"A": A, "z": (value - pred) / err})
 
 
-def _calibrations(cf: CampaignFolder, noise: dict, given=None):
+def _model_runs(cf: CampaignFolder, learnt):
+    """The model amplitude and phase runs with their errors, and the noise models:
+    :func:`~dpdfit.fits.photodiode.model_run_with_noise` and ``phase_run_with_noise``
+    (which learn the noise from every run), or with ``learnt`` = ``(power noise, phase
+    noise)`` already learnt so by the caller (the same errors, no run refitted).
+    Returns ``(data, power noise, phase data or None, phase noise)``."""
+    if learnt is None:
+        return (*model_run_with_noise(cf), *phase_run_with_noise(cf))
+    power, phase = learnt
+    data, pdata = cf.amplitude_model, cf.phase_model
+    if power is not None:     # the errors model_run_with_noise gives: the noise at the fit
+        pre = fit_amplitude(data.A, data.value, None, int(cf.meta["order"]))
+        data = dataclasses.replace(data, error=power.sigma(pre.power(data.A)))
+    if pdata is not None and phase is not None:
+        pdata = dataclasses.replace(pdata, error=phase.sigma(pdata.A))
+    return data, power, pdata, (None if pdata is None else phase)
+
+
+def _calibrations(cf: CampaignFolder, noise: dict, given=None, learnt=None):
     """The model runs' fits and residuals; ``given`` (a Calibration of the same runs at
-    the campaign's order, made by the caller) is used instead of fitting again."""
-    data, noise["photodiode"] = model_run_with_noise(cf)
+    the campaign's order, made by the caller) is used instead of fitting again, and
+    ``learnt`` (the runs' noise models, :func:`_model_runs`) instead of learning them."""
+    data, noise["photodiode"], pdata, noise["phase"] = _model_runs(cf, learnt)
     order = int(cf.meta["order"])
     if given is not None and given.amplitude.order == order:
         amp = given.amplitude
@@ -161,7 +181,6 @@ def _calibrations(cf: CampaignFolder, noise: dict, given=None):
         amp, given = calibrate_amplitude(data, order), None
     amp_res = _residual_frame(amp, data.A, data.value, data.error)
     ph, ph_res = None, None
-    pdata, noise["phase"] = phase_run_with_noise(cf)
     if pdata is not None:
         ph = given.phase if given is not None and given.phase is not None \
             else calibrate_phase(pdata)
@@ -301,7 +320,8 @@ def _time_scans(cf: CampaignFolder):
     return ts[["A", "dpd", "t_s", "n00", "n11", "shots"]].reset_index(drop=True)
 
 
-def load_campaign(folder, run_fits: dict | None = None, calibration=None) -> Campaign:
+def load_campaign(folder, run_fits: dict | None = None, calibration=None,
+                  noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
 
     ``folder`` is a path or a :class:`~dpdfit.recordings.campaign_folder.CampaignFolder`
@@ -309,13 +329,13 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None) -> Cam
     ``calibration_amplitude.csv``, ``spectra.csv``; everything else is
     optional and what is absent is listed in :attr:`Campaign.left_out`.
     ``run_fits``: the amplitude runs' fits at the campaign's order, and
-    ``calibration``: the model runs' fits (a Calibration), if the caller has them
-    (not refitted).
+    ``calibration``: the model runs' fits (a Calibration), and ``noise``: the runs'
+    noise models ``(power noise, phase noise)``, if the caller has them (not refitted).
     """
     cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
     cf.check_plausible()                 # a unit slip anywhere refuses the campaign
     cal_noise = {}
-    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise, calibration)
+    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise, calibration, noise)
     warnings = []
     if not amp.monotone:
         iv = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in amp.nonmonotone_intervals)

@@ -80,7 +80,9 @@ class Diagnosis(Displayable):
     steps: list = field(default_factory=list)
     #: reduced chi2 per observable with the first named effect alone
     redchi_one: dict | None = None
-    #: residual series (``Problem.series``) of the baseline and the chosen fit, for plots
+    #: residual series (``Problem.series``) of the baseline and the chosen fit, for plots;
+    #: the baseline's are taken when the baseline is fitted (the fit behind
+    #: ``redchi_before``, before any effect's fit can re-choose the phase-sign convention)
     series_before: list = field(default_factory=list, repr=False)
     series_after: list = field(default_factory=list, repr=False)
     #: the problem the diagnosis solved (its forward models; not serialised)

@@ -17,7 +17,8 @@ def diagnosis_step(ctx: Context, fits=None):
     The diagnosis reads the campaign folder already read (each file is opened once
     per ``analyze``) and gets the calibration step's fits (``fits``, a
     :class:`CalibrationFits`): its amplitude run fits when made at the campaign's
-    order, so that each run is fitted once."""
+    order and the noise models it learnt from the runs, so that each run is fitted
+    once."""
     res = ctx.results
     if not ctx.campaign.has("spectra.csv"):
         res.status("diagnosis", "skipped", "spectra.csv not found")
@@ -26,7 +27,8 @@ def diagnosis_step(ctx: Context, fits=None):
     from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
     order = int(ctx.meta["order"])
     d = diagnose(ctx.campaign, run_fits=None if fits is None else fits.amplitude_fits(order),
-                 calibration=None if fits is None else fits.calibration)
+                 calibration=None if fits is None else fits.calibration,
+                 noise=None if fits is None else (fits.noise, fits.phase_noise))
     res.json_file("diagnosis.json", d.to_dict())
     ctx.figure(diagnosis_figures, d, dpi=DIAGNOSIS_DPI)
     res.status("diagnosis", "ok", f"verdict: {d.verdict}")
