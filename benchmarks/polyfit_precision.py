@@ -36,10 +36,9 @@ except ImportError:                      # run from a source checkout
     from dpdfit.fits.polyfit import polyfit
 
 
-# problems and the 50-digit reference: the very ones the tests use
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-from tests.test_polyfit import hard_case, no_constant_case  # noqa: E402
-from tests.test_polyfit import mp_reference as _mp_reference  # noqa: E402
+# problems and the 50-digit reference: the very ones tests/test_polyfit.py checks
+from polyfit_problems import hard_case, no_constant_case  # noqa: E402
+from polyfit_problems import mp_reference as _mp_reference  # noqa: E402
 from record import add_json_option, summary_line, write_record  # noqa: E402
 
 CASES = [
@@ -49,7 +48,7 @@ CASES = [
 
 
 def mp_reference(x, y, powers, sigma):
-    """(coefficients, stderr) of the 50-digit solution (tests/test_polyfit.py)."""
+    """(coefficients, stderr) of the 50-digit solution (polyfit_problems.py)."""
     ref = _mp_reference(x, y, powers, sigma)
     return ref["coefficients"], ref["stderr"]
 

@@ -4,23 +4,30 @@
     python benchmarks/property_counts.py [EXAMPLES] [--json PATH]
 
 Runs every property test of ``tests/test_properties.py`` and
-``tests/test_properties_cli.py`` with EXAMPLES generated inputs each (default
-150, random seeds), counting instead of stopping at a failure, and prints
-one row per reader or command: examples tried, clean errors (one
-``dpdfit: error:`` / DpdfitError line naming the file or option), valid
-results, and tracebacks (an untyped exception, a message of several lines or
+``tests/test_properties_cli.py`` (under pytest, in a child process) with
+EXAMPLES generated inputs each (default 150, random seeds), counting instead
+of stopping at a failure, and prints one row per reader or command: examples
+tried, clean errors (one ``dpdfit: error:`` / DpdfitError line naming the file
+or option), valid results, and tracebacks (an untyped exception, a message of several lines or
 naming no file, or a NaN/empty result presented as valid).  Most examples are
 mutations of a valid file, so most end in a clean error.
 """
 
 import argparse
-import contextlib
-import io
+import json
 import os
+import subprocess
 import sys
+import tempfile
 import time
+from collections import Counter
+from pathlib import Path
 
-from record import add_json_option, summary_line, write_record  # noqa: E402
+from record import add_json_option, summary_line, write_record
+
+ROOT = Path(__file__).resolve().parents[1]
+#: the property tests counted: run by path under pytest, not imported
+TEST_FILES = ["tests/test_properties.py", "tests/test_properties_cli.py"]
 
 
 def _arguments():
@@ -31,28 +38,31 @@ def _arguments():
 
 
 ARGS = _arguments()
-os.environ["PROPERTY_COUNT_ONLY"] = "1"
-os.environ["HYPOTHESIS_PROFILE"] = "counts"
 if ARGS.examples is not None:
     os.environ["PROPERTY_EXAMPLES"] = ARGS.examples
-sys.path.insert(0, ".")
 
-from tests.helpers import prop_mutations  # noqa: E402  (loads the 'counts' profile)
-from tests import test_properties  # noqa: E402
-from tests import test_properties_cli  # noqa: E402
+
+def _run_property_tests() -> dict:
+    """Every Hypothesis test of TEST_FILES under pytest in a child process, counting
+    (PROPERTY_COUNT_ONLY=1, profile 'counts'): its tally and failure messages.  The
+    child's own output (an assertion of a test, e.g. a harmless edit that changed a
+    result) goes to stderr."""
+    with tempfile.TemporaryDirectory() as d:
+        tally_json = Path(d) / "tally.json"
+        env = dict(os.environ, PROPERTY_COUNT_ONLY="1", HYPOTHESIS_PROFILE="counts",
+                   PROPERTY_TALLY_JSON=str(tally_json))
+        subprocess.run([sys.executable, "-m", "pytest", *TEST_FILES, "-m", "hypothesis",
+                        "-q", "--tb=line", "-p", "no:cacheprovider"],
+                       cwd=ROOT, env=env, stdout=sys.stderr, check=False)
+        if not tally_json.exists():
+            sys.exit("property_counts: the property tests did not run (see above)")
+        return json.loads(tally_json.read_text())
 
 
 def main() -> None:
-    tests = [(m, n) for m in (test_properties, test_properties_cli) for n in sorted(vars(m))
-             if n.startswith("test_") and hasattr(getattr(m, n), "hypothesis")]
     t0 = time.perf_counter()
-    for module, name in tests:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            try:
-                getattr(module, name)()
-            except AssertionError as exc:       # e.g. a harmless edit changed a result
-                print(f"{name}: {exc}", file=sys.__stderr__)
-    tally = prop_mutations.TALLY
+    counted = _run_property_tests()
+    tally = {name: Counter(c) for name, c in counted["tally"].items()}
     width = max(len(k) for k in tally)
     print(f"{'reader / command':<{width}} | examples | clean errors | ok results | tracebacks")
     print(f"{'-' * width}-|----------|--------------|------------|-----------")
@@ -71,7 +81,7 @@ def main() -> None:
     elapsed = time.perf_counter() - t0
     print(f"({os.environ.get('PROPERTY_EXAMPLES', 150)} examples per test requested; "
           f"{elapsed:.0f} s)")
-    tracebacks = sorted(set(m[:300] for m in prop_mutations.FAILURES))
+    tracebacks = sorted(set(m[:300] for m in counted["failures"]))
     for msg in tracebacks:
         print("traceback:", msg)
     write_record(ARGS.json, "property_counts", rows, description=summary_line(__doc__),

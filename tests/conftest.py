@@ -4,20 +4,20 @@ import os
 # 2-core machine (must be set before numpy is imported).
 for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
+import shutil
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT / "datasets" / "synthetic_aom"
-BUNDLED_CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
+from tests.helpers.bundled_data import AOM, CAMPAIGN
 
 
 @pytest.fixture
 def data_dir():
-    return DATA
+    return AOM
 
 
 @pytest.fixture
@@ -34,9 +34,8 @@ def write_csv(tmp_path):
 def cli_outputs(tmp_path_factory):
     """calibration.json, sweep.csv and gate.csv of the bundled data, made once by the CLI."""
     from dpdfit.cli.main import main
-    root = Path(__file__).resolve().parents[1]
-    amp = root / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
-    camp = root / "datasets" / "synthetic_campaign"
+    amp = AOM / "calibration_amplitude.csv"
+    camp = CAMPAIGN
     d = tmp_path_factory.mktemp("cli_outputs")
     cal, sweep, gate = d / "c.json", d / "s.csv", d / "g.csv"
     assert main(["calibrate", "--amplitude", str(amp), "-o", str(cal),
@@ -61,5 +60,46 @@ def bundled_analysis(tmp_path_factory):
     the folder must make its own."""
     from dpdfit.pipeline.analyze import analyze
     out = tmp_path_factory.mktemp("bundled_analysis") / "results"
-    res = analyze(BUNDLED_CAMPAIGN, out, plots=True, diagnosis=True, progress=False)
+    res = analyze(CAMPAIGN, out, plots=True, diagnosis=True, progress=False)
     return AnalysedCampaign(res, out)
+
+
+@pytest.fixture
+def bundled_calibration_files(tmp_path):
+    """Copies of the bundled amplitude and phase calibration recordings in tmp_path:
+    (amp.csv, phase.csv), for commands that may write beside their input."""
+    amp, ph = tmp_path / "amp.csv", tmp_path / "phase.csv"
+    shutil.copy(AOM / "calibration_amplitude.csv", amp)
+    shutil.copy(AOM / "calibration_phase.csv", ph)
+    return amp, ph
+
+
+@pytest.fixture(scope="module")
+def bundled_campaign_folder():
+    """The bundled campaign, read as a CampaignFolder (tests only read it)."""
+    from dpdfit.recordings.campaign_folder import CampaignFolder
+    return CampaignFolder(CAMPAIGN)
+
+
+@pytest.fixture(scope="module")
+def bundled_alignment(bundled_campaign_folder):
+    """The bundled campaign's alignment fit, built as ``dpdfit analyze`` builds it."""
+    import dpdfit
+    from dpdfit.analyses.sweep import SweepConfig, run_sweep
+    from dpdfit.fits.calibration import Calibration, calibrate_amplitude, calibrate_phase
+    from dpdfit.fits.counts.gates import gate_fidelities
+    from dpdfit.models.transfer import TransferFunction
+    from dpdfit.recordings.tables import read_calibration
+    cf, m = bundled_campaign_folder, bundled_campaign_folder.meta
+    amp = calibrate_amplitude(read_calibration(CAMPAIGN / "calibration_amplitude.csv",
+                                               "amplitude", cf.table_run))
+    ph = calibrate_phase(read_calibration(CAMPAIGN / "calibration_phase.csv", "phase",
+                                          cf.phase_run))
+    sweep = run_sweep(TransferFunction.from_calibration(Calibration(amp, ph, created="-")),
+                      SweepConfig(nu=m["nu_hz"], xi0=m["xi0_spectra_hz"],
+                                  nbar=m["nbar_assumed"], eta_ref=m["eta_ref"]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tab = gate_fidelities(cf.populations, cf.parity)
+    tab = tab.merge(cf.gate_rates[["A", "dpd", "xi0_khz", "xi0_err_khz"]], on=["A", "dpd"])
+    return dpdfit.align(tab, sweep, 0.2)

@@ -21,9 +21,9 @@ from dpdfit.fits.alignment import align
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
 from dpdfit.fits.polyfit import polyfit
 from dpdfit.recordings.tables import read_calibration
-from tests.test_alignment import simulated_gate
-from tests.test_display import AOM, alignment, campaign  # noqa: F401  (fixtures)
-from tests.test_transfer import truth_poly_tf
+from benchmarks.gate_points import simulated_gate
+from benchmarks.truth_model import truth_poly_tf
+from tests.helpers.bundled_data import AOM
 
 N_REP = 300
 P_FLAG = 0.01
@@ -127,8 +127,8 @@ def test_not_testable_without_given_sigma():
     assert "adequacy" not in fit.report() and "does not describe" not in fit.report()
 
 
-def test_bundled_campaign_alignment_is_inadequate(alignment):  # noqa: F811
-    al = alignment
+def test_bundled_campaign_alignment_is_inadequate(bundled_alignment):
+    al = bundled_alignment
     assert al.redchi == pytest.approx(20.7, abs=0.05)
     assert al.model_adequate is False
     text = al.report()

@@ -1,37 +1,20 @@
 """Alignment fit (alpha, delta) and the time-resolved population model."""
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from dpdfit.models import gate_sim
-from dpdfit.fits.alignment import K_DB, align, curves, xi0_band
+from dpdfit.fits.alignment import align, xi0_band
 from dpdfit.errors import FitError, InputError
 from dpdfit.models.fidelity import cardioid_populations
 from dpdfit.analyses.sweep import SweepConfig, run_sweep
-from tests.test_transfer import truth_poly_tf
-
-ALPHA, DELTA, SDB = 3.42, -0.018, 0.2
-AMPS = (0.4, 0.5, 0.6, 0.7, 0.8)
+from benchmarks.gate_points import ALPHA, DELTA, SDB, simulated_gate
+from benchmarks.truth_model import truth_poly_tf
 
 
 @pytest.fixture(scope="module")
 def sweep():
     return run_sweep(truth_poly_tf(), SweepConfig(amplitudes=np.linspace(0.3, 0.9, 25)))
-
-
-def simulated_gate(sweep, rng, alpha=ALPHA, delta=DELTA, sdb=SDB):
-    cv = curves(sweep)
-    rows = []
-    for d in (0, 1):
-        for A in AMPS:
-            r = float(cv[d]["r_rel"](A))
-            s = 0.01 * alpha * r
-            xi = alpha * r * (1 + K_DB * sdb * rng.standard_normal()) + s * rng.standard_normal()
-            e = 0.004
-            F = float(cv[d]["F_est"](A)) + delta + e * rng.standard_normal()
-            rows.append({"A": A, "dpd": d, "xi0_khz": xi, "xi0_err_khz": s, "F": F, "F_err": e})
-    return pd.DataFrame(rows)
 
 
 def test_band_formula():

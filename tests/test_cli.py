@@ -2,7 +2,6 @@
 
 import hashlib
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -11,29 +10,16 @@ import pytest
 from dpdfit.cli.main import main
 from dpdfit.fits.calibration import load_calibration
 from dpdfit.models.transfer import TransferFunction
+from tests.helpers.cli_refusal import assert_refused
+from tests.helpers.cli_run import run
 
 CONTRACT_KEYS = ["A_corr", "A_corr_stderr", "phi_at_1", "phi_at_1_stderr"]
 AMP_KEYS = ["powers", "coefficients", "stderr", "covariance", "monotone"]
 PHASE_KEYS = ["powers", "coefficients", "stderr", "covariance"]
 
 
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-@pytest.fixture
-def bundled(tmp_path, data_dir):
-    amp = tmp_path / "amp.csv"
-    ph = tmp_path / "phase.csv"
-    shutil.copy(data_dir / "calibration_amplitude.csv", amp)
-    shutil.copy(data_dir / "calibration_phase.csv", ph)
-    return amp, ph
-
-
-def test_calibrate_writes_contract_json_and_plots(bundled, tmp_path, capsys):
-    amp, ph = bundled
+def test_calibrate_writes_contract_json_and_plots(bundled_calibration_files, tmp_path, capsys):
+    amp, ph = bundled_calibration_files
     out = tmp_path / "calibration.json"
     code, stdout, err = run(["calibrate", "--amplitude", amp, "--phase", ph, "-o", out,
                              "--plot", tmp_path / "figs"], capsys)
@@ -61,8 +47,9 @@ def test_calibrate_writes_contract_json_and_plots(bundled, tmp_path, capsys):
     assert cal.A_corr == d["A_corr"]
 
 
-def test_calibrate_recovers_truth_of_bundled_data(bundled, tmp_path, capsys, data_dir):
-    amp, ph = bundled
+def test_calibrate_recovers_truth_of_bundled_data(bundled_calibration_files, tmp_path, capsys,
+                                                   data_dir):
+    amp, ph = bundled_calibration_files
     out = tmp_path / "c.json"
     assert run(["calibrate", "--amplitude", amp, "--phase", ph, "-o", out], capsys)[0] == 0
     d = json.loads(out.read_text())
@@ -71,8 +58,8 @@ def test_calibrate_recovers_truth_of_bundled_data(bundled, tmp_path, capsys, dat
     assert abs(d["phi_at_1"] - truth["phi_at_1_true"]) < 3 * d["phi_at_1_stderr"]
 
 
-def test_lut_csv_npy_json(bundled, tmp_path, capsys):
-    amp, ph = bundled
+def test_lut_csv_npy_json(bundled_calibration_files, tmp_path, capsys):
+    amp, ph = bundled_calibration_files
     cal = tmp_path / "calibration.json"
     assert run(["calibrate", "--amplitude", amp, "--phase", ph, "-o", cal], capsys)[0] == 0
     code, out, err = run(["lut", cal, "--points", 257, "-o", tmp_path / "lut.csv"], capsys)
@@ -118,21 +105,6 @@ def test_polyfit_cli_json_keys(tmp_path, capsys):
 
 # ----------------------------------------------------------------- bad input
 
-def _bad(capsys, argv, needle, tmp_path, inputs=()):
-    before = {p: p.read_bytes() for p in inputs}
-    code, out, err = run(argv, capsys)
-    assert code == 2
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("dpdfit: error:"), err
-    assert needle in lines[0], lines[0]
-    for p, b in before.items():
-        assert p.read_bytes() == b          # input untouched
-    leftovers = [q.name for q in tmp_path.iterdir() if q.name.startswith(".") or
-                 q.suffix in (".json", ".npy", ".part")]
-    assert not leftovers, leftovers       # no partial output
-    return lines[0]
-
-
 def _amp_text(rows):
     return "A,power\n" + "".join(f"{a},{p}\n" for a, p in rows)
 
@@ -154,8 +126,8 @@ GOOD = [(a, (np.sin(np.pi / 2 * a) * 1.3) ** 2) for a in np.linspace(0, 1, 21)]
 def test_calibrate_bad_input(tmp_path, capsys, text, needle):
     p = tmp_path / "amp.csv"
     p.write_text(text)
-    line = _bad(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "cal.json"], needle,
-                tmp_path, [p])
+    line = assert_refused(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "cal.json"],
+                          [needle], [p], no_partial_output_in=tmp_path)
     assert "amp.csv" in line
 
 
@@ -167,10 +139,10 @@ def test_consistent_duplicates_are_accepted(tmp_path, capsys):
     assert code == 0, err
 
 
-def test_refuses_to_overwrite_input(bundled, tmp_path, capsys):
-    amp, ph = bundled
-    _bad(capsys, ["calibrate", "--amplitude", amp, "-o", amp], "refusing to overwrite",
-         tmp_path, [amp])
+def test_refuses_to_overwrite_input(bundled_calibration_files, tmp_path, capsys):
+    amp, ph = bundled_calibration_files
+    assert_refused(capsys, ["calibrate", "--amplitude", amp, "-o", amp], ["refusing to overwrite"],
+                   [amp], no_partial_output_in=tmp_path)
 
 
 def test_lut_not_invertible(tmp_path, capsys):
@@ -178,26 +150,27 @@ def test_lut_not_invertible(tmp_path, capsys):
                          "stderr": [0, 0, 0], "covariance": [[0] * 3] * 3, "monotone": False}}
     p = tmp_path / "bad_cal.jsn"
     p.write_text(json.dumps(cal))
-    line = _bad(capsys, ["lut", p, "--points", 11, "-o", tmp_path / "lut.csv"],
-                "dy/dA <= 0 at A = 0.400000", tmp_path, [p])
+    line = assert_refused(capsys, ["lut", p, "--points", 11, "-o", tmp_path / "lut.csv"],
+                          ["dy/dA <= 0 at A = 0.400000"], [p], no_partial_output_in=tmp_path)
     assert not (tmp_path / "lut.csv").exists()
 
 
 def test_lut_bad_calibration_file(tmp_path, capsys):
     p = tmp_path / "x.txt"
     p.write_text("{not json")
-    _bad(capsys, ["lut", p, "-o", tmp_path / "lut.csv"], "not valid JSON", tmp_path, [p])
+    assert_refused(capsys, ["lut", p, "-o", tmp_path / "lut.csv"], ["not valid JSON"], [p],
+                   no_partial_output_in=tmp_path)
 
 
 def test_polyfit_bad_powers_and_columns(tmp_path, capsys):
     p = tmp_path / "d.csv"
     p.write_text("x,y\n1,2\n2,3\n3,5\n")
-    _bad(capsys, ["polyfit", p, "--x", "x", "--y", "y", "--powers", "a:b"], "bad power range",
-         tmp_path, [p])
-    _bad(capsys, ["polyfit", p, "--x", "x", "--y", "yy", "--powers", "0:1"],
-         "column 'yy': required column is missing", tmp_path, [p])
-    _bad(capsys, ["polyfit", p, "--x", "x", "--y", "y", "--powers", "0:5"], "3 points for 6 coefficients",
-         tmp_path, [p])
+    assert_refused(capsys, ["polyfit", p, "--x", "x", "--y", "y", "--powers", "a:b"],
+                   ["bad power range"], [p], no_partial_output_in=tmp_path)
+    assert_refused(capsys, ["polyfit", p, "--x", "x", "--y", "yy", "--powers", "0:1"],
+                   ["column 'yy': required column is missing"], [p], no_partial_output_in=tmp_path)
+    assert_refused(capsys, ["polyfit", p, "--x", "x", "--y", "y", "--powers", "0:5"],
+                   ["3 points for 6 coefficients"], [p], no_partial_output_in=tmp_path)
 
 
 def test_multi_run_file_needs_run(tmp_path, capsys, data_dir):
@@ -207,8 +180,8 @@ def test_multi_run_file_needs_run(tmp_path, capsys, data_dir):
     two = [header] + body + [l.replace("R001", "R002") for l in body]
     p = tmp_path / "runs.csv"
     p.write_text("\n".join(two) + "\n")
-    _bad(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "c.json"],
-         "holds 2 runs (R001, R002)", tmp_path, [p])
+    assert_refused(capsys, ["calibrate", "--amplitude", p, "-o", tmp_path / "c.json"],
+                   ["holds 2 runs (R001, R002)"], [p], no_partial_output_in=tmp_path)
     code, out, err = run(["calibrate", "--amplitude", p, "--run", "R002", "-o",
                           tmp_path / "c.json", "--order-scan", "none"], capsys)
     assert code == 0, err
@@ -220,17 +193,18 @@ def test_multi_run_file_needs_run(tmp_path, capsys, data_dir):
     assert [r["run"] for r in d["amplitude_runs"]] == ["R001", "R002"]
 
 
-def test_phase_file_bad_input_names_phase_file(bundled, tmp_path, capsys):
-    amp, ph = bundled
+def test_phase_file_bad_input_names_phase_file(bundled_calibration_files, tmp_path, capsys):
+    amp, ph = bundled_calibration_files
     lines = ph.read_text().splitlines()
     data_start = next(i for i, l in enumerate(lines) if l.startswith("run,"))
     cells = lines[data_start + 7].split(",")
     cells[3] = "nan"                       # phase_rad of data row 7
     lines[data_start + 7] = ",".join(cells)
     ph.write_text("\n".join(lines) + "\n")
-    line = _bad(capsys, ["calibrate", "--amplitude", amp, "--phase", ph, "-o",
-                         tmp_path / "c.json"], "column 'phase_rad', row 7: value is NaN",
-                tmp_path, [amp, ph])
+    line = assert_refused(capsys, ["calibrate", "--amplitude", amp, "--phase", ph, "-o",
+                                   tmp_path / "c.json"],
+                          ["column 'phase_rad', row 7: value is NaN"], [amp, ph],
+                          no_partial_output_in=tmp_path)
     assert "phase.csv" in line
 
 

@@ -29,12 +29,10 @@ from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.analyses.diagnosis.scan import Deviation
 from dpdfit.analyses.propagation.result import PropagationResult
 from dpdfit.analyses.stability.result import StabilityResult
-from dpdfit.analyses.sweep import SweepConfig, run_sweep
 from dpdfit.core.display import Displayable, format_value_error
 from dpdfit.fits.alignment import AlignmentFit
 from dpdfit.fits.calibration import (AmplitudeCalibration, Calibration, PhaseCalibration,
-                                     calibrate_amplitude, calibrate_phase)
-from dpdfit.fits.counts.gates import gate_fidelities
+                                     calibrate_amplitude)
 from dpdfit.fits.counts.parity_fit import ParityFit, fit_parity
 from dpdfit.fits.counts.pooling import merge_parity
 from dpdfit.fits.counts.population import PopulationFidelity
@@ -45,14 +43,10 @@ from dpdfit.fits.posterior import PosteriorResult
 from dpdfit.fits.tone_noise import NoiseFloor
 from dpdfit.fits.tones.results import SidebandTones, TraceSpectrum
 from dpdfit.models.fidelity import Estimate
-from dpdfit.models.transfer import TransferFunction
-from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.tables import read_calibration
+from tests.helpers.bundled_data import AOM, CAMPAIGN
 
-ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = Path(__file__).resolve().parent / "golden"
-AOM = ROOT / "datasets" / "synthetic_aom"
-CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 UPDATE = os.environ.get("DPDFIT_UPDATE_GOLDEN") == "1"
 
 #: every public result class of dpdfit
@@ -79,33 +73,10 @@ def poly():
 
 
 @pytest.fixture(scope="module")
-def campaign():
-    return CampaignFolder(CAMPAIGN)
-
-
-@pytest.fixture(scope="module")
-def alignment(campaign):
-    """The bundled campaign's alignment fit, built as ``dpdfit analyze`` builds it."""
-    cf, m = campaign, campaign.meta
-    amp = calibrate_amplitude(read_calibration(CAMPAIGN / "calibration_amplitude.csv",
-                                               "amplitude", cf.table_run))
-    ph = calibrate_phase(read_calibration(CAMPAIGN / "calibration_phase.csv", "phase",
-                                          cf.phase_run))
-    sweep = run_sweep(TransferFunction.from_calibration(Calibration(amp, ph, created="-")),
-                      SweepConfig(nu=m["nu_hz"], xi0=m["xi0_spectra_hz"],
-                                  nbar=m["nbar_assumed"], eta_ref=m["eta_ref"]))
+def parity(bundled_campaign_folder):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        tab = gate_fidelities(cf.populations, cf.parity)
-    tab = tab.merge(cf.gate_rates[["A", "dpd", "xi0_khz", "xi0_err_khz"]], on=["A", "dpd"])
-    return dpdfit.align(tab, sweep, 0.2)
-
-
-@pytest.fixture(scope="module")
-def parity(campaign):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        merged = merge_parity(campaign.parity)
+        merged = merge_parity(bundled_campaign_folder.parity)
     g = merged[(merged["A"] == 0.5) & (merged["dpd"] == 1)]
     return fit_parity(g["phase_rad"].to_numpy(), g["n_even"].to_numpy(), g["shots"].to_numpy())
 
@@ -129,9 +100,13 @@ def _check_golden(name: str, text: str) -> None:
         f"rendering differs from {path}; if intended, regenerate with DPDFIT_UPDATE_GOLDEN=1")
 
 
+#: the fixture behind each golden file that is not named as the file
+_GOLDEN_FIXTURE = {"alignment": "bundled_alignment"}
+
+
 @pytest.mark.parametrize("name", ["amplitude", "poly", "alignment", "parity", "estimate"])
 def test_golden_renderings(name, request):
-    result = request.getfixturevalue(name)
+    result = request.getfixturevalue(_GOLDEN_FIXTURE.get(name, name))
     _check_golden(f"{name}.txt", repr(result) + "\n\n" + result.display_text())
     _check_golden(f"{name}.html", result._repr_html_())
 
@@ -147,8 +122,9 @@ def test_every_result_class_displays_itself(cls):
         assert callable(getattr(cls, name, None)), name
 
 
-def test_str_is_the_report_and_repr_is_short(amplitude, poly, alignment, parity, estimate):
-    for r in (amplitude, poly, alignment, parity, estimate):
+def test_str_is_the_report_and_repr_is_short(amplitude, poly, bundled_alignment, parity,
+                                              estimate):
+    for r in (amplitude, poly, bundled_alignment, parity, estimate):
         assert str(r) == r.report()
         assert len(repr(r)) < 300 and "array(" not in repr(r) and "\n" not in repr(r)
         html = r._repr_html_()
@@ -163,14 +139,15 @@ def test_html_is_escaped():
     assert "[[Deviation]]" in d.report() and str(d) == d.report()
 
 
-def test_tables_as_frames(amplitude, poly, alignment, parity, estimate):
+def test_tables_as_frames(amplitude, poly, bundled_alignment, parity, estimate):
     assert list(amplitude.to_frame()["order"]) == [5, 6, 7, 8, 9]
     data = read_calibration(AOM / "calibration_amplitude.csv", "amplitude")
     frame = dpdfit.amplitude_order_table(data.A, data.value, data.error, range(5, 10),
                                          as_frame=True)
     assert isinstance(frame, pd.DataFrame) and frame.equals(amplitude.to_frame())
     assert list(poly.to_frame()["power"]) == [1, 2, 3, 4, 5]
-    assert len(alignment.to_frame()) == 10 and "resid_v" in alignment.to_frame()
+    assert (len(bundled_alignment.to_frame()) == 10
+            and "resid_v" in bundled_alignment.to_frame())
     pf = parity.to_frame()
     assert np.allclose(pf["parity_model"], parity.parity(pf["phase_rad"]))
     assert estimate.to_frame()["F_est"].iloc[0] == pytest.approx(float(estimate.F_est))

@@ -8,7 +8,8 @@ import pandas as pd
 import pytest
 
 from dpdfit.cli.main import main
-from tests.test_cli import _bad, run
+from tests.helpers.cli_refusal import assert_refused
+from tests.helpers.cli_run import run
 
 CAMP = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
 KEYS = ["A", "dpd", "F_pop", "F_pop_err", "F_par", "F_par_err", "F", "F_err", "contrast",
@@ -62,8 +63,8 @@ def test_fidelity_cli_json_and_csv(tmp_path, capsys):
 def test_fidelity_bad_population_counts(tmp_path, capsys, text, needle):
     p = tmp_path / "pop.csv"
     p.write_text(text)
-    line = _bad(capsys, ["fidelity", "--populations", p, "--parity", CAMP / "parity.csv"],
-                needle, tmp_path, [p])
+    line = assert_refused(capsys, ["fidelity", "--populations", p, "--parity", CAMP / "parity.csv"],
+                          [needle], [p], no_partial_output_in=tmp_path)
     assert "pop.csv" in line and "row 1" in line
 
 
@@ -72,7 +73,8 @@ def test_fidelity_too_few_phases(tmp_path, capsys):
     p.write_text("A,dpd,scan,phase_rad,n_even,shots\n0.5,1,1,0.0,600,625\n0.5,1,1,1.0,300,625\n")
     pop = tmp_path / "pop.csv"
     pop.write_text("A,dpd,scan,n_even,shots\n0.5,1,1,600,625\n")
-    _bad(capsys, ["fidelity", "--populations", pop, "--parity", p], "3", tmp_path, [p, pop])
+    assert_refused(capsys, ["fidelity", "--populations", pop, "--parity", p], ["3"], [p, pop],
+                   no_partial_output_in=tmp_path)
 
 
 @pytest.mark.slow

@@ -12,8 +12,9 @@ from dpdfit.analyses.sweep import (COLUMNS, SweepConfig, eta_bar, parse_amplitud
                           run_sweep, thresholds)
 from dpdfit.analyses.sweep import first_crossing as _first_crossing
 from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
-from tests.test_cli import _bad, bundled, run  # noqa: F401  (fixture re-use)
-from tests.test_transfer import truth_poly_tf
+from benchmarks.truth_model import truth_poly_tf
+from tests.helpers.cli_refusal import assert_refused
+from tests.helpers.cli_run import run
 
 
 @pytest.fixture(scope="module")
@@ -87,8 +88,8 @@ def test_parse_amplitudes():
 
 # ------------------------------------------------------------- CLI
 
-def test_sweep_and_thresholds_cli(bundled, tmp_path, capsys):  # noqa: F811
-    amp, ph = bundled
+def test_sweep_and_thresholds_cli(bundled_calibration_files, tmp_path, capsys):
+    amp, ph = bundled_calibration_files
     cal = tmp_path / "cal.json"
     assert run(["calibrate", "--amplitude", amp, "--phase", ph, "-o", cal], capsys)[0] == 0
     out = tmp_path / "sweep.csv"
@@ -137,11 +138,11 @@ def test_im_table_cli(capsys):
     (["estimate", "--powers-db", "1:0,2:0", "--nbar", "-1"], "option --nbar: must be >= 0"),
 ])
 def test_estimate_bad_input(tmp_path, capsys, argv, needle):
-    _bad(capsys, argv, needle, tmp_path)
+    assert_refused(capsys, argv, [needle], no_partial_output_in=tmp_path)
 
 
-def test_sweep_bad_input(bundled, tmp_path, capsys):  # noqa: F811
-    amp, ph = bundled
+def test_sweep_bad_input(bundled_calibration_files, tmp_path, capsys):
+    amp, ph = bundled_calibration_files
     cal = tmp_path / "cal.json"
     assert run(["calibrate", "--amplitude", amp, "-o", cal], capsys)[0] == 0
     before = set(tmp_path.iterdir())
@@ -158,4 +159,5 @@ def test_sweep_bad_input(bundled, tmp_path, capsys):  # noqa: F811
 def test_thresholds_bad_file(tmp_path, capsys):
     p = tmp_path / "s.csv"
     p.write_text("A,dpd\n0.1,0\n")
-    _bad(capsys, ["thresholds", p], "required column is missing", tmp_path, [p])
+    assert_refused(capsys, ["thresholds", p], ["required column is missing"], [p],
+                   no_partial_output_in=tmp_path)

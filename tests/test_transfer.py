@@ -1,22 +1,9 @@
 import numpy as np
 import pytest
 
-from dpdfit.simulation.aom_truth import BraggAOM
 from dpdfit.errors import NotInvertibleError
 from dpdfit.models.transfer import TransferFunction, predistortion_table
-
-
-def truth_poly_tf(K=8, with_phase=True):
-    """Transfer function whose polynomials approximate the physical AOM closely."""
-    aom = BraggAOM()
-    A = np.linspace(0, 1, 400)
-    V = A[:, None] ** np.arange(1, K + 1)
-    a, *_ = np.linalg.lstsq(V, aom.y(A), rcond=None)
-    a = a / a[0]
-    if with_phase:
-        b, *_ = np.linalg.lstsq(V[:, :5], aom.phase(A), rcond=None)
-        return TransferFunction(range(1, K + 1), a, range(1, 6), b)
-    return TransferFunction(range(1, K + 1), a)
+from benchmarks.truth_model import truth_poly_tf
 
 
 def test_forward_symmetries_and_clipping():

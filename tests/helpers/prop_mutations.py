@@ -16,12 +16,14 @@ Hypothesis profiles (chosen by the environment variable HYPOTHESIS_PROFILE):
   ``HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_properties.py
   tests/test_properties_cli.py``.
 
-``benchmarks/property_counts.py`` runs the same tests and prints, per reader
-and command, how many inputs were tried and how each ended (:data:`TALLY`).
+``benchmarks/property_counts.py`` runs the same tests (under pytest, in a child
+process that writes :data:`TALLY` to ``PROPERTY_TALLY_JSON``) and prints, per
+reader and command, how many inputs were tried and how each ended.
 """
 
 from __future__ import annotations
 
+import atexit
 import functools
 import json
 import os
@@ -52,6 +54,17 @@ TALLY: dict[str, Counter] = defaultdict(Counter)
 FAILURES: list[str] = []
 #: when true (benchmarks/property_counts.py), a traceback is counted, not raised
 COUNT_ONLY = os.environ.get("PROPERTY_COUNT_ONLY") == "1"
+
+
+def _write_tally(path: str) -> None:
+    Path(path).write_text(json.dumps({"tally": {k: dict(v) for k, v in TALLY.items()},
+                                      "failures": FAILURES}))
+
+
+#: with PROPERTY_TALLY_JSON=<path> (benchmarks/property_counts.py), TALLY and FAILURES
+#: are written there as JSON when the test process ends
+if os.environ.get("PROPERTY_TALLY_JSON"):
+    atexit.register(_write_tally, os.environ["PROPERTY_TALLY_JSON"])
 
 # ----------------------------------------------------------------------------- values
 
