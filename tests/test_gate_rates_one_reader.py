@@ -69,3 +69,12 @@ def test_budget_reader_says_what_it_returns():
     assert not hasattr(budget, "read_gate_rates")
     assert budget.gate_rates_khz(CAMP / "gate_rates.csv") == pytest.approx(
         pd.read_csv(CAMP / "gate_rates.csv", comment="#")["xi0_khz"].tolist())
+
+
+def test_the_import_guide_lists_the_mapping_columns():
+    import re
+    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "import.md").read_text()
+    for table, (required, optional) in TABLE_COLUMNS.items():
+        row = next(line for line in guide.splitlines() if line.startswith(f"| `{table}` |"))
+        names = set(re.findall(r"`(\w+)`", row)) - {table}
+        assert names == set(required) | set(optional), (table, names)

@@ -8,21 +8,21 @@ import pandas as pd
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
+from dpdfit.recordings.calibration_runs import CALIBRATION_COLUMNS
 from dpdfit.recordings.tables import (check_calibration_phases, check_repeated_rows, list_runs,
-                                      read_table)
+                                      read_calibration_table)
 
 from .result import StabilityResult
 from .timeseries import allan_deviation, drift_test
 
 __all__ = ["stability", "missing_stability_columns"]
 
-_COLUMNS = {"amplitude": ("power", "power_err"), "phase": ("phase_rad", "phase_err")}
 _DEFAULT_ORDER = {"amplitude": AMPLITUDE_ORDER, "phase": PHASE_ORDER}
 
 
 def _check_frame(df: pd.DataFrame, kind: str) -> tuple[pd.DataFrame, str]:
     """Validated copy of a calibration DataFrame (numbers finite, timestamps parsed)."""
-    value_col, err_col = _COLUMNS[kind]
+    value_col, err_col = CALIBRATION_COLUMNS[kind]
     df = df.copy()
     name = str(df.attrs.get("source", "<DataFrame>"))
     for col in ("A", value_col):
@@ -55,13 +55,12 @@ def _check_frame(df: pd.DataFrame, kind: str) -> tuple[pd.DataFrame, str]:
 
 
 def _load(df_or_path, kind: str) -> tuple[pd.DataFrame, str]:
-    if isinstance(df_or_path, pd.DataFrame):
-        df, name = _check_frame(df_or_path, kind)
-    else:
-        value_col, err_col = _COLUMNS[kind]
-        df = read_table(df_or_path, ["A", value_col], [err_col, "run", "timestamp"],
-                        ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
-        name = str(df_or_path)
+    """A calibration table validated as the campaign folder validates it: a file by its
+    reader (:func:`~dpdfit.recordings.tables.read_calibration_table`), a DataFrame by
+    the same rules."""
+    if not isinstance(df_or_path, pd.DataFrame):
+        return read_calibration_table(df_or_path, kind), str(df_or_path)
+    df, name = _check_frame(df_or_path, kind)
     if kind == "phase":                    # phases in degrees: refused as by the readers
         check_calibration_phases(df, name)
     return df, name
@@ -89,7 +88,7 @@ def _run_labels(df: pd.DataFrame, name: str) -> list[str]:
 
 def _fit_run(sub, kind, K, A_min, grid, name, lab, cal=None):
     """One run: ``(record, curve on grid)``; ``cal``: its precomputed fit, if any."""
-    value_col, err_col = _COLUMNS[kind]
+    value_col, err_col = CALIBRATION_COLUMNS[kind]
     A = sub["A"].to_numpy(dtype=float)
     v = sub[value_col].to_numpy(dtype=float)
     e = sub[err_col].to_numpy(dtype=float) if err_col in sub.columns else None
@@ -176,7 +175,7 @@ def stability(df_or_path, kind: str = "amplitude", order: int | None = None,
         A run that cannot be fitted (e.g. too few points for the order),
         naming the run and the file.
     """
-    if kind not in _COLUMNS:
+    if kind not in CALIBRATION_COLUMNS:
         raise InputError(f"kind must be 'amplitude' or 'phase', got '{kind}'")
     K = _DEFAULT_ORDER[kind] if order is None else int(order)
     if K < 1 or (kind == "amplitude" and K < 2):
