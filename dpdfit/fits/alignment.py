@@ -23,6 +23,11 @@ laser-power fluctuation band).  Standard errors are absolute (the inverse of
 is reported beside them.  Because every point's curve values are taken at
 its own ``A``, ``alpha`` is fixed by the horizontal and ``delta`` by the
 vertical residuals; their correlation is therefore small and is reported.
+
+``xi0_err_khz`` (the stated error of each calibrated gate rate) is optional, as
+it is in ``gate_rates.csv``: without it ``s_i = 0`` and the horizontal weights
+are the laser-power band alone; the fit says so (:attr:`AlignmentFit.left_out`,
+its report and ``to_dict``).
 """
 
 from __future__ import annotations
@@ -82,6 +87,9 @@ class AlignmentFit(ModelAdequacy, Displayable):
         Laser-power fluctuation used for the horizontal weights.
     points : pandas.DataFrame
         Per point: inputs, ``r_rel``, ``F_PD``, ``eta_bar``, both residuals.
+    left_out : tuple of str
+        What the fit went without (e.g. the gate rates' stated errors); empty when
+        nothing (then ``to_dict`` has no ``left_out`` key).
     """
 
     alpha_khz: float
@@ -94,6 +102,7 @@ class AlignmentFit(ModelAdequacy, Displayable):
     redchi: float
     sigma_db: float
     points: pd.DataFrame = field(repr=False)
+    left_out: tuple = ()
     _adequacy_model = "the model F = F_est + delta (with xi0 = alpha r_rel)"
 
     @property
@@ -124,7 +133,8 @@ class AlignmentFit(ModelAdequacy, Displayable):
                 "dof": self.dof, "sigma_db": self.sigma_db, "n_points": int(len(self.points)),
                 **self.adequacy_dict(), "alpha_khz_err_birge": self.alpha_khz_err_birge,
                 "delta_err_birge": self.delta_err_birge, "chi2_horizontal": self.chi2_parts[0],
-                "chi2_vertical": self.chi2_parts[1]}
+                "chi2_vertical": self.chi2_parts[1],
+                **({"left_out": list(self.left_out)} if self.left_out else {})}
 
     def report(self) -> str:
         return "\n".join([
@@ -138,7 +148,8 @@ class AlignmentFit(ModelAdequacy, Displayable):
                                  "delta": (self.delta_err, "")})
             + ([] if self.model_adequate is not False else [
                 f"    chi2 parts  : horizontal (xi0) {self.chi2_parts[0]:.3f}, vertical (F) "
-                f"{self.chi2_parts[1]:.3f}, {len(self.points)} points each"]))
+                f"{self.chi2_parts[1]:.3f}, {len(self.points)} points each"])
+            + [f"    left out    : {note}" for note in self.left_out])
 
     def to_lmfit(self):
         """The fit as ``lmfit.Parameters`` ``alpha_khz``, ``delta`` with ``stderr`` and
@@ -154,13 +165,31 @@ class AlignmentFit(ModelAdequacy, Displayable):
 
 
 def _check_errors(g: pd.DataFrame, file) -> None:
-    """``xi0_err_khz >= 0`` and ``F_err > 0`` (InputError naming file, column, row)."""
-    for col, bad in (("xi0_err_khz", g["xi0_err_khz"] < 0), ("F_err", g["F_err"] <= 0)):
-        if bad.any():
+    """``xi0_err_khz >= 0`` (when given) and ``F_err > 0`` (InputError naming file, column,
+    row)."""
+    for col, bad in (("xi0_err_khz", g["xi0_err_khz"] < 0 if "xi0_err_khz" in g else None),
+                     ("F_err", g["F_err"] <= 0)):
+        if bad is not None and bad.any():
             i = int(np.flatnonzero(bad.to_numpy())[0])
             need = ">= 0" if col == "xi0_err_khz" else "> 0"
             raise InputError(f"uncertainty {g[col].iloc[i]:g} must be {need}",
                              file=file or "gate table", column=col, row=i + 1)
+
+
+def _gate_points(gate: pd.DataFrame) -> pd.DataFrame:
+    """The fit's columns of the gate table (``xi0_err_khz`` when given), checked."""
+    need = ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"]
+    missing = [c for c in need if c not in gate.columns and c != "xi0_err_khz"]
+    if missing:
+        raise InputError(f"gate table lacks column(s) {missing}")
+    g = gate[[c for c in need if c in gate.columns]].astype(float).copy()
+    g["dpd"] = g["dpd"].astype(int)
+    if len(g) < 2:
+        src = gate.attrs.get("source")
+        raise FitError(f"{src + ': ' if src else ''}alignment needs at least 2 measured "
+                       f"points, got {len(g)}")
+    _check_errors(g, gate.attrs.get("source"))
+    return g
 
 
 def align(gate: pd.DataFrame, sweep: pd.DataFrame,
@@ -170,24 +199,17 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame,
     Parameters
     ----------
     gate : DataFrame
-        Columns ``A, dpd, xi0_khz, xi0_err_khz, F, F_err``.
+        Columns ``A, dpd, xi0_khz, F, F_err`` and optionally ``xi0_err_khz`` (without it
+        the horizontal weights are the laser-power band alone, and the fit's
+        ``left_out`` says so).
     sweep : DataFrame
         A sweep table (:func:`dpdfit.analyses.sweep.run_sweep` or ``sweep.csv``).
     sigma_db : float
         Laser-power fluctuation (dB rms); default the lab's ``ERROR_MODEL.power_jitter_db``
         (paper: 0.2, Supplement S6.5).
     """
-    need = ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"]
-    missing = [c for c in need if c not in gate.columns]
-    if missing:
-        raise InputError(f"gate table lacks column(s) {missing}")
-    g = gate[need].astype(float).copy()
-    g["dpd"] = g["dpd"].astype(int)
-    if len(g) < 2:
-        src = gate.attrs.get("source")
-        raise FitError(f"{src + ': ' if src else ''}alignment needs at least 2 measured "
-                       f"points, got {len(g)}")
-    _check_errors(g, gate.attrs.get("source"))
+    g = _gate_points(gate)
+    has_sx = "xi0_err_khz" in g.columns
     if not np.isfinite(sigma_db) or sigma_db < 0:
         raise InputError(f"sigma_db must be a finite number >= 0, got {sigma_db}")
     cv = curves(sweep)
@@ -207,10 +229,14 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame,
                              f"[{lo:g}, {hi:g}] for dpd={d}", file=gate.attrs.get("source"),
                              column="A", row=i + 1)
         r[m], Fpd[m], eta[m] = cv[d]["r_rel"](A), cv[d]["F_est"](A), cv[d]["eta_bar"](A)
-    xi, sx = g["xi0_khz"].to_numpy(), g["xi0_err_khz"].to_numpy()
+    xi = g["xi0_khz"].to_numpy()
+    sx = g["xi0_err_khz"].to_numpy() if has_sx else np.zeros(len(g))
     F, sF = g["F"].to_numpy(), g["F_err"].to_numpy()
     if np.all(sx == 0) and sigma_db == 0:
         raise FitError("no horizontal uncertainty: give xi0_err_khz or sigma_db > 0")
+    left_out = () if has_sx else (
+        "xi0_err_khz (the gate rates' stated errors): not given, the horizontal weights "
+        f"are the laser-power band alone (sigma_db = {sigma_db:g} dB)",)
 
     def resid(p):
         alpha, delta = p
@@ -240,4 +266,4 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame,
                         delta=float(sol.x[1]), delta_err=float(err[1]),
                         correlation=float(cov[0, 1] / (err[0] * err[1])), chi2=chi2, dof=dof,
                         redchi=chi2 / dof if dof > 0 else float("nan"), sigma_db=float(sigma_db),
-                        points=pts)
+                        points=pts, left_out=left_out)

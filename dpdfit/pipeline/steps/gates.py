@@ -11,17 +11,26 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
 from dpdfit.fits.alignment import AlignmentFit, align
 from dpdfit.fits.counts import gate_fidelities, merge_parity
 from dpdfit.report.gate_plots import gate_figures
 
 from ..context import Context
 
-__all__ = ["gates_step", "closest_pair", "GateResults", "gates_summary"]
+__all__ = ["gates_step", "closest_pair", "GateResults", "gates_summary", "power_jitter_db"]
 
-#: laser-power fluctuation (dB) assumed by the alignment fit: the lab's error model
-_SIGMA_DB = ERROR_MODEL.power_jitter_db
+
+
+def power_jitter_db(meta: dict) -> float:
+    """The laser-power fluctuation (dB) of the alignment fit: the campaign's
+    ``error_model.power_jitter_db`` when ``campaign.json`` states it, else the lab's
+    (:data:`~dpdfit.core.defaults.ERROR_MODEL`); a bad value is an InputError naming
+    the key."""
+    em = meta.get("error_model")
+    if not isinstance(em, dict) or "power_jitter_db" not in em:
+        return ERROR_MODEL.power_jitter_db
+    return ErrorModel.from_dict({"power_jitter_db": em["power_jitter_db"]}).power_jitter_db
 
 
 @dataclass(frozen=True)
@@ -85,13 +94,17 @@ def gates_step(ctx: Context, sweep):
     detail = f"{len(tab)} settings"
     fit = None
     if sweep is not None and "xi0_khz" in tab.columns and tab["xi0_khz"].notna().all():
-        fit = align(tab, sweep, _SIGMA_DB)
+        fit = align(tab, sweep, power_jitter_db(ctx.meta))
         res.table("alignment_points.csv", fit.points)
         detail += f"; alignment alpha = {fit.alpha_khz:.3f} +/- {fit.alpha_khz_err:.3f} kHz, " \
                   f"delta = {fit.delta:+.4f} +/- {fit.delta_err:.4f}"
+        if fit.left_out:
+            detail += " (without the gate rates' stated errors, xi0_err_khz)"
     ts = cf.time_scans
     if ctx.figures is not None and sweep is not None and "xi0_khz" in tab.columns:
-        ctx.figure(gate_figures, tab, sweep, fit, _parity_by_setting(par), ts,
+        # no stated gate-rate errors: no horizontal error bars in the figures
+        drawn = tab if "xi0_err_khz" in tab.columns else tab.assign(xi0_err_khz=0.0)
+        ctx.figure(gate_figures, drawn, sweep, fit, _parity_by_setting(par), ts,
                    closest_pair(tab), ctx.meta["nbar_assumed"])
     res.status("gates", "ok", detail)
     return GateResults(table=tab, alignment=fit)
