@@ -162,7 +162,8 @@ def render_summary(cf: CampaignFolder, statuses: dict, results: dict, failures: 
         ok = statuses.get(step.name, {}).get("status") == "ok"
         if result is not None and ok and step.summary is not None:
             summary[step.name] = step.summary(result)
-    summary["realism"] = realism_table(summary)
+    summary["realism"] = realism_table(summary, results.get("gates") if "gates" in summary
+                                       else None)
     summary["failures"] = failures
     return summary
 

@@ -55,24 +55,28 @@ def _threshold_ratio_rows(s: dict) -> list[dict]:
     return rows
 
 
-def _gate_rows(s: dict) -> list[dict]:
-    gates = s.get("gates") or {}
-    fids = gates.get("fidelities") or {}
+def _gate_rows(gates) -> list[dict]:
+    """The Bell fidelities at A = 0.5 and the alignment, from the gates step's result."""
     rows = []
     for key, pv in PAPER["F_bell_A0.5"].items():
-        rec = fids.get(f"A=0.5,dpd={1 if key == 'dpd' else 0}")
+        rec = None if gates is None else gates.fidelity(0.5, 1 if key == "dpd" else 0)
         rows.append({"quantity": f"Bell fidelity at A=0.5, {key}", "paper": pv,
                      "dpdfit": None if rec is None else f"{rec['F']:.4f} +/- {rec['F_err']:.4f}"})
-    al = gates.get("alignment") or {}
+    al = None if gates is None else gates.alignment
     rows.append({"quantity": "alpha (kHz)", "paper": PAPER["alpha_khz"],
-                 "dpdfit": None if not al else f"{al['alpha_khz']:.3f} +/- {al['alpha_khz_err']:.3f}"})
+                 "dpdfit": None if al is None else f"{al.alpha_khz:.3f} +/- {al.alpha_khz_err:.3f}"})
     rows.append({"quantity": "delta", "paper": PAPER["delta"],
-                 "dpdfit": None if not al else f"{al['delta']:+.4f} +/- {al['delta_err']:.4f}"})
+                 "dpdfit": None if al is None else f"{al.delta:+.4f} +/- {al.delta_err:.4f}"})
     return rows
 
 
-def realism_table(summary: dict) -> list[dict]:
-    """Rows ``{"quantity", "paper", "dpdfit"}``: the paper's numbers next to this campaign's."""
+def realism_table(summary: dict, gates=None) -> list[dict]:
+    """Rows ``{"quantity", "paper", "dpdfit"}``: the paper's numbers next to this campaign's.
+
+    ``summary``: the calibration and spectra sections of ``summary.json``; ``gates``: the
+    gates step's typed result (:class:`~dpdfit.pipeline.steps.GateResults`:
+    ``fidelity(A, dpd)`` and the ``alignment`` fit), None when the gates were not analysed.
+    """
     s = summary
     cal = s.get("calibration") or {}
     rows = [{"quantity": "A_corr = y(1) (mean of runs)", "paper": PAPER["A_corr"],
@@ -87,7 +91,7 @@ def realism_table(summary: dict) -> list[dict]:
     rows.append({"quantity": "R10 gain with DPD below A_corr (dB, min..max)",
                  "paper": PAPER["R10_gain_dB"],
                  "dpdfit": None if g.get("min") is None else f"{g['min']:.1f}..{g['max']:.1f}"})
-    return rows + _threshold_ratio_rows(s) + _gate_rows(s)
+    return rows + _threshold_ratio_rows(s) + _gate_rows(gates)
 
 
 # --------------------------------------------------------------------------- sections
@@ -175,9 +179,7 @@ def _propagation(pr: dict) -> list[str]:
 def _budget(b: dict) -> list[str]:
     lines = ["", "## Error budget (Table S3; loss of (F_pop + F_par)/2)", "",
              "| source | estimate | error |", "|---|---|---|"]
-    for k in ("state_preparation", "dephasing", "heating", "detection", "total", "delta",
-              "unexplained"):
-        v = b.get(k)
+    for k, v in b.items():     # the terms and their order: the budget step's section
         if isinstance(v, dict):
             lines.append(f"| {k} | {v['estimate']:.5f} | {v['error']:.5f} |")
     return lines

@@ -14,6 +14,8 @@ from .gates import GateResults
 
 __all__ = ["budget_step", "budget_summary"]
 
+#: the budget's terms in the ``budget`` section of ``summary.json``, in order (stated
+#: here once: ``summary.md`` renders the section as it is)
 _BUDGET_KEYS = ("state_preparation", "dephasing", "heating", "detection", "total", "delta",
                 "unexplained")
 

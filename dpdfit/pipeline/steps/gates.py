@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pandas as pd
 
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
@@ -41,12 +42,24 @@ class GateResults:
     table: pd.DataFrame
     alignment: AlignmentFit | None = None
 
+    def fidelity(self, A: float, dpd: int) -> dict | None:
+        """``{"F", "F_err", "F_pop", "F_par"}`` of the setting (``A``, ``dpd``), None when
+        it was not measured."""
+        t = self.table
+        sel = t[np.isclose(t["A"].to_numpy(float), A, rtol=0, atol=5e-7)
+                & (t["dpd"].to_numpy(int) == int(dpd))]
+        return None if not len(sel) else _fidelities(sel.iloc[-1])
+
+
+def _fidelities(row) -> dict:
+    """The fidelities of one row of the gate table."""
+    return {"F": row["F"], "F_err": row["F_err"], "F_pop": row["F_pop"], "F_par": row["F_par"]}
+
 
 def gates_summary(g: GateResults) -> dict:
-    """The ``gates`` section of ``summary.json``: fidelities per setting, the alignment."""
-    rec = {f"A={r['A']:g},dpd={int(r['dpd'])}": {"F": r["F"], "F_err": r["F_err"],
-                                                  "F_pop": r["F_pop"], "F_par": r["F_par"]}
-           for _, r in g.table.iterrows()}
+    """The ``gates`` section of ``summary.json``: fidelities per setting (keyed
+    ``"A=<A>,dpd=<0|1>"``, written for readers, never parsed back), the alignment."""
+    rec = {f"A={r['A']:g},dpd={int(r['dpd'])}": _fidelities(r) for _, r in g.table.iterrows()}
     out = {"fidelities": rec}
     if g.alignment is not None:
         out["alignment"] = g.alignment.to_dict()

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from dpdfit.analyses.propagation import propagate, threshold_distribution
+from dpdfit.analyses.propagation import PropagationResult, propagate, threshold_distribution
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.drift import calibration_uncertainty
 from dpdfit.fits.posterior import sample_amplitude_posterior
@@ -23,7 +23,8 @@ from dpdfit.report.posterior_plots import CORNER_DPI, corner_figure
 from ..context import Context
 from .calibration import CalibrationFits
 
-__all__ = ["propagation_step", "PropagationResults", "propagation_summary"]
+__all__ = ["propagation_step", "PropagationResults", "AgedPropagation",
+           "propagation_summary"]
 
 #: seed of the posterior chain and of the predictive draws
 _SEED = 1
@@ -54,32 +55,37 @@ def _corner(posterior) -> dict:
     return {"figS_posterior_corner": corner_figure(posterior)}
 
 
-def _propagate(ctx: Context, unc, phase, A, stale_days, draws) -> dict:
-    """``{"stale_days=D": propagation result with its "thresholds"}`` per table age D."""
+@dataclass(frozen=True)
+class AgedPropagation:
+    """The propagation for a predistortion table ``stale_days`` old: the F_est draws
+    (:class:`~dpdfit.analyses.propagation.PropagationResult`) and the threshold
+    efficiencies' distribution (:func:`~dpdfit.analyses.propagation.threshold_distribution`)."""
+
+    stale_days: float
+    result: PropagationResult
+    thresholds: dict
+
+    @property
+    def key(self) -> str:
+        """Its key in ``propagation.json`` and ``summary.json``: ``"stale_days=D"``."""
+        return f"stale_days={self.stale_days:g}"
+
+    def to_dict(self) -> dict:
+        """Its entry of ``propagation.json``: the result's dict with its ``thresholds``."""
+        return {**self.result.to_dict(), "thresholds": self.thresholds}
+
+
+def _propagate(ctx: Context, unc, phase, A, stale_days, draws) -> tuple:
+    """An :class:`AgedPropagation` per table age D in ``stale_days``."""
     camp = ctx.meta
     model = dict(nu=camp["nu_hz"], xi0=camp["xi0_spectra_hz"], nbar=camp["nbar_assumed"],
                  eta_ref=camp["eta_ref"])
-    out = {}
-    for d in stale_days:
-        p = propagate(unc.posterior, A, stale_days=d, draws=draws, phase=phase,
-                      drift=unc.drift, seed=_SEED, recalibration_loss=_RECALIBRATION_LOSS, **model)
-        out[f"stale_days={d:g}"] = p.to_dict()
-    for d in stale_days:
-        out[f"stale_days={d:g}"]["thresholds"] = threshold_distribution(
-            unc.posterior, stale_days=d, draws=_THRESHOLD_DRAWS, phase=phase, drift=unc.drift,
-            seed=_SEED, **model)
-    return out
-
-
-def _summary(out: dict, A, draws, stale_days) -> dict:
-    last = out[f"stale_days={stale_days[-1]:g}"]
-    return {"A": A, "draws": draws, "results": {
-        k: {flag: {q: v[flag][q] for q in ("F_est_median", "F_est_q2.5", "F_est_q97.5")}
-            for flag in _FLAGS} for k, v in out.items()},
-        "tau": last.get("tau"), "n_independent": last.get("n_independent"),
-        "thresholds": {k: {flag: {lev: v["thresholds"][flag][lev].get("median")
-                                  for lev in _LEVELS}
-                           for flag in _FLAGS} for k, v in out.items()}}
+    results = [propagate(unc.posterior, A, stale_days=d, draws=draws, phase=phase,
+                         drift=unc.drift, seed=_SEED, recalibration_loss=_RECALIBRATION_LOSS,
+                         **model) for d in stale_days]
+    return tuple(AgedPropagation(float(d), r, threshold_distribution(
+        unc.posterior, stale_days=d, draws=_THRESHOLD_DRAWS, phase=phase, drift=unc.drift,
+        seed=_SEED, **model)) for d, r in zip(stale_days, results))
 
 
 def propagation_step(ctx: Context, fits: CalibrationFits | None, A=0.5,
@@ -98,23 +104,42 @@ def propagation_step(ctx: Context, fits: CalibrationFits | None, A=0.5,
                                   seed=_SEED, fits=fits.amplitude_fits(AMPLITUDE_ORDER))
     if ctx.figures is not None:
         ctx.figure(_corner, _corner_posterior(df, fits, unc.posterior), dpi=CORNER_DPI)
-    out = _propagate(ctx, unc, fits.calibration.phase, A, stale_days, draws)
-    res.json_file("propagation.json", out)
+    out = PropagationResults(by_age=_propagate(ctx, unc, fits.calibration.phase, A,
+                                               stale_days, draws), A=A, draws=draws)
+    res.json_file("propagation.json", out.to_dict())
     res.status("propagation", "ok", f"A = {A:g}, {draws} posterior draws, stale "
                                     + ", ".join(f"{d:g}" for d in stale_days) + " days")
-    return PropagationResults(by_age=out, A=A, draws=draws, stale_days=tuple(stale_days))
+    return out
 
 
 @dataclass(frozen=True)
 class PropagationResults:
-    """What the propagation step made: ``{"stale_days=D": result}`` at amplitude ``A``."""
+    """What the propagation step made at amplitude ``A``: one :class:`AgedPropagation`
+    per table age, in the order of ``stale_days``."""
 
-    by_age: dict
+    by_age: tuple
     A: float
     draws: int
-    stale_days: tuple
+
+    @property
+    def stale_days(self) -> tuple:
+        """The table ages (days), in order."""
+        return tuple(a.stale_days for a in self.by_age)
+
+    def to_dict(self) -> dict:
+        """``propagation.json``: ``{"stale_days=D": entry}`` per table age."""
+        return {a.key: a.to_dict() for a in self.by_age}
 
 
 def propagation_summary(p: PropagationResults) -> dict:
-    """The ``propagation`` section of ``summary.json``."""
-    return _summary(p.by_age, p.A, p.draws, p.stale_days)
+    """The ``propagation`` section of ``summary.json``: F_est quantiles and the threshold
+    efficiencies' medians per table age, the chain of the last age."""
+    by_age = {a.key: a.to_dict() for a in p.by_age}
+    last = by_age[p.by_age[-1].key]
+    return {"A": p.A, "draws": p.draws, "results": {
+        k: {flag: {q: v[flag][q] for q in ("F_est_median", "F_est_q2.5", "F_est_q97.5")}
+            for flag in _FLAGS} for k, v in by_age.items()},
+        "tau": last.get("tau"), "n_independent": last.get("n_independent"),
+        "thresholds": {k: {flag: {lev: v["thresholds"][flag][lev].get("median")
+                                  for lev in _LEVELS}
+                           for flag in _FLAGS} for k, v in by_age.items()}}
