@@ -1,4 +1,4 @@
-"""Error budget (Supplement S8, Table S3): formulas vs the exact gate engine,
+"""Error budget (Supplement S10, Table S2): formulas vs the exact gate engine,
 Monte-Carlo propagation, config validation, CLI JSON."""
 
 import argparse
@@ -38,7 +38,7 @@ def default():
     return bd.error_budget(None)
 
 
-# --------------------------------------------------------------------------- Table S3
+# --------------------------------------------------------------------------- Table S2
 
 
 def test_default_reproduces_table_s3(default):
@@ -71,9 +71,9 @@ def test_default_reproduces_table_s3(default):
     assert d["p_unexplained_positive"] > 0.99
     rep = default.report()
     for word in ("State preparation", "dephasing", "heating", "detection", "Total",
-                 "Table S3", "Unexplained", "0.3-0.6%"):
+                 "Table S2", "Unexplained", "0.3-0.6%"):
         assert word in rep
-    assert "Table S3" not in default.report(paper=False)
+    assert "Table S2" not in default.report(paper=False)
 
 
 def test_deterministic_seed():
@@ -240,7 +240,7 @@ def test_cli_json(tmp_path, capsys):
     assert d["details"]["gate_times_us"]["max"] == pytest.approx(1e3 / 3.349)
     args = _parser().parse_args(["budget"])
     assert args.func(args) == 0
-    assert "Table S3" in capsys.readouterr().out
+    assert "Table S2" in capsys.readouterr().out
 
 
 def test_cli_bad_rates(tmp_path):

@@ -1,4 +1,4 @@
-"""Spectrum-based fidelity estimate (S5): closed forms, the Bell formula, Table S2."""
+"""Spectrum-based fidelity estimate (S5): closed forms, the Bell formula, Table S1."""
 
 import numpy as np
 import pytest
@@ -118,7 +118,7 @@ def test_paper_formula_doubles_small_infidelities():
         assert e_paper / e_exact == pytest.approx(2.0, rel=2e-3)
 
 
-# ------------------------------------------------------------- Table S2
+# ------------------------------------------------------------- Table S1
 
 PRINTED = {"0": {"1e-2": 30.2, "1e-3": 40.3, "1e-4": 50.3},
            "3": {"1e-2": 10.8, "1e-3": 20.5, "1e-4": 30.5}}

@@ -35,7 +35,7 @@ def test_fidelity_cli_json_and_csv(tmp_path, capsys):
     gate = pd.read_csv(tmp_path / "gate.csv")
     assert list(gate.columns[:len(KEYS)]) == KEYS
     assert {"xi0_khz", "xi0_err_khz"} <= set(gate.columns)
-    assert (tmp_path / "figs" / "figS8_parity_fringes.png").exists()
+    assert (tmp_path / "figs" / "figS7_parity_fringes.png").exists()
     # align on the same table
     sweep = tmp_path / "sweep.csv"
     assert run(["calibrate", "--amplitude", CAMP / "calibration_amplitude.csv", "--run", "R034",
@@ -84,6 +84,6 @@ def test_analyze_gate_analysis(bundled_analysis):
     al = s.summary["gates"]["alignment"]
     assert abs(al["alpha_khz"] - 3.42) < 3 * al["alpha_khz_err"]
     figs = {p.name for p in (res / "figures").iterdir()}
-    assert {"fig3_fidelity_vs_rate.png", "fig4_fidelity_vs_eta.png", "figS7_time_scans.png",
-            "figS8_parity_fringes.png"} <= figs
+    assert {"fig3_fidelity_vs_rate.png", "fig4_fidelity_vs_eta.png", "figS6_time_scans.png",
+            "figS7_parity_fringes.png"} <= figs
     assert (res / "gate.csv").exists()

@@ -1,4 +1,4 @@
-"""Calibration stability over runs (Supplement S2, Figs. S2-S3): dpdfit.analyses.stability."""
+"""Calibration stability over runs (Supplement S2, Figs. S1-S2): dpdfit.analyses.stability."""
 
 from __future__ import annotations
 
@@ -107,7 +107,7 @@ def test_cli_auto_phase_and_plots(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["kind"] == "phase" and d["n_runs"] == 6
     assert 2.5 / 24 < d["span_days"] < 3.5 / 24
-    for name in ("figS2_stability_phase.png", "figS3_envelope_phase.png"):
+    for name in ("figS1_stability_phase.png", "figS2_envelope_phase.png"):
         f = tmp_path / name
         assert f.exists() and f.read_bytes()[:4] == b"\x89PNG"
     assert not [p for p in os.listdir(tmp_path) if p.endswith(".part")]
@@ -124,8 +124,8 @@ def test_phase_kind():
 
 def test_amplitude_plots(amp_result, tmp_path):
     paths = save_figures(stability_figures(amp_result), tmp_path)
-    assert [Path(p).name for p in paths] == ["figS2_stability_amplitude.png",
-                                             "figS3_envelope_amplitude.png"]
+    assert [Path(p).name for p in paths] == ["figS1_stability_amplitude.png",
+                                             "figS2_envelope_amplitude.png"]
     assert all(Path(p).stat().st_size > 5000 for p in paths)
 
 

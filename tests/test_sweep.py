@@ -98,8 +98,8 @@ def test_sweep_and_thresholds_cli(bundled_calibration_files, tmp_path, capsys):
     assert code == 0, err
     df = pd.read_csv(out, comment="#")
     assert list(df.columns) == COLUMNS and len(df) == 240 and set(df["dpd"]) == {0, 1}
-    for name in ("fig2_spectral.png", "figS6_spectral.png", "fig5_eps_vs_eta.png",
-                 "figS4_phase_space.png"):
+    for name in ("fig2_spectral.png", "figS5_spectral.png", "fig5_eps_vs_eta.png",
+                 "figS3_phase_space.png"):
         assert (tmp_path / "figs" / name).read_bytes()[:4] == b"\x89PNG"
     code, stdout, err = run(["thresholds", out, "--json"], capsys)
     assert code == 0, err

@@ -1,4 +1,4 @@
-"""The measured heterodyne spectra analysed like the simulated sweep (S5, S6.5).
+"""The measured heterodyne spectra analysed like the simulated sweep (S5, S6.6).
 
 From the recorded tone powers (``spectra.csv``: ``A, dpd, sideband, n, P_dB,
 valid``) :func:`measured_spectra` computes per amplitude, DPD flag and
@@ -11,7 +11,7 @@ sideband (red, blue and their mean)
   amplitude;
 
 and, given the simulated sweep, the time-averaged efficiency ``eta_bar`` of
-each amplitude from the sweep's spline (S6.5) and the threshold efficiencies
+each amplitude from the sweep's spline (S6.6) and the threshold efficiencies
 ``eta_th`` at which the measured ``eps_est`` first rises through 1e-2, 1e-3,
 1e-4 (log-log interpolation, as :func:`dpdfit.analyses.sweep.thresholds`).
 The summary also gives the gain in ``R10`` with DPD for ``0.2 <= A <=

@@ -205,7 +205,7 @@ def run_sweep(transfer: TransferFunction, cfg: SweepConfig = SweepConfig()) -> p
 
 
 def efficiency_spline(df: pd.DataFrame, dpd: int) -> CubicSpline:
-    """Cubic spline ``A -> eta_bar`` for one DPD flag (S6.5)."""
+    """Cubic spline ``A -> eta_bar`` for one DPD flag (S6.6)."""
     sub = df[(df["dpd"] == dpd) & (df["sideband"] == "mean")].sort_values("A")
     if len(sub) < 4:
         raise InputError(f"sweep table has {len(sub)} amplitudes for dpd={dpd}; need >= 4",

@@ -3,7 +3,7 @@
 Combines the tone extraction (:func:`dpdfit.fits.tones.trace_tone_powers`)
 with the fidelity model (:func:`dpdfit.models.fidelity.estimate`, S5):
 :func:`trace_estimate` gives ``F_est`` per sideband group and their mean,
-:func:`delta_powers` the tone-power changes between two traces (S9).
+:func:`delta_powers` the tone-power changes between two traces (S8).
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def trace_estimate(res: TraceSpectrum, nbar: float = NBAR, formula: str = FORMUL
 def delta_powers(res_dpd: TraceSpectrum, res_ref: TraceSpectrum) -> dict:
     """``dP_n = P_n(this) - P_n(reference)`` in dB per sideband and their mean.
 
-    For DPD vs no-DPD traces at matched A (S9).  A difference is ``None``
+    For DPD vs no-DPD traces at matched A (S8).  A difference is ``None``
     unless the tone is valid in both traces.
     """
     out = {}

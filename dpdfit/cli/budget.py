@@ -1,4 +1,4 @@
-"""``dpdfit budget``: the error budget of the fidelity offset delta (Table S3)."""
+"""``dpdfit budget``: the error budget of the fidelity offset delta (Table S2)."""
 
 from __future__ import annotations
 
@@ -46,10 +46,10 @@ def add_budget_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit budget [--config F] [--delta D --delta-err E] [--gate-rates CSV]
     [--json]`` on an argparse sub-parsers object (``func=cmd_budget``)."""
     s = subparsers.add_parser(
-        "budget", help="error budget of the fidelity offset delta (Table S3)",
+        "budget", help="error budget of the fidelity offset delta (Table S2)",
         description="Infidelity contributions of state preparation, dephasing, heating and "
                     "detection with Monte-Carlo uncertainties, compared with the fitted "
-                    "offset delta (Supplement S8, Table S3).")
+                    "offset delta (Supplement S10, Table S2).")
     s.add_argument("--config", help="budget TOML file (all keys optional; see dpdfit.analyses.budget)")
     s.add_argument("--delta", type=_offset, help="fitted fidelity offset delta (e.g. -0.018)")
     s.add_argument("--delta-err", type=unit_interval, help="1-sigma error of delta (e.g. 0.003)")

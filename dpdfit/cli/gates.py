@@ -69,7 +69,7 @@ def cmd_fidelity(args) -> int:
         use_noninteractive_backend()
         par = merge_parity(read_parity(args.parity))
         fig = merged_parity_figure(tab, par)
-        for p in save_figures({"figS8_parity_fringes": fig}, args.plot):
+        for p in save_figures({"figS7_parity_fringes": fig}, args.plot):
             print(f"wrote {p}", file=sys.stderr)
     if args.output:
         print(f"wrote {args.output}", file=sys.stderr)
@@ -91,7 +91,7 @@ def add_fidelity_command(subparsers) -> argparse.ArgumentParser:
     f.add_argument("-o", "--output", metavar="GATE.csv", help="write the table as CSV")
     f.add_argument("--json", action="store_true",
                    help="print a JSON list (one record per A, dpd)")
-    f.add_argument("--plot", metavar="DIR", help="write the parity-fringe figure (Fig. S8)")
+    f.add_argument("--plot", metavar="DIR", help="write the parity-fringe figure (Fig. S7)")
     f.set_defaults(func=cmd_fidelity)
     return f
 

@@ -32,7 +32,7 @@ DESCRIPTIONS = {
     "estimate": "The spectrum-based Bell-fidelity estimate F_est (Supplement S5) of one "
                 "sideband from its tone powers in dB (gate tone n = 1, IM tones n = 0, 2, 3).",
     "im-table": "The required gate-to-intermodulation power ratios (dB) for given "
-                "infidelities, for the n = 0 and n = 3 tones (Table S2).",
+                "infidelities, for the n = 0 and n = 3 tones (Table S1).",
     "thresholds": "The corrected mean efficiency eta_bar_corr and the threshold efficiencies "
                   "(where the infidelity crosses each level) of a sweep written by "
                   "'dpdfit sweep', with and without predistortion.",

@@ -2,7 +2,7 @@
 
 ``sweep`` simulates the amplitude sweep of a calibration; ``estimate`` is the
 closed-form fidelity estimate from one sideband's tone powers; ``im-table``
-prints the required gate-to-IM power ratios (Table S2); ``thresholds`` reads a
+prints the required gate-to-IM power ratios (Table S1); ``thresholds`` reads a
 sweep table back and prints its threshold efficiencies.
 """
 
@@ -107,7 +107,7 @@ def add_sweep_command(subparsers) -> argparse.ArgumentParser:
     w.add_argument("--anchor-dpd", type=int, choices=[0, 1], default=0,
                    help="r_rel anchor DPD flag (0)")
     w.add_argument("-o", "--output", required=True, help="sweep table (CSV)")
-    w.add_argument("--plot", metavar="DIR", help="write Figs. 2, 5, S4, S6 (PNG) into DIR")
+    w.add_argument("--plot", metavar="DIR", help="write Figs. 2, 5, S3, S5 (PNG) into DIR")
     w.set_defaults(func=cmd_sweep)
     return w
 
@@ -176,13 +176,13 @@ def add_estimate_command(subparsers) -> argparse.ArgumentParser:
 
 def cmd_im_table(args) -> int:
     """``dpdfit im-table``: the required gate-to-IM power ratios (dB) per infidelity
-    level, for an IM tone at harmonic n = 0 or n = 3 (Table S2; report or JSON)."""
+    level, for an IM tone at harmonic n = 0 or n = 3 (Table S1; report or JSON)."""
     from dpdfit.models.im_requirements import im_requirements
     tab = im_requirements(nbar=args.nbar, formula=args.formula, as_printed=args.as_printed)
     if args.json:
         print(json.dumps(to_jsonable(tab), indent=2))
     else:
-        what = ("as printed in Table S2 (assumptions: see the documentation's spectra guide)" if args.as_printed
+        what = ("as printed in Table S1 (assumptions: see the documentation's spectra guide)" if args.as_printed
                 else f"formula {args.formula}, nbar {args.nbar:g}")
         print(f"required P_gate/P_IM (dB), {what}")
         print("  infidelity      n=0       n=3")
@@ -194,11 +194,11 @@ def cmd_im_table(args) -> int:
 
 def add_im_table_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit im-table`` on an argparse sub-parsers object."""
-    m = subparsers.add_parser("im-table", help="required gate-to-IM power ratios (Table S2)")
+    m = subparsers.add_parser("im-table", help="required gate-to-IM power ratios (Table S1)")
     m.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
     m.add_argument("--formula", choices=_FORMULAS, default=FORMULA)
     m.add_argument("--as-printed", action="store_true",
-                   help="use the assumptions that reproduce the printed Table S2")
+                   help="use the assumptions that reproduce the printed Table S1")
     m.add_argument("--json", action="store_true")
     m.set_defaults(func=cmd_im_table)
     return m

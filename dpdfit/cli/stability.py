@@ -1,4 +1,4 @@
-"""``dpdfit stability``: stability of a multi-run calibration over time (Figs. S2, S3)."""
+"""``dpdfit stability``: stability of a multi-run calibration over time (Figs. S1, S2)."""
 
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ def add_stability_command(subparsers) -> argparse.ArgumentParser:
     :class:`~dpdfit.errors.DpdfitError` on bad input.
     """
     s = subparsers.add_parser(
-        "stability", help="stability of a multi-run calibration over time (Figs. S2, S3)",
+        "stability", help="stability of a multi-run calibration over time (Figs. S1, S2)",
         description="Fit every run of a multi-run calibration file and report the time "
                     "series of y(1) = A_corr or phi(1), its mean and scatter, a drift test "
                     "and the Allan deviation (Supplement S2).")
@@ -77,6 +77,6 @@ def add_stability_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--phase-min-A", type=unit_interval, default=PHASE_MIN_A, dest="A_min",
                    help=f"lower end of the phase fit window ({PHASE_MIN_A:g})")
     s.add_argument("--json", action="store_true", help="print the JSON instead of a report")
-    s.add_argument("--plot", metavar="DIR", help="write Figs. S2 and S3 (PNG) into DIR")
+    s.add_argument("--plot", metavar="DIR", help="write Figs. S1 and S2 (PNG) into DIR")
     s.set_defaults(func=cmd_stability)
     return s

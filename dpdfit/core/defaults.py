@@ -44,7 +44,7 @@ FORMULA = "exact"
 # (../shared/000_25865f86b72c0b0d.txt) in order: S6.5 "Gate-rate uncertainty from power
 # fluctuations", S7.2 "Parity fidelity", S10 "Error sources and limitations" with
 # S10.1 "State preparation and measurement", S10.2 "Qubit dephasing", S10.3 "Motional
-# heating" and its Table S3 (the project's name for tab:error-budget).
+# heating" and its Table S2 (tab:error-budget).
 
 
 @dataclass(frozen=True)
@@ -57,25 +57,25 @@ class ErrorModel:
     elsewhere (``parity_phases``, ``predistortion_table.points``, the seed in
     ``generator``).  :meth:`from_dict` overlays a campaign's values on the
     defaults.  The error budget (:mod:`dpdfit.analyses.budget`) does not use
-    this: it takes the paper's Table S3 inputs, which are bounds where these are
+    this: it takes the paper's Table S2 inputs, which are bounds where these are
     point values (see the comment on its ``DEFAULT_CONFIG``).
     """
 
     #: thermal mean phonon number of the gate mode before the gate: :data:`NBAR`
     #: (main text "Experimental setup", sideband thermometry; S5 uses it in the estimate)
     nbar: float = NBAR
-    #: qubit coherence time T2 [s]: Ramsey, 50 +/- 5 ms (S10.2, Table S3)
+    #: qubit coherence time T2 [s]: Ramsey, 50 +/- 5 ms (S10.2, Table S2)
     T2_s: float = 50e-3
     #: motional heating rate of the stretch mode [quanta/s]: the paper gives only a
     #: bound, < 0.01 quanta/ms = 10 /s (main text "Experimental setup", S10.3,
-    #: Table S3); 5 /s (half the bound, the mean of the budget's uniform prior on it)
+    #: Table S2); 5 /s (half the bound, the mean of the budget's uniform prior on it)
     #: is this project's synthetic-lab choice
     heating_quanta_per_s: float = 5.0
     #: state-preparation error per ion: 1 - 0.997, the fitted Rabi-flop amplitude
-    #: 0.997 +/- 0.003 (S10.1, Table S3 "<~ 0.6 %" for two ions)
+    #: 0.997 +/- 0.003 (S10.1, Table S2 "<~ 0.6 %" for two ions)
     p_prep: float = 0.003
     #: bright/dark detection error per ion: the paper bounds it, < 1e-4 (S10.1;
-    #: Table S3 "< 0.02 %" for two ions); 5e-5 (half the bound) is this project's
+    #: Table S2 "< 0.02 %" for two ions); 5e-5 (half the bound) is this project's
     #: synthetic-lab choice
     p_det: float = 5e-5
     #: laser-power fluctuation, 1 sigma [dB]: sigma_dB ~ 0.2 dB (S6.5)

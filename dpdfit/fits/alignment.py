@@ -6,7 +6,7 @@ two sidebands):
 
 * ``r_rel(A)``: relative gate rate (Eq. r-rel),
 * ``F_PD(A)``: the spectrum-based fidelity estimate ``F_est``,
-* ``eta_bar(A)``: time-averaged diffraction efficiency (S6.5).
+* ``eta_bar(A)``: time-averaged diffraction efficiency (S6.6).
 
 For each measured point ``i`` (amplitude ``A_i``, flag ``d_i``, calibrated
 ``xi0_i +/- s_i`` in kHz, measured fidelity ``F_i +/- e_i``) these are

@@ -42,7 +42,7 @@ exact one (documentation: docs/guide/spectra.md).  The exact expression is check
 against a brute-force propagation of the two-ion spin-motion dynamics in the
 tests.
 
-The IM-tone requirements of Table S2, built on these expressions, are in
+The IM-tone requirements of Table S1, built on these expressions, are in
 :mod:`dpdfit.models.im_requirements`.
 """
 
@@ -335,7 +335,7 @@ def estimate(P_dB, harmonics=(0, 1, 2, 3), *, gate=(1, 2), gate_signs=(1.0, -1.0
 
 
 def cardioid_populations(t, xi0: float, nbar: float = NBAR, n=(1, 2), r=None):
-    """Ideal two-ion populations ``P00, P01+P10, P11`` versus time (Fig. S7).
+    """Ideal two-ion populations ``P00, P01+P10, P11`` versus time (Fig. S6).
 
     The ideal gate (tones ``n`` with signed amplitudes ``r``, default the
     unit-normalised Cardioid(1,2) ``+/-1/sqrt(1.5)``, ``eta Omega`` calibrated

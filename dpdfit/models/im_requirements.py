@@ -1,10 +1,10 @@
-"""Required gate-to-IM power ratios per infidelity level (Supplement S5, Table S2).
+"""Required gate-to-IM power ratios per infidelity level (Supplement S5, Table S1).
 
 A single intermodulation tone added to the ideal Cardioid(1,2) spectrum (its
 sign from the cubic model, Omega calibrated on the gate tones) costs the
 infidelity :func:`im_infidelity`; :func:`im_requirements` solves for the
 power ratio that reaches each infidelity level.  ``as_printed=True``
-reproduces the printed Table S2 with the assumptions identified in the documentation (docs/guide/spectra.md).
+reproduces the printed Table S1 with the assumptions identified in the documentation (docs/guide/spectra.md).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def _endpoint_as_printed(n, r, phi, g):
     trajectory start at the origin; with a phase phi_n that is not 0 the
     literal expressions evaluated at T_g give a spurious non-closure
     ``F(T) = -sqrt(2) g sum (r/n) sin(phi)``, ``G(T) = sqrt(2) g sum (r/n)(1 - cos phi)``.
-    Used only to reproduce the printed Table S2 (see :func:`im_requirements`).
+    Used only to reproduce the printed Table S1 (see :func:`im_requirements`).
     """
     n = np.asarray(n, dtype=float)
     r = np.asarray(r, dtype=float)
@@ -43,7 +43,7 @@ def im_infidelity(n_im: int, ratio_db, nbar: float = NBAR, formula: str = FORMUL
     """Infidelity of ideal Cardioid(1,2) plus one IM tone at ``P_gate/P_IM = ratio_db``.
 
     ``as_printed=True`` uses the assumptions that reproduce the printed
-    Table S2 (see :func:`im_requirements`); ``nbar`` and ``formula`` are then
+    Table S1 (see :func:`im_requirements`); ``nbar`` and ``formula`` are then
     ignored.
     """
     amp = 10 ** (-np.asarray(ratio_db, dtype=float) / 20)
@@ -68,14 +68,14 @@ def im_infidelity(n_im: int, ratio_db, nbar: float = NBAR, formula: str = FORMUL
 
 def im_requirements(nbar: float = NBAR, formula: str = FORMULA, levels=(1e-2, 1e-3, 1e-4),
                     harmonics=(0, 3), as_printed: bool = False) -> dict:
-    """Required gate-to-IM power ratio (dB) per infidelity level (Table S2).
+    """Required gate-to-IM power ratio (dB) per infidelity level (Table S1).
 
     For each IM harmonic, the ``P_gate/P_IM = P_1/P_IM`` (dB) at which a
     single IM tone added to the ideal Cardioid(1,2) spectrum (sign from the
     cubic model, Omega calibrated on the gate tones) makes ``1 - F`` equal
     each level; found by a bracketed root solve.
 
-    ``as_printed=True`` reproduces the numbers printed in Table S2 (to
+    ``as_printed=True`` reproduces the numbers printed in Table S1 (to
     <= 0.05 dB) with the assumptions identified in the documentation (docs/guide/spectra.md): the printed
     fidelity expression, ``nbar = 0``, the IM amplitude quoted relative to the
     unit-normalised gate amplitude (so the quoted ratio is 1.76 dB above

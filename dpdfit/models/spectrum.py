@@ -12,7 +12,7 @@ waveform driven with peak amplitude ``A`` through an ideal modulator reads
 heterodyne traces (:mod:`dpdfit.fits.tones`) use the analogous reference in
 the trace's own units; ratios (``R10``, ``R23``, ``dP_n``) do not depend on it.
 
-Figures of merit (main text; Supplement S4, S9)::
+Figures of merit (main text; Supplement S4, S8)::
 
     R10 = P1_dB - P0_dB,   R23 = P2_dB - P3_dB,
     dP_n = P_n_dB(DPD) - P_n_dB(no DPD)  at matched A.

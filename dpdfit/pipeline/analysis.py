@@ -200,7 +200,7 @@ class Analysis:
 
     @property
     def budget(self) -> pd.DataFrame | None:
-        """The error budget (Table S3): one row per term, ``estimate`` and ``error``."""
+        """The error budget (Table S2): one row per term, ``estimate`` and ``error``."""
         b = self.results.get("budget")
         if b is None:
             return None

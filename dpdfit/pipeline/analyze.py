@@ -18,12 +18,12 @@ there once):
   amplitude and phase run for the per-run table.  -> ``calibration.json``,
   ``calibration_runs.csv``, Fig. 1.
 * ``stability`` -- y(1) and phi(1) per run: mean, sd, drift test, Allan
-  deviation, curve envelopes (S2). -> ``stability_*.json``, Figs. S2, S3.
+  deviation, curve envelopes (S2). -> ``stability_*.json``, Figs. S1, S2.
 * ``sweep`` -- the simulated amplitude sweep from that calibration at the
-  spectra's ``nu``, ``xi0`` (S6). -> ``sweep.csv``, Figs. 2, 5, S4, S6.
+  spectra's ``nu``, ``xi0`` (S6). -> ``sweep.csv``, Figs. 2, 5, S3, S5.
 * ``spectra`` -- measured tone powers (``spectra.csv``): ``R10``, ``R23``,
   ``dP_n``, ``F_est`` per A and flag, ``eta_bar`` from the simulation's
-  spline (S6.5), measured threshold efficiencies
+  spline (S6.6), measured threshold efficiencies
   (:mod:`dpdfit.analyses.measured_spectra`). -> ``spectra_measured.csv``,
   Figs. 2/S6/5 with measured (solid) and simulated (dashed) curves.
 * ``traces`` -- the bundled raw traces re-analysed and checked against
@@ -31,11 +31,11 @@ there once):
 * ``gates`` -- count inference (S7): population and parity fidelities per
   setting pooled over scans (``gate.csv``, joined with ``gate_rates.csv``),
   the alignment fit of ``alpha`` and ``delta`` against the simulated sweep
-  (``alignment_points.csv``), Figs. 3, 4, S7, S8.
+  (``alignment_points.csv``), Figs. 3, 4, S6, S7.
 * ``propagation`` -- emcee posterior of the day's amplitude calibration with
   the run-to-run drift model, 10^4 draws pushed through the sweep at
   A = 0.5 for a fresh and a 30-day-old table. -> ``propagation.json``.
-* ``budget`` -- the error budget of Table S3 (S8) from ``budget.toml`` in
+* ``budget`` -- the error budget of Table S2 (S10) from ``budget.toml`` in
   the campaign folder (or the paper's inputs), with the gate times from
   ``gate_rates.csv`` and ``delta`` from the alignment fit. -> ``budget.json``.
 * ``diagnosis`` -- the discrepancy diagnosis (unless ``diagnosis=False``).

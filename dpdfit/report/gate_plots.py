@@ -1,11 +1,11 @@
-"""Figures of the measured gate side: main-text Figs. 3, 4 and Supplement Figs. S7, S8.
+"""Figures of the measured gate side: main-text Figs. 3, 4 and Supplement Figs. S6, S7.
 
 :func:`fidelity_vs_rate_figure` (Fig. 3) and :func:`fidelity_vs_efficiency_figure`
 (Fig. 4) draw the gate fidelities with the aligned photodiode curves,
-:func:`parity_fringes_figure` every parity fringe (S8),
-:func:`time_scans_figure` the population time scans (S7); each returns a
+:func:`parity_fringes_figure` every parity fringe (S7),
+:func:`time_scans_figure` the population time scans (S6); each returns a
 Figure and :func:`gate_figures` draws the set ``dpdfit analyze`` writes.
-:func:`merged_parity_figure` draws Fig. S8 from merged parity counts alone
+:func:`merged_parity_figure` draws Fig. S7 from merged parity counts alone
 (``dpdfit fidelity --plot``).
 """
 
@@ -25,7 +25,7 @@ __all__ = ["fidelity_vs_rate_figure", "fidelity_vs_efficiency_figure", "parity_f
 #: marker style per DPD flag
 _STYLE = {1: dict(color="C0", marker="s", label="DPD"), 0: dict(color="C3", marker="o",
                                                              label="no DPD")}
-_N_COLUMNS_S8 = 4
+_PARITY_COLUMNS = 4
 
 
 def _setting(gate, A, dpd):
@@ -130,15 +130,15 @@ def fidelity_vs_efficiency_figure(gate, sweep, fit=None, *, ax=None):
 
 def _grid_axes(fig, n_panels, min_rows=0):
     """``(figure, axes)``: a grid of 4 columns for ``n_panels`` panels (axes beyond them off)."""
-    nr = max(min_rows, -(-n_panels // _N_COLUMNS_S8))
-    fig, axes = panel_grid(fig, nr, _N_COLUMNS_S8, (3.2 * _N_COLUMNS_S8, 2.6 * nr))
+    nr = max(min_rows, -(-n_panels // _PARITY_COLUMNS))
+    fig, axes = panel_grid(fig, nr, _PARITY_COLUMNS, (3.2 * _PARITY_COLUMNS, 2.6 * nr))
     for ax in list(axes.flat)[n_panels:]:
         ax.axis("off")
     return fig, axes
 
 
 def parity_fringes_figure(gate, parity, *, fig=None):
-    """Fig. S8: every setting's parity fringe with its fitted contrast and phase.
+    """Fig. S7: every setting's parity fringe with its fitted contrast and phase.
 
     ``parity``: ``{(A, dpd): (phases, n_even, shots)}``; the fits are drawn from
     ``gate``'s ``contrast`` and ``phi0``.  Drawn into ``fig`` (an empty Figure
@@ -175,7 +175,7 @@ def _time_scan_panel(ax, gate, ts, d, nbar):
 
 
 def time_scans_figure(gate, time_scans, nbar: float = NBAR, *, fig=None):
-    """Fig. S7: the population time scans, one panel per DPD flag, with the ideal Cardioid
+    """Fig. S6: the population time scans, one panel per DPD flag, with the ideal Cardioid
     model at the setting's gate rate.
 
     ``time_scans``: ``A, dpd, t_us, n00, n01_10, n11, shots``.  Drawn into
@@ -193,8 +193,8 @@ def gate_figures(gate, sweep, fit, parity=None, time_scans=None, highlight=None,
                  nbar: float = NBAR) -> dict:
     """Figures of the measured side as ``dpdfit analyze`` writes them: ``{file stem: Figure}``.
 
-    ``fig3_fidelity_vs_rate``, ``fig4_fidelity_vs_eta``, ``figS8_parity_fringes``
-    (with ``parity``) and ``figS7_time_scans`` (with ``time_scans``).
+    ``fig3_fidelity_vs_rate``, ``fig4_fidelity_vs_eta``, ``figS7_parity_fringes``
+    (with ``parity``) and ``figS6_time_scans`` (with ``time_scans``).
 
     Parameters
     ----------
@@ -216,14 +216,14 @@ def gate_figures(gate, sweep, fit, parity=None, time_scans=None, highlight=None,
     figs = {"fig3_fidelity_vs_rate": fidelity_vs_rate_figure(gate, sweep, fit, parity, highlight),
             "fig4_fidelity_vs_eta": fidelity_vs_efficiency_figure(gate, sweep, fit)}
     if parity:
-        figs["figS8_parity_fringes"] = parity_fringes_figure(gate, parity)
+        figs["figS7_parity_fringes"] = parity_fringes_figure(gate, parity)
     if time_scans is not None and len(time_scans):
-        figs["figS7_time_scans"] = time_scans_figure(gate, time_scans, nbar)
+        figs["figS6_time_scans"] = time_scans_figure(gate, time_scans, nbar)
     return figs
 
 
 def merged_parity_figure(gate, merged_parity, *, fig=None):
-    """Fig. S8 alone (``dpdfit fidelity --plot``): merged parity fringes of every setting
+    """Fig. S7 alone (``dpdfit fidelity --plot``): merged parity fringes of every setting
     with their fits.
 
     ``merged_parity`` is the DataFrame of :func:`dpdfit.fits.counts.merge_parity`

@@ -22,7 +22,7 @@ def _color(kind: str) -> str:
 
 
 def stability_figure(result: StabilityResult, *, ax=None):
-    """Fig. S2: per-run values with error bars versus time, the mean (dashed), the
+    """Fig. S1: per-run values with error bars versus time, the mean (dashed), the
     +/- 1 sigma band and the fitted trend line.
 
     Drawn into ``ax`` when given; returns the Figure.
@@ -45,13 +45,13 @@ def stability_figure(result: StabilityResult, *, ax=None):
                       f"{'h' if hours else 'day'} (p = {d['trend_p_value']:.2g})")
     ax.set_xlabel("time since first run [" + ("h" if hours else "days") + "]")
     ax.set_ylabel("$y(1) = A_{corr}$" if r.kind == "amplitude" else "$\\phi(1)$ [rad]")
-    ax.set_title(f"Fig. S2: {r.kind} calibration stability", fontsize=10)
+    ax.set_title(f"Fig. S1: {r.kind} calibration stability", fontsize=10)
     ax.legend(fontsize=7)
     return fig
 
 
 def envelope_figure(result: StabilityResult, *, ax=None):
-    """Fig. S3: every run's response curve, the mean curve and the +/- 1 sigma envelope.
+    """Fig. S2: every run's response curve, the mean curve and the +/- 1 sigma envelope.
 
     Drawn into ``ax`` when given; returns the Figure.
     """
@@ -65,13 +65,13 @@ def envelope_figure(result: StabilityResult, *, ax=None):
     ax.plot(r.grid, r.mean_curve, color=color, lw=1.6, label=f"mean of {r.n_runs} runs")
     ax.set_xlabel("RF amplitude $A$")
     ax.set_ylabel("$y(A)$" if r.kind == "amplitude" else "$\\phi(A)$ [rad]")
-    ax.set_title(f"Fig. S3: {r.kind} response envelope", fontsize=10)
+    ax.set_title(f"Fig. S2: {r.kind} response envelope", fontsize=10)
     ax.legend(fontsize=7)
     return fig
 
 
 def stability_figures(result: StabilityResult) -> dict:
-    """Figs. S2 and S3 as ``dpdfit analyze`` writes them: ``{file stem: Figure}``
-    (``figS2_stability_<kind>``, ``figS3_envelope_<kind>``)."""
-    return {f"figS2_stability_{result.kind}": stability_figure(result),
-            f"figS3_envelope_{result.kind}": envelope_figure(result)}
+    """Figs. S1 and S2 as ``dpdfit analyze`` writes them: ``{file stem: Figure}``
+    (``figS1_stability_<kind>``, ``figS2_envelope_<kind>``)."""
+    return {f"figS1_stability_{result.kind}": stability_figure(result),
+            f"figS2_envelope_{result.kind}": envelope_figure(result)}

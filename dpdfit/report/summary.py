@@ -177,7 +177,7 @@ def _propagation(pr: dict) -> list[str]:
 
 
 def _budget(b: dict) -> list[str]:
-    lines = ["", "## Error budget (Table S3; loss of (F_pop + F_par)/2)", "",
+    lines = ["", "## Error budget (Table S2; loss of (F_pop + F_par)/2)", "",
              "| source | estimate | error |", "|---|---|---|"]
     for k, v in b.items():     # the terms and their order: the budget step's section
         if isinstance(v, dict):

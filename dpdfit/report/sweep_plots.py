@@ -1,4 +1,4 @@
-"""Figures of the amplitude sweep: Figs. 2, 5 and Supplement Figs. S4, S6.
+"""Figures of the amplitude sweep: Figs. 2, 5 and Supplement Figs. S3, S5.
 
 Simulated curves are dashed, as in the paper; curves measured from the
 recorded spectra (the table of
@@ -115,7 +115,7 @@ def _eps_panel(ax, c: _Curves, th: dict):
 
 
 def _phase_space_panel(ax):
-    """Trajectory of Cardioid(1,2), ideal and with a 10 % n = 0 or n = 3 tone (Fig. S4)."""
+    """Trajectory of Cardioid(1,2), ideal and with a 10 % n = 0 or n = 3 tone (Fig. S3)."""
     x = np.linspace(0, 2 * np.pi, 800)
     s = 1 / np.sqrt(1.5)
     for n_im, col, lab in ((None, "0.5", "ideal"), (0, "m", "n = 0 tone (10 %)"),
@@ -127,7 +127,7 @@ def _phase_space_panel(ax):
         ax.plot(F, G, color=col, ls="--" if n_im is None else "-", label=lab)
         ax.plot(F[-1], G[-1], "s", color=col, ms=4)
     ax.plot(0, 0, "ko", ms=3)
-    ax.set(xlabel="$F$", ylabel="$G$", title="phase space (Fig. S4)", aspect="equal")
+    ax.set(xlabel="$F$", ylabel="$G$", title="phase space (Fig. S3)", aspect="equal")
     ax.legend(fontsize=7)
 
 
@@ -162,7 +162,7 @@ def spectral_figure(df, measured=None, *, fig=None):
 
 
 def spectral_supplement_figure(df, measured=None, *, fig=None):
-    """Fig. S6: (a) R10, (b) R23, (c) dP_n versus A (arguments as :func:`spectral_figure`)."""
+    """Fig. S5: (a) R10, (b) R23, (c) dP_n versus A (arguments as :func:`spectral_figure`)."""
     c = _curves(df, measured)
     return _row(fig, [lambda ax: _ratio_panel(ax, c, "R10_dB", "(a) $R_{10}$"),
                       lambda ax: _ratio_panel(ax, c, "R23_dB", "(b) $R_{23}$"),
@@ -180,7 +180,7 @@ def infidelity_vs_efficiency_figure(df, measured=None, *, ax=None):
 
 
 def phase_space_figure(*, ax=None):
-    """Fig. S4: trajectory of Cardioid(1,2), ideal and with a 10 % n = 0 or n = 3 tone.
+    """Fig. S3: trajectory of Cardioid(1,2), ideal and with a 10 % n = 0 or n = 3 tone.
 
     Drawn into ``ax`` when given; returns the Figure.
     """
@@ -192,15 +192,15 @@ def phase_space_figure(*, ax=None):
 def sweep_figures(df, measured=None) -> dict:
     """The figures of the amplitude sweep as ``dpdfit analyze`` writes them: ``{file stem: Figure}``.
 
-    ``fig2_spectral`` (:func:`spectral_figure`), ``figS6_spectral``
+    ``fig2_spectral`` (:func:`spectral_figure`), ``figS5_spectral``
     (:func:`spectral_supplement_figure`), ``fig5_eps_vs_eta``
-    (:func:`infidelity_vs_efficiency_figure`) and ``figS4_phase_space``
+    (:func:`infidelity_vs_efficiency_figure`) and ``figS3_phase_space``
     (:func:`phase_space_figure`).  ``df`` is the simulated sweep; ``measured``
     (the table of :func:`dpdfit.analyses.measured_spectra.measured_spectra` with
     columns ``A, dpd, sideband, R10_dB, R23_dB, dP1_dB, dP2_dB, eta_bar,
     eps_est, P0_valid, P3_valid``) adds the recorded curves as solid lines.
     """
     return {"fig2_spectral": spectral_figure(df, measured),
-            "figS6_spectral": spectral_supplement_figure(df, measured),
+            "figS5_spectral": spectral_supplement_figure(df, measured),
             "fig5_eps_vs_eta": infidelity_vs_efficiency_figure(df, measured),
-            "figS4_phase_space": phase_space_figure()}
+            "figS3_phase_space": phase_space_figure()}

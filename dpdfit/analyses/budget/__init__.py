@@ -1,4 +1,4 @@
-"""Error budget of the measured Bell-state fidelity (Supplement S8, Table S3).
+"""Error budget of the measured Bell-state fidelity (Supplement S10, Table S2).
 
 Each characterised error source is turned into a loss of the *measured*
 fidelity ``F = (F_pop + F_par)/2 = (P00 + P11)/2 + C/2`` (``C`` the parity
@@ -25,7 +25,7 @@ The JSON (``dpdfit budget --json``, :meth:`BudgetResult.to_dict`) has the keys
 ``delta`` and ``unexplained``, each ``{"estimate": float, "error": float}``
 (fractions, not %; ``delta`` as given, signed; ``delta``/``unexplained`` are
 ``null`` when delta is disabled), plus ``p_unexplained_positive``, ``paper``
-(the paper's method applied to these inputs and the printed Table S3 entries),
+(the paper's method applied to these inputs and the printed Table S2 entries),
 ``details`` and ``inputs``.
 
 Modules: :mod:`.losses` (the formulas and their checks against the gate

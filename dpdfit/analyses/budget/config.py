@@ -57,7 +57,7 @@ __all__ = ["DEFAULT_CONFIG", "validate_budget_config", "load_budget_config", "ga
            "MIN_GATE_RATE_KHZ"]
 
 
-# The paper's Table S3 inputs, kept as the paper states them; they are not the lab's
+# The paper's Table S2 inputs, kept as the paper states them; they are not the lab's
 # error model (dpdfit.core.defaults.ERROR_MODEL) on purpose.  Where both hold a value
 # they agree (T2 50 ms; rabi_amplitude 0.997 = 1 - p_prep 0.003) except where the paper
 # gives only a bound: the budget draws heating and detection uniformly in [0, bound]

@@ -1,4 +1,4 @@
-"""Loss of the measured Bell-state fidelity per error source (Supplement S8).
+"""Loss of the measured Bell-state fidelity per error source (Supplement S10).
 
 Formulas (``T`` gate time, ``p`` per-ion error probabilities)
 -------------------------------------------------------------

@@ -75,7 +75,7 @@ def _losses(x, Tg, coefficient) -> dict:
 
 
 def _paper_method(cfg, T_min, T_max) -> dict:
-    """The paper's own method (Table S3) applied to the nominal inputs."""
+    """The paper's own method (Table S2) applied to the nominal inputs."""
     sp, de, he, dt = (cfg[k] for k in ("state_preparation", "dephasing", "heating", "detection"))
     p_nom = 1.0 - sp["rabi_amplitude"]
     T2n = de["T2_ms"] * 1e-3

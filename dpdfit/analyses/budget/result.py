@@ -13,7 +13,7 @@ __all__ = ["SOURCES", "PAPER_TABLE", "BudgetResult"]
 
 SOURCES = ("state_preparation", "dephasing", "heating", "detection")
 
-#: Table S3 as printed (strings) for the side-by-side report.
+#: Table S2 as printed (strings) for the side-by-side report.
 PAPER_TABLE = {"state_preparation": "<~0.6%", "dephasing": "0.3-0.6%", "heating": "<0.01%",
                "detection": "<0.02%", "total": "<~0.9-1.2%", "delta": "1.8 +/- 0.3%"}
 
@@ -39,7 +39,7 @@ class BudgetResult(Displayable):
     paper : dict
         The paper's own method applied to these inputs (``2 (1-A)``,
         ``1 - exp(-T/T2)`` at T_min..T_max, ``2 p_det``, heating bound
-        ``ndot T_max`` as Delta nbar) and its printed Table S3 strings.
+        ``ndot T_max`` as Delta nbar) and its printed Table S2 strings.
     gate_times_us : tuple
         ``(T_min, T_mean, T_max)`` [us] used.
     inputs : dict
@@ -85,7 +85,7 @@ class BudgetResult(Displayable):
             v, (list, tuple, dict))}} for k, d in rows.items() if d is not None])
 
     def report(self, paper: bool = True) -> str:
-        """Table in the style of Table S3 (percent), optionally with the paper's column."""
+        """Table in the style of Table S2 (percent), optionally with the paper's column."""
         def pct(d):
             return f"{100 * d['estimate']:.3f} +/- {100 * d['error']:.3f}"
 
@@ -97,7 +97,7 @@ class BudgetResult(Displayable):
                   "detection": "State detection (camera)"}
         head = f"{'Error source':<36} {'ours [%] mean +/- sd':>22} {'T_min-T_max [%]':>16}"
         if paper:
-            head += f" {'paper method [%]':>17} {'Table S3':>12}"
+            head += f" {'paper method [%]':>17} {'Table S2':>12}"
         lines = [f"Error budget of the measured fidelity (F_pop + F_par)/2; gate times "
                  f"{self.gate_times_us[0]:.0f}-{self.gate_times_us[2]:.0f} us "
                  f"(mean {self.gate_times_us[1]:.0f} us)", head, "-" * len(head)]

@@ -34,7 +34,7 @@ __all__ = ["Problem", "NUISANCES", "PM_PRIOR_RAD"]
 #: without a phase file the lab does not know its AOM's AM-to-PM: the baseline has it as a
 #: nuisance ``pm_x`` (a phase ``pm_x |x|^2`` of the RF drive, rad at full drive) with a
 #: N(0, PM_PRIOR_RAD) prior.  0.02 rad: IM3 from such a PM stays below about -46 dB, where the fidelity
-#: estimate changes by < 1e-4 (Table S2, exact formula); only a larger PM is missing physics
+#: estimate changes by < 1e-4 (Table S1, exact formula); only a larger PM is missing physics
 PM_PRIOR_RAD = 0.02
 
 #: existing parameters of the model, refitted first: name -> (unit, meaning)

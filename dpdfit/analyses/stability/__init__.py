@@ -1,4 +1,4 @@
-"""Stability of the amplitude and phase calibrations over time (Supplement S2, Figs. S2-S3).
+"""Stability of the amplitude and phase calibrations over time (Supplement S2, Figs. S1-S2).
 
 A multi-run calibration file (``run`` and ``timestamp`` columns, one block of
 points per run) is fitted run by run with :mod:`dpdfit.fits.calibration`; the
@@ -13,7 +13,7 @@ scalar tracked is ``y(1) = A_corr`` (amplitude) or ``phi(1)`` (phase, fitted on
   :func:`drift_test` for the error model;
 * an Allan deviation for irregularly spaced runs, see :func:`allan_deviation`;
 * the family of curves y(A) (or phi(A)) of all runs on a grid with the mean
-  curve and the +/- 1 sigma envelope (Fig. S3).
+  curve and the +/- 1 sigma envelope (Fig. S2).
 
 Caveat (stated in the report): the drift test treats the run-to-run
 deviations about the line as independent.  A slowly wandering response

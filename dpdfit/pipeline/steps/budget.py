@@ -1,6 +1,6 @@
-"""Step ``budget`` of ``dpdfit analyze``: the error budget of the fidelity offset (Table S3).
+"""Step ``budget`` of ``dpdfit analyze``: the error budget of the fidelity offset (Table S2).
 
-The budget (S8) is computed from ``budget.toml`` in the campaign folder (or
+The budget (S10) is computed from ``budget.toml`` in the campaign folder (or
 the paper's inputs), with the gate times from ``gate_rates.csv`` and ``delta``
 from the alignment fit of the ``gates`` step.  -> ``budget.json``.
 """
@@ -37,7 +37,7 @@ def _budget_config(ctx: Context, alignment):
 
 
 def budget_step(ctx: Context, gates: GateResults | None):
-    """Table S3 from the campaign's budget.toml (or the paper's inputs) and the fitted delta
+    """Table S2 from the campaign's budget.toml (or the paper's inputs) and the fitted delta
     of the gates step."""
     res = ctx.results
     al = None if gates is None else gates.alignment

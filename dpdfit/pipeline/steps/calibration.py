@@ -158,7 +158,7 @@ def _stability_fits(fits: CalibrationFits | None, kind: str) -> dict | None:
 
 def stability_step(ctx: Context, fits: CalibrationFits | None) -> "StabilityResults | None":
     """y(1) and phi(1) per run: mean, sd, drift test, Allan deviation (S2) ->
-    ``stability_*.json``, Figs. S2, S3.  A file without ``run`` or ``timestamp``
+    ``stability_*.json``, Figs. S1, S2.  A file without ``run`` or ``timestamp``
     (optional columns) is skipped, with the reason."""
     res = ctx.results
     done, done_kinds, skipped = [], {}, []

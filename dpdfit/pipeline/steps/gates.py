@@ -2,7 +2,7 @@
 
 Population and parity fidelities per setting pooled over scans (``gate.csv``,
 joined with ``gate_rates.csv``), the alignment fit of ``alpha`` and ``delta``
-against the simulated sweep (``alignment_points.csv``), Figs. 3, 4, S7, S8.
+against the simulated sweep (``alignment_points.csv``), Figs. 3, 4, S6, S7.
 """
 
 from __future__ import annotations
