@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "datasets" / "concealed_campaign"
 TRUTH = ROOT / "datasets" / "concealed_campaign_truth.json"
 SEED = 20261122
-EFFECTS = {"aom_memory": 60.0, "aom_memory_offset": 2.0}
+EFFECTS = {"aom_memory": 60.0, "aom_memory.f_off": 2.0}     # tau in ns, f_off in MHz
 
 
 def main():
@@ -31,7 +31,7 @@ def main():
     (OUT / "truth.json").unlink()
     TRUTH.write_text(json.dumps({"concealed": {"aom_memory": {"tau_ns": EFFECTS["aom_memory"],
                                                               "f_off_MHz": EFFECTS[
-                                                                  "aom_memory_offset"]}},
+                                                                  "aom_memory.f_off"]}},
                                  "simulator_truth": truth}, indent=2, sort_keys=True,
                                 default=float) + "\n")
     # the campaign README must not give the effect away

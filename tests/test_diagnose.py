@@ -337,7 +337,10 @@ def test_strong_tone_effect_fit_escapes_a_baseline_pushed_to_its_bounds(tmp_path
     base = _fit(prob, ())
     assert max(abs(base.nuisances[k]) for k in prob.tone.mode_names) > FAR_NUISANCE
     f = _fit(prob, (("detector_nonlinearity", "linear"),), init=base.nuisances)
-    k_true = truth["calibration"]["detector_nonlinearity_rel_max"]
+    # the truth is k_det, the reading error at the largest true power (full scale); the
+    # parameter k is relative to the largest reading, p_full (1 + k_det): k = k_det (1 + k_det)
+    k_det = truth["calibration"]["detector_nonlinearity_rel_max"]
+    k_true = k_det * (1 + k_det)
     k, err = f.params["detector_nonlinearity.k"], f.params_err["detector_nonlinearity.k"]
     assert abs(k - k_true) < 2 * err + 0.02 * k_true
     assert f.chi2 < 0.02 * base.chi2

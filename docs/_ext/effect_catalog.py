@@ -173,7 +173,6 @@ def parameter_rows() -> tuple[list, list]:
 def injection_rows() -> tuple[list, list]:
     """Header and rows of the ``injection`` table: one row per registered effect."""
     from dpdfit.analyses.diagnosis.effects.registry import EFFECTS
-    from dpdfit.simulation.campaign import SIMULATOR_EFFECTS
     header = ["effect", "harness draws (uniform)", "simulator hooks",
               [Code("simulate-campaign --effects")]]
     rows = []
@@ -188,21 +187,11 @@ def injection_rows() -> tuple[list, list]:
         elif not e.default:
             draws.append(["not concealed by default"])
         hooks = [[Code(h), f" ({w})"] for h, w in INJECT_HOOKS.items() if _overrides(e, h)]
-        if e.name in SIMULATOR_EFFECTS:
-            unit, _ = SIMULATOR_EFFECTS[e.name]
-            knob = [[Code(f"{e.name}=STRENGTH"), f" ({unit})"]]
-        else:
-            knob = [["no knob of that name"]]
+        param, unit, _ = e.strength_of()
+        knob = [[Code(f"{e.name}=STRENGTH"), " sets ", Code(param),
+                 f" ({unit})" if unit else ""]]
         rows.append([[[Code(e.name)]], draws, hooks or [["none"]], knob])
     return header, rows
-
-
-def simulator_only_knobs() -> list:
-    """``(name, unit, meaning)`` of ``simulate-campaign --effects`` knobs with no catalog
-    effect of the same name."""
-    from dpdfit.analyses.diagnosis.effects.registry import EFFECTS
-    from dpdfit.simulation.campaign import SIMULATOR_EFFECTS
-    return [(n, u, m) for n, (u, m) in SIMULATOR_EFFECTS.items() if n not in EFFECTS]
 
 
 ROWS = {"effects": effect_rows, "parameters": parameter_rows, "injection": injection_rows}
@@ -288,16 +277,6 @@ class EffectCatalog(SphinxDirective):
         self._note_sources()
         header, rows = ROWS[which]()
         out = [build_table(header, rows)]
-        if which == "injection":
-            knobs = simulator_only_knobs()
-            if knobs:
-                p = nodes.paragraph()
-                p.extend(_inline(["Knobs of ", Code("simulate-campaign --effects"),
-                                  " without a catalog effect of the same name: "]))
-                p.extend(_inline(_join([[Code(n), f" ({u}): {m}"] for n, u, m in knobs],
-                                       sep="; ")))
-                p += nodes.Text(".")
-                out.append(p)
         return out
 
 

@@ -21,12 +21,21 @@ __all__ = ["add_simulate_campaign_command", "add_analyze_command", "cmd_simulate
 def cmd_simulate_campaign(args) -> int:
     """``dpdfit simulate-campaign``: write a synthetic campaign folder (seeded,
     optionally with concealed effects)."""
-    from dpdfit.simulation.campaign import parse_effects, simulate_campaign
+    from dpdfit.simulation.campaign import CampaignConfig, parse_effects, simulate_campaign
     effects = parse_effects(args.effects)
-    simulate_campaign(args.outdir, seed=args.seed, effects=effects, progress=args.progress)
+    cfg = CampaignConfig(seed=args.seed, stale_days=args.stale_days,
+                         table_drift=args.table_drift)
+    simulate_campaign(args.outdir, seed=args.seed, effects=effects, config=cfg,
+                      progress=args.progress)
     print(f"wrote campaign {args.outdir} (seed {args.seed}"
           + (f", effects {args.effects}" if effects else "") + ")")
     return 0
+
+
+def _effects_help() -> str:
+    """``name (unit), ...`` of the registered effects' strengths."""
+    from dpdfit.simulation.campaign import SIMULATOR_EFFECTS
+    return ", ".join(f"{n} ({u})" for n, (u, _) in SIMULATOR_EFFECTS.items())
 
 
 def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
@@ -37,7 +46,15 @@ def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
     c.add_argument("--seed", type=nonneg_int, default=ERROR_MODEL.seed,
                    help=f"random seed ({ERROR_MODEL.seed})")
     c.add_argument("--effects", metavar="NAME=STRENGTH,...",
-                   help="effects to conceal (see dpdfit.simulation.campaign.SIMULATOR_EFFECTS)")
+                   help="effects to conceal, each a registered effect of the diagnosis's "
+                        "catalog: NAME=STRENGTH sets its strength, NAME.PARAM=VALUE "
+                        f"another of its parameters ({_effects_help()})")
+    c.add_argument("--stale-days", type=float, default=0.0, metavar="DAYS",
+                   help="the predistortion table comes from the calibration run this many "
+                        "days before the gate day (0)")
+    c.add_argument("--table-drift", type=float, default=0.0, metavar="FRACTION",
+                   help="the table comes from an unrecorded calibration of the AOM whose "
+                        "A_corr was this fraction off the table run's (0)")
     c.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bars on stderr (default: when stderr is a terminal)")
     c.set_defaults(func=cmd_simulate_campaign)

@@ -63,22 +63,15 @@ class BraggAOM:
         Optical phase shift at full drive, rad.
     eta_ref : float
         Peak first-order diffraction efficiency at ``A = 1``.
-    memory_tau : float
-        Optional modulator memory, s: the acoustic wave follows the RF
-        envelope through a single-pole response
-        ``H(f) = 1 / (1 + i 2 pi (f - memory_offset_hz) tau)`` (complex
-        baseband around the carrier; an offset of the AOM's centre frequency
-        from the carrier makes it asymmetric between red and blue tones)
-        before the static Bragg nonlinearity (a Wiener model).  0 = memoryless.
-    memory_offset_hz : float
-        Offset of the AOM response centre from the RF carrier, Hz.
+
+    The model is memoryless; a memory of the modulator is injected as the
+    effect ``aom_memory`` (its ``inject_drive`` hook, applied by the campaign
+    simulator before :meth:`field`).
     """
 
     A_corr: float = A_CORR
     phi_1: float = PHI_1
     eta_ref: float = ETA_REF
-    memory_tau: float = 0.0
-    memory_offset_hz: float = 0.0
     g: float = field(init=False)
 
     def __post_init__(self):
@@ -120,20 +113,6 @@ class BraggAOM:
         mag = np.abs(x)
         theta = np.angle(x)
         return self.y(mag) * np.exp(1j * (theta + self.phase(mag)))
-
-    def field_periodic(self, x, fs: float):
-        """Optical field for one period (or a periodic record) of RF envelope samples.
-
-        Applies the memory response (if ``memory_tau > 0``) exactly for a
-        periodic record by FFT, then the static model :meth:`field`.
-        ``x`` has the samples along the last axis, sample rate ``fs`` (Hz).
-        """
-        x = np.asarray(x)
-        if self.memory_tau > 0:
-            f = np.fft.fftfreq(x.shape[-1], 1.0 / fs)
-            H = 1.0 / (1.0 + 2j * np.pi * (f - self.memory_offset_hz) * self.memory_tau)
-            x = np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
-        return self.field(x)
 
     @property
     def true_A_corr(self) -> float:

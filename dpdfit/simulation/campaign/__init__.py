@@ -1,8 +1,8 @@
 """Simulator of a complete, realistic measurement campaign (synthetic recordings).
 
 The truth is physical, never the fit polynomials: a tanh-compressed RF
-amplifier driving a Bragg-regime AOM with amplitude-to-phase conversion and
-optional memory (:mod:`dpdfit.simulation.aom_truth`), drifting from run to run; gate
+amplifier driving a Bragg-regime AOM with amplitude-to-phase conversion
+(:mod:`dpdfit.simulation.aom_truth`), drifting from run to run; gate
 experiments come from the exact two-ion spin-motion dynamics driven by the
 optical spectrum that this AOM produces (:mod:`dpdfit.models.gate_sim`).  The
 simulator writes the campaign layout that labs can also write their own
@@ -18,9 +18,14 @@ children keyed by purpose (and by amplitude/flag for traces), so the campaign
 is regenerated bit for bit, and any single trace can be regenerated from the
 seed recorded in ``traces.csv``.
 
+Concealed effects (a memory of the modulator, a nonlinear photodiode, ...) are
+injected only through the diagnosis's effect registry
+(:mod:`dpdfit.analyses.diagnosis.effects`), by each effect's ``inject_*`` hooks;
+:data:`SIMULATOR_EFFECTS` is a read-only view of that registry.
+
 Modules: ``config`` (generating parameters, :data:`SIMULATOR_EFFECTS`, random
 streams), ``calibration_runs`` (drifting AOM, calibration recordings, DPD
-table), ``optics`` (RF envelope, AOM and beam path, gate tones), ``spectra``
+table), ``optics`` (RF envelope, AOM and injected effects, gate tones), ``spectra``
 (heterodyne traces and their tone powers), ``gate_runs`` (gate experiments),
 ``simulate`` (the driver, ``campaign.json``, ``truth.json``), ``readme``
 (the README.md template), ``folder`` (writing the folder, hashes).

@@ -4,8 +4,8 @@ The AOM's ``A_corr`` drifts from run to run (Ornstein-Uhlenbeck over days,
 Supplement S2), its ``phi(1)`` within the gate day (over hours).  The gate
 day's truth is the last amplitude run's drift value with the last phase
 run's; the predistortion table is fitted to the gate day's run, to an older
-one (``stale_calibration``) or to an unrecorded run of the AOM before it
-drifted (``calibration_drift``).  Runs of ``further`` (a further amplitude or
+one (``CampaignConfig.stale_days``) or to an unrecorded run of the AOM before it
+drifted (``CampaignConfig.table_drift``).  Runs of ``further`` (a further amplitude or
 phase run, :attr:`CampaignConfig.further`) come after the campaign's own runs,
 drifting on from the last, each from its own stream: the campaign's runs, the
 table and the gate day are drawn as without them.
@@ -33,11 +33,7 @@ def _iso(t0: _dt.datetime, days: float) -> str:
 
 
 def _detector(cfg: CampaignConfig, df: pd.DataFrame) -> None:
-    """Photodiode response (concealed ``detector_nonlinearity``: quadratic, or the
-    injected effects' ``inject_photodiode``), in place."""
-    if cfg.detector_nonlinearity:
-        p = df["power"].to_numpy()
-        df["power"] = p * (1 + cfg.detector_nonlinearity * p / cfg.photodiode.p_full)
+    """Photodiode response (the injected effects' ``inject_photodiode``), in place."""
     for e, v in cfg.injections():
         df["power"] = e.inject_photodiode(v, df["power"].to_numpy(), cfg.photodiode.p_full)
 
@@ -170,10 +166,9 @@ def _table_run(cfg, days, A_corr, amp_rows, grid, gate_day):
     return lut_run, sub
 
 
-def _reading_error_at_max(cfg: CampaignConfig, run: pd.DataFrame) -> float:
-    """Relative photodiode reading error at full scale (the largest reading)."""
-    if not cfg.injected:
-        return cfg.detector_nonlinearity * float(run["power"].max()) / cfg.photodiode.p_full
+def _reading_error_at_max(cfg: CampaignConfig) -> float:
+    """Relative photodiode reading error (the injected effects' ``inject_photodiode``) at
+    full scale, the day's largest true power: ``detector_nonlinearity``'s ``k_det``."""
     read = np.array([cfg.photodiode.p_full])
     for e, v in cfg.injections():
         read = e.inject_photodiode(v, read, cfg.photodiode.p_full)
@@ -199,8 +194,7 @@ def calibration_runs(cfg: CampaignConfig):
     amp = pd.concat(amp_rows, ignore_index=True)
     ph = pd.concat(ph_rows, ignore_index=True)
     # the day's truth: drift value of the gate day's amplitude run, last phase run
-    day_aom = BraggAOM(A_corr=A_rec, phi_1=float(phi1[-1]), eta_ref=cfg.eta_ref,
-                       memory_tau=cfg.memory_tau, memory_offset_hz=cfg.memory_offset_hz)
+    day_aom = BraggAOM(A_corr=A_rec, phi_1=float(phi1[-1]), eta_ref=cfg.eta_ref)
     # predistortion table: from the run of the gate day, or a stale one
     lut_run, sub = _table_run(cfg, days, A_corr, amp_rows, grid, gate_day)
     fit = fit_amplitude(sub["A"], sub["power"], sub["power_err"], cfg.order)
@@ -212,7 +206,7 @@ def calibration_runs(cfg: CampaignConfig):
              "day_fit_A_corr": day_fit.A_corr,
              "lut_relative_A_corr": fit.A_corr / day_fit.A_corr - 1,
              "lut_relative_y05": float(fit.y(0.5) / day_fit.y(0.5) - 1),
-             "detector_nonlinearity_rel_max": _reading_error_at_max(cfg, day_run),
+             "detector_nonlinearity_rel_max": _reading_error_at_max(cfg),
              "recording_y1_drift": A_rec / float(A_corr[k_day]) - 1,
              "day_A_corr": A_rec, "day_phi_at_1": float(phi1[-1])}
     return amp, ph, day_aom, tf, truth

@@ -1,19 +1,24 @@
-"""Generating parameters of a simulated campaign and the effects the simulator can conceal.
+"""Generating parameters of a simulated campaign and the effects it can conceal.
 
-:data:`SIMULATOR_EFFECTS` names the knobs of *this simulator* (what
-``dpdfit simulate-campaign --effects`` accepts); it is not the diagnosis's
-catalog of effect models (:mod:`dpdfit.analyses.diagnosis`), although most
-names coincide.
+Effects are injected only through the diagnosis's registry
+(:mod:`dpdfit.analyses.diagnosis.effects`): each effect's ``inject_*`` hooks act
+in the simulator, and ``dpdfit simulate-campaign --effects NAME=S`` sets the one
+parameter its :meth:`~dpdfit.analyses.diagnosis.effects.Effect.strength_of` names
+(``NAME.PARAM=V`` sets another of its parameters).  :data:`SIMULATOR_EFFECTS` is a
+read-only view of that registry.  Two knobs of the simulator are not effects but
+its own parameters: :attr:`CampaignConfig.stale_days` and
+:attr:`CampaignConfig.table_drift`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.effects import get
+from dpdfit.analyses.diagnosis.effects import EFFECTS, get
 from dpdfit.core.defaults import (AMPLITUDE_ORDER, ERROR_MODEL, ETA_LD, ETA_REF, NU_HZ,
                                   XI0_SPECTRA_HZ)
 from dpdfit.errors import InputError
@@ -24,47 +29,65 @@ __all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "parse_effects", "CampaignConfig
 #: Seed of the bundled campaign (``datasets/synthetic_campaign``): ``ERROR_MODEL.seed``.
 DEFAULT_SEED = ERROR_MODEL.seed
 
-#: Effects that can be concealed in a simulated campaign: name -> (unit, meaning).
-SIMULATOR_EFFECTS = {
-    "aom_memory": ("ns", "single-pole memory of the modulator, time constant (Wiener model)"),
-    "aom_memory_offset": ("MHz", "offset of the AOM response centre from the carrier "
-                                 "(red/blue asymmetry of the memory)"),
-    "stale_calibration": ("days", "the predistortion table comes from the calibration run "
-                                  "this many days before the gate day"),
-    "motional_heating": ("quanta/ms", "heating rate of the stretch mode"),
-    "dephasing": ("1/s", "extra qubit dephasing rate added to 1/T2"),
-    "spam_offset": ("probability", "extra state-preparation error per ion"),
-    "gate_rate_miscalibration": ("dB", "systematic optical-power offset between the xi0 "
-                                       "calibration and the gate"),
-    "detector_nonlinearity": ("1/full scale", "quadratic photodiode response "
-                                              "P_meas = P (1 + k P/P_full) in calibrations"),
-    "higher_nbar": ("quanta", "extra initial mean phonon number"),
-    "am_pm_omitted": ("rad", "AM-to-PM conversion in the beam path after the calibrated AOM "
-                             "(phase at full drive, ~|y|^2), not seen by the phase calibration"),
-    "higher_order_im": ("1", "fifth-order field distortion after the calibrated AOM: relative "
-                             "field change at full drive (~|y|^4)"),
-    "calibration_drift": ("fraction", "A_corr of the calibration behind the predistortion table "
-                                      "relative to the gate day (the AOM drifted since)"),
-}
+
+class _SimulatorEffects(Mapping):
+    """The registered effects as ``name -> (unit, meaning)`` of their strength (read
+    from the registry at each access: effects registered later are included)."""
+
+    def __getitem__(self, name):
+        _, unit, meaning = EFFECTS[name].strength_of()
+        return unit, meaning
+
+    def __iter__(self):
+        return iter(list(EFFECTS))
+
+    def __len__(self):
+        return len(EFFECTS)
+
+    def __repr__(self):
+        return f"SIMULATOR_EFFECTS({dict(self)!r})"
+
+
+#: Effects that can be concealed in a simulated campaign: name -> (unit, meaning) of the
+#: strength ``--effects NAME=S`` sets; a read-only view of the effect registry.
+SIMULATOR_EFFECTS = _SimulatorEffects()
+
+
+def _effect_param(name: str) -> tuple:
+    """``(effect, param)`` of an ``--effects`` key: ``NAME`` (its strength) or
+    ``NAME.PARAM``."""
+    eff, dot, par = name.partition(".")
+    if eff not in EFFECTS:
+        raise InputError(f"unknown effect '{eff}'; known: {', '.join(EFFECTS)}")
+    e = EFFECTS[eff]
+    if not dot:
+        return eff, e.strength_of()[0]
+    known = list(e.injected({}))          # the parameters its injection takes
+    if par not in known:
+        raise InputError(f"effect '{eff}' has no parameter '{par}'; known: {', '.join(known)}")
+    return eff, par
 
 
 def parse_effects(spec: str | None) -> dict:
-    """``"aom_memory=50,spam_offset=0.002"`` -> ``{"aom_memory": 50.0, ...}``."""
+    """``"aom_memory=50,aom_memory.f_off=2"`` -> ``{"aom_memory": 50.0, "aom_memory.f_off":
+    2.0}``: a registered effect's strength (:data:`SIMULATOR_EFFECTS`) or one of its
+    parameters (``NAME.PARAM``, in that parameter's unit)."""
     out: dict = {}
     if not spec:
         return out
     for item in spec.split(","):
         name, sep, val = item.partition("=")
         name = name.strip()
-        if name not in SIMULATOR_EFFECTS:
-            raise InputError(f"unknown effect '{name}'; known: {', '.join(SIMULATOR_EFFECTS)}")
+        eff, par = _effect_param(name)
         try:
             if not sep:
                 raise ValueError
             out[name] = float(val)
         except ValueError:
+            unit = (SIMULATOR_EFFECTS[eff][0] if "." not in name else
+                    next((p.unit for p in EFFECTS[eff].parameters() if p.name == par), "its unit"))
             raise InputError(f"effect '{item.strip()}' must be NAME=STRENGTH "
-                             f"(strength in {SIMULATOR_EFFECTS[name][0]})") from None
+                             f"(strength in {unit})") from None
         if not np.isfinite(out[name]):
             raise InputError(f"effect '{name}': strength must be finite")
     return out
@@ -88,8 +111,6 @@ class CampaignConfig:
     phi1_sigma: float = 0.0009
     phi1_tau_hours: float = 1.0
     eta_ref: float = ETA_REF
-    memory_tau: float = 0.0
-    memory_offset_hz: float = 0.0
     # calibration recordings
     n_amp_runs: int = 34
     amp_span_days: float = 110.0
@@ -98,15 +119,14 @@ class CampaignConfig:
     cal_points: int = 201
     photodiode: PhotodiodeNoise = field(default_factory=PhotodiodeNoise)
     heterodyne_phase: HeterodyneNoise = field(default_factory=HeterodyneNoise)
-    detector_nonlinearity: float = 0.0
     # predistortion
     lut_points: int = ERROR_MODEL.table_points
     order: int = AMPLITUDE_ORDER
+    #: simulator knobs, not effects: the table comes from the calibration run this many
+    #: days before the gate day, and from a calibration of the AOM whose A_corr was this
+    #: fraction off the table run's (an unrecorded run, stream 7)
     stale_days: float = 0.0
     table_drift: float = 0.0
-    # beam path after the calibrated AOM (concealed effects; 0 = none)
-    post_pm_rad: float = 0.0
-    post_k5: float = 0.0
     # heterodyne spectra (Supplement S4)
     fs: float = 1e9
     n_samples: int = 2 ** 21
@@ -130,11 +150,9 @@ class CampaignConfig:
     alpha_khz: float = 3.42
     xi0_rel_err: float = ERROR_MODEL.xi0_rel_err
     T2: float = ERROR_MODEL.T2_s
-    extra_dephasing: float = 0.0
     ndot: float = ERROR_MODEL.heating_quanta_per_s
     p_prep: float = ERROR_MODEL.p_prep
     p_det: float = ERROR_MODEL.p_det
-    gate_power_offset_db: float = 0.0
     scan_shots: tuple = ((625, 625), (625, 625), (500, 625), (625, 400))
     time_scan_A: float = 0.5
     time_scan_points: int = 25
@@ -170,41 +188,21 @@ class CampaignConfig:
         return [(get(name), dict(items)) for name, items in self.injected]
 
     def with_effects(self, effects: dict) -> "CampaignConfig":
-        """Config with the named effects applied (see :data:`SIMULATOR_EFFECTS`)."""
-        kw = {}
+        """Config with the ``--effects`` of :func:`parse_effects` injected through the
+        registry (:meth:`inject`): ``{NAME: strength, "NAME.PARAM": value}``."""
+        values: dict = {}
         for name, s in effects.items():
-            if name == "aom_memory":
-                kw["memory_tau"] = s * 1e-9
-            elif name == "aom_memory_offset":
-                kw["memory_offset_hz"] = s * 1e6
-            elif name == "stale_calibration":
-                kw["stale_days"] = s
-            elif name == "motional_heating":
-                kw["ndot"] = s * 1e3
-            elif name == "dephasing":
-                kw["extra_dephasing"] = s
-            elif name == "spam_offset":
-                kw["p_prep"] = self.p_prep + s
-            elif name == "gate_rate_miscalibration":
-                kw["gate_power_offset_db"] = s
-            elif name == "detector_nonlinearity":
-                kw["detector_nonlinearity"] = s
-            elif name == "higher_nbar":
-                kw["nbar"] = self.nbar + s
-            elif name == "am_pm_omitted":
-                kw["post_pm_rad"] = s
-            elif name == "higher_order_im":
-                kw["post_k5"] = s
-            elif name == "calibration_drift":
-                kw["table_drift"] = s
-        return dataclasses.replace(self, effects=dict(effects), **kw)
+            eff, par = _effect_param(name)
+            values.setdefault(eff, {})[par] = float(s)
+        cfg = self.inject(values) if values else self
+        return dataclasses.replace(cfg, effects=dict(effects))
 
 
 def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:
     """The random stream of one purpose: ``SeedSequence([cfg.seed, *key])``.
 
     Keys: 1 calibration drift, 2 amplitude run, 3 phase run, 4 trace, 5 gates,
-    7 the drifted calibration behind the table (``calibration_drift``), 8 the
+    7 the drifted calibration behind the table (``table_drift``), 8 the
     further recordings (``further``, by index).
     """
     return np.random.default_rng(np.random.SeedSequence([cfg.seed, *key]))

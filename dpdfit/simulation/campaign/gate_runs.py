@@ -3,7 +3,7 @@
 Each setting (gate amplitude, DPD flag) drives the exact gate engine
 (:mod:`dpdfit.models.gate_sim`) with the optical tones the day's AOM
 produces; its ``xi0`` is calibrated with a relative error, and every scan
-carries a laser-power jitter (plus any systematic power offset).  All draws
+carries a laser-power jitter (an injected effect may add a systematic offset).  All draws
 come from one random stream (purpose 5), in a fixed order; the ``further``
 scans and time scans (:attr:`CampaignConfig.further`) come after, each from
 its own stream, so that adding one leaves every other row as it was.
@@ -27,8 +27,8 @@ _SCAN_SHOTS = 625                                  # shots per time-scan point
 
 
 def _t2(cfg) -> float:
-    rate = 1.0 / cfg.T2 + cfg.extra_dephasing
-    return 1.0 / rate
+    # 1 / (1 / T2): the bundled campaigns were drawn with it (extra dephasing is injected)
+    return 1.0 / (1.0 / cfg.T2)
 
 
 def _engine(cfg, A: float, power_error_db: float) -> dict:
@@ -50,7 +50,7 @@ def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
     fids = []
     fids_gate, fids_app = [], []
     for s, (shots_pop, shots_par) in enumerate(cfg.scan_shots):
-        eps_db = cfg.gate_power_offset_db + cfg.power_jitter_db * rng.standard_normal()
+        eps_db = cfg.power_jitter_db * rng.standard_normal()
         res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
                                         **_engine(cfg, A, eps_db))
         counts = res.sample(rng, shots_pop, shots_par)
@@ -77,10 +77,10 @@ def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, A=None, shots=_SCAN_SHOTS,
     points = cfg.time_scan_points if points is None else points
     xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
     t = np.linspace(0, cfg.time_scan_max / xi_cal, points)
-    # a time scan is a gate run: it carries the systematic power offset
+    # a time scan is a gate run: it carries any injected power offset
     # (no per-scan jitter is drawn, which keeps older campaigns' bytes)
     res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
-                                    scan_times=t, **_engine(cfg, A, cfg.gate_power_offset_db))
+                                    scan_times=t, **_engine(cfg, A, 0.0))
     counts = res.sample(rng, 0, 0, shots_scan=shots)
     for ti, cnt in zip(t, counts.scan_counts):
         out["time"].append({"A": A, "dpd": d, "t_us": ti * 1e6, "n00": int(cnt[0]),
@@ -104,7 +104,7 @@ def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out
     xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
     label = 1 + max((r["scan"] for r in out["pop"] + out["par"]
                      if r["A"] == A and r["dpd"] == d), default=0)
-    eps_db = cfg.gate_power_offset_db + cfg.power_jitter_db * rng.standard_normal()
+    eps_db = cfg.power_jitter_db * rng.standard_normal()
     res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
                                     **_engine(cfg, A, eps_db))
     counts = res.sample(rng, shots_pop, shots_par)

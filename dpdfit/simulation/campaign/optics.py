@@ -11,28 +11,19 @@ from dpdfit.simulation.aom_truth import BraggAOM
 
 from .config import CampaignConfig
 
-__all__ = ["beam_path", "optical_field", "dpd_lut", "drive_envelope", "trace_field",
+__all__ = ["optical_field", "dpd_lut", "drive_envelope", "trace_field",
            "gate_spectrum"]
-
-
-def beam_path(cfg: CampaignConfig, aom: BraggAOM, y: np.ndarray) -> np.ndarray:
-    """Distortion after the calibrated AOM (concealed effects ``am_pm_omitted``,
-    ``higher_order_im``): ``y (1 + k5 r^4) exp(i phi r^2)``, ``r = |y| / y(1)``."""
-    if not (cfg.post_pm_rad or cfg.post_k5):
-        return y
-    r2 = (np.abs(y) / aom.true_A_corr) ** 2
-    return y * (1 + cfg.post_k5 * r2 ** 2) * np.exp(1j * cfg.post_pm_rad * r2)
 
 
 def optical_field(cfg: CampaignConfig, aom: BraggAOM, x: np.ndarray, fs: float) -> np.ndarray:
     """The optical field of one period of RF drive ``x`` at ``fs``: the injected effects'
-    drive hooks, the AOM (its own memory, if configured), the beam path, the injected
-    effects' field hooks (:meth:`dpdfit.analyses.diagnosis.effects.Effect.inject_drive`,
+    drive hooks, the (memoryless) AOM, the injected effects' field hooks
+    (:meth:`dpdfit.analyses.diagnosis.effects.Effect.inject_drive`,
     ``inject_field``)."""
     injected = cfg.injections()
     for e, v in injected:
         x = e.inject_drive(v, x, fs)
-    y = beam_path(cfg, aom, aom.field_periodic(x, fs))
+    y = aom.field(x)
     for e, v in injected:
         y = e.inject_field(v, y, x, fs, aom.true_A_corr)
     return y

@@ -26,7 +26,7 @@ from .spectra import spectra_tables
 __all__ = ["simulate_campaign"]
 
 
-def _campaign_json(cfg: CampaignConfig, nominal: CampaignConfig, cal_truth: dict) -> dict:
+def _campaign_json(cfg: CampaignConfig, cal_truth: dict) -> dict:
     """Constants of the campaign as the lab records them (``campaign.json``)."""
     t0 = _dt.datetime.fromisoformat(cfg.start)
     day = cal_truth["gate_day"]
@@ -47,10 +47,10 @@ def _campaign_json(cfg: CampaignConfig, nominal: CampaignConfig, cal_truth: dict
         "gate_waveform": "Cardioid(1,2)",
         "parity_phases": ERROR_MODEL.parity_phases, "nominal_shots": 625, **rec,
         # the lab's error model (its own characterisation, Table S3), not the truth
-        "error_model": {"nbar": nominal.nbar, "T2_s": nominal.T2,
-                        "heating_quanta_per_s": nominal.ndot, "p_prep": nominal.p_prep,
-                        "p_det": nominal.p_det, "power_jitter_db": nominal.power_jitter_db,
-                        "xi0_rel_err": nominal.xi0_rel_err},
+        "error_model": {"nbar": cfg.nbar, "T2_s": cfg.T2,
+                        "heating_quanta_per_s": cfg.ndot, "p_prep": cfg.p_prep,
+                        "p_det": cfg.p_det, "power_jitter_db": cfg.power_jitter_db,
+                        "xi0_rel_err": cfg.xi0_rel_err},
         "units": {"A": "normalised RF amplitude", "power": "photodiode V*us (arbitrary)",
                   "phase_rad": "rad", "P_dB": "dB re unit-amplitude sinusoid in trace volts",
                   "xi0_khz": "kHz", "t_us": "microseconds", "timestamp": "ISO 8601 UTC"},
@@ -68,8 +68,15 @@ def _rounded(obj, digits: int = 10):
     return obj
 
 
+#: keys of truth.json's ``config`` whose parameters the simulator no longer has (effects
+#: are injected through the registry only, ``injected``): written as 0, so that the
+#: truth.json of a campaign keeps its keys (the bundled campaigns byte for byte)
+_RETIRED_TRUTH_KEYS = ("memory_tau", "memory_offset_hz", "detector_nonlinearity",
+                      "post_pm_rad", "post_k5", "extra_dephasing", "gate_power_offset_db")
+
+
 def _jsonable_config(cfg: CampaignConfig) -> dict:
-    d = {}
+    d = dict.fromkeys(_RETIRED_TRUTH_KEYS, 0.0)
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
         if f.name == "further" and not v:
@@ -108,7 +115,8 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = DEFAULT_SEED,
     check_new_folder(out)
     cfg = (config or CampaignConfig(seed=seed))
     cfg = dataclasses.replace(cfg, seed=seed) if config is None else cfg
-    nominal = cfg
+    # the effects act through their inject_* hooks: the configuration's own
+    # parameters (the lab's error model in campaign.json among them) stay nominal
     cfg = cfg.with_effects(effects or {})
     amp, ph, aom, tf, cal_truth = calibration_runs(cfg)
     lut = dpd_lut(tf, cfg.lut_points)
@@ -125,7 +133,7 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = DEFAULT_SEED,
         files.update({"populations.csv": csv_text(pop), "parity.csv": csv_text(par),
                       "gate_rates.csv": csv_text(rates), "time_scans.csv": csv_text(ts)})
     truth = {"config": _jsonable_config(cfg), "calibration": cal_truth, "gates": gate_truth}
-    files["campaign.json"] = json.dumps(_campaign_json(cfg, nominal, cal_truth), indent=2,
+    files["campaign.json"] = json.dumps(_campaign_json(cfg, cal_truth), indent=2,
                                         sort_keys=True) + "\n"
     files["truth.json"] = _truth_json(truth)
     files["README.md"] = campaign_readme(f"Synthetic campaign (seed {cfg.seed})", cfg.seed,

@@ -165,6 +165,10 @@ class Effect:
     #: harness strengths: parameter -> (lo, hi, signed) of its injected value; others at
     #: :meth:`draw`'s defaults
     harness: dict = {}
+    #: what ``simulate-campaign --effects NAME=S`` injects: ``(param, unit, meaning)`` of
+    #: the one parameter ``S`` sets (the others as :meth:`injected` gives them); empty:
+    #: the first :attr:`harness` parameter, else the catalog form's first free one
+    strength: tuple = ()
 
     # ---------------------------------------------------------------- parameters
     def key(self, param: str) -> str:
@@ -309,6 +313,14 @@ class Effect:
         their catalog form's fixed value, else 0)."""
         fixed = dict(self.forms_for()[0].fixed) if self.forms_for() else {}
         return {p.name: float(v.get(p.name, fixed.get(p.name, 0.0))) for p in self.params}
+
+    def strength_of(self) -> tuple:
+        """``(param, unit, meaning)`` of :attr:`strength` (default: see there)."""
+        if self.strength:
+            return tuple(self.strength)
+        name = next(iter(self.harness), None) or self.forms_for()[0].free[0]
+        p = next((p for p in self.parameters() if p.name == name), None)
+        return (name, p.unit, p.meaning) if p else (name, "", "")
 
     def inject_drive(self, v: dict, x: np.ndarray, fs: float) -> np.ndarray:
         """Simulator: the complex drive envelope (one period at ``fs``) before the AOM."""

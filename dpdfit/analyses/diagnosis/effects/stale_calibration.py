@@ -70,6 +70,8 @@ class StaleCalibration(Effect):
                "table's calibration run")
     main = "y1_drift"
     harness = {"drift": (0.01, 0.03, True)}
+    strength = ("drift", "1", "relative change of the AOM's A_corr at the recordings since "
+                "the table's calibration run")
 
     def parameters(self, ctx=None):
         m = MAX_DRIFT_MODES if ctx is None else len(_modes(ctx))
