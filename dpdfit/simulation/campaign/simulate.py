@@ -46,7 +46,7 @@ def _campaign_json(cfg: CampaignConfig, cal_truth: dict) -> dict:
         "phase_run_for_model": f"P{cfg.n_phase_runs:03d}",
         "gate_waveform": "Cardioid(1,2)",
         "parity_phases": ERROR_MODEL.parity_phases, "nominal_shots": 625, **rec,
-        # the lab's error model (its own characterisation, Table S3), not the truth
+        # the lab's error model (its own characterisation, Table S2), not the truth
         "error_model": {"nbar": cfg.nbar, "T2_s": cfg.T2,
                         "heating_quanta_per_s": cfg.ndot, "p_prep": cfg.p_prep,
                         "p_det": cfg.p_det, "power_jitter_db": cfg.power_jitter_db,
