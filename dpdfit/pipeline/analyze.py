@@ -73,13 +73,13 @@ from dpdfit.core.progress import progress_bar, progress_scope
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.outputs import check_output_folder
-from dpdfit.report.summary import PAPER, realism_table
+from dpdfit.report.summary import realism_table
 
 from .analysis import Analysis
 from .context import Context, Results
 from .steps import PIPELINE
 
-__all__ = ["analyze", "Analysis", "PAPER", "STEPS", "render_summary"]
+__all__ = ["analyze", "Analysis", "STEPS", "render_summary"]
 
 log = logging.getLogger(__name__)
 

@@ -43,13 +43,11 @@ from dpdfit.fits.counts import fit_parity
 from dpdfit.errors import InputError
 from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
 
-__all__ = ["DEFAULT_ERROR_MODEL", "EXTRACTION_FLOOR_DB", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
+__all__ = ["DEFAULT_ERROR_MODEL", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
            "TONE_HARMONICS", "MIN_SNR_DB"]
 
 #: tones weaker than this above the (median) floor are not used
 MIN_SNR_DB = 15.0
-#: extraction error floor of a tone power (flat-top scalloping, dB)
-EXTRACTION_FLOOR_DB = 0.01
 #: per-trace tone features: name -> (sideband-resolved, harmonics used)
 TONE_FEATURES = {
     "R10": (True, (1, 0)), "R23": (True, (2, 3)), "R5lo": (True, (1, -1)),

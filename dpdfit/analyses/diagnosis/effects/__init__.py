@@ -8,9 +8,8 @@ package uses.
 """
 
 from .base import SIDES, Effect, Form, Knob, Param, Prep, Size
-from .registry import (EFFECTS, catalog_table, default_effects, effect_of_key, get, register,
-                       side_effects, unregister)
+from .registry import (EFFECTS, default_effects, effect_of_key, get, register, side_effects,
+                       unregister)
 
 __all__ = ["Param", "Form", "Knob", "Prep", "Size", "Effect", "SIDES", "EFFECTS", "register",
-           "unregister", "get", "effect_of_key", "default_effects", "side_effects",
-           "catalog_table"]
+           "unregister", "get", "effect_of_key", "default_effects", "side_effects"]

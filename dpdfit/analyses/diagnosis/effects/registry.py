@@ -17,7 +17,7 @@ from . import (am_pm_omitted, aom_memory, dephasing, detector_nonlinearity,
 from .base import SIDES, Effect
 
 __all__ = ["EFFECTS", "register", "unregister", "get", "effect_of_key", "default_effects",
-           "side_effects", "catalog_table"]
+           "side_effects"]
 
 _CATALOG = (
     am_pm_omitted.EFFECT,
@@ -81,16 +81,3 @@ def side_effects(side: str, names=None) -> tuple:
     """Names of the (default, or given) effects acting on ``side``."""
     names = default_effects() if names is None else names
     return tuple(n for n in names if EFFECTS[n].side == side)
-
-
-def catalog_table() -> str:
-    """The catalog as a Markdown table (effect, side, forms, parameters, sizes, meaning)."""
-    rows = ["| effect | side | forms (catalog first) | parameters | size | meaning |",
-            "|---|---|---|---|---|---|"]
-    for e in EFFECTS.values():
-        forms = ", ".join(f"`{f.name}`" for f in e.forms_for())
-        pars = ", ".join(f"`{p.name}` {p.unit}" for p in e.parameters())
-        meaning = e.meaning.replace("|", "\\|")
-        rows.append(f"| `{e.name}`{'' if e.default else ' (not default)'} | {e.side} | "
-                    f"{forms} | {pars} | `{e.main}` | {meaning} |")
-    return "\n".join(rows)
