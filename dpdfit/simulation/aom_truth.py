@@ -64,6 +64,8 @@ class BraggAOM:
     eta_ref : float
         Peak first-order diffraction efficiency at ``A = 1``.
 
+    Notes
+    -----
     The model is memoryless; a memory of the modulator is injected as the
     effect ``aom_memory`` (its ``inject_drive`` hook, applied by the campaign
     simulator before :meth:`field`).
