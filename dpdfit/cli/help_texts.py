@@ -84,7 +84,8 @@ EXAMPLES = {
     "simulate-campaign": "dpdfit simulate-campaign out/campaign --seed 7 "
                          "--effects aom_memory=0.5",
     "analyze": "dpdfit analyze datasets/synthetic_campaign -o results --no-diagnosis",
-    "import": "dpdfit simulate-campaign out/campaign --seed 7     # or your campaign "
+    "import": "pip install 'dpdfit[artiq]'                        # h5py, to read HDF5\n"
+              "dpdfit simulate-campaign out/campaign --seed 7     # or your campaign "
               "folder\n"
               "dpdfit write-artiq-results out/campaign out/lab --shape ndscan\n"
               "dpdfit import out/lab/mapping.toml -o out/imported_campaign",
