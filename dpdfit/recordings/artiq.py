@@ -42,7 +42,7 @@ from .pyon import PyonError, decode_pyon
 from .units import scale_from_metadata
 
 __all__ = ["Run", "Quantity", "NdscanScan", "ResultsFile", "read_results_file",
-           "find_ndscan_roots", "h5py_module"]
+           "find_ndscan_roots", "h5py_module", "spec_scale"]
 
 log = logging.getLogger(__name__)
 
@@ -288,7 +288,7 @@ def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
         spec = param.get("spec", {})
         fqn = param.get("fqn", f"axis_{i}")
         axes.append(_quantity(datasets, root, f"points.axis_{i}", fqn.split(".")[-1], name,
-                              unit=spec.get("unit", ""), scale=_spec_scale(spec),
+                              unit=spec.get("unit", ""), scale=spec_scale(spec),
                               type=param.get("type", "float"), fqn=fqn,
                               description=param.get("description", "")))
     channels, subscans = {}, {}
@@ -302,7 +302,7 @@ def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
             continue               # not saved by default (ndscan's save_by_default=False)
         channels[cname] = _quantity(datasets, root, key, cname, name,
                                     unit=spec.get("unit", "") or "",
-                                    scale=_spec_scale(spec),
+                                    scale=spec_scale(spec),
                                     type=spec.get("type", "float"),
                                     description=spec.get("description", ""))
     completed = get("completed")
@@ -325,9 +325,10 @@ def _subscan_schema(values) -> dict:
     return {}
 
 
-def _spec_scale(spec: dict):
-    # ndscan always writes the scale; it defaults it from the unit as ARTIQ does
-    # (ndscan/experiment/parameters.py, result_channels.py), and so do we when absent
+def spec_scale(spec: dict):
+    """The ``scale`` of an ndscan axis or channel spec.  ndscan always writes it,
+    defaulting it from the unit as ARTIQ does (``ndscan/experiment/parameters.py``,
+    ``result_channels.py``); a spec without one gets it the same way."""
     if spec.get("scale") is None:
         return scale_from_metadata({"unit": spec.get("unit") or ""})
     return spec["scale"]

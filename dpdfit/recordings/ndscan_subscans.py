@@ -18,8 +18,7 @@ import numpy as np
 
 from dpdfit.errors import InputError
 
-from .artiq import NdscanScan, Quantity
-from .units import scale_from_metadata
+from .artiq import NdscanScan, Quantity, spec_scale
 
 __all__ = ["flatten_subscan"]
 
@@ -80,20 +79,16 @@ def _inner_axis(values, q: Quantity, schema: dict, i: int) -> Quantity:
     param = axes[i].get("param", {}) if i < len(axes) else {}
     spec = param.get("spec", {})
     fqn = param.get("fqn", f"axis_{i}")
-    scale = spec.get("scale")
-    unit = spec.get("unit", "") or ""
-    return Quantity(name=fqn.split(".")[-1], dataset=q.dataset, values=values, unit=unit,
-                    scale=float(scale_from_metadata({"unit": unit}) if scale is None else scale),
+    return Quantity(name=fqn.split(".")[-1], dataset=q.dataset, values=values,
+                    unit=spec.get("unit", "") or "", scale=float(spec_scale(spec)),
                     type=param.get("type", "float"), fqn=fqn,
                     description=param.get("description", ""))
 
 
 def _inner_channel(values, q: Quantity, schema: dict, short: str) -> Quantity:
     spec = (schema.get("channels") or {}).get(short, {})
-    unit = spec.get("unit", "") or ""
-    scale = spec.get("scale")
-    return Quantity(name=short, dataset=q.dataset, values=values, unit=unit,
-                    scale=float(scale_from_metadata({"unit": unit}) if scale is None else scale),
+    return Quantity(name=short, dataset=q.dataset, values=values,
+                    unit=spec.get("unit", "") or "", scale=float(spec_scale(spec)),
                     type=spec.get("type", "float"), description=spec.get("description", ""))
 
 
