@@ -9,7 +9,6 @@ import warnings
 from pathlib import Path
 from typing import NamedTuple
 
-import numpy as np
 import pytest
 
 from tests.helpers.bundled_data import AOM, CAMPAIGN

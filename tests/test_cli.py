@@ -150,8 +150,8 @@ def test_lut_not_invertible(tmp_path, capsys):
                          "stderr": [0, 0, 0], "covariance": [[0] * 3] * 3, "monotone": False}}
     p = tmp_path / "bad_cal.jsn"
     p.write_text(json.dumps(cal))
-    line = assert_refused(capsys, ["lut", p, "--points", 11, "-o", tmp_path / "lut.csv"],
-                          ["dy/dA <= 0 at A = 0.400000"], [p], no_partial_output_in=tmp_path)
+    assert_refused(capsys, ["lut", p, "--points", 11, "-o", tmp_path / "lut.csv"],
+                   ["dy/dA <= 0 at A = 0.400000"], [p], no_partial_output_in=tmp_path)
     assert not (tmp_path / "lut.csv").exists()
 
 

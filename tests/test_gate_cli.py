@@ -7,7 +7,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.cli.main import main
 from tests.helpers.cli_refusal import assert_refused
 from tests.helpers.cli_run import run
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from dpdfit.recordings.outputs import to_jsonable
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.cli.spectrum import add_spectrum_command
 from dpdfit.fits.tones import (AT_NOISE_FLOOR, FLATTOP_COEFFICIENTS, flattop_periodogram,

@@ -67,3 +67,15 @@ def test_left_out_names_the_missing_optional_columns(tmp_path):
 def test_left_out_of_a_populations_file_with_the_three_counts_but_no_n_even(tmp_path):
     cf = _folder(tmp_path, {"populations.csv": ["n_even"]})
     assert not any("populations.csv has" in o for o in cf.left_out())
+
+
+def test_an_analysis_says_what_a_missing_column_costs_in_the_one_line_for_it(tmp_path):
+    cf = _folder(tmp_path, {"spectra.csv": ["snr_db"], "populations.csv": ["n00", "n01_10"]})
+    out = cf.left_out({("spectra", ("snr_db",)): "noise floor estimated",
+                       ("populations", ("n00", "n11")): "imbalance not used"})
+    spectra = [o for o in out if o.startswith("spectra.csv")]
+    assert spectra == ["spectra.csv has no snr_db: noise floor estimated"]
+    pop = [o for o in out if o.startswith("populations.csv")]
+    # the group's line, then the generic line for the column outside the group
+    assert pop == ["populations.csv has no n00/n11: imbalance not used",
+                   "populations.csv has no optional column n01_10"]

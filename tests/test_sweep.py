@@ -6,10 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.cli.main import main
 from dpdfit.errors import InputError
-from dpdfit.analyses.sweep import (COLUMNS, SweepConfig, eta_bar, parse_amplitudes,
-                          run_sweep, thresholds)
+from dpdfit.analyses.sweep import COLUMNS, SweepConfig, eta_bar, parse_amplitudes, run_sweep
 from dpdfit.analyses.sweep import first_crossing as _first_crossing
 from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
 from benchmarks.truth_model import truth_poly_tf

@@ -9,7 +9,7 @@ import sys
 
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
-from dpdfit.recordings.outputs import to_jsonable
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 

@@ -13,7 +13,8 @@ import sys
 
 from dpdfit.cli.options import positive_float
 from dpdfit.core.defaults import ERROR_MODEL
-from dpdfit.recordings.outputs import refuse_overwriting_inputs, to_jsonable
+from dpdfit.core.jsonable import to_jsonable
+from dpdfit.recordings.outputs import refuse_overwriting_inputs
 from dpdfit.recordings.tables import read_table
 
 __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_align"]

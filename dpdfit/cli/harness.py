@@ -12,8 +12,8 @@ import argparse
 import json
 
 from dpdfit.cli.options import nonneg_int, positive_int
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.simulation.harness import (NULLS, PAIRS, PER_EFFECT, PLAN_SEED, report,
                                        run_harness, write_report)
 from dpdfit.simulation.harness_external import report_external, run_external

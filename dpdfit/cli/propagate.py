@@ -5,28 +5,20 @@ from __future__ import annotations
 import argparse
 import json
 
-import pandas as pd
-
 from dpdfit.analyses.propagation import propagate, threshold_distribution
 from dpdfit.cli.options import fraction, int_at_least, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration import calibrate_phase
-from dpdfit.recordings.outputs import to_jsonable
-from dpdfit.recordings.tables import read_calibration, read_table
+from dpdfit.recordings.tables import read_calibration, read_calibration_table
 
 __all__ = ["add_propagate_command", "cmd_propagate"]
 
 
-def _read_runs(path: str) -> pd.DataFrame:
-    df = read_table(path, ["A", "power"], ["power_err", "run", "timestamp"],
-                    ranges={"A": (0.0, 1.0)}, positive=["power_err"])
-    return df
-
-
 def cmd_propagate(args) -> int:
     """``dpdfit propagate``: drift propagation into F_est (report or JSON)."""
-    df = _read_runs(args.calibration_runs)
+    df = read_calibration_table(args.calibration_runs, "amplitude")
     phase = None
     if args.phase:
         phase = calibrate_phase(read_calibration(args.phase, "phase", run="latest"))

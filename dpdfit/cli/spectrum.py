@@ -15,10 +15,11 @@ import sys
 from dpdfit.analyses.trace_estimate import delta_powers, trace_estimate
 from dpdfit.cli.options import finite_float, nonneg_float, positive_float
 from dpdfit.core.defaults import FORMULA, NBAR
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 from dpdfit.fits.tones import trace_tone_powers
 from dpdfit.models.fidelity import FORMULAS
-from dpdfit.recordings.outputs import atomic_write_json, refuse_overwriting_inputs, to_jsonable
+from dpdfit.recordings.outputs import atomic_write_json, refuse_overwriting_inputs
 from dpdfit.recordings.traces import load_trace
 
 __all__ = ["cmd_spectrum", "add_spectrum_command"]

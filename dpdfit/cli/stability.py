@@ -11,8 +11,8 @@ import pandas as pd
 from dpdfit.analyses.stability import stability
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 from dpdfit.report.stability_plots import stability_figures
 

@@ -30,7 +30,8 @@ from dpdfit.fits.calibration import fit_amplitude, fit_phase
 from dpdfit.errors import DpdfitError
 
 __all__ = ["PowerNoise", "PhaseNoise", "fit_power_noise", "fit_phase_noise",
-           "model_run_with_noise", "phase_run_with_noise", "MIN_RUNS"]
+           "model_run_with_noise", "phase_run_with_noise", "with_power_noise",
+           "with_phase_noise", "MIN_RUNS"]
 
 #: runs needed to learn the noise model (with fewer, one level per run as before)
 MIN_RUNS = 3
@@ -168,8 +169,19 @@ def model_run_with_noise(cf):
                             int(cf.meta["order"]))
     if noise is None:
         return data, None
-    pre = fit_amplitude(data.A, data.value, None, int(cf.meta["order"]))
-    return dataclasses.replace(data, error=noise.sigma(pre.power(data.A))), noise
+    return with_power_noise(data, noise, int(cf.meta["order"])), noise
+
+
+def with_power_noise(data, noise, order: int):
+    """``data`` (an amplitude run) with its errors from a learnt :class:`PowerNoise`: the
+    noise at each point's power fitted without errors at ``order``."""
+    pre = fit_amplitude(data.A, data.value, None, order)
+    return dataclasses.replace(data, error=noise.sigma(pre.power(data.A)))
+
+
+def with_phase_noise(data, noise):
+    """``data`` (a phase run) with its errors from a learnt phase-noise model."""
+    return dataclasses.replace(data, error=noise.sigma(data.A))
 
 
 def phase_run_with_noise(cf):
@@ -185,4 +197,4 @@ def phase_run_with_noise(cf):
                             df["run"].to_numpy())
     if noise is None:
         return data, None
-    return dataclasses.replace(data, error=noise.sigma(data.A)), noise
+    return with_phase_noise(data, noise), noise

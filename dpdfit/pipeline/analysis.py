@@ -17,8 +17,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.fits.alignment import AlignmentFit
-from dpdfit.recordings.outputs import check_output_folder, staged_outputs, to_jsonable
+from dpdfit.recordings.outputs import check_output_folder, staged_outputs
 from dpdfit.report.figure_io import DPI
 from dpdfit.report.summary import summary_markdown
 from dpdfit.report.sweep_plots import sweep_figures

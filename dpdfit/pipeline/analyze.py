@@ -144,9 +144,9 @@ def _analysis(folder: Path, formula, plots, diagnosis, bar) -> Analysis:
     finally:
         logging.getLogger("dpdfit").removeHandler(collect)
     summary = render_summary(cf, res.statuses, results, failures)
-    spectra = results.get("spectra")
+    spectra, sweep = results.get("spectra"), results.get("sweep")
     return Analysis(folder, summary, res.files, results, formula, figures=ctx.figures,
-                    sweep=results.get("sweep"),
+                    sweep=None if sweep is None else sweep.table,
                     measured=None if spectra is None else spectra.table,
                     messages=collect.messages)
 

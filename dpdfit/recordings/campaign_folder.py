@@ -50,7 +50,7 @@ import pandas as pd
 from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.errors import ImplausibleValueError, InputError
 
-from .columns import CAMPAIGN_TABLES, missing_optional_columns
+from .columns import CAMPAIGN_TABLES, missing_column_lines
 from .counts import read_parity, read_populations, shots_below_one
 from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
@@ -358,15 +358,15 @@ class CampaignFolder:
                     raise
 
     # -------------------------------------------------------------- left out
-    def left_out(self) -> list[str]:
+    def left_out(self, consequences: dict | None = None) -> list[str]:
         """What is absent from the folder, one line each (nothing if complete): optional
-        files, optional columns of the files present, defaulted campaign.json keys."""
+        files, optional columns of the files present (``consequences``:
+        :func:`~dpdfit.recordings.columns.missing_column_lines`), defaulted campaign.json keys."""
         out = [f"{name} absent ({what})" for name, what in FILES.items()
                if name not in ("campaign.json", "calibration_amplitude.csv")
                and not self.has(name)]
         for table in CAMPAIGN_TABLES:          # a file absent lacks no column
-            if missing := missing_optional_columns(self.file(f"{table}.csv"), table):
-                out.append(f"{table}.csv has no optional column {', '.join(missing)}")
+            out += missing_column_lines(self.file(f"{table}.csv"), table, consequences)
         if self.defaults_used:
             out.append("campaign.json: default for " + ", ".join(
                 f"{k} = {META_DEFAULTS[k]:g}" for k in self.defaults_used))

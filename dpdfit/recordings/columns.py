@@ -16,7 +16,7 @@ import os
 
 import pandas as pd
 
-__all__ = ["CAMPAIGN_TABLES", "missing_optional_columns"]
+__all__ = ["CAMPAIGN_TABLES", "missing_optional_columns", "missing_column_lines"]
 
 #: campaign table (its file without ``.csv``) -> (required columns, optional columns)
 CAMPAIGN_TABLES = {
@@ -41,3 +41,21 @@ def missing_optional_columns(path: str | os.PathLike, table: str) -> list[str]:
         return []
     wanted = ("n00", "n01_10", "n11") if table == "populations" else CAMPAIGN_TABLES[table][1]
     return [c for c in wanted if c not in have]
+
+
+def missing_column_lines(path: str | os.PathLike, table: str,
+                         consequences: dict | None = None) -> list[str]:
+    """What the file ``path`` of ``table`` lacks of its optional columns, one line each.
+
+    ``consequences`` maps ``(table, columns)`` to what an analysis does without those
+    columns; a missing group's line says that instead of the generic one (one line per
+    absence, never two)."""
+    missing = missing_optional_columns(path, table)
+    out = []
+    for (t, group), why in (consequences or {}).items():
+        if t == table and set(group) & set(missing):
+            out.append(f"{table}.csv has no {'/'.join(group)}: {why}")
+            missing = [c for c in missing if c not in group]
+    if missing:
+        out.append(f"{table}.csv has no optional column {', '.join(missing)}")
+    return out

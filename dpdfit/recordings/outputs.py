@@ -23,14 +23,14 @@ import threading
 from pathlib import Path
 from typing import Iterable, Iterator
 
-from dpdfit.core.jsonable import to_jsonable
 
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 
 __all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "file_sha256",
            "remember_sha256", "staged_folder", "refuse_overwriting_inputs", "staged_outputs", "Stage",
            "check_output_folder", "check_output_file",
-           "atomic_write_text", "atomic_write_json", "to_jsonable"]
+           "atomic_write_text", "atomic_write_json"]
 
 
 def sha256_file(path: str | os.PathLike) -> str:

@@ -34,16 +34,13 @@ import pandas as pd
 from dpdfit.core.memory import TABLE_BYTES_PER_FILE_BYTE, check_memory
 from dpdfit.errors import ImplausibleValueError, InputError, data_line
 from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, CalibrationData,
-                                                calibration_data, calibration_runs_data,
-                                                list_runs, select_run)
+                                                calibration_data, calibration_runs_data)
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
-from dpdfit.recordings.repeats import check_duplicates
 
-__all__ = ["read_table", "CalibrationData", "read_calibration", "read_calibration_runs",
-           "read_calibration_table", "select_run", "list_runs", "check_duplicates",
-           "check_repeated_rows", "require_file", "check_calibration_phases", "RANGE_CAUSES"]
+__all__ = ["read_table", "read_calibration", "read_calibration_runs",
+           "read_calibration_table", "check_repeated_rows", "require_file", "check_calibration_phases", "RANGE_CAUSES"]
 
 
 def _row(index: int) -> int:

@@ -13,7 +13,7 @@ import numpy as np
 
 from dpdfit.fits.calibration import AmplitudeCalibration, Calibration, PhaseCalibration
 from dpdfit.models.transfer import TransferFunction
-from dpdfit.recordings.tables import CalibrationData
+from dpdfit.recordings.calibration_runs import CalibrationData
 from dpdfit.report.figure_io import panel_grid, single_axes
 
 __all__ = ["amplitude_calibration_figure", "phase_calibration_figure", "predistortion_figure",

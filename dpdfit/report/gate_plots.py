@@ -57,7 +57,8 @@ def _rate_panel(ax, gate, mean, fit, highlight):
     """Fig. 3: fidelity versus gate rate, with the aligned photodiode curves and their band."""
     for d in (1, 0):
         g = gate[gate["dpd"] == d]
-        ax.errorbar(g["xi0_khz"], g["F"], xerr=g["xi0_err_khz"], yerr=g["F_err"],
+        # without stated gate-rate errors (xi0_err_khz is optional): no horizontal bars
+        ax.errorbar(g["xi0_khz"], g["F"], xerr=g.get("xi0_err_khz"), yerr=g["F_err"],
                     fmt=_STYLE[d]["marker"], color=_STYLE[d]["color"],
                     label=f"gate, {_STYLE[d]['label']}")
         if fit is not None:
@@ -199,7 +200,7 @@ def gate_figures(gate, sweep, fit, parity=None, time_scans=None, highlight=None,
     Parameters
     ----------
     gate : DataFrame
-        ``A, dpd, xi0_khz, xi0_err_khz, F, F_err`` (+ ``contrast``, ``phi0``).
+        ``A, dpd, xi0_khz, F, F_err`` (+ ``xi0_err_khz``, ``contrast``, ``phi0``).
     sweep : DataFrame
         The simulated sweep (for the photodiode curves).
     fit : AlignmentFit or None

@@ -165,10 +165,10 @@ def _propagation(pr: dict) -> list[str]:
     lines = ["", f"## Calibration posterior and drift propagated into F_est (A = {pr['A']:g})",
              "", "| table age | flag | F_est median | 95 % interval | eta_th 1e-3 (median) |",
              "|---|---|---|---|---|"]
-    for k, v in pr["results"].items():
+    for days, (k, v) in zip(pr["stale_days"], pr["results"].items()):
         for flag in ("dpd", "no_dpd"):
             th = (pr.get("thresholds") or {}).get(k, {}).get(flag, {}).get("1e-3")
-            lines.append(f"| {k.split('=')[1]} days | {flag} | {v[flag]['F_est_median']:.6f} | "
+            lines.append(f"| {days:g} days | {flag} | {v[flag]['F_est_median']:.6f} | "
                          f"[{v[flag]['F_est_q2.5']:.6f}, {v[flag]['F_est_q97.5']:.6f}] | "
                          f"{_fmt(th)} |")
     lines.append(f"\nChain: tau {_fmt(pr.get('tau'))} steps, {_fmt(pr.get('n_independent'))} "

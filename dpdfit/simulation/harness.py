@@ -38,9 +38,9 @@ from pathlib import Path
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
-from dpdfit.recordings.outputs import to_jsonable
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.closed_loop import (_named_correctly, ambiguity, close_loop,
                                            loop_report_lines, loop_summary)

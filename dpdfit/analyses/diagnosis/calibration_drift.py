@@ -11,7 +11,7 @@ import pandas as pd
 from dpdfit.errors import DpdfitError
 from dpdfit.fits.calibration import fit_amplitude
 from dpdfit.recordings.campaign_folder import CampaignFolder
-from dpdfit.recordings.tables import list_runs
+from dpdfit.recordings.calibration_runs import list_runs
 
 __all__ = ["RunsAfter", "MAX_DRIFT_MODES", "DRIFT_MODE_SIGNIFICANCE", "drift_modes",
            "runs_after_recordings"]

@@ -28,7 +28,6 @@ and :mod:`dpdfit.analyses.diagnosis.gate_model`.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,11 +36,12 @@ import pandas as pd
 
 from dpdfit.analyses.diagnosis.calibration_drift import RunsAfter, drift_modes, runs_after_recordings
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
-from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase, fit_amplitude
+from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.fits.counts import fit_parity
 from dpdfit.errors import InputError
-from dpdfit.fits.photodiode import model_run_with_noise, phase_run_with_noise
+from dpdfit.fits.photodiode import (model_run_with_noise, phase_run_with_noise,
+                                    with_phase_noise, with_power_noise)
 
 __all__ = ["DEFAULT_ERROR_MODEL", "SIDEBANDS", "Campaign", "load_campaign", "tone_features", "debias_tones", "TONE_FEATURES",
            "TONE_HARMONICS", "MIN_SNR_DB"]
@@ -149,6 +149,14 @@ def _residual_frame(cal, A, value, err) -> pd.DataFrame:
     return pd.DataFrame({"A": A, "z": (value - pred) / err})
 
 
+#: what the diagnosis does without an optional column (CampaignFolder.left_out)
+_CONSEQUENCES = {
+    ("spectra", ("snr_db",)): "the noise floor is estimated from the recordings "
+                              "(IM tones at low A)",
+    ("populations", ("n00", "n11")): "the imbalance P00 - P11 is not used",
+}
+
+
 def _model_runs(cf: CampaignFolder, learnt):
     """The model amplitude and phase runs with their errors, and the noise models:
     :func:`~dpdfit.fits.photodiode.model_run_with_noise` and ``phase_run_with_noise``
@@ -159,11 +167,10 @@ def _model_runs(cf: CampaignFolder, learnt):
         return (*model_run_with_noise(cf), *phase_run_with_noise(cf))
     power, phase = learnt
     data, pdata = cf.amplitude_model, cf.phase_model
-    if power is not None:     # the errors model_run_with_noise gives: the noise at the fit
-        pre = fit_amplitude(data.A, data.value, None, int(cf.meta["order"]))
-        data = dataclasses.replace(data, error=power.sigma(pre.power(data.A)))
+    if power is not None:
+        data = with_power_noise(data, power, int(cf.meta["order"]))
     if pdata is not None and phase is not None:
-        pdata = dataclasses.replace(pdata, error=phase.sigma(pdata.A))
+        pdata = with_phase_noise(pdata, phase)
     return data, power, pdata, (None if pdata is None else phase)
 
 
@@ -353,13 +360,7 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     except InputError as exc:
         raise InputError(str(exc), file=str(cf.file("campaign.json"))) from None
     gates = _gates(cf)
-    left = cf.left_out()
-    if not has_snr:
-        left.append("spectra.csv has no snr_db: the noise floor is estimated from the "
-                    "recordings (IM tones at low A)")
-    pop = cf.populations
-    if gates is not None and pop is not None and not {"n00", "n11"} <= set(pop.columns):
-        left.append("populations.csv has no n00/n11: the imbalance P00 - P11 is not used")
+    left = cf.left_out(_CONSEQUENCES)
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
     recorded = cf.recording_times

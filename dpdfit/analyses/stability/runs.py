@@ -8,8 +8,8 @@ import pandas as pd
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.errors import DpdfitError, FitError, InputError
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
-from dpdfit.recordings.calibration_runs import CALIBRATION_COLUMNS
-from dpdfit.recordings.tables import (check_calibration_phases, check_repeated_rows, list_runs,
+from dpdfit.recordings.calibration_runs import CALIBRATION_COLUMNS, list_runs
+from dpdfit.recordings.tables import (check_calibration_phases, check_repeated_rows,
                                       read_calibration_table)
 
 from .result import StabilityResult

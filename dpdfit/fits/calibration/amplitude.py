@@ -22,8 +22,7 @@ normalisation, so its row and column of the covariance are zero.
 
 Error convention (the same for both fits): with given uncertainties the
 covariance is absolute; without them sigma is estimated from the residuals and
-the covariance scaled by it.  Never a silent rescale: ``sigma_source`` says
-which.
+the covariance scaled by it.  Never a silent rescale: ``sigma_source`` says which.
 """
 
 from __future__ import annotations
@@ -41,7 +40,8 @@ from dpdfit.errors import FitError, InputError
 from dpdfit.fits.calibration.shared import (frozen_array, gaussian_ic, json_float,
                                             nonmonotone_intervals, run_source, vander)
 from dpdfit.fits.polyfit import polyfit
-from dpdfit.recordings.tables import CalibrationData, check_duplicates
+from dpdfit.recordings.calibration_runs import CalibrationData
+from dpdfit.recordings.repeats import check_duplicates
 
 __all__ = ["AmplitudeCalibration", "fit_amplitude", "amplitude_order_table",
            "calibrate_amplitude"]

@@ -24,7 +24,8 @@ from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 from dpdfit.fits.calibration.shared import frozen_array, json_float, run_source, vander
 from dpdfit.fits.polyfit import polyfit
-from dpdfit.recordings.tables import CalibrationData, check_duplicates
+from dpdfit.recordings.calibration_runs import CalibrationData
+from dpdfit.recordings.repeats import check_duplicates
 
 __all__ = ["PhaseCalibration", "fit_phase", "calibrate_phase"]
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from dpdfit.recordings.outputs import file_sha256
-from dpdfit.recordings.tables import CalibrationData
+from dpdfit.recordings.calibration_runs import CalibrationData
 
 __all__ = ["frozen_array", "json_float", "vander", "gaussian_ic", "run_source",
            "nonmonotone_intervals", "run_record", "RUN_RECORD_KEYS"]

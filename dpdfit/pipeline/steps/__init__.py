@@ -14,7 +14,7 @@ step           module                                      returns
 =============  ==========================================  ==============================
 calibration    :mod:`.calibration`                          :class:`CalibrationFits`
 stability      :mod:`.calibration`                          :class:`StabilityResults`
-sweep          :mod:`.spectra`                              the simulated sweep (DataFrame)
+sweep          :mod:`.spectra`                              :class:`SimulatedSweep`
 spectra        :mod:`.spectra`                              :class:`MeasuredSpectra`
 traces         :mod:`.spectra`                              :class:`TracesCheck`
 gates          :mod:`.gates`                                :class:`GateResults`
@@ -35,10 +35,11 @@ from .calibration import (CalibrationFits, StabilityResults, calibration_step,
 from .diagnosis import diagnosis_step, diagnosis_summary
 from .gates import GateResults, gates_step, gates_summary
 from .propagation import PropagationResults, propagation_step, propagation_summary
-from .spectra import (MeasuredSpectra, TracesCheck, spectra_step, spectra_summary, sweep_step,
-                      sweep_summary, traces_step, traces_summary)
+from .spectra import (MeasuredSpectra, SimulatedSweep, TracesCheck, spectra_step,
+                      spectra_summary, sweep_step, sweep_summary, traces_step, traces_summary)
 
-__all__ = ["Step", "PIPELINE", "CalibrationFits", "StabilityResults", "MeasuredSpectra",
+__all__ = ["Step", "PIPELINE", "CalibrationFits", "StabilityResults", "SimulatedSweep",
+           "MeasuredSpectra",
            "TracesCheck", "GateResults", "PropagationResults", "calibration_step",
            "stability_step", "sweep_step", "spectra_step", "traces_step", "gates_step",
            "propagation_step", "budget_step", "diagnosis_step"]

@@ -18,6 +18,7 @@ from dpdfit.fits.counts import gate_fidelities, merge_parity
 from dpdfit.report.gate_plots import gate_figures
 
 from ..context import Context
+from .spectra import SimulatedSweep
 
 __all__ = ["gates_step", "closest_pair", "GateResults", "gates_summary", "power_jitter_db"]
 
@@ -91,8 +92,9 @@ def _parity_by_setting(par) -> dict:
             for (A, d), g in merged.groupby(["A", "dpd"])}
 
 
-def gates_step(ctx: Context, sweep):
+def gates_step(ctx: Context, simulated: SimulatedSweep | None) -> GateResults:
     """Gate fidelities per setting and, with gate rates and the sweep, the alignment fit."""
+    sweep = None if simulated is None else simulated.table
     cf, res = ctx.campaign, ctx.results
     if not (cf.has("populations.csv") and cf.has("parity.csv")):
         res.status("gates", "skipped", "populations.csv and parity.csv are both needed")
@@ -115,9 +117,7 @@ def gates_step(ctx: Context, sweep):
             detail += " (without the gate rates' stated errors, xi0_err_khz)"
     ts = cf.time_scans
     if ctx.figures is not None and sweep is not None and "xi0_khz" in tab.columns:
-        # no stated gate-rate errors: no horizontal error bars in the figures
-        drawn = tab if "xi0_err_khz" in tab.columns else tab.assign(xi0_err_khz=0.0)
-        ctx.figure(gate_figures, drawn, sweep, fit, _parity_by_setting(par), ts,
+        ctx.figure(gate_figures, tab, sweep, fit, _parity_by_setting(par), ts,
                    closest_pair(tab), ctx.meta["nbar_assumed"])
     res.status("gates", "ok", detail)
     return GateResults(table=tab, alignment=fit)

@@ -17,7 +17,7 @@ from dpdfit.analyses.propagation import PropagationResult, propagate, threshold_
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.fits.drift import calibration_uncertainty
 from dpdfit.fits.posterior import sample_amplitude_posterior
-from dpdfit.recordings.tables import list_runs
+from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.report.posterior_plots import CORNER_DPI, corner_figure
 
 from ..context import Context
@@ -132,11 +132,12 @@ class PropagationResults:
 
 
 def propagation_summary(p: PropagationResults) -> dict:
-    """The ``propagation`` section of ``summary.json``: F_est quantiles and the threshold
-    efficiencies' medians per table age, the chain of the last age."""
+    """The ``propagation`` section of ``summary.json``: the table ages (``stale_days``,
+    days, in the order of ``results``), F_est quantiles and the threshold efficiencies'
+    medians per table age, the chain of the last age."""
     by_age = {a.key: a.to_dict() for a in p.by_age}
     last = by_age[p.by_age[-1].key]
-    return {"A": p.A, "draws": p.draws, "results": {
+    return {"A": p.A, "draws": p.draws, "stale_days": list(p.stale_days), "results": {
         k: {flag: {q: v[flag][q] for q in ("F_est_median", "F_est_q2.5", "F_est_q97.5")}
             for flag in _FLAGS} for k, v in by_age.items()},
         "tau": last.get("tau"), "n_independent": last.get("n_independent"),

@@ -24,8 +24,18 @@ from dpdfit.recordings.traces import load_trace
 from ..context import Context
 from .calibration import CalibrationFits
 
-__all__ = ["sweep_step", "spectra_step", "traces_step", "MeasuredSpectra", "TracesCheck",
-           "sweep_summary", "spectra_summary", "traces_summary"]
+__all__ = ["sweep_step", "spectra_step", "traces_step", "SimulatedSweep", "MeasuredSpectra",
+           "TracesCheck", "sweep_summary", "spectra_summary", "traces_summary"]
+
+
+@dataclass(frozen=True)
+class SimulatedSweep:
+    """What the sweep step made: the simulated sweep (``sweep.csv``), the configuration
+    it was simulated at and its threshold efficiencies."""
+
+    table: pd.DataFrame
+    config: SweepConfig
+    thresholds: dict
 
 
 @dataclass(frozen=True)
@@ -44,9 +54,9 @@ class TracesCheck:
     n_traces: int
 
 
-def sweep_summary(sweep: pd.DataFrame) -> dict:
+def sweep_summary(sweep: SimulatedSweep) -> dict:
     """The ``sweep`` section of ``summary.json``: the threshold efficiencies."""
-    return thresholds(sweep)
+    return sweep.thresholds
 
 
 def spectra_summary(m: MeasuredSpectra) -> dict:
@@ -62,7 +72,7 @@ def traces_summary(t: TracesCheck) -> dict:
     return {"n_traces": t.n_traces, "max_abs_difference_to_spectra_csv_dB": float(diff)}
 
 
-def sweep_step(ctx: Context, fits: CalibrationFits | None):
+def sweep_step(ctx: Context, fits: CalibrationFits | None) -> SimulatedSweep | None:
     """The simulated sweep of the calibration -> ``sweep.csv`` (its figures come at the end)."""
     res = ctx.results
     if fits is None:
@@ -74,17 +84,18 @@ def sweep_step(ctx: Context, fits: CalibrationFits | None):
     df = run_sweep(TransferFunction.from_calibration(fits.calibration), cfg)
     res.table("sweep.csv", df, dict(df.attrs))
     res.status("sweep", "ok", f"{len(cfg.amplitudes)} amplitudes x 2 flags, formula {ctx.formula}")
-    return df
+    return SimulatedSweep(table=df, config=cfg, thresholds=thresholds(df))
 
 
-def spectra_step(ctx: Context, sweep):
+def spectra_step(ctx: Context, sweep: SimulatedSweep | None) -> MeasuredSpectra | None:
     """Measured tone powers: R10, R23, dP_n, F_est, eta_bar, thresholds
     -> ``spectra_measured.csv``."""
     res = ctx.results
     if not ctx.campaign.has("spectra.csv"):
         res.status("spectra", "skipped", "spectra.csv not found")
         return None
-    m, summary = measured_spectra(ctx.campaign.spectra, sweep, nbar=ctx.meta["nbar_assumed"],
+    m, summary = measured_spectra(ctx.campaign.spectra, None if sweep is None else sweep.table,
+                                  nbar=ctx.meta["nbar_assumed"],
                                   formula=ctx.formula)
     res.table("spectra_measured.csv", m)
     res.status("spectra", "ok", f"{summary['n_amplitudes']} amplitudes with both flags")
