@@ -6,8 +6,8 @@ predistorted, pushed through the calibrated AM/PM forward model, and its tone
 powers ``P_0..P_3`` are read exactly off the FFT grid for each sideband.  From
 them follow ``R10``, ``R23``, ``dP_n`` (DPD minus no-DPD at matched ``A``), the
 spectrum-based estimate ``F_est`` (S5), the time-averaged diffraction
-efficiency ``eta_bar`` (Eq. eta-bar) and the relative gate rate ``r_rel``
-(Eq. r-rel).
+efficiency ``eta_bar`` (Eqs. S15-S16) and the relative gate rate ``r_rel``
+(Eq. S12).
 
 Output is a long table with one row per ``(A, dpd, sideband)``, ``sideband``
 in ``red``, ``blue``, ``mean``.  The ``mean`` row averages the dB values of
@@ -115,7 +115,7 @@ class SweepConfig:
 
 
 def eta_bar(rf, transfer: TransferFunction, eta_ref: float = ETA_REF):
-    """Time-averaged diffraction efficiency (Eq. eta-bar).
+    """Time-averaged diffraction efficiency (Eqs. S15-S16).
 
     ``eta_bar = eta_ref * mean_i |f_AM(w_i)|^2 / |f_AM(1)|^2`` over the RF
     samples ``w_i`` (after optional DPD), along the last axis.

@@ -44,7 +44,7 @@ FORMULA = "exact"
 # (../shared/000_25865f86b72c0b0d.txt) in order: S6.5 "Gate-rate uncertainty from power
 # fluctuations", S7.2 "Parity fidelity", S10 "Error sources and limitations" with
 # S10.1 "State preparation and measurement", S10.2 "Qubit dephasing", S10.3 "Motional
-# heating" and its Table S2 (tab:error-budget).
+# heating" and its Table S2.
 
 
 @dataclass(frozen=True)

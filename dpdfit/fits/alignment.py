@@ -4,20 +4,20 @@ The simulated sweep gives, per DPD flag and as smooth functions of the
 normalised amplitude ``A`` (cubic splines over the sweep grid, mean of the
 two sidebands):
 
-* ``r_rel(A)``: relative gate rate (Eq. r-rel),
+* ``r_rel(A)``: relative gate rate (Eq. S12),
 * ``F_PD(A)``: the spectrum-based fidelity estimate ``F_est``,
 * ``eta_bar(A)``: time-averaged diffraction efficiency (S6.6).
 
 For each measured point ``i`` (amplitude ``A_i``, flag ``d_i``, calibrated
 ``xi0_i +/- s_i`` in kHz, measured fidelity ``F_i +/- e_i``) these are
 **evaluated at the point's own amplitude and flag**, and the two shared
-parameters -- the scale ``alpha`` (kHz, Eq. xi0-alpha) and the offset
+parameters -- the scale ``alpha`` (kHz, Eq. S13) and the offset
 ``delta`` -- minimise the stacked weighted residuals::
 
     horizontal:  (xi0_i - alpha r_rel(A_i, d_i)) / sqrt(s_i^2 + (alpha r_rel(A_i, d_i) k sigma_dB)^2)
     vertical:    (F_i - F_PD(A_i, d_i) - delta) / e_i,
 
-with ``k = ln(10)/20`` (Eq. sigma-xi: ``sigma_xi0/xi0 = k sigma_dB``, the
+with ``k = ln(10)/20`` (Eq. S14: ``sigma_xi0/xi0 = k sigma_dB``, the
 laser-power fluctuation band).  Standard errors are absolute (the inverse of
 ``J^T J`` of the weighted residuals, never rescaled); the reduced chi-square
 is reported beside them.  Because every point's curve values are taken at
@@ -46,12 +46,12 @@ from dpdfit.errors import FitError, InputError
 
 __all__ = ["AlignmentFit", "align", "curves", "xi0_band", "K_DB"]
 
-#: ln(10)/20: relative gate-rate change per dB of optical power (Eq. sigma-xi).
+#: ln(10)/20: relative gate-rate change per dB of optical power (Eq. S14).
 K_DB = np.log(10) / 20
 
 
 def xi0_band(xi0, sigma_db: float = ERROR_MODEL.power_jitter_db):
-    """Absolute gate-rate spread ``sigma_xi0 = xi0 ln(10)/20 sigma_dB`` (Eq. sigma-xi)."""
+    """Absolute gate-rate spread ``sigma_xi0 = xi0 ln(10)/20 sigma_dB`` (Eq. S14)."""
     return np.asarray(xi0, dtype=float) * K_DB * sigma_db
 
 

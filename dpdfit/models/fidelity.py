@@ -1,6 +1,6 @@
 """Spectrum-based gate-fidelity estimate (Supplement S5), in closed form.
 
-Phase-space formalism (Eqs. F, G, Phi of S5.1).  With ``x = 2 pi xi0 t`` and
+Phase-space formalism (Supplement S5.1, Eqs. S4-S6).  With ``x = 2 pi xi0 t`` and
 the dimensionless coupling ``g = eta Omega / (2 pi xi0)``, a drive made of
 tones at harmonic indices ``n`` (detuning ``n xi0`` from the sideband) with
 signed amplitudes ``r_n`` and phases ``phi_n`` moves the motional mode along ::
@@ -18,13 +18,13 @@ Every integral is evaluated in closed form (complex-exponential primitives),
 so nothing in the hot path uses quadrature; the tests compare with adaptive
 quadrature to 1e-10.
 
-Rabi-frequency calibration (Eq. Omega_cal): ``eta Omega = pi xi0
+Rabi-frequency calibration (Eq. S9): ``eta Omega = pi xi0
 (sum_gate r_n^2 / n)^(-1/2)``, i.e. ``g = (1/2) (sum_gate r_n^2/n)^(-1/2)``,
 from the gate tones only, so that an uncontaminated gate has ``Phi(T_g) = pi/2``.
 
 Bell-state fidelity for a thermal mode with mean phonon number ``nbar``:
 
-``formula="paper"`` -- the expression printed in the Supplement (Eq. fidelity)::
+``formula="paper"`` -- the expression printed in the Supplement (Eq. S10)::
 
     F_B = [3 + exp(-4 (nbar+1/2) R^2)]/8 + exp(-(nbar+1/2) R^2)/2 * sin^2(Phi + F G/2),
 
@@ -174,7 +174,7 @@ def gate_phase_space(n, r, phi, g):
 
 
 def calibrate_g(n, r, gate=(1, 2)):
-    """``g = eta Omega/(2 pi xi0)`` from the gate tones only (Eq. Omega_cal).
+    """``g = eta Omega/(2 pi xi0)`` from the gate tones only (Eq. S9).
 
     ``g = (1/2) (sum_{n in gate} r_n^2 / n)^(-1/2)``; ``r`` shape (..., T).
     """

@@ -21,7 +21,7 @@ __all__ = ["im_infidelity", "im_requirements"]
 def _endpoint_as_printed(n, r, phi, g):
     """End point with the paper's expressions taken literally.
 
-    The printed F(t), G(t) (Eqs. F, G) lack the constants that make the
+    The printed F(t), G(t) (Eqs. S4-S5) lack the constants that make the
     trajectory start at the origin; with a phase phi_n that is not 0 the
     literal expressions evaluated at T_g give a spurious non-closure
     ``F(T) = -sqrt(2) g sum (r/n) sin(phi)``, ``G(T) = sqrt(2) g sum (r/n)(1 - cos phi)``.

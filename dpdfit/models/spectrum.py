@@ -76,7 +76,7 @@ def field_tone_powers(field, grid: Grid, harmonics=(0, 1, 2, 3)) -> FieldSpectru
 
 
 def simulate_field(transfer, tones: ToneSet, grid: Grid, A, dpd: bool, am_only: bool = False):
-    """Waveform -> (DPD) -> AOM forward model (Eq. aom-forward), for a batch of A.
+    """Waveform -> (DPD) -> AOM forward model (Eq. S11), for a batch of A.
 
     Returns
     -------

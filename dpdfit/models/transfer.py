@@ -1,6 +1,6 @@
 """The calibrated AOM transfer function, its inverse and the predistortion table.
 
-Forward model (Supplement S6.1, Eq. aom-forward)::
+Forward model (Supplement S6.1, Eq. S11)::
 
     y(t) = f_AM(|x(t)|) * exp(i [theta(t) + f_PM(|x(t)|)])
 
@@ -50,7 +50,7 @@ def _poly(A, powers, coef):
 
 @dataclass(frozen=True)
 class TransferFunction:
-    """Static AM/PM transfer function of the AOM (paper Eq. aom-forward).
+    """Static AM/PM transfer function of the AOM (paper, Supplement Eq. S11).
 
     Parameters
     ----------
@@ -116,7 +116,7 @@ class TransferFunction:
         return _poly(np.minimum(x, 1.0), self.pm_powers, self.pm_coefficients)
 
     def forward(self, x, am_only: bool = False):
-        """Optical field for an RF envelope ``x`` (real or complex), Eq. aom-forward.
+        """Optical field for an RF envelope ``x`` (real or complex), Eq. S11.
 
         Parameters
         ----------

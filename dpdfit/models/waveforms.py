@@ -3,7 +3,7 @@
 A tone set lists tones by harmonic index ``n`` (detuning ``n * xi0`` from the
 motional sideband), signed amplitude ``r`` and phase ``phi`` (rad) on the blue
 (``+nu + n xi0``) and red (``-nu - n xi0``) sidebands.  The RF envelope in the
-rotating frame of the carrier is (Eq. waveform-iq)::
+rotating frame of the carrier is (Supplement Eq. S2)::
 
     w(t) = w_I + i w_Q = sum_j r_j exp(i (2 pi f_j t + phi_j)),
     f_j = +(nu + n_j xi0) (blue)  or  -(nu + n_j xi0) (red),
@@ -213,7 +213,7 @@ def sample_grid(nu: float, xi0: float, tones: ToneSet, *, fs: float | None = Non
 
 
 def synthesize(tones: ToneSet, grid: Grid, A) -> np.ndarray:
-    """RF envelope samples for peak amplitude(s) ``A`` (Eq. waveform-iq, max|w| = A).
+    """RF envelope samples for peak amplitude(s) ``A`` (Eqs. S2-S3, max|w| = A).
 
     Parameters
     ----------

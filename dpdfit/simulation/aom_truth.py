@@ -1,7 +1,7 @@
 """A physical acousto-optic modulator, used as the *truth* behind synthetic recordings.
 
-dpdfit fits polynomials to calibration data (paper, Eq. amplitude-poly and
-Eq. phase-poly).  To test those fits honestly the synthetic data must come from
+dpdfit fits polynomials to calibration data (paper, main-text Eq. 3 and
+Supplement Eq. S1).  To test those fits honestly the synthetic data must come from
 a model that is *not* a polynomial, so that the K=8 / K=5 fits carry their
 real, small model error.  This module is that model:
 
@@ -107,7 +107,7 @@ class BraggAOM:
     def field(self, x):
         """Optical field for a (complex) RF envelope ``x`` (``|x| = A``), normalised like y.
 
-        Same form as the paper's Eq. (aom-forward) but with the physical
+        Same form as the paper's Eq. S11 but with the physical
         transfer functions; drive beyond ``|x| = 1`` is *not* clipped (the
         Bragg efficiency rolls over).
         """

@@ -1,7 +1,7 @@
 """The AOM amplitude transfer function y(A): fit, order scan and result.
 
-Amplitude (paper, Methods "AOM characterization", Eq. amplitude-poly)
----------------------------------------------------------------------
+Amplitude (paper, Methods "AOM characterization", Eq. 3)
+--------------------------------------------------------
 The optical field amplitude is ``y ~ sqrt(power)``.  Rather than taking square
 roots of the recorded powers -- which is undefined for the slightly negative
 background-subtracted powers near ``A = 0`` and turns the additive detector
@@ -49,7 +49,7 @@ __all__ = ["AmplitudeCalibration", "fit_amplitude", "amplitude_order_table",
 
 @dataclass(frozen=True, repr=False)
 class AmplitudeCalibration(ModelAdequacy, Displayable):
-    """Result of the amplitude fit (paper Eq. amplitude-poly, normalised).
+    """Result of the amplitude fit (paper Eq. 3, normalised).
 
     Attributes
     ----------

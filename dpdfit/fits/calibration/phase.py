@@ -1,7 +1,7 @@
 """The AOM phase transfer function phi(A): fit and result.
 
-Phase (Supplement S1, Eq. phase-poly)
--------------------------------------
+Phase (Supplement S1, Eq. S1)
+-----------------------------
 ``phi(A) = sum_{k=1}^{K} b_k A^k`` (``phi(0) = 0``), K = 5, a linear weighted
 least-squares fit on ``A_min <= A <= A_max`` (default 0.1..1); points outside
 the window are excluded *explicitly* and counted in the result.
@@ -32,7 +32,7 @@ __all__ = ["PhaseCalibration", "fit_phase", "calibrate_phase"]
 
 @dataclass(frozen=True, repr=False)
 class PhaseCalibration(ModelAdequacy, Displayable):
-    """Result of the phase fit (Supplement S1, Eq. phase-poly).
+    """Result of the phase fit (Supplement S1, Eq. S1).
 
     Attributes
     ----------

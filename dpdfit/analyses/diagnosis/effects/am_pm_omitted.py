@@ -6,7 +6,7 @@ Family: a phase that grows with the drive, in one of two places.
   static transfer (beam path after the calibrated AOM; ``r`` of the forward
   curve in use, calibration modes applied);
 * form ``aom``: the modulator's own AM-to-PM, a phase ``dphi_x |x|^2`` of the
-  RF drive amplitude (the form of a phase calibration, Eq. aom-forward).  It
+  RF drive amplitude (the form of a phase calibration, Eq. S11).  It
   replaces the baseline's nuisance ``pm_x`` (a campaign without a phase file
   has its AOM's phase as a nuisance with a narrow prior).
 
