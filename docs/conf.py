@@ -36,9 +36,11 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
     "sphinxarg.ext",
+    "cli_examples",
     "myst_nb",
     "sphinx_copybutton",
     "benchmark_tables",
+    "benchmark_values",
     "effect_catalog",
     "public_api",
 ]

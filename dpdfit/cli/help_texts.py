@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-__all__ = ["DESCRIPTIONS", "EXAMPLES", "describe"]
+__all__ = ["DESCRIPTIONS", "EXAMPLES", "OVERVIEW_EXAMPLES", "OVERVIEW_NOTE", "describe"]
 
 #: command -> one paragraph (for commands whose module gives none).
 DESCRIPTIONS = {
@@ -92,6 +92,18 @@ EXAMPLES = {
     "write-artiq-results": "dpdfit write-artiq-results out/campaign out/lab --shape "
                            "per-shot",
 }
+
+
+#: the examples at the bottom of ``dpdfit --help``; each line pastes as it is
+OVERVIEW_EXAMPLES = (
+    "dpdfit analyze datasets/synthetic_campaign -o results     # every analysis of a campaign\n"
+    "dpdfit calibrate --amplitude datasets/synthetic_aom/calibration_amplitude.csv "
+    "-o out/calibration.json\n"
+    "dpdfit calibrate --help                                   # a command's options and example")
+
+#: the note after them
+OVERVIEW_NOTE = ("Also runnable as 'python -m dpdfit'.  In Python: dpdfit.analyze(folder) returns "
+                 "every\nresult and table in memory; the documentation (docs/) has the details.")
 
 
 def describe(subparsers) -> None:

@@ -19,7 +19,7 @@ import sys
 from dpdfit.cli.calibration import add_calibrate_command, add_lut_command, add_polyfit_command
 from dpdfit.cli.campaign import add_analyze_command, add_simulate_campaign_command
 from dpdfit.cli.gates import add_align_command, add_fidelity_command
-from dpdfit.cli.help_texts import describe
+from dpdfit.cli.help_texts import OVERVIEW_EXAMPLES, OVERVIEW_NOTE, describe
 from dpdfit.cli.logs import cli_logging
 from dpdfit.cli.spectral import (add_estimate_command, add_im_table_command, add_sweep_command,
                                  add_thresholds_command)
@@ -34,14 +34,7 @@ DESCRIPTION = ("dpdfit: analysis of digitally predistorted (DPD) trapped-ion ent
                "experiments --\nAOM transfer-function fits, predistortion tables, spectra, "
                "fidelities, diagnosis.")
 #: The bottom of ``dpdfit --help``.
-EPILOG = """\
-examples:
-  dpdfit analyze datasets/synthetic_campaign -o results     # every analysis of a campaign
-  dpdfit calibrate --amplitude amp.csv --phase phase.csv -o calibration.json
-  dpdfit COMMAND --help                                     # a command's options and example
-
-Also runnable as 'python -m dpdfit'.  In Python: dpdfit.analyze(folder) returns every
-result and table in memory; the documentation (docs/) has the details."""
+EPILOG = ("examples:\n  " + OVERVIEW_EXAMPLES.replace("\n", "\n  ") + "\n\n" + OVERVIEW_NOTE)
 
 
 class _OneLineParser(argparse.ArgumentParser):
