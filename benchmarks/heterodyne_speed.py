@@ -1,4 +1,4 @@
-"""Accuracy and speed of dpdfit.fits.heterodyne.trace_tone_powers (Supplement S4).
+"""Accuracy and speed of dpdfit.fits.tones.trace_tone_powers (Supplement S4).
 
 Run:  python benchmarks/heterodyne_speed.py [repeats] [--json PATH]
 

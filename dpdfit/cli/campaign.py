@@ -94,7 +94,7 @@ def add_analyze_command(subparsers) -> argparse.ArgumentParser:
                    help=f"Bell-fidelity expression for F_est ({FORMULA})")
     a.add_argument("--no-plots", action="store_true", help="skip the figures")
     a.add_argument("--no-diagnosis", action="store_true",
-                   help="skip the discrepancy diagnosis (the slowest step, ~1 min)")
+                   help="skip the discrepancy diagnosis (the slowest step)")
     a.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
     a.set_defaults(func=cmd_analyze)
