@@ -5,8 +5,8 @@ machine; typed by hand they go stale and contradict each other.  The documentati
 cites them from the benchmark records with the ``benchmark`` role
 (``docs/_ext/benchmark_values.py``), read when the site is built.  This module
 
-* scans ``docs/**/*.md`` (not the changelog), ``README.md`` and every ``dpdfit ...
-  --help`` text for a number with a unit of time, rate or memory, a speed ratio or a
+* scans ``docs/**/*.md`` (not the changelog), the Markdown cells of the notebooks in
+  ``docs/examples/``, ``README.md`` and every ``dpdfit ... --help`` text for a number with a unit of time, rate or memory, a speed ratio or a
   clock time, and fails on any not in ``ALLOWED`` (each listed with its reason:
   physics quantities, fixed parameters, targets -- none is a measurement of dpdfit's
   speed);
@@ -48,6 +48,12 @@ SPEED_FIGURE = re.compile(
         # a clock time mm:ss or h:mm:ss
         r"(?<![\w.:'(+-])\d{1,2}:[0-5]\d(?::[0-5]\d)?(?![\d.:')])",
     ]))
+
+#: a table row about speed (its first cell names a time, rate or memory) ...
+SPEED_ROW = re.compile(r"seconds|\btime\b|speed|per second|wall|memory|\bcost\b|/s\b"
+                       r"|\[(?:s|ms|us|MB|GB|MiB)\]")
+#: ... must not show a measured number in another cell (a target, "<= 20", may stay)
+ROW_NUMBER = re.compile(r"(?<![≤≥<>\w.-])(?<![≤≥<>] )\d+(?:[,.]\d+)*")
 
 #: (file, text next to the figure, reason): figures that are not dpdfit's speed.  The
 #: text must occur within 70 characters of the figure (whitespace collapsed); an entry
@@ -122,8 +128,21 @@ def help_texts() -> dict[str, str]:
     return out
 
 
+def notebook_texts() -> dict[str, str]:
+    """The Markdown cells of the site's notebooks, one text per notebook."""
+    import json
+
+    out = {}
+    for nb in sorted((DOCS / "examples").glob("*.ipynb")):
+        cells = json.loads(nb.read_text("utf-8"))["cells"]
+        out[str(nb.relative_to(ROOT))] = "\n\n".join(
+            "".join(c["source"]) for c in cells if c["cell_type"] == "markdown")
+    return out
+
+
 def sources() -> dict[str, str]:
     texts = {str(p.relative_to(ROOT)): p.read_text(encoding="utf-8") for p in pages()}
+    texts.update(notebook_texts())
     texts.update(help_texts())
     return texts
 
@@ -137,6 +156,23 @@ def figures(text: str) -> list[tuple[str, str]]:
     flat = " ".join(ROLE.sub("ROLE", text).split())
     return [(m.group(0), flat[max(0, m.start() - 70):m.end() + 70])
             for m in SPEED_FIGURE.finditer(flat)]
+
+
+def table_figures(text: str) -> list[tuple[str, str]]:
+    """(number, row) of the numbers typed into Markdown table rows about speed.
+
+    Such a row has the unit in its first cell or in the header, so the number stands
+    alone (``| diagnosis seconds | median 31, max 110 |``).
+    """
+    out = []
+    for line in text.splitlines():
+        if not line.lstrip().startswith("|"):
+            continue
+        cells = [c.strip() for c in ROLE.sub("ROLE", line).strip().strip("|").split("|")]
+        if SPEED_ROW.search(re.sub(r"`[^`]*`", "", cells[0])):
+            out += [(m.group(0), line.strip()) for c in cells[1:]
+                    for m in ROW_NUMBER.finditer(c)]
+    return out
 
 
 def _allowed(name: str, around: str) -> tuple | None:
@@ -154,12 +190,17 @@ def test_the_scanner_finds_speed_figures():
                      "20x", "6-8x", "2.8 ms", "two minutes", "16-24 min", "65,000 per second"]
     assert figures("see {benchmark}`sweep_speed.json|#0|value` s; 2026-11-26T08:36:40; "
                    "--amplitudes 0.3:0.9:61") == []
+    rows = ("| check | target | measured |\n|---|---|---|\n"
+            "| diagnosis seconds | slowest ≤ 120 | median 31, max 110 |\n"
+            "| parity fits per second | ≥ 1000 | {benchmark}`counts_speed.json|#0|rate` |\n"
+            "| `aom_memory` | `tau_ns` | 7 |\n")
+    assert [f for f, _ in table_figures(rows)] == ["31", "110"]
 
 
 def test_no_typed_speed_figure_in_the_docs_readme_or_help():
     typed, used = [], set()
     for name, text in sources().items():
-        for fig, line in figures(text):
+        for fig, line in figures(text) + table_figures(text):
             entry = _allowed(name, line)
             if entry is None:
                 typed.append(f"{name}: {fig!r} in: {line[:160]}")
