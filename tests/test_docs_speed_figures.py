@@ -221,6 +221,15 @@ def test_every_benchmark_role_names_a_value_of_a_record():
         assert value == value, f"{page}: {text} is not a number"
 
 
+def test_every_cited_record_is_on_the_benchmarks_page():
+    from fnmatch import fnmatch
+
+    shown = re.findall(r"\.\./benchmarks/(\S+)", (DOCS / "benchmarks.md").read_text("utf-8"))
+    cited = {parse(m.group(1))[0] for p in pages() for m in ROLE.finditer(p.read_text("utf-8"))}
+    missing = sorted(name for name in cited if not any(fnmatch(name, g) for g in shown))
+    assert missing == [], f"cited in prose but not tabulated on the Benchmarks page: {missing}"
+
+
 def test_readme_time_ranges_for_the_first_command_hold_the_latest_record():
     readme = " ".join((ROOT / "README.md").read_text("utf-8").split())
     record = ROOT / "benchmarks" / "analyze_wall.json"
