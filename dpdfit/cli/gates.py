@@ -113,7 +113,8 @@ def cmd_align(args) -> int:
     sweep's photodiode curves onto the gate table (report or JSON, ``--plot`` the figures)."""
     from dpdfit.analyses.sweep import read_sweep_table
     from dpdfit.fits.alignment import align
-    gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
+    # xi0_err_khz is optional, as in gate_rates.csv: 'fidelity' leaves it out without it
+    gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "F", "F_err"], ["xi0_err_khz"],
                       numeric=["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
                       ranges={"A": (0.0, 1.0), "dpd": (0, 1), "F": (0.0, 1.0)},
                       positive=["xi0_khz"], unique=["A", "dpd"])
@@ -136,7 +137,8 @@ def add_align_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit align`` on an argparse sub-parsers object."""
     al = subparsers.add_parser(
         "align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
-    al.add_argument("--gate", required=True, help="A, dpd, xi0_khz, xi0_err_khz, F, F_err")
+    al.add_argument("--gate", required=True,
+                    help="A, dpd, xi0_khz, F, F_err (+ xi0_err_khz), e.g. from 'fidelity -o'")
     al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")
     al.add_argument("--sigma-db", type=_sigma_db, default=ERROR_MODEL.power_jitter_db,
                     help=f"laser-power fluctuation, dB ({ERROR_MODEL.power_jitter_db:g})")

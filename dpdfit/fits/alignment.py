@@ -192,6 +192,18 @@ def _gate_points(gate: pd.DataFrame) -> pd.DataFrame:
     return g
 
 
+def _no_horizontal_uncertainty(gate: pd.DataFrame, has_sx: bool):
+    """InputError naming the file the gate rates' errors come from (``attrs["rates_source"]``,
+    e.g. a campaign's ``gate_rates.csv``, else the gate table's) and column ``xi0_err_khz``;
+    ``attrs["sigma_db_name"]`` says where ``sigma_db`` was set."""
+    file = gate.attrs.get("rates_source") or gate.attrs.get("source") or "gate table"
+    what = "every value is 0" if has_sx else "no such column"
+    sigma = gate.attrs.get("sigma_db_name") or "sigma_db"
+    raise InputError(f"{what}, and the laser-power fluctuation ({sigma}) is 0: the alignment "
+                     f"has no horizontal uncertainty; give the gate rates' stated errors or "
+                     f"{sigma} > 0", file=file, column="xi0_err_khz")
+
+
 def align(gate: pd.DataFrame, sweep: pd.DataFrame,
           sigma_db: float = ERROR_MODEL.power_jitter_db) -> AlignmentFit:
     """Fit ``alpha`` and ``delta`` (see module docstring).
@@ -233,7 +245,7 @@ def align(gate: pd.DataFrame, sweep: pd.DataFrame,
     sx = g["xi0_err_khz"].to_numpy() if has_sx else np.zeros(len(g))
     F, sF = g["F"].to_numpy(), g["F_err"].to_numpy()
     if np.all(sx == 0) and sigma_db == 0:
-        raise FitError("no horizontal uncertainty: give xi0_err_khz or sigma_db > 0")
+        _no_horizontal_uncertainty(gate, has_sx)
     left_out = () if has_sx else (
         "xi0_err_khz (the gate rates' stated errors): not given, the horizontal weights "
         f"are the laser-power band alone (sigma_db = {sigma_db:g} dB)",)

@@ -8,6 +8,8 @@ the campaign's headline numbers with the paper's (:data:`PAPER`).
 
 from __future__ import annotations
 
+import math
+
 from dpdfit.core.version import __version__
 
 __all__ = ["PAPER", "realism_table", "summary_markdown", "format_value"]
@@ -197,6 +199,11 @@ def _mismatches(mismatches: list) -> list[str]:
     return lines
 
 
+def _finite(x) -> bool:
+    """A number that is not nan/inf: a parameter the form holds fixed has no error."""
+    return isinstance(x, (int, float)) and math.isfinite(x)
+
+
 def _diagnosis(dg: dict) -> list[str]:
     lines = ["", "## Discrepancy diagnosis (simulation vs recordings)", "",
              f"Verdict: **{dg['verdict']}** (baseline chi2 p-value "
@@ -205,7 +212,7 @@ def _diagnosis(dg: dict) -> list[str]:
     lines += ["", "| effect | delta BIC | LRT p | parameters |", "|---|---|---|---|"]
     for r in dg["ranking"]:
         par = ", ".join(f"{k} = {v:.4g} +/- {r['params_err'][k]:.2g}"
-                        for k, v in r["params"].items())
+                        for k, v in r["params"].items() if _finite(r["params_err"].get(k)))
         lines.append(f"| {r['effect']} | {r['delta_bic']:.1f} | {r['p_value']:.2g} | {par} |")
     lines += ["", "| observable | reduced chi2 before | after |", "|---|---|---|"]
     for k, v in dg["redchi_before"].items():

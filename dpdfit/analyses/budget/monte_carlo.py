@@ -89,7 +89,7 @@ def _paper_method(cfg, T_min, T_max) -> dict:
         "method": {
             "state_preparation": f"<~{100 * m_prep:.2f}",
             "dephasing": f"{100 * m_deph[0]:.2f}-{100 * m_deph[1]:.2f}",
-            "heating": f"~0 (dn{lt}{dn:.4f})",
+            "heating": f"~0 (dn{lt or '='}{dn:.4f})",   # dn: Delta nbar = ndot T_max
             "detection": f"{ltd}{100 * m_det:.3f}",
             "total": f"<~{100 * (m_prep + m_deph[0] + m_det):.2f}-"
                      f"{100 * (m_prep + m_deph[1] + m_det):.2f}",

@@ -163,12 +163,7 @@ class Diagnosis(Displayable):
                              f"{_pm(s['error_form'], None)})")
                     lines.append(f"      {k:>24s} = {_pm(s['value'], s['error'])} "
                                  f"{s['unit']}{parts}")
-        lines += ["", "  reduced chi2 per observable (baseline -> first effect -> final):"]
-        one = self.redchi_one or {}
-        for k in self.redchi_before:
-            lines.append(f"    {k:>28s} {self.redchi_before[k]:8.2f} -> "
-                         f"{one.get(k, float('nan')):8.2f} -> "
-                         f"{self.redchi_after.get(k, float('nan')):8.2f}")
+        lines += _redchi_lines(self)
         if len(self.effects) > 1:
             lines += ["", "  what each effect explains (chi2 removed per observable group):"]
             lines += _explains_lines(self)
@@ -202,6 +197,24 @@ def next_measurement_sentence(nxt: dict) -> str:
     return (f"the measurement that would decide: {nxt['what'].replace('_', ' ')} ({how}"
             f"{when}), expected delta BIC {nxt.get('expected_delta_bic', float('nan')):.3g} "
             f"between {' and '.join(nxt.get('separates') or [])}")
+
+
+def _redchi_lines(d: Diagnosis) -> list:
+    """Reduced chi2 per observable: baseline, then with the first effect and the final fit
+    where an effect was named (without one there is no such column to print, not a nan)."""
+    cols = [("baseline", d.redchi_before)]
+    if d.redchi_one is not None:
+        cols.append(("first effect", d.redchi_one))
+    if d.redchi_after and (d.redchi_one is not None or d.redchi_after != d.redchi_before):
+        cols.append(("final", d.redchi_after))
+    head = " -> ".join(name for name, _ in cols) + (
+        "" if d.redchi_one is not None else "; no effect named")
+    lines = ["", f"  reduced chi2 per observable ({head}):"]
+    for k in d.redchi_before:
+        vals = [c.get(k) for _, c in cols]
+        lines.append(f"    {k:>28s} " + " -> ".join(
+            "     n/a" if v is None or not np.isfinite(v) else f"{v:8.2f}" for v in vals))
+    return lines
 
 
 def _pm(v, e) -> str:

@@ -105,11 +105,14 @@ def gates_step(ctx: Context, simulated: SimulatedSweep | None) -> GateResults:
     if rates is not None:
         cols = ["A", "dpd", "xi0_khz"] + (["xi0_err_khz"] if "xi0_err_khz" in rates else [])
         tab = tab.merge(rates[cols], on=["A", "dpd"], how="left")
+        tab.attrs["rates_source"] = rates.attrs.get("source")  # named by the fit's errors
     res.table("gate.csv", tab)
     detail = f"{len(tab)} settings"
     fit = None
     if sweep is not None and "xi0_khz" in tab.columns and tab["xi0_khz"].notna().all():
-        fit = align(tab, sweep, power_jitter_db(ctx.meta))
+        points = tab.copy(deep=False)  # where sigma_db comes from, for the fit's errors only
+        points.attrs["sigma_db_name"] = "campaign.json error_model.power_jitter_db"
+        fit = align(points, sweep, power_jitter_db(ctx.meta))
         res.table("alignment_points.csv", fit.points)
         detail += f"; alignment alpha = {fit.alpha_khz:.3f} +/- {fit.alpha_khz_err:.3f} kHz, " \
                   f"delta = {fit.delta:+.4f} +/- {fit.delta_err:.4f}"
