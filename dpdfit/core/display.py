@@ -109,11 +109,12 @@ def _is_scalar(v) -> bool:
     return isinstance(v, (int, float, bool, np.integer, np.floating, np.bool_)) or v is None
 
 
-def rows_from_dict(d: dict) -> list[tuple]:
+def rows_from_dict(d: dict, symbol: str = "c") -> list[tuple]:
     """Display rows ``(name, value, error, unit)`` read from a ``to_dict()``.
 
     Scalars (with their ``*_err``/``*_stderr`` partner as error), short strings,
-    ``coefficients`` (with ``stderr`` and ``powers``) expanded one per row, and
+    ``coefficients`` (with ``stderr`` and ``powers``) expanded one per row as
+    ``<symbol>_<power>`` (the name the guide gives them, e.g. ``a_2``), and
     small dicts of scalars as ``key.sub``; diagnostics, long strings and big
     nested values are left to :meth:`Displayable.to_dict`.
     """
@@ -126,7 +127,7 @@ def rows_from_dict(d: dict) -> list[tuple]:
         if key == "coefficients" and isinstance(val, list) and _is_scalar(val[0] if val else 0):
             se = d.get("stderr") or [None] * len(val)
             pw = d.get("powers") or list(range(len(val)))
-            rows += [(f"c[{p}]", c, s, "") for p, c, s in zip(pw, val, se)]
+            rows += [(f"{symbol}_{p}", c, s, "") for p, c, s in zip(pw, val, se)]
         elif _is_scalar(val):
             e = d.get(_error_of(d, key)) if key in errs else None
             rows.append((key, val, e if _is_scalar(e) else None, _unit(key)))
@@ -257,9 +258,11 @@ class Displayable:
     """
 
     _display_title: str | None = None
+    #: name of the polynomial coefficients in the rows, as the guide writes them
+    _coefficient_symbol: str = "c"
 
     def _display_rows(self) -> list[tuple]:
-        return rows_from_dict(self.to_dict())
+        return rows_from_dict(self.to_dict(), self._coefficient_symbol)
 
     def _display_diagnostics(self) -> dict:
         return diagnostics_from_dict(self.to_dict())

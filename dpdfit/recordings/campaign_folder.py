@@ -1,7 +1,7 @@
 """The campaign folder: one reader, one set of rules, for every analysis.
 
 ``dpdfit analyze`` and ``dpdfit diagnose`` read a campaign folder (layout in
-the README, "Campaign folder layout") through :class:`CampaignFolder`.  Each
+``docs/getting-started.md``, "The campaign folder") through :class:`CampaignFolder`.  Each
 file is read and validated once, on first use, so that a malformed file stops
 only the analyses that need it (``analyze``) while a missing *optional* file
 or column only changes what is analysed; :meth:`CampaignFolder.left_out`

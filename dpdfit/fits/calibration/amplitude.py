@@ -75,11 +75,11 @@ class AmplitudeCalibration(ModelAdequacy, Displayable):
     sigma_source : {"given", "residuals"}
     n_points : int
     aic, bic, log_likelihood : Gaussian information criteria.
-    source : dict
-        ``file``, ``sha256``, ``run``, ``timestamp`` when known.
-    order_table : list of dict
-        AIC/BIC over a range of orders (optional).
+    source : ``file``, ``sha256``, ``run``, ``timestamp`` when known (dict).
+    order_table : AIC/BIC over a range of orders (list of dict, optional).
     """
+
+    _coefficient_symbol = "a"   # the name the guide and the paper give them
 
     powers: tuple
     coefficients: np.ndarray

@@ -46,6 +46,8 @@ class PhaseCalibration(ModelAdequacy, Displayable):
         Fit window; ``n_points`` used, ``n_excluded`` outside it.
     """
 
+    _coefficient_symbol = "b"   # the name the guide and the paper give them
+
     powers: tuple
     coefficients: np.ndarray
     covariance: np.ndarray

@@ -38,7 +38,7 @@ For ``b_n = c_n = r_n`` real, ``K = (eta Omega0/2) beta(t) sigma_y`` and ::
     H = S_y (f(t) a^dag + f(t)^* a),   S_y = sigma_y1 + sigma_y2,
     f(t) = (eta Omega0/2) sum_n r_n e^{-i delta_n t}.
 
-``tests/exact_ms.py`` integrates ``S_x (f' a^dag + h.c.)`` with
+``tests/helpers/exact_ms.py`` integrates ``S_x (f' a^dag + h.c.)`` with
 ``f' = (eta Omega/2) sum_n r_n e^{+i(delta_n t + phi_n)}``: exact_ms writes
 the force rotating as ``e^{+i delta t}`` (its detuning has the opposite
 sign).  With the spin-axis rotation ``W = exp(-i pi/4 (sigma_z1 + sigma_z2))``

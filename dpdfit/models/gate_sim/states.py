@@ -105,7 +105,8 @@ def gate_target(b, c, n, xi0, gate=(1, 2), n_fock=None, rtol=1e-10, atol=1e-12):
     the intermodulation tones, the power and rate errors and the decoherence
     do, not the frame (Bell phase) set by the common phase and red/blue
     imbalance of the gate tones; it is the analogue of the target used to
-    validate :mod:`dpdfit.models.fidelity` against ``tests/exact_ms.py``.
+    validate :mod:`dpdfit.models.fidelity` against
+    ``tests/helpers/exact_ms.py``.
     """
     b, c, n = check_tones(b, c, n)
     mask = np.isin(n, np.asarray(gate))
