@@ -188,11 +188,11 @@ def test_the_scanner_finds_speed_figures():
         "20x, 6-8x an FFT, 2.8 ms, about two minutes, 16-24 min, 65,000 per second")]
     assert found == ["2:09", "12 s", "40 s", "0.99 s", "173 MB", "2,760-2,810 parity fits/s",
                      "20x", "6-8x", "2.8 ms", "two minutes", "16-24 min", "65,000 per second"]
-    assert figures("see {benchmark}`sweep_speed.json|#0|value` s; 2026-11-26T08:36:40; "
+    assert figures("see {benchmark}`sweep_speed.json::#0::value` s; 2026-11-26T08:36:40; "
                    "--amplitudes 0.3:0.9:61") == []
     rows = ("| check | target | measured |\n|---|---|---|\n"
             "| diagnosis seconds | slowest ≤ 120 | median 31, max 110 |\n"
-            "| parity fits per second | ≥ 1000 | {benchmark}`counts_speed.json|#0|rate` |\n"
+            "| parity fits per second | ≥ 1000 | {benchmark}`counts_speed.json::#0::rate` |\n"
             "| `aom_memory` | `tau_ns` | 7 |\n")
     assert [f for f, _ in table_figures(rows)] == ["31", "110"]
 
@@ -207,7 +207,7 @@ def test_no_typed_speed_figure_in_the_docs_readme_or_help():
             else:
                 used.add(ALLOWED.index(entry))
     assert typed == [], (f"{len(typed)} typed speed figure(s); cite the record with "
-                         "{benchmark}`FILE|ROW|COLUMN` or drop them:\n" + "\n".join(typed))
+                         "{benchmark}`FILE::ROW::COLUMN` or drop them:\n" + "\n".join(typed))
     unused = [ALLOWED[i] for i in range(len(ALLOWED)) if i not in used]
     assert unused == [], f"exceptions that match nothing any more: {unused}"
 
@@ -246,12 +246,12 @@ def test_readme_time_ranges_for_the_first_command_hold_the_latest_record():
 
 
 @pytest.mark.parametrize("citation, message", [
-    ("missing.json|#0|value", "benchmark file not found"),
-    ("sweep_speed.json|quantity~no such row|value", "matches 0 rows"),
-    ("sweep_speed.json|quantity~|value", "matches 3 rows"),
-    ("sweep_speed.json|#0|no such column", "has no column"),
-    ("sweep_speed.json|#0|target", "not a number"),
-    ("sweep_speed.json|#0", "expected FILE|ROW|COLUMN"),
+    ("missing.json::#0::value", "benchmark file not found"),
+    ("sweep_speed.json::quantity~no such row::value", "matches 0 rows"),
+    ("sweep_speed.json::quantity~::value", "matches 3 rows"),
+    ("sweep_speed.json::#0::no such column", "has no column"),
+    ("sweep_speed.json::#0::target", "not a number"),
+    ("sweep_speed.json::#0", "expected FILE::ROW::COLUMN"),
 ])
 def test_a_citation_of_no_value_fails_the_build(tmp_path, citation, message):
     from sphinx.cmd.build import build_main
@@ -265,7 +265,7 @@ def test_a_citation_of_no_value_fails_the_build(tmp_path, citation, message):
         f"import sys\nsys.path.insert(0, {str(DOCS / '_ext')!r})\n"
         "extensions = ['benchmark_values']\n", "utf-8")
     (src / "benchmarks.rst").write_text("Benchmarks\n==========\n", "utf-8")
-    good = "sweep_speed.json|quantity~peak resident memory|value|.0f"
+    good = "sweep_speed.json::quantity~peak resident memory::value::.0f"
     (src / "index.rst").write_text(
         f"Index\n=====\n\n.. toctree::\n\n   benchmarks\n\nGood :benchmark:`{good}` MB.\n",
         "utf-8")

@@ -3,9 +3,9 @@
 A speed, memory or ratio figure in the documentation is never typed: prose cites it
 from the record that measured it, read when the documentation is built::
 
-    the sweep takes {benchmark}`sweep_speed.json|quantity~median wall|value|.2g` s
+    the sweep takes {benchmark}`sweep_speed.json::quantity~median wall::value::.2g` s
 
-The text has three or four fields separated by ``|``:
+The text has three or four fields separated by ``::``:
 
 ``FILE``
     a file in ``benchmarks/`` (any file the ``benchmark-table`` directive reads:
@@ -38,6 +38,9 @@ from sphinx.util.docutils import SphinxRole
 from benchmark_tables import RecordError, fmt, load_record
 
 __all__ = ["BenchmarkValue", "BenchmarkValueError", "lookup", "format_value", "setup"]
+
+#: between the fields (``|`` would split a Markdown table's cell, ``:`` occurs in rows)
+SEP = "::"
 
 #: where the records are, relative to the documentation's source folder
 RECORDS = Path("..") / "benchmarks"
@@ -106,14 +109,14 @@ def format_value(value: float, spec: str | None) -> str:
 
 def parse(text: str) -> tuple[str, str, str, str | None]:
     """(file, row selector, column, format or None) of a role's text."""
-    parts = [p.strip() for p in text.split("|")]
+    parts = [p.strip() for p in text.split(SEP)]
     if len(parts) not in (3, 4) or not all(parts[:3]):
-        raise BenchmarkValueError(f"{text!r}: expected FILE|ROW|COLUMN[|FORMAT]")
+        raise BenchmarkValueError(f"{text!r}: expected FILE::ROW::COLUMN[::FORMAT]")
     return parts[0], parts[1], parts[2], (parts[3] if len(parts) == 4 else None)
 
 
 class BenchmarkValue(SphinxRole):
-    """``{benchmark}`FILE|ROW|COLUMN[|FORMAT]```: the value, linked to the Benchmarks page."""
+    """``{benchmark}`FILE::ROW::COLUMN[::FORMAT]```: the value, linked to the Benchmarks page."""
 
     def run(self):
         try:
