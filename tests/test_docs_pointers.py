@@ -44,7 +44,8 @@ _LINK = re.compile(r"\[[^\]\n]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 _FENCE = re.compile(r"^(```|~~~).*?^\1\s*$", re.S | re.M)
 _README_SECTION = re.compile(
     r"README(?:'s|,)?\s+(?:section\s+)?\"([^\"]+)\"|section\s+\"([^\"]+)\"\s+of\s+the\s+README"
-    r"|README's\s+([a-z]\w*)", re.I)
+    # unquoted, a part of a document the README would need a heading for
+    r"|README's\s+(walkthrough|tutorial|chapter|appendix)\b", re.I)
 #: "Eq. 3", "Eqs. S4-S6", "Sec. S6.3", "Secs. S1-S2", "Table S2"; anything else after
 #: Eq./Sec. that is a word is a label the paper's reader never sees
 _PAPER_REF = re.compile(r"\b(Eqs?|Secs?)\.[ ~]*\(?([A-Za-z][\w-]*)")
@@ -149,7 +150,7 @@ def _readme_headings() -> set[str]:
 
 
 def _starts_a_heading(word: str, headings: set[str]) -> bool:
-    """An unquoted "the README's documentation" names the heading "Documentation"."""
+    """An unquoted "the README's walkthrough" needs a heading that starts with the word."""
     return " " not in word and any(h.split()[0].lower() == word.lower() for h in headings)
 
 
@@ -184,3 +185,10 @@ def test_the_label_check_tells_labels_from_numbers():
     text = "Eq. 3, Eqs. S4-S6, Sec. S6.3 and Eq. aom-forward"
     assert [m.group(2) for m in _PAPER_REF.finditer(text)
             if not _NUMBER.match(m.group(2))] == ["aom-forward"]
+
+
+def test_the_readme_check_finds_named_sections_and_parts():
+    text = ('README section "Campaign folder layout", the README\'s "Measured numbers", '
+            "the README's walkthrough, and the README's first command")
+    named = [a or b or c for a, b, c in _README_SECTION.findall(text)]
+    assert named == ["Campaign folder layout", "Measured numbers", "walkthrough"]
