@@ -165,7 +165,10 @@ def test_every_readme_section_named_is_a_heading_of_the_readme():
 
 
 def test_paper_references_are_numbers_not_latex_labels():
-    labels = [f"{where}: {m.group(0)}" for where, _, text in SOURCES
+    # the package's whole text: docstrings, comments and --help strings alike
+    code = [(str(p.relative_to(ROOT)), p.parent, p.read_text(encoding="utf-8"))
+            for p in sorted((ROOT / "dpdfit").rglob("*.py"))]
+    labels = [f"{where}: {m.group(0)}" for where, _, text in SOURCES + code
               for m in _PAPER_REF.finditer(text) if not _NUMBER.match(m.group(2))]
     assert not labels, ("the paper's reader sees numbers (main text 1-5, Supplement S1-S22), "
                         "not labels:\n" + "\n".join(labels))
