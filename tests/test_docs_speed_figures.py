@@ -45,6 +45,7 @@ SPEED_FIGURE = re.compile(
         _NUM + r"\s*(?:[a-zA-Z]+\s+){0,4}per second",
         # a speed ratio
         _NUM + r"\s*(?:x|×)(?![\w])",
+        r"\b(?:\d[\d,.]*|two|three|ten|twenty|a hundred)\s+times\s+(?:faster|slower|as fast|as long)",
         # a clock time mm:ss or h:mm:ss
         r"(?<![\w.:'(+-])\d{1,2}:[0-5]\d(?::[0-5]\d)?(?![\d.:')])",
     ]))
@@ -185,9 +186,11 @@ def _allowed(name: str, around: str) -> tuple | None:
 def test_the_scanner_finds_speed_figures():
     found = [f for f, _ in figures(
         "It took 2:09, 12 s, about 40 s, 0.99 s, 173 MB, 2,760-2,810 parity fits/s, "
-        "20x, 6-8x an FFT, 2.8 ms, about two minutes, 16-24 min, 65,000 per second")]
+        "20x, 6-8x an FFT, 2.8 ms, about two minutes, 16-24 min, 65,000 per second, "
+        "20 times faster")]
     assert found == ["2:09", "12 s", "40 s", "0.99 s", "173 MB", "2,760-2,810 parity fits/s",
-                     "20x", "6-8x", "2.8 ms", "two minutes", "16-24 min", "65,000 per second"]
+                     "20x", "6-8x", "2.8 ms", "two minutes", "16-24 min", "65,000 per second",
+                     "20 times faster"]
     assert figures("see {benchmark}`sweep_speed.json::#0::value` s; 2026-11-26T08:36:40; "
                    "--amplitudes 0.3:0.9:61") == []
     rows = ("| check | target | measured |\n|---|---|---|\n"
