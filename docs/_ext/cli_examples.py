@@ -47,7 +47,7 @@ def _command_sections(subcommands: nodes.section):
 
 
 class CommandReference(ArgParseDirective):
-    """``argparse`` with the examples as literal code and no smart quotes (options as argparse's)."""
+    """``argparse``, with the examples as literal code and no smart quotes on the page."""
 
     def _print_subcommands(self, data, nested_content, markdown_help=False, settings=None):
         for child in data.get("children", []):
