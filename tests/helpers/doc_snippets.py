@@ -3,7 +3,7 @@
 A page's ``bash``/``console``/``shell``/``python`` blocks (and ``{code-cell}`` ones) run in
 page order in one fresh folder that holds the repository's ``datasets/``; its Python
 blocks share one namespace (a reader's session).  A ``text`` block that follows an
-executed snippet in the same section is what the page says the snippets printed: each of
+executed snippet is what the page says the snippets printed: each of
 its lines must appear in the page's output so far, every number within half a unit of
 its last shown digit.
 """
@@ -46,7 +46,6 @@ class Block:
     lang: str
     line: int
     text: str
-    heading: int            # index of the section (counts headings above the block)
 
     @property
     def first_line(self) -> str:
@@ -79,11 +78,9 @@ def page_name(path: Path) -> str:
 
 def blocks(path: Path) -> list[Block]:
     """The page's fenced blocks in order (any fence of three or more backticks)."""
-    out, lines, i, heading = [], path.read_text(encoding="utf-8").splitlines(), 0, 0
+    out, lines, i = [], path.read_text(encoding="utf-8").splitlines(), 0
     while i < len(lines):
         line = lines[i]
-        if re.match(r"^#{1,6} ", line):
-            heading += 1
         m = re.match(r"^(\s*)(`{3,})\s*(\{[\w-]+\}|[\w-]*)", line)
         if not m:
             i += 1
@@ -95,7 +92,7 @@ def blocks(path: Path) -> list[Block]:
         body = [ln[indent:] if ln[:indent].strip() == "" else ln for ln in lines[i + 1:j]]
         if lang == "{code-cell}":
             body = [ln for ln in body if not ln.startswith(":")]
-        out.append(Block(lang, i + 1, "\n".join(body), heading))
+        out.append(Block(lang, i + 1, "\n".join(body)))
         i = j + 1
     return out
 
@@ -180,8 +177,9 @@ class Session:
     def _note(self, last_line: str, value) -> None:
         """Keep an expression's value with the numbers its comment quotes as the result
         (a comment that starts with a number)."""
-        comment = last_line.partition("  #")[2].strip() or None
-        if comment is None or not NUMBER.match(comment.lstrip("~")):
+        parts = re.split(r"\s#\s", last_line, maxsplit=1)
+        comment = parts[1].strip() if len(parts) == 2 else ""
+        if not NUMBER.match(comment.lstrip("~")):
             return
         values = value if isinstance(value, tuple) else (value,)
         try:
