@@ -31,6 +31,14 @@ __all__ = ["add_sweep_command", "add_estimate_command", "add_im_table_command",
 _FORMULAS = ["exact", "paper"]
 
 
+def _eta_corr_line(th: dict) -> str:
+    """``eta_bar_corr`` in the report at the precision of its meaning (JSON keeps every
+    digit): the 12th digit moves with the BLAS build, and a reader cannot use it."""
+    v = {k: "-" if th["eta_corr"][k] is None else f"{th['eta_corr'][k]:.6f}"
+         for k in ("dpd", "no_dpd")}
+    return f"eta_bar_corr: DPD {v['dpd']}, no DPD {v['no_dpd']}"
+
+
 def _print_thresholds(th: dict) -> None:
     for key in ("no_dpd", "dpd"):
         print(f"eta_th ({key}): " + ", ".join(
@@ -78,8 +86,7 @@ def cmd_sweep(args) -> int:
     write_csv_with_header(out, df, meta)
     print(f"sweep: {len(cfg.amplitudes)} amplitudes x 2 DPD flags x 3 rows "
           f"({'AM only' if cfg.am_only else 'AM+PM'}, formula {cfg.formula}, nbar {cfg.nbar:g})")
-    print(f"A_corr = {tf.A_corr:.6f}; eta_bar_corr: DPD {th['eta_corr']['dpd']}, "
-          f"no DPD {th['eta_corr']['no_dpd']}")
+    print(f"A_corr = {tf.A_corr:.6f}; {_eta_corr_line(th)}")
     _print_thresholds(th)
     print(f"wrote {out}", file=sys.stderr)
     if figures:
@@ -220,7 +227,7 @@ def cmd_thresholds(args) -> int:
     if args.json:
         print(json.dumps(to_jsonable(res), indent=2))
     else:
-        print(f"eta_bar_corr: DPD {res['eta_corr']['dpd']}, no DPD {res['eta_corr']['no_dpd']}")
+        print(_eta_corr_line(res))
         _print_thresholds(res)
     return 0
 
