@@ -77,9 +77,14 @@ def rendered_reference(tmp_path_factory):
         "Commands\n========\n\n.. command-reference::\n   :module: dpdfit.cli.main\n"
         "   :func: build_parser\n   :prog: dpdfit\n")
     out = src / "_build"
-    app = sphinx.Sphinx(str(src), str(src), str(out), str(out / ".doctrees"), "xml",
-                        status=None, warning=None, freshenv=True)
-    app.build()
+    from sphinx.util.docutils import docutils_namespace, patch_docutils
+    # as sphinx-build does: the nodes, roles and directives this build registers are
+    # unregistered afterwards, so a later Sphinx build in the same process is not
+    # warned that they are registered already
+    with patch_docutils(str(src)), docutils_namespace():
+        app = sphinx.Sphinx(str(src), str(src), str(out), str(out / ".doctrees"), "xml",
+                            status=None, warning=None, freshenv=True)
+        app.build()
     return ET.parse(out / "index.xml").getroot()
 
 

@@ -467,7 +467,9 @@ def caption_nodes(rec: dict, shown_path: str) -> list[nodes.Node]:
 def record_nodes(rec: dict, shown_path: str | None = None) -> list[nodes.Node]:
     """The caption and the tables of one record."""
     shown = shown_path or str(rec["path"])
-    box = nodes.container(classes=["benchmark-record"])
+    # a record's text is written by a program (commands, options such as --no-diagnosis):
+    # smart quotes would turn its "--" into a dash
+    box = nodes.container(classes=["benchmark-record"], support_smartquotes=False)
     box += caption_nodes(rec, shown)
     for title, columns, rows in split_tables(rec["rows"]):
         box += table_node(title, columns, rows)
@@ -546,7 +548,9 @@ class BenchmarkHistory(_Base):
                 records.append((self._shown(p), rec))
         rows = history_rows(records)
         (_, columns, rows), = split_tables(rows)
-        return [table_node(None, columns, rows)]
+        table = table_node(None, columns, rows)
+        table["support_smartquotes"] = False       # program-written text, as in a record
+        return [table]
 
 
 def setup(app):
