@@ -55,9 +55,12 @@ def _state(pid: int) -> str:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux")
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT, signal.SIGTERM])
 def test_pool_workers_do_not_outlive_their_parent(sig):
+    # the command as a terminal starts it: Ctrl-C not ignored (a test runner started in
+    # the background, as CI may be, hands its children an ignored SIGINT)
     p = subprocess.Popen([sys.executable, "-c", _SCRIPT], cwd=ROOT, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True,
-                         env={**os.environ, "DPDFIT_WORKERS": "2"})
+                         env={**os.environ, "DPDFIT_WORKERS": "2"},
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # The workers are the parent's children (a forked pool has no other helper
     # process).  They are found in the process table rather than by what they
     # print: in the loaded test run a worker's line once never arrived although
