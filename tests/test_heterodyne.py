@@ -1,4 +1,4 @@
-"""Heterodyne trace -> tone powers (Supplement S4): dpdfit.fits.heterodyne."""
+"""Heterodyne trace -> tone powers (Supplement S4): dpdfit.fits.tones (trace_tone_powers)."""
 
 from __future__ import annotations
 
