@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects
-from dpdfit.analyses.diagnosis.effects.registry import register, unregister
 from dpdfit.simulation.campaign.config import SIMULATOR_EFFECTS
 from tests.helpers.doc_snippets import DOCS, blocks
+from tests.helpers.registered_effect import registered_effect
 
 PAGE = DOCS / "diagnosis" / "adding-an-effect.md"
 
@@ -30,12 +30,8 @@ def skeleton_effect():
     package = "dpdfit.analyses.diagnosis.effects"
     namespace = {"__name__": f"{package}.third_order_pm", "__package__": package}
     exec(compile(_skeleton_code(), str(PAGE), "exec"), namespace)
-    effect = register(namespace["EFFECT"])
-    try:
+    with registered_effect(namespace["EFFECT"]) as effect:
         yield effect
-    finally:
-        unregister(effect.name)
-    assert effect.name not in EFFECTS
 
 
 def test_the_pages_effect_skeleton_registers_and_is_a_hypothesis(skeleton_effect):

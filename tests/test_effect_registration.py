@@ -5,21 +5,18 @@ import numpy as np
 import pytest
 
 from dpdfit.analyses.diagnosis.diagnose import diagnose
-from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, register, unregister
+from dpdfit.analyses.diagnosis.effects import default_effects, register, unregister
 from dpdfit.simulation.campaign import SIMULATOR_EFFECTS, simulate_campaign
 from dpdfit.simulation.harness import concealed_effects, harness_config, plan
 
+from tests.helpers.registered_effect import registered_effect
 from tests.helpers.seventh_order_effect import EFFECT as PM7
 
 
 @pytest.fixture
 def registered():
-    register(PM7)
-    try:
+    with registered_effect(PM7):
         yield PM7
-    finally:
-        unregister(PM7.name)
-    assert PM7.name not in EFFECTS
 
 
 def test_a_registered_effect_appears_in_every_derived_list(registered):
