@@ -108,7 +108,7 @@ def shell_script(text: str) -> tuple[str, list[str]]:
     joined = re.sub(r"\\\n", " ", text)
     kept, dropped = [], []
     for line in joined.splitlines():
-        parts = [p for p in re.split(r"&&", line)] if not line.lstrip().startswith("#") else [line]
+        parts = re.split(r"&&", line) if not line.lstrip().startswith("#") else [line]
         keep = []
         for part in parts:
             if INSTALL_STEP.match(part) or SELF_COMMAND.match(part):
