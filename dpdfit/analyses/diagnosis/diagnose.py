@@ -50,7 +50,7 @@ from dpdfit.analyses.diagnosis.gate_model import GATE_NUISANCES
 from dpdfit.analyses.diagnosis.generic import generic_discrepancy
 from dpdfit.analyses.diagnosis.observables import Campaign, load_campaign
 from dpdfit.analyses.diagnosis.phase_sign import refit_other_sign, repredict_gates
-from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem
+from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem, check_forms_left_out
 from dpdfit.analyses.diagnosis.named_effects import named_effects
 from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
@@ -76,7 +76,8 @@ ADD_NFEV = 40
 
 def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
              with_gates: bool = True, run_fits: dict | None = None,
-             progress: bool | None = None, calibration=None, noise=None) -> Diagnosis:
+             progress: bool | None = None, calibration=None, noise=None,
+             forms_left_out: dict | None = None) -> Diagnosis:
     """Diagnose a campaign (see module doc).
 
     Parameters
@@ -105,6 +106,11 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
         (:class:`~dpdfit.fits.photodiode.PowerNoise`, ``PhaseNoise`` or None each) when
         the caller has learnt them from every run (``dpdfit analyze``'s calibration
         step does): the runs are not refitted for them.
+    forms_left_out : dict, optional
+        ``{effect: [form, ...]}``: forms of the catalog left out of every fit (the
+        harness's leave-one-form-out mode: how the diagnosis does when a lab's physics
+        takes a form its catalog does not have).  An effect with every form left out
+        is not considered.
 
     Returns
     -------
@@ -121,14 +127,15 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
     effects = tuple(default_effects() if effects is None else effects)
     for e in effects:
         get(e)                                            # a KeyError naming the known ones
+    forms_left_out = check_forms_left_out(forms_left_out)
     with (threadpool_limits(limits=1, user_api="blas"),
           progress_bar(total=6, desc="diagnose", progress=progress) as bar):
         return _diagnose(campaign, effects, pairs, with_gates, run_fits, calibration, noise,
-                         bar)
+                         bar, forms_left_out)
 
 
 def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibration,
-              noise, bar) -> Diagnosis:
+              noise, bar, forms_left_out=None) -> Diagnosis:
     t0 = time.perf_counter()
     timing = {}
 
@@ -140,8 +147,9 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
                                                                          calibration, noise)
     effects = tuple(e for e in effects if (with_gates and camp.gates is not None)
                     or EFFECTS[e].side == "tones")
-    prob = Problem(camp, with_gates=with_gates, effects=effects)
-    effects = tuple(e for e in effects if EFFECTS[e].supports(prob))
+    prob = Problem(camp, with_gates=with_gates, effects=effects,
+                   forms_left_out=forms_left_out)
+    effects = tuple(e for e in effects if EFFECTS[e].supports(prob) and prob.forms_of(e))
     lap("null model")
     base = fit_hypothesis(prob, ())
     # the baseline's series and null model now: an effect's fit may re-choose the
@@ -203,7 +211,9 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
                "runs_after_recordings": (None if camp.runs_after is None
                                          else list(camp.runs_after.runs)),
                "timing_seconds": timing,
-               "warnings": list(camp.warnings), "left_out": list(camp.left_out)},
+               "warnings": list(camp.warnings), "left_out": list(camp.left_out),
+               **({"forms_left_out": {k: sorted(v) for k, v in prob.forms_left_out.items()}}
+                  if prob.forms_left_out else {})},
         series_before=series_before, series_after=prob.series(pa), context=prob)
 
 

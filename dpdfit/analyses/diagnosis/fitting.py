@@ -246,7 +246,7 @@ def form_chains(prob, name: str) -> list:
     """Effect ``name``'s forms the campaign supports, grouped into chains: a form
     that starts from a smaller one's optimum (``starts_from``) follows it; independent
     chains can be fitted in parallel."""
-    forms = list(get(name).forms_for(prob))
+    forms = list(prob.forms_of(name))
     names = {f.name for f in forms}
     chains = []
     for f in forms:
@@ -269,7 +269,7 @@ def fit_effect(prob, name: str, fixed: dict | None = None, init: dict | None = N
     """
     e = get(name)
     out = {}
-    for form in e.forms_for(prob):
+    for form in prob.forms_of(name):
         if forms is not None and form.name not in forms:
             continue
         st = [dict(starts or {})]
@@ -325,7 +325,7 @@ def fit_effects(prob, jobs: list) -> list:
     for (_, i, name, _, _), res in zip(tasks, done):
         out[i].update(res)
     for (name, _), res in zip(jobs, out):
-        order = [f.name for f in get(name).forms_for(prob)]
+        order = [f.name for f in prob.forms_of(name)]
         res_sorted = {k: res[k] for k in order if k in res}
         res.clear()
         res.update(res_sorted)

@@ -50,6 +50,12 @@ class Optimum:
     jac: np.ndarray
 
 
+def _first_form(prob, name: str):
+    """The first form of ``name`` the problem keeps (None: the catalog form)."""
+    forms = prob.forms_of(name) if hasattr(prob, "forms_of") else ()
+    return forms[0].name if forms else None
+
+
 class Objective:
     """The standardised residuals of one hypothesis over its free parameters.
 
@@ -68,7 +74,8 @@ class Objective:
         n_replaced = 0
         for name, form_name in hyp:
             e = get(name)
-            form = e.form(form_name, prob)
+            form = e.form(form_name if form_name is not None
+                          else _first_form(prob, name), prob)
             self.forms.append((e, form))
             pars = {par.name: par for par in e.parameters(prob)}
             for k, v in form.fixed.items():

@@ -46,6 +46,23 @@ NUISANCES = {"cal_amp*": ("sigma", "error modes of the amplitude calibration "
              "gate_power_offset": ("dB", "absolute scale of the heterodyne tone powers")}
 
 
+def check_forms_left_out(forms_left_out: dict | None) -> dict:
+    """``{effect: frozenset(form names)}`` from a mapping of effect names to form names
+    (KeyError naming the known effects or forms for an unknown one)."""
+    out = {}
+    for name, forms in (forms_left_out or {}).items():
+        e = EFFECTS.get(name)
+        if e is None:
+            raise KeyError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}")
+        forms = (forms,) if isinstance(forms, str) else tuple(forms)
+        known = {f.name for f in e.forms_for()}
+        for f in forms:
+            if f not in known:
+                raise KeyError(f"{name} has no form {f!r} (forms: {', '.join(sorted(known))})")
+        out[name] = frozenset(forms)
+    return out
+
+
 class Problem:
     """All observables of a campaign and the residual function of a parameter set.
 
@@ -59,9 +76,14 @@ class Problem:
         What the null model learnt (:meth:`null_model`).
     """
 
-    def __init__(self, camp: Campaign, with_gates: bool = True, effects=None):
+    def __init__(self, camp: Campaign, with_gates: bool = True, effects=None,
+                 forms_left_out: dict | None = None):
         #: the effects this problem may be asked to fit (their gate knobs get responses)
         self.effects = tuple(default_effects() if effects is None else effects)
+        #: forms of the catalog this problem leaves out, ``{effect: frozenset(forms)}``
+        #: (the harness's leave-one-form-out mode: a lab's physics in a form the catalog
+        #: does not have)
+        self.forms_left_out = check_forms_left_out(forms_left_out)
         self.tone = ToneModel(camp)
         self._cache_key, self._cache_val = None, None
         # the tone-side noise (floor, repeatability, trace power jitter) learnt from the
@@ -85,6 +107,27 @@ class Problem:
         self.phase_sign_chi2, self.rate_scatter = None, None
         if with_gates and camp.gates is not None:
             self._init_gates(camp)
+
+    def forms_of(self, name: str) -> tuple:
+        """Effect ``name``'s forms this campaign supports, less those left out
+        (:attr:`forms_left_out`); a form started from a left-out one starts from that
+        one's own start instead."""
+        e = EFFECTS[name]
+        out = e.forms_for(self)
+        gone = self.forms_left_out.get(name, frozenset())
+        if not gone:
+            return out
+        parent = {f.name: f.starts_from for f in out}
+        kept = []
+        for f in out:
+            if f.name in gone:
+                continue
+            start = f.starts_from
+            while start in gone:
+                start = parent.get(start)
+            kept.append(f if start == f.starts_from
+                        else dataclasses.replace(f, starts_from=start))
+        return tuple(kept)
 
     def _init_gates(self, camp: Campaign) -> None:
         """The gate model, the gate nuisances and what the null model learns from the gates."""

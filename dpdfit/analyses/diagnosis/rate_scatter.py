@@ -34,8 +34,8 @@ def gate_forms(prob) -> list:
     free while the rate scatter is estimated (one parameter each: the smooth
     directions a scatter must not absorb; a family's extra freedom would also absorb
     the scatter itself)."""
-    return [(EFFECTS[n], EFFECTS[n].forms_for(prob)[0]) for n in prob.effects
-            if EFFECTS[n].side == "gates" and EFFECTS[n].default]
+    return [(EFFECTS[n], prob.forms_of(n)[0]) for n in prob.effects
+            if EFFECTS[n].side == "gates" and EFFECTS[n].default and prob.forms_of(n)]
 
 
 def _gate_nll(prob, rel: float, start: dict | None = None):
