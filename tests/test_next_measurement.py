@@ -123,11 +123,20 @@ def test_more_hypotheses_take_the_smallest_separation(tone_prob):
         assert b["expected_delta_bic"] == pytest.approx(0.0, abs=1e-9)
 
 
-def test_to_dict_has_exactly_the_contract_keys(tone_prob):
+#: keys added to the contract: the separation predicted (held, linearised, refitted),
+#: the hypotheses' forms and the pair that set it; per menu item its held separation
+#: (and the linearised one where a refit confirmed it)
+ADDED_KEYS = {"predicted_separation", "hypotheses", "binding"}
+ADDED_ITEM_KEYS = {"separation_fixed", "separation_linearised"}
+
+
+def test_to_dict_has_the_contract_keys_and_only_the_added_ones(tone_prob):
     nm = propose_next_measurement(tone_prob, [BASE, DETECTOR])
     d = nm.to_dict()
-    assert set(d) == CONTRACT_KEYS
-    assert all(set(m) - {"reason"} == CONTRACT_KEYS - {"menu"} for m in d["menu"])
+    assert set(d) == CONTRACT_KEYS | ADDED_KEYS
+    assert set(d["predicted_separation"]) == {"fixed", "linearised", "refit"}
+    assert all(CONTRACT_KEYS - {"menu"} <= set(m) <= CONTRACT_KEYS | ADDED_ITEM_KEYS
+               | {"reason"} for m in d["menu"])
     assert all(m["what"] in KINDS for m in d["menu"])
     s = nm.sentence()
     assert s.startswith("Next: spectra at A = ") and s.endswith(".") and s.count(". ") == 0
@@ -223,3 +232,93 @@ def test_bundled_campaign_with_gates_sends_extra_dephasing_to_a_gate_scan():
     assert tone_side and all(m["expected_delta_bic"] == pytest.approx(0.0, abs=1e-9)
                              for m in tone_side)
     assert nm.settings["A"] in set(prob.gate.gates["A"])
+
+
+# ----------------------------------------------------------------- profiled separation
+class _LinearHypothesis:
+    """A hypothesis whose prediction of a new recording is linear in its parameters:
+    ``m(theta) = m0 + X theta``, with covariance ``C`` from the recordings so far."""
+
+    def __init__(self, m0, X, C, label):
+        self.m0, self.X = np.asarray(m0, float), np.asarray(X, float)
+        self.C = None if C is None else np.asarray(C, float)
+        self.keys = [f"t{i}" for i in range(self.X.shape[1])]
+        self.p = {k: 0.0 for k in self.keys}
+        self.label = label
+
+    def absorbing(self, source):
+        return [(k, 1e-3) for k in self.keys]
+
+    def covariance(self, keys):
+        return self.C
+
+    def predict(self, p=None):
+        p = self.p if p is None else p
+        return self.m0 + self.X @ np.array([p[k] for k in self.keys])
+
+
+class _Item:
+    source = "gates"
+
+    def __init__(self, sd):
+        self.sd = np.asarray(sd, float)
+
+    def vector(self, h, p=None):
+        return h.predict(p)
+
+
+def test_profiled_separation_is_the_rival_refitted_to_the_truths_recording():
+    """For a rival linear in its parameters the Woodbury form is exact: k repeats of the
+    recording, the rival refitted to them with its information from the recordings so
+    far, leave min_theta k |W (m_a - m_b(theta))|^2 + theta^T C^-1 theta; the exact
+    refit finds the same, and holding the parameters gives the larger k d.d."""
+    from dpdfit.analyses.diagnosis.next_measurement import _Direction
+    rng = np.random.default_rng(11)
+    n, q = 12, 3
+    sd = rng.uniform(0.5, 2.0, n)
+    X = rng.normal(size=(n, q))
+    C = np.diag(rng.uniform(0.1, 1.0, q))
+    a = _LinearHypothesis(rng.normal(size=n), np.zeros((n, 0)), np.zeros((0, 0)), "a")
+    b = _LinearHypothesis(rng.normal(size=n), X, C, "b")
+    W = 1.0 / sd
+    d = _Direction(_Item(sd), a, b, W, profile=True)
+    for k in (1, 3, 10):
+        # brute force: the stacked least-squares problem
+        A = np.vstack([np.sqrt(k) * (W[:, None] * X), np.linalg.cholesky(np.linalg.inv(C)).T])
+        y = np.concatenate([np.sqrt(k) * W * (a.m0 - b.m0), np.zeros(q)])
+        theta, *_ = np.linalg.lstsq(A, y, rcond=None)
+        want = float(np.sum((y - A @ theta) ** 2))
+        assert d.linearised(k)[0] == pytest.approx(want, rel=1e-9)
+        assert d.refit(k) == pytest.approx(want, rel=1e-6)
+        assert k * d.dd > want
+    # without a covariance nothing is refitted: the held separation
+    held = _Direction(_Item(sd), a, _LinearHypothesis(b.m0, X, None, "b"), W, profile=True)
+    assert held.linearised(2)[0] == pytest.approx(2 * d.dd)
+
+
+def test_the_expected_separation_is_what_a_refit_to_recorded_data_achieves():
+    """Recordings drawn under the truth (noise included), the rival refitted to them and
+    to its prior information: the achieved chi2 difference averages the predicted
+    separation less the noise the rival's parameters absorb (their number, here 3)."""
+    from dpdfit.analyses.diagnosis.next_measurement import _Direction
+    rng = np.random.default_rng(12)
+    n, q, k = 40, 3, 2
+    sd = np.full(n, 1.0)
+    X = rng.normal(size=(n, q))
+    C = np.eye(q) * 0.5
+    a = _LinearHypothesis(np.zeros(n), np.zeros((n, 0)), np.zeros((0, 0)), "a")
+    b = _LinearHypothesis(0.6 * np.sin(np.arange(n)), X, C, "b")
+    pred = _Direction(_Item(sd), a, b, 1.0 / sd, profile=True).linearised(k)[0]
+    Ci = np.linalg.inv(C)
+    L = np.linalg.cholesky(Ci).T
+    got = []
+    for _ in range(4000):
+        y = a.m0[None, :] + rng.normal(size=(k, n))
+        A = np.vstack([X] * k + [L])
+        r = np.concatenate([(y - b.m0).ravel(), np.zeros(q)])
+        theta, *_ = np.linalg.lstsq(A, r, rcond=None)
+        chi_b = float(np.sum((r - A @ theta) ** 2))
+        chi_a = float(np.sum((y - a.m0) ** 2))
+        got.append(chi_b - chi_a)
+    # E[achieved] = pred - tr(absorbed part of the noise) ~ pred - q (prior weak here)
+    assert np.mean(got) == pytest.approx(pred - q, abs=0.6)

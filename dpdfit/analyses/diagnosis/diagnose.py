@@ -44,8 +44,8 @@ from threadpoolctl import threadpool_limits
 from dpdfit.analyses.diagnosis.alternatives import (addition_alternatives, propose,
                                                     swap_alternatives)
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
-from dpdfit.analyses.diagnosis.fitting import (FitResult, combine_sides, fit_all, fit_effects,
-                                               fit_hypothesis, param_side)
+from dpdfit.analyses.diagnosis.families import family_evidence
+from dpdfit.analyses.diagnosis.fitting import FitResult, fit_effects, fit_hypothesis
 from dpdfit.analyses.diagnosis.gate_model import GATE_NUISANCES
 from dpdfit.analyses.diagnosis.generic import generic_discrepancy
 from dpdfit.analyses.diagnosis.observables import Campaign, load_campaign
@@ -53,25 +53,21 @@ from dpdfit.analyses.diagnosis.phase_sign import refit_other_sign, repredict_gat
 from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem, check_forms_left_out
 from dpdfit.analyses.diagnosis.named_effects import named_effects
 from dpdfit.analyses.diagnosis.result import Diagnosis
+from dpdfit.analyses.diagnosis.selection import add_effects
 from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
-                                               DOMINANT_FRACTION, EXPLAINED_FRACTION,
-                                               NULL_REDCHI_MAX, within_null_range,
-                                               choose_first, decisive, explained_fraction,
-                                               locate_mismatches,
-                                               mismatch_evidence, rank_entry,
-                                               side_evidence)
+                                               EXPLAINED_FRACTION, NULL_REDCHI_MAX,
+                                               choose_first, explained_fraction,
+                                               locate_mismatches, mismatch_evidence,
+                                               rank_entry, side_evidence,
+                                               within_null_range)
 from dpdfit.core.progress import progress_bar
 
 __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE",
-           "DEFAULT_PAIRS", "MAX_EFFECTS", "ADD_NFEV"]
+           "DEFAULT_PAIRS"]
 
 #: at most this many other effects are tried as an addition at each step, the best
 #: single effects first (``dpdfit diagnose --pairs``; 0: one effect only)
 DEFAULT_PAIRS = 8
-#: at most this many effects are named
-MAX_EFFECTS = 3
-#: evaluations of a joint fit of an added effect (it starts from both optima)
-ADD_NFEV = 40
 
 
 def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
@@ -159,9 +155,9 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
     mismatches = locate_mismatches(prob, dict(base.nuisances))
     lap("baseline")
     fits, form_fits = _fit_singles(prob, base, effects)
-    ranking = _rank(prob, base, fits)
+    ranking = _rank(prob, base, fits, form_fits)
     if prob.gate is not None:
-        ranking = _carry_tone_best(prob, base, fits, ranking)
+        ranking = _carry_tone_best(prob, base, fits, form_fits, ranking)
     lap("single effects")
     evidence = mismatch_evidence(base.p_fit, mismatches, ranking)
     sides = side_evidence(base, mismatches, evidence)
@@ -170,12 +166,13 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
     if first is not None:
         chosen, chain = fits[first], [fits[first]]
         if pairs > 0:
-            chosen, steps, chain, tried = _add_effects(prob, base, chosen, fits, ranking,
-                                                       pairs, sides)
+            chosen, steps, chain, tried = add_effects(prob, base, chosen, fits, form_fits,
+                                                      ranking, pairs, sides)
     lap("more effects")
     verdict, verdict_fit, named, chosen, unnamed, null_range = _verdict(
         base, chosen, evidence, mismatches)
-    alts = ([] if not named else swap_alternatives(fits, ranking, first, named, sides)
+    alts = ([] if not named else swap_alternatives(fits, form_fits, ranking, first, named,
+                                                   sides)
             + addition_alternatives(tried, named))
     effects_out = (named_effects(prob, base, chosen, named, chain, form_fits)
                    if chosen is not None else [])
@@ -188,7 +185,7 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
         # physics is missing, and how much of the excess chi2 it holds
         generic = generic_discrepancy(prob, (chosen or unnamed or base).all_params)
     one = fits[named[0]] if named else None
-    nxt = (propose(prob, chosen, alts, effects_out) if chosen is not None
+    nxt = (propose(prob, chosen, alts, effects_out, form_fits) if chosen is not None
            and (alts or any(e.get("poorly_constrained") for e in effects_out)) else None)
     lap("report")
     return Diagnosis(
@@ -268,11 +265,21 @@ def _fit_singles(prob: Problem, base: FitResult, effects: tuple):
     return fits, forms
 
 
-def _rank(prob: Problem, base: FitResult, fits: dict) -> list:
-    return sorted((rank_entry(base, f) for f in fits.values()), key=lambda r: r["delta_bic"])
+def _rank(prob: Problem, base: FitResult, fits: dict, form_fits: dict) -> list:
+    """Ranking entries of the single effects, best family evidence first: each effect's
+    best form's entry with its family's evidence over every form
+    (:func:`~dpdfit.analyses.diagnosis.families.family_evidence`; the best form's fit
+    stands for the family where it was refitted, e.g. carried to the gates)."""
+    out = []
+    for name, f in fits.items():
+        forms = {**form_fits.get(name, {}), **{f.forms[0]: f}}
+        fe = family_evidence(name, base, forms)
+        out.append({**rank_entry(base, f), **fe.to_dict()})
+    return sorted(out, key=lambda r: (r["family_delta_bic_tempered"], r["delta_bic"]))
 
 
-def _carry_tone_best(prob: Problem, base: FitResult, fits: dict, ranking: list) -> list:
+def _carry_tone_best(prob: Problem, base: FitResult, fits: dict, form_fits: dict,
+                     ranking: list) -> list:
     """The best tone-side effect also changes the gates' spectra: when it is decisive,
     its gates are re-predicted with its field and refitted (tone parameters held at their
     fit), under the other phase sign too (refitted there when its spectra depend on the
@@ -290,108 +297,4 @@ def _carry_tone_best(prob: Problem, base: FitResult, fits: dict, ranking: list) 
     prob.carried = (tone_best, prob.tone, prob.gate)
     prob.use_tone(saved[0])
     prob.gate = saved[1]
-    return _rank(prob, base, fits)
-
-
-def _use_field_of(prob: Problem, chosen: FitResult) -> bool:
-    """The gate model of the named tone-side effect's field (carried, if it was): whether
-    the gate model changed (the gate-side single fits were made with the other one)."""
-    carried = getattr(prob, "carried", None)
-    if carried is not None and carried[0] in chosen.effects:
-        prob.use_tone(carried[1])
-        prob.gate = carried[2]
-        return True
-    return False
-
-
-def _add_effects(prob: Problem, base: FitResult, chosen: FitResult, fits: dict,
-                 ranking: list, pairs: int, sides: set):
-    """Forward selection: add the decisive best of the other effects until none is.
-
-    Each candidate (the ``pairs`` best single effects not yet named) is fitted jointly
-    with the named ones in its best single form, started from both fits; it is added
-    when decisive against the named model (:func:`~dpdfit.analyses.diagnosis.verdict.decisive`,
-    Bonferroni over the candidates; only effects acting on a side where the named model
-    still leaves a mismatch, :func:`~dpdfit.analyses.diagnosis.verdict.side_evidence`)
-    and, on the side of an effect already named, when
-    it removes at least ``DOMINANT_FRACTION`` of what the named effects of that side
-    removed.  Decisive is judged on the tempered evidence, as for the first effect.
-    Returns the final fit, the steps (ranking entries of the candidates tried, per
-    step), the chain of fits (one per named effect) and, per step, the candidates'
-    ``(entry, fit)`` pairs with the fit added (or None), for the alternatives.
-    """
-    steps, chain, tried = [], [chosen], []
-    rebased = prob.gate is not None and _use_field_of(prob, chosen)
-    while len(chosen.effects) < MAX_EFFECTS:
-        named = set(chosen.effects)
-        # a side is searched again only while the named model leaves a mismatch there:
-        # a located interval or its chi2 (a decisive addition on a side the named effects
-        # describe refines their form, e.g. a tone effect's imprint on the gates)
-        left = side_evidence(chosen, locate_mismatches(prob, chosen.all_params), []) & sides
-        # candidates: effects decisive on their own (one that does not improve the
-        # baseline decisively alone is not looked for beside another)
-        cands = [r["effect"] for r in ranking
-                 if "+" not in r["effect"] and r["effect"] not in named
-                 and EFFECTS[r["effect"]].side in left
-                 and r["delta_bic"] < -BIC_DECISIVE][:pairs]
-        if not cands:
-            break
-        jobs, done = [], {}
-        for c in cands:
-            side = EFFECTS[c].side
-            if not any(EFFECTS[e].side == side for e in chosen.effects) and not (
-                    rebased and side == "gates"):
-                # the sides share no parameter: the joint optimum is the named effects'
-                # side of ``chosen`` and the candidate's side of its single fit
-                done[c] = combine_sides(prob, chosen, fits[c], side)
-                continue
-            hyp = chosen.hypothesis + ((c, fits[c].forms[0]),)
-            other = {k: v for k, v in chosen.all_params.items()
-                     if param_side(prob, k) != side and k in _fit_keys(prob, chosen)}
-            jobs.append((c, (hyp, dict(starts=[{**chosen.params, **fits[c].params}],
-                                       fixed=other, max_nfev=ADD_NFEV,
-                                       init={**base.nuisances, **chosen.nuisances}))))
-        for (c, (hyp, _)), f in zip(jobs, fit_all(prob, [j for _, j in jobs])):
-            # the other side was held at the named model's: its values and covariance
-            done[c] = combine_sides(prob, chosen, f, EFFECTS[c].side, hyp=hyp)
-        done = [done[c] for c in cands]
-        entries = sorted(((rank_entry(chosen, f), f) for f in done),
-                         key=lambda ef: ef[0]["delta_bic"])
-        steps.append([e for e, _ in entries])
-        # the best decisive candidate that is more than a refinement of the named ones
-        added = next((f for entry, f in entries if decisive(entry, len(cands))
-                      and _not_a_refinement(base, chosen, f)), None)
-        tried.append((entries, added))
-        if added is None:
-            break
-        chosen = added
-        chain.append(added)
-    tone_side = [e for e in chosen.effects if EFFECTS[e].side == "tones"]
-    if prob.gate is not None and tone_side and len(chosen.effects) > 1:
-        # the gates under the final field (the tone effects held at their joint fit)
-        chosen = repredict_gates(prob, chosen, keep_sign=True)
-        chain[-1] = chosen
-    return chosen, steps, chain, tried
-
-
-def _fit_keys(prob: Problem, f: FitResult) -> set:
-    """Parameters of ``f`` a fit may hold: nuisances with a prior and effect parameters."""
-    return set(prob.prior) | set(f.params)
-
-
-def _not_a_refinement(base: FitResult, chosen: FitResult, f: FitResult) -> bool:
-    """The added effect is not merely refining the named effects of its side (see
-    DOMINANT_FRACTION): it removes enough chi2 on that side compared with them."""
-    added = f.effects[-1]
-    side = EFFECTS[added].side
-    same = [e for e in chosen.effects if EFFECTS[e].side == side]
-    if not same:
-        return True
-    prefix = "tones" if side == "tones" else None
-
-    def side_chi2(r: FitResult) -> float:
-        return sum(v for k, v in r.chi2_by_observable.items()
-                   if (k.startswith("tones:") or k.startswith("runs:")) == (prefix == "tones"))
-
-    named_gain = side_chi2(base) - side_chi2(chosen)
-    return side_chi2(chosen) - side_chi2(f) >= DOMINANT_FRACTION * max(named_gain, 0.0)
+    return _rank(prob, base, fits, form_fits)

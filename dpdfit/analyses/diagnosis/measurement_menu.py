@@ -1,22 +1,32 @@
 """The menu of further recordings, each predicted under each hypothesis in reach.
 
 The predictions behind :func:`~dpdfit.analyses.diagnosis.next_measurement.propose_next_measurement`
-(its module doc lists the items, their noise and the expected separation): one
-builder per kind, each returning ``(what, settings, lab seconds, separations)``
-with the separations (Asimov delta chi2) of the first hypothesis from each other.
+(its module doc lists the items and their noise).  One builder per kind returns
+:class:`Item` objects: what the recording is, its lab time, which side of the model
+predicts it, and how to read its predicted values (:meth:`Item.vector`) from a
+hypothesis's *source* -- the spectra on a grid of amplitudes, the gate model's
+predictions, the calibration runs' drift, the phase curve -- at any parameter set
+(:meth:`Hypothesis.raw`, memoised, so the items of one source share the model
+evaluations their Jacobians need) and its noise at a pair of hypotheses
+(:meth:`Item.whitener`).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, effect_of_key
 from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
+from dpdfit.analyses.diagnosis.fitting import param_side
 from dpdfit.analyses.diagnosis.observables import MIN_SNR_DB, tone_features
 from dpdfit.analyses.diagnosis.phase_sign import tone_held
 from dpdfit.core.defaults import ERROR_MODEL, PHASE_MIN_A, PHASE_RUN_NOISE_RAD
 
-__all__ = ["Hypothesis", "BUILDERS", "SPECTRA_GRID", "SPECTRA_COUNTS", "RUN_AMPLITUDES"]
+__all__ = ["Hypothesis", "Item", "BUILDERS", "SPECTRA_GRID", "SPECTRA_COUNTS",
+           "RUN_AMPLITUDES", "MODE_STEP"]
 
 #: amplitudes a spectra recording may choose from
 SPECTRA_GRID = np.round(np.linspace(0.05, 1.0, 20), 4)
@@ -24,12 +34,26 @@ SPECTRA_GRID = np.round(np.linspace(0.05, 1.0, 20), 4)
 SPECTRA_COUNTS = (1, 2, 4)
 #: amplitudes of a calibration run (the campaigns' runs: 101 points on [0, 1])
 RUN_AMPLITUDES = np.linspace(0.0, 1.0, 101)
+#: finite-difference step (prior sigmas) of the calibration modes in the Jacobians
+MODE_STEP = 0.05
+#: finite-difference step of a fitted parameter, in units of its scale
+PARAM_STEP = 1e-3
+
+#: which parameters can move each source: the tone side's for the spectra, the phase
+#: curve and the runs' drift, the gate side's for the gate recordings
+_SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates"}
 
 
 # ----------------------------------------------------------------- hypotheses
 class Hypothesis:
     """One fit's parameter set, its tone model (phase-sign convention) and, on demand,
-    its gate model (rebased on its field when it has tone-side effects)."""
+    its gate model (rebased on its field when it has tone-side effects); its
+    predictions of every source at any parameter set (memoised), the parameters that
+    can absorb a recording of a side and their covariance from the recordings so far.
+
+    ``label``: the hypothesis as ``{"effects": [...], "forms": [...]}`` (what a later
+    diagnosis refits to measure the separation a recording achieved).
+    """
 
     def __init__(self, prob, fit):
         self.prob, self.fit, self.p = prob, fit, fit.all_params
@@ -38,6 +62,9 @@ class Hypothesis:
         self.tone = (tone if tone is None or sign == tone.phase_sign
                      else tone.with_phase_sign(sign))
         self._gate = None
+        self._memo = {}
+        self._mode_cov = None
+        self.label = {"effects": list(fit.effects), "forms": list(fit.forms)}
 
     @property
     def gate(self):
@@ -50,16 +77,146 @@ class Hypothesis:
                           if tone_effect or self.tone is not self.prob.tone else self.prob.gate)
         return self._gate
 
+    # ------------------------------------------------------------ predictions
+    def raw(self, source: str, p: dict | None = None):
+        """The prediction of ``source`` (``"powers"``: tone powers on
+        :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
+        next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
+        :data:`RUN_AMPLITUDES`) at the parameter set ``p`` (default: the fit's)."""
+        p = self.p if p is None else p
+        key = (source, tuple(sorted(p.items())))
+        if key not in self._memo:
+            self._memo[key] = _SOURCES[source](self, p)
+        return self._memo[key]
 
-def _pairs(hyps, mean, sigma):
-    """Separation of the first hypothesis from each other, means ``mean(h)``, noise ``sigma``."""
-    ms = [mean(h) for h in hyps]
-    return np.array([_chi2(ms[0], m, sigma) for m in ms[1:]])
+    # ------------------------------------------------------------ what can absorb
+    def absorbing(self, source: str) -> list:
+        """``[(key, step)]``: the parameters of this hypothesis that can move ``source``
+        (the fitted ones of its side; for the tone sources also the calibration's error
+        modes, which every fit profiles out) with their finite-difference steps."""
+        fit = self.fit
+        side = _SOURCE_SIDE[source]
+        out = []
+        for k, s in zip(fit.free, fit.scales or (1.0,) * len(fit.free)):
+            if param_side(self.prob, k) == side:
+                out.append((k, PARAM_STEP * float(s)))
+        if side == "tones" and source in ("powers", "phase"):
+            modes = [k for k in getattr(getattr(self.prob, "tone", None), "mode_names", ())
+                     if source == "powers" or k.startswith("cal_phase")]
+            out += [(k, MODE_STEP) for k in modes]
+        return out
+
+    def covariance(self, keys: list) -> np.ndarray | None:
+        """Covariance of the parameters ``keys`` from the recordings so far: the fit's
+        (Gauss-Newton, calibration modes profiled out) for the fitted ones, the modes'
+        posterior ``(J^T J + I)^-1`` on the recordings for the calibration modes (the
+        two blocks taken as uncorrelated); None without a covariance."""
+        fit = self.fit
+        if fit.cov is None or not keys:
+            return None
+        n = len(keys)
+        C = np.zeros((n, n))
+        fitted = [i for i, k in enumerate(keys) if k in fit.free]
+        if fitted:
+            idx = [fit.free.index(keys[i]) for i in fitted]
+            sub = np.asarray(fit.cov, float)[np.ix_(idx, idx)]
+            if not np.all(np.isfinite(sub)):
+                return None
+            C[np.ix_(fitted, fitted)] = sub
+        modes = [i for i, k in enumerate(keys) if k not in fit.free]
+        if modes:
+            M = self._modes_posterior()
+            names = list(getattr(self.prob.tone, "mode_names", ()))
+            j = [names.index(keys[i]) for i in modes]
+            C[np.ix_(modes, modes)] = M[np.ix_(j, j)]
+        return C
+
+    def _modes_posterior(self) -> np.ndarray:
+        if self._mode_cov is None:
+            names = list(getattr(self.prob.tone, "mode_names", ()))
+
+            def z(p):
+                r = self.prob.residuals(p, with_prior=False)
+                return np.where(np.isfinite(r), r, 0.0)
+
+            z0 = z(self.p)
+            J = np.empty((z0.size, len(names)))
+            for i, k in enumerate(names):
+                J[:, i] = (z({**self.p, k: self.p.get(k, 0.0) + MODE_STEP}) - z0) / MODE_STEP
+            self._mode_cov = np.linalg.inv(J.T @ J + np.eye(len(names)))
+        return self._mode_cov
 
 
-def _chi2(ma, mb, sigma) -> float:
-    z = (np.asarray(ma, float) - np.asarray(mb, float)) / sigma
-    return float(np.sum(z[np.isfinite(z)] ** 2))
+def _powers(h: Hypothesis, p: dict):
+    return h.tone.tone_powers_at(SPECTRA_GRID, p)
+
+
+def _gates(h: Hypothesis, p: dict):
+    return h.gate.predict(p)
+
+
+def _drift(h: Hypothesis, p: dict):
+    prob = h.prob
+    modes = prob.tone.drift_modes
+    ra = prob.runs_after
+    days = np.array([float(np.max(ra.days)) if ra is not None else 0.0])
+    shift = np.zeros((1, len(modes)))
+    for e in EFFECTS.values():
+        v = e.values(p)
+        s = None if v is None else e.run_drift(prob, v, days)
+        if s is not None:
+            shift = shift + s
+    return shift[0]
+
+
+def _phase(h: Hypothesis, p: dict):
+    A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
+    cp = h.tone._coefficients(p, ActiveEffects(h.tone, p))[1]
+    return h.tone.phase_sign * (np.polynomial.polynomial.polyval(A, cp) - cp[0])
+
+
+_SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase}
+
+
+# ----------------------------------------------------------------- items
+@dataclass(frozen=True)
+class Item:
+    """One recording of the menu.
+
+    ``source`` names the hypotheses' prediction it reads (:meth:`Hypothesis.raw`),
+    ``select(raw)`` its predicted values from it, ``noise(raw_a, raw_b)`` the whitening
+    of its noise at a pair of hypotheses: a vector (independent errors: 1/sigma, 0
+    where unusable) or a matrix ``W`` with ``W Cov W^T = I``.  Repeats of the item are
+    independent recordings of the same values (their own noise and power errors)."""
+
+    what: str
+    settings: dict
+    seconds: float
+    source: str
+    select: Callable
+    noise: Callable
+
+    def vector(self, h: Hypothesis, p: dict | None = None) -> np.ndarray:
+        """The item's predicted values under hypothesis ``h`` at ``p`` (default its fit)."""
+        return np.asarray(self.select(h.raw(self.source, p)), dtype=float)
+
+    def whitener(self, ha: Hypothesis, hb: Hypothesis):
+        """The whitening of the item's noise at the pair ``(ha, hb)``."""
+        return self.noise(ha.raw(self.source), hb.raw(self.source))
+
+
+def white(W, v: np.ndarray) -> np.ndarray:
+    """``W v`` for a whitening vector or matrix (non-finite entries as 0)."""
+    v = np.asarray(v, dtype=float)
+    out = W * v if np.ndim(W) == 1 else np.asarray(W) @ v
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def _inv_sd(sd) -> np.ndarray:
+    sd = np.asarray(sd, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = 1.0 / sd
+    return np.where(np.isfinite(w) & (sd > 0), w, 0.0)
 
 
 # ----------------------------------------------------------------- calibration runs
@@ -68,19 +225,10 @@ def _amplitude_run(prob, hyps, lab):
     if modes is None or len(modes) == 0:
         return []
     ra = prob.runs_after
-    days = np.array([float(np.max(ra.days)) if ra is not None else 0.0])
     sd = np.asarray(ra.sd, float) if ra is not None else np.ones(len(modes))
-
-    def mean(h):
-        shift = np.zeros((1, len(modes)))
-        for e in EFFECTS.values():
-            v = e.values(h.p)
-            s = None if v is None else e.run_drift(prob, v, days)
-            if s is not None:
-                shift = shift + s
-        return shift[0]
-
-    return [("amplitude_run", {"runs": 1}, lab.amplitude_run_s, _pairs(hyps, mean, sd))]
+    w = _inv_sd(sd)
+    return [Item("amplitude_run", {"runs": 1}, lab.amplitude_run_s, "drift",
+                 lambda r: r, lambda a, b: w)]
 
 
 def _phase_run(prob, hyps, lab):
@@ -90,12 +238,9 @@ def _phase_run(prob, hyps, lab):
     noise = (getattr(prob.camp, "calibration_noise", None) or {}).get("phase")
     sigma = (np.hypot(noise["c"], noise["d"] / A) if noise
              else np.full(A.size, PHASE_RUN_NOISE_RAD))
-
-    def mean(h):
-        cp = h.tone._coefficients(h.p, ActiveEffects(h.tone, h.p))[1]
-        return h.tone.phase_sign * (np.polynomial.polynomial.polyval(A, cp) - cp[0])
-
-    return [("phase_run", {"runs": 1}, lab.phase_run_s, _pairs(hyps, mean, sigma))]
+    w = _inv_sd(sigma)
+    return [Item("phase_run", {"runs": 1}, lab.phase_run_s, "phase",
+                 lambda r: r, lambda a, b: w)]
 
 
 # ----------------------------------------------------------------- spectra
@@ -110,11 +255,30 @@ def _tone_sd(prob, P):
     return np.where(snr >= MIN_SNR_DB, sd, np.nan)
 
 
+def _feature_values(P, A, idx) -> np.ndarray:
+    """The per-trace features but ``gate_power`` (the absolute scale, a profiled
+    nuisance) of the spectra at grid indices ``idx``, flattened."""
+    f = tone_features(P[idx], A[idx])
+    return np.concatenate([np.ravel(v) for name, (v, _) in f.items() if name != "gate_power"])
+
+
+def _feature_whitener(prob, idx):
+    A = SPECTRA_GRID
+
+    def noise(Pa, Pb):
+        P = (Pa[idx] + Pb[idx]) / 2
+        f = tone_features(P, A[idx], _tone_sd(prob, P))
+        return _inv_sd(np.concatenate([np.ravel(e) for name, (_, e) in f.items()
+                                       if name != "gate_power"]))
+    return noise
+
+
 def _spectra_contributions(prob, hyps) -> np.ndarray:
     """Delta chi2 of one trace pair (both DPD flags) at each amplitude of
-    :data:`SPECTRA_GRID`, first hypothesis against each other: (n others, n amplitudes)."""
+    :data:`SPECTRA_GRID`, first hypothesis against each other, parameters at their
+    fits: (n others, n amplitudes).  It chooses the amplitudes of the spectra items."""
     A = SPECTRA_GRID
-    P = [h.tone.tone_powers_at(A, h.p) for h in hyps]
+    P = [h.raw("powers") for h in hyps]
     out = []
     for Pb in P[1:]:
         sd = _tone_sd(prob, (P[0] + Pb) / 2)
@@ -143,9 +307,12 @@ def _spectra(prob, hyps, lab):
             j = int(np.argmax(gain))
             chosen.append(j)
             total = total + c[:, j]
-        amps = sorted(float(a) for a in SPECTRA_GRID[chosen])
-        items.append(("spectra", {"amplitudes": amps, "dpd": [0, 1]},
-                      2 * len(amps) * lab.spectrum_trace_s, total))
+        idx = np.array(sorted(chosen))
+        amps = [float(a) for a in SPECTRA_GRID[idx]]
+        items.append(Item("spectra", {"amplitudes": amps, "dpd": [0, 1]},
+                          2 * len(amps) * lab.spectrum_trace_s, "powers",
+                          lambda P, idx=idx: _feature_values(P, SPECTRA_GRID, idx),
+                          _feature_whitener(prob, idx)))
     return items
 
 
@@ -153,6 +320,27 @@ def _spectra(prob, hyps, lab):
 def _typical_shots(prob) -> int:
     g = prob.gate.gates
     return int(np.round(np.median(g["shots"].to_numpy(float) / g["n_scans"].to_numpy(float))))
+
+
+def _scan_noise(qs: tuple, i: int, N: float, v_lin: float, v_quad: float):
+    """Whitening of one new scan of ``N`` shots observing ``qs`` at setting ``i``: shot
+    noise at the pair's mean plus the scan's shared random power error."""
+    def noise(pa, pb):
+        mean = {q: (pa[q][i] + pb[q][i]) / 2 for q in ("F_pop", "imb", "C")}
+        F = np.clip(mean["F_pop"], 0.5 / N, 1 - 0.5 / N)
+        imb = np.clip(mean["imb"], -F, F)
+        C = np.clip(mean["C"], -1.0, 1.0)
+        shot = {("F_pop", "F_pop"): F * (1 - F), ("imb", "imb"): F - imb ** 2,
+                ("F_pop", "imb"): imb * (1 - F), ("imb", "F_pop"): imb * (1 - F),
+                ("C", "C"): 2 * (1 - 0.75 * C ** 2)}
+        g = np.array([(pa["dlin_" + q][i] + pb["dlin_" + q][i]) / 2 for q in qs])
+        h = np.array([(pa["dquad_" + q][i] + pb["dquad_" + q][i]) / 2 for q in qs])
+        cov = (np.array([[shot[(a, b)] / N for b in qs] for a in qs])
+               + v_lin * np.outer(g, g) + v_quad * np.outer(h, h))
+        if not np.all(np.isfinite(cov)):
+            return np.zeros(len(qs))
+        return np.linalg.inv(np.linalg.cholesky(cov))
+    return noise
 
 
 def _gate_scans(prob, hyps, lab):
@@ -164,66 +352,43 @@ def _gate_scans(prob, hyps, lab):
     n_par = N * int(ERROR_MODEL.parity_phases)
     v_lin = g.sig_jit ** 2 + g.rate_error_db() ** 2
     v_quad = 2 * (g.sig_jit ** 4 + g.rate_error_db() ** 4)
-    preds = [h.gate.predict(h.p) for h in hyps]
     pops = ("F_pop", "imb") if prob.camp.has_imbalance else ("F_pop",)
-    sep_pop = np.array([_setting_chi2(preds[0], pb, pops, N, v_lin, v_quad)
-                        for pb in preds[1:]])
-    sep_par = np.array([_setting_chi2(preds[0], pb, ("C",), n_par, v_lin, v_quad)
-                        for pb in preds[1:]])
     items = []
     for i, (A, d) in enumerate(g.keys):
-        items.append(("populations", {"A": float(A), "dpd": int(d), "shots": N},
-                      N * lab.shot_s, sep_pop[:, i]))
-        items.append(("parity", {"A": float(A), "dpd": int(d), "shots": n_par},
-                      n_par * lab.shot_s, sep_par[:, i]))
+        items.append(Item("populations", {"A": float(A), "dpd": int(d), "shots": N},
+                          N * lab.shot_s, "gates",
+                          lambda pr, i=i: [pr[q][i] for q in pops],
+                          _scan_noise(pops, i, N, v_lin, v_quad)))
+        items.append(Item("parity", {"A": float(A), "dpd": int(d), "shots": n_par},
+                          n_par * lab.shot_s, "gates",
+                          lambda pr, i=i: [pr["C"][i]],
+                          _scan_noise(("C",), i, n_par, v_lin, v_quad)))
     return items
-
-
-def _setting_chi2(pa: dict, pb: dict, qs: tuple, N: float, v_lin: float,
-                  v_quad: float) -> np.ndarray:
-    """Mahalanobis delta chi2 per setting of one new scan of ``N`` shots observing ``qs``:
-    shot noise at the pair's mean plus the scan's shared random power error."""
-    mean = {q: (pa[q] + pb[q]) / 2 for q in ("F_pop", "imb", "C")}
-    F = np.clip(mean["F_pop"], 0.5 / N, 1 - 0.5 / N)
-    imb = np.clip(mean["imb"], -F, F)
-    C = np.clip(mean["C"], -1.0, 1.0)
-    shot = {("F_pop", "F_pop"): F * (1 - F), ("imb", "imb"): F - imb ** 2,
-            ("F_pop", "imb"): imb * (1 - F), ("imb", "F_pop"): imb * (1 - F),
-            ("C", "C"): 2 * (1 - 0.75 * C ** 2)}
-    g = np.stack([(pa["dlin_" + q] + pb["dlin_" + q]) / 2 for q in qs], axis=1)
-    h = np.stack([(pa["dquad_" + q] + pb["dquad_" + q]) / 2 for q in qs], axis=1)
-    cov = (np.stack([np.stack([shot[(a, b)] / N for b in qs], axis=-1) for a in qs], axis=-2)
-           + v_lin * np.einsum("ij,ik->ijk", g, g) + v_quad * np.einsum("ij,ik->ijk", h, h))
-    r = np.stack([pa[q] - pb[q] for q in qs], axis=1)
-    ok = np.all(np.isfinite(r), axis=1) & np.all(np.isfinite(cov), axis=(1, 2))
-    out = np.zeros(r.shape[0])
-    if ok.any():
-        sol = np.linalg.solve(cov[ok], r[ok][..., None])[..., 0]
-        out[ok] = np.einsum("ij,ij->i", r[ok], sol)
-    return out
 
 
 def _time_scans(prob, hyps, lab):
     if getattr(prob, "gate", None) is None or getattr(prob, "ts", None) is None \
             or not prob.gate.ts_keys:
         return []
+    if any("P00_t" not in h.raw("gates") for h in hyps):
+        return []
     ts = prob.ts
     N = int(np.round(np.median(ts["shots"].to_numpy(float))))
-    preds = [h.gate.predict(h.p) for h in hyps]
-    if any("P00_t" not in pr for pr in preds):
-        return []
     items = []
     for A, d in prob.gate.ts_keys:
         sel = (np.isclose(ts["A"].to_numpy(float), A) & (ts["dpd"].to_numpy() == d))
-        ms = [np.concatenate([pr["P00_t"][sel], pr["P11_t"][sel]]) for pr in preds]
-        seps = []
-        for mb in ms[1:]:
-            pm = np.clip((ms[0] + mb) / 2, 0.5 / N, 1 - 0.5 / N)
-            seps.append(_chi2(ms[0], mb, np.sqrt(pm * (1 - pm) / N)))
+
+        def select(pr, sel=sel):
+            return np.concatenate([pr["P00_t"][sel], pr["P11_t"][sel]])
+
+        def noise(pa, pb, select=select):
+            pm = np.clip((select(pa) + select(pb)) / 2, 0.5 / N, 1 - 0.5 / N)
+            return _inv_sd(np.sqrt(pm * (1 - pm) / N))
+
         points = int(sel.sum())
-        items.append(("time_scan", {"A": float(A), "dpd": int(d), "shots": N,
-                                    "points": points},
-                      points * N * lab.shot_s, np.array(seps)))
+        items.append(Item("time_scan", {"A": float(A), "dpd": int(d), "shots": N,
+                                        "points": points},
+                          points * N * lab.shot_s, "gates", select, noise))
     return items
 
 

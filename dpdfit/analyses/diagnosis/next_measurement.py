@@ -1,48 +1,57 @@
-"""Which single further recording best separates the hypotheses still in reach.
+"""Which single further recording best separates the causes still in reach.
 
-When the diagnosis cannot decide between hypotheses (several catalog effects
-fit about equally), or a named effect's size is poorly constrained (the caller
-then passes the fit and the same fit with that parameter moved by its error),
-:func:`propose_next_measurement` names the recording, from a menu a lab can
-take, with the largest expected separation per unit of lab time.
+When the diagnosis cannot decide between hypotheses (families of the catalog
+that explain the recordings about equally), or a named effect's size is poorly
+constrained (the caller then passes the fit and the same fit with that parameter
+moved by its error), :func:`propose_next_measurement` names the recording, from a
+menu a lab can take (:mod:`~dpdfit.analyses.diagnosis.measurement_menu`), that
+separates them in the least lab time.
 
-Each item's mean is predicted under each hypothesis by the diagnosis's own
-forward model at that hypothesis's fitted parameters (``FitResult.all_params``;
-tone-side hypotheses re-predict the gates from their own field, the gate model
-rebased as the diagnosis does), with the recording's noise:
+Each item's values are predicted under each hypothesis by the diagnosis's own
+forward model (tone-side hypotheses re-predict the gates from their own field),
+with the recording's noise:
 
-* ``amplitude_run``: one more amplitude calibration run now (at the time of the
-  latest run after the recordings, else right after them) in the run-to-run
-  drift modes, predicted by the effects' ``run_drift``; sigma: the modes'
-  run-to-run sd (the runs before the recordings' where known, else 1);
-* ``phase_run``: one phase run on 101 amplitudes (``A >= PHASE_MIN_A``), the
-  AOM's phase curve of the tone model (calibration modes, ``pm_x``, the effects'
-  ``coefficients``); sigma: the campaign's learnt phase-run noise, else
+* ``amplitude_run``: one more amplitude calibration run now, in the run-to-run
+  drift modes (the effects' ``run_drift``); sigma: the modes' run-to-run sd;
+* ``phase_run``: one phase run on 101 amplitudes (``A >= PHASE_MIN_A``); sigma:
+  the campaign's learnt phase-run noise, else
   :data:`~dpdfit.core.defaults.PHASE_RUN_NOISE_RAD`;
 * ``spectra``: traces at ``k`` (:data:`SPECTRA_COUNTS`) amplitudes of
-  :data:`SPECTRA_GRID`, chosen greedily for the largest separation, with and
-  without DPD, compared through the diagnosis's per-trace tone features; a
-  tone's sigma is the learnt repeatability combined with the floor's part
-  ``(10/ln 10) sqrt(2 N0/P)``, tones below ``MIN_SNR_DB`` unused, the absolute
-  power scale (``gate_power``, a profiled nuisance) left out;
+  :data:`SPECTRA_GRID`, chosen greedily, with and without DPD, through the
+  per-trace tone features (the learnt repeatability with the floor's part; the
+  absolute scale ``gate_power`` left out);
 * ``populations`` / ``parity``: one scan at a recorded gate setting with the
-  campaign's typical shots per scan point (parity: per phase, ``parity_phases``
-  phases); ``F_pop`` and ``imb`` with their multinomial covariance, or ``C``
-  with ``var = 2 (1 - 3 C^2/4) / N`` (cosine amplitude of a uniform phase scan),
-  plus the scan's random power error (laser jitter and rate calibration
-  through the gate model's responses);
-* ``time_scan``: a scan at a recorded time-scan setting, its points, the
-  campaign's typical shots per point, binomial ``P00`` and ``P11``.
+  campaign's typical shots (parity: per phase, ``parity_phases`` phases), with
+  the scan's random power error;
+* ``time_scan``: a scan at a recorded time-scan setting, binomial ``P00`` and ``P11``.
 
-The expected separation of hypotheses ``a`` and ``b`` is the Asimov ``delta
-chi2 = sum(((m_a - m_b) / sigma)^2)`` over the new points, the expected delta
-BIC the recording adds (it adds no parameters).  Parameters are held at their
-fits: a refit to the new recording absorbs part of the difference, so this is
-an upper-bound-like estimate.  With more than two hypotheses the smallest
-separation of the first (the verdict's) from the others counts.  Choice: items
-reaching :data:`~dpdfit.analyses.diagnosis.verdict.BIC_DECISIVE` first, then
-the largest expected delta BIC per lab hour (:class:`~dpdfit.core.defaults.LabTimes`),
-ties to the shorter.
+**Separating causes, not curves.**  A hypothesis is a group of fits: a family in
+each of its forms still in reach.  For two hypotheses, ``a`` true and ``b`` its
+rival, the rival's parameters are refitted to ``a``'s predicted recording
+together with the recordings so far (T-optimality, Atkinson & Fedorov 1975;
+KL-optimality for counts, Lopez-Fidalgo, Tommasi & Trandafir 2007).  Linearised,
+with ``d`` the whitened difference of the predictions on the new recording,
+``J`` the rival's whitened Jacobian there and ``F`` its information from the
+recordings so far (the inverse of its fit's covariance; the calibration's error
+modes with their posterior), the expected separation of ``k`` independent
+repeats is
+
+    ``d_k^T (I + J_k F^-1 J_k^T)^-1 d_k = k d.d - k^2 g^T (F + k J^T J)^-1 g``,
+    ``g = J^T d``
+
+(Woodbury).  It is taken in both directions and is the minimum over the forms
+of both hypotheses: a recording must separate every form of one from every form
+of the other.  Parameters held at their fits give ``k d.d``
+(``separation_fixed``), which a refit can only lower.  The best
+:data:`CONFIRMED` candidates are then confirmed by an exact refit of the rival
+(a nonlinear least-squares fit of its parameters to the predicted recording,
+the recordings so far entering through their information).
+
+Each item is repeated (more runs, traces at the same amplitudes, more scans, each
+with its own noise) until the tempered delta BIC it is expected to add is decisive
+with 95 % probability (:func:`decisive_target`), within a working day of lab
+time.  Choice: the shortest item that decides; else the largest expected delta
+BIC per lab hour (:class:`~dpdfit.core.defaults.LabTimes`), ties to the shorter.
 """
 
 from __future__ import annotations
@@ -50,21 +59,26 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.optimize import least_squares
 from scipy.stats import norm
 
 from dpdfit.analyses.diagnosis.measurement_menu import (BUILDERS, RUN_AMPLITUDES,
                                                         SPECTRA_COUNTS, SPECTRA_GRID,
-                                                        Hypothesis)
+                                                        Hypothesis, white)
 from dpdfit.analyses.diagnosis.verdict import BIC_DECISIVE
 from dpdfit.core.defaults import LAB_TIMES
 
 __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
-           "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID",
-           "SPECTRA_COUNTS", "RUN_AMPLITUDES"]
+           "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID", "SPECTRA_COUNTS",
+           "RUN_AMPLITUDES", "CONFIRMED", "REFIT_NFEV"]
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
+#: the best candidates whose expected separation is confirmed by an exact refit
+CONFIRMED = 3
+#: evaluations of that refit
+REFIT_NFEV = 30
 
 
 @dataclass(frozen=True)
@@ -78,8 +92,9 @@ class NextMeasurement:
     settings : dict
         The recording's settings (e.g. ``{"amplitudes": [...], "dpd": [0, 1]}``).
     expected_delta_bic : float
-        Expected delta BIC the recording adds between the hypotheses it separates
-        (the smallest over the alternatives; an upper-bound-like estimate).
+        Expected delta chi2 the recording adds between the hypotheses it separates,
+        with the rival refitted (the smallest over the alternatives, both directions
+        and every pair of forms).
     separates : list of str
         ``FitResult.effect`` of the hypotheses, the verdict's first.
     lab_seconds, per_hour : float
@@ -87,7 +102,17 @@ class NextMeasurement:
     menu : list of dict
         Every item evaluated, with the keys above.
     reason : str or None
-        Why nothing could be proposed.
+        Why nothing could be proposed, or why the proposal does not decide.
+    separation : dict
+        The proposal's expected separation: ``fixed`` (parameters held at their
+        fits), ``linearised`` and ``refit`` (the rival refitted; None when it was
+        not confirmed).
+    hypotheses : list
+        Per hypothesis the forms in reach it stands for, ``[{"effects", "forms"}]``:
+        what a later diagnosis refits to measure the separation achieved.
+    binding : dict
+        The pair and direction that set the separation: ``truth`` and ``rival`` (as
+        in ``hypotheses``).
     """
 
     what: str | None
@@ -98,10 +123,14 @@ class NextMeasurement:
     per_hour: float = 0.0
     menu: list = field(default_factory=list)
     reason: str | None = None
+    separation: dict = field(default_factory=dict)
+    hypotheses: list = field(default_factory=list)
+    binding: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The proposal as a JSON-ready dict: the keys of :attr:`menu`'s items plus
-        ``menu``, or ``{"what": None, "reason": ...}`` when there is none."""
+        ``menu``, ``decisive``, ``predicted_separation``, ``hypotheses`` and ``binding``,
+        or ``{"what": None, "reason": ...}`` when there is none."""
         if self.what is None:
             return {"what": None, "reason": self.reason}
         out = {k: getattr(self, k) for k in _KEYS}
@@ -109,6 +138,12 @@ class NextMeasurement:
         if self.reason:
             out["reason"] = self.reason
         out["menu"] = list(self.menu)
+        if self.separation:
+            out["predicted_separation"] = dict(self.separation)
+        if self.hypotheses:
+            out["hypotheses"] = list(self.hypotheses)
+        if self.binding:
+            out["binding"] = dict(self.binding)
         return out
 
     def sentence(self) -> str:
@@ -142,23 +177,122 @@ def decisive_target(tempering: float = 1.0, probability: float = DECIDE_PROBABIL
     return float(tempering * (z + np.sqrt(z * z + BIC_DECISIVE)) ** 2)
 
 
+# ----------------------------------------------------------------- separations
+class _Direction:
+    """One direction of one pair on one item: ``truth`` is taken as true, ``rival``'s
+    parameters absorb what they can (module doc)."""
+
+    def __init__(self, item, truth: Hypothesis, rival: Hypothesis, W, profile: bool):
+        self.item, self.truth, self.rival, self.W = item, truth, rival, W
+        self.d = white(W, item.vector(truth) - item.vector(rival))
+        self.dd = float(self.d @ self.d)
+        self.keys, self.Cinv, self.J = [], None, None
+        if not profile or self.dd == 0.0:
+            return
+        absorbing = rival.absorbing(item.source)
+        C = rival.covariance([k for k, _ in absorbing])
+        if C is None:
+            return
+        p0, v0 = rival.p, item.vector(rival)
+        J = np.empty((self.d.size, len(absorbing)))
+        for j, (k, h) in enumerate(absorbing):
+            J[:, j] = white(W, item.vector(rival, {**p0, k: p0.get(k, 0.0) + h}) - v0) / h
+        keep = np.any(J != 0, axis=0)
+        if not keep.any():
+            return
+        self.keys = [k for (k, _), y in zip(absorbing, keep) if y]
+        self.J = J[:, keep]
+        self.Cinv = np.linalg.pinv(C[np.ix_(keep, keep)])
+        self.g = self.J.T @ self.d
+        self.H = self.J.T @ self.J
+
+    def linearised(self, k) -> np.ndarray:
+        """The profiled separation of ``k`` repeats (array-valued in ``k``)."""
+        k = np.atleast_1d(np.asarray(k, dtype=float))
+        if self.J is None:
+            return k * self.dd
+        out = np.empty(k.size)
+        for i, kk in enumerate(k):
+            out[i] = kk * self.dd - kk * kk * float(
+                self.g @ np.linalg.solve(self.Cinv + kk * self.H, self.g))
+        return np.maximum(out, 0.0)
+
+    def refit(self, k: int) -> float:
+        """The separation of ``k`` repeats with the rival refitted exactly to the truth's
+        predicted recording, the recordings so far entering through its information."""
+        if self.J is None:
+            return float(k * self.dd)
+        L = np.linalg.cholesky(self.Cinv + 1e-12 * np.eye(len(self.keys)) * np.trace(
+            self.Cinv) / len(self.keys))
+        vt, p0, item, rival, W = (self.item.vector(self.truth), self.rival.p, self.item,
+                                  self.rival, self.W)
+        root = np.sqrt(float(k))
+
+        def fun(x):
+            p = {**p0, **{key: p0.get(key, 0.0) + v for key, v in zip(self.keys, x)}}
+            return np.concatenate([root * white(W, vt - item.vector(rival, p)), L.T @ x])
+
+        scale = np.sqrt(np.maximum(np.diag(np.linalg.pinv(self.Cinv)), 1e-300))
+        x0 = np.linalg.solve(self.Cinv + k * self.H, k * self.g)   # the linear optimum
+        try:
+            r = least_squares(fun, x0, x_scale=scale, max_nfev=REFIT_NFEV, method="trf")
+            f = r.fun
+        except (ValueError, np.linalg.LinAlgError):
+            f = fun(x0)
+        return float(min(f @ f, k * self.dd))
+
+
+def _directions(item, groups, profile: bool) -> list:
+    """For each rival group (against the verdict's group), every pair of forms in both
+    directions: ``[[_Direction, ...] per rival group]``."""
+    out = []
+    for g in groups[1:]:
+        dirs = []
+        for a in groups[0]:
+            for b in g:
+                W = item.whitener(a, b)
+                dirs += [_Direction(item, a, b, W, profile), _Direction(item, b, a, W, profile)]
+        out.append(dirs)
+    return out
+
+
+def _separation(dirs: list, k, how: str = "linearised"):
+    """The verdict's separation from its nearest rival: the smallest over the rival
+    groups, the pairs of forms and both directions, at ``k`` repeats (``how``:
+    ``"linearised"``, ``"fixed"`` or ``"refit"``); ``(value, binding direction)``."""
+    best, arg = np.inf, None
+    for group in dirs:
+        for d in group:
+            v = float(d.linearised(k)[0]) if how == "linearised" else (
+                float(k * d.dd) if how == "fixed" else d.refit(k))
+            if v < best:
+                best, arg = v, d
+    return (0.0 if not np.isfinite(best) else best), arg
+
+
 def propose_next_measurement(prob, hypotheses: list, lab=None,
-                             tempering: float = 1.0) -> NextMeasurement:
+                             tempering: float = 1.0, profile: bool = True
+                             ) -> NextMeasurement:
     """The single further recording that best separates ``hypotheses`` (module doc).
 
     Parameters
     ----------
     prob : dpdfit.analyses.diagnosis.problem.Problem
         The diagnosis's problem (campaign, tone and gate models, learnt noise).
-    hypotheses : list of FitResult
-        The verdict's fit first, then the alternatives; or a fit and the same
-        hypothesis with a poorly constrained parameter moved by its error.
+    hypotheses : list
+        The verdict's first, then the alternatives: each a FitResult, or a list of
+        FitResults (the hypothesis's forms in reach; every pair of forms must be
+        separated).  Or a fit and the same hypothesis with a poorly constrained
+        parameter moved by its error (then ``profile=False``).
     lab : dpdfit.core.defaults.LabTimes, optional
         Lab time of each recording (default :data:`~dpdfit.core.defaults.LAB_TIMES`).
     tempering : float
         The dispersion of the evidence between the hypotheses (>= 1): the diagnosis
         divides the new recording's chi2 difference by about as much, so the
         recording must add that much more (:func:`decisive_target`).
+    profile : bool
+        Refit the rival to the predicted recording (default); False holds every
+        parameter at its fit (e.g. to pin down one hypothesis's parameter).
 
     Returns
     -------
@@ -169,52 +303,118 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     lab = LAB_TIMES if lab is None else lab
     if len(hypotheses) < 2:
         return NextMeasurement(None, reason="fewer than two hypotheses to separate")
-    hyps = [Hypothesis(prob, f) for f in hypotheses]
-    separates = [f.effect for f in hypotheses]
-    menu = []
-    for build in BUILDERS:
-        for what, settings, seconds, seps in build(prob, hyps, lab):
-            delta = float(np.min(seps))
-            menu.append({"what": what, "settings": settings, "expected_delta_bic": delta,
-                         "separates": list(separates), "lab_seconds": float(seconds),
-                         "per_hour": delta / (seconds / 3600.0)})
-    if not menu:
-        return NextMeasurement(None, reason=_why_none(prob))
+    groups = [[Hypothesis(prob, f) for f in (g if isinstance(g, (list, tuple)) else [g])]
+              for g in hypotheses]
+    separates = [g[0].fit.effect for g in groups]
+    labels = [[h.label for h in g] for g in groups]
     target = decisive_target(max(tempering, 1.0))
-    menu = [_to_decisive(m, lab, target) for m in menu]
-    best = max(menu, key=lambda m: (m["decisive"], -m["lab_seconds"] if m["decisive"]
-                                    else m["per_hour"], -m["lab_seconds"]))
-    if best["expected_delta_bic"] < target:
-        best = {k: v for k, v in best.items() if k != "decisive"}
-        return NextMeasurement(menu=menu, reason=(
+    cands = []
+    for build in BUILDERS:
+        for item in build(prob, [g[0] for g in groups], lab):
+            dirs = _directions(item, groups, profile)
+            cands.append(_candidate(item, dirs, lab, target, separates))
+    if not cands:
+        return NextMeasurement(None, reason=_why_none(prob))
+    confirmed = set()
+    while True:
+        order = sorted(range(len(cands)), key=lambda i: _rank_key(cands[i]), reverse=True)
+        todo = [i for i in order[:CONFIRMED] if i not in confirmed]
+        if not todo:
+            break
+        for i in todo:
+            cands[i] = _confirm(cands[i], lab, target)
+            confirmed.add(i)
+    best = cands[order[0]]
+    menu = [c["entry"] for c in cands]
+    m = best["entry"]
+    sep = {"fixed": best["fixed"], "linearised": best["linearised"],
+           "refit": best.get("refit")}
+    d = best["binding"]
+    binding = ({} if d is None else {"truth": d.truth.label, "rival": d.rival.label})
+    common = dict(menu=menu, separation=sep, hypotheses=labels, binding=binding)
+    fields = {k: m[k] for k in _KEYS}
+    if m["expected_delta_bic"] < target:
+        return NextMeasurement(reason=(
             f"no recording of the menu separates them within "
-            f"{_duration(lab.max_seconds)} of lab time: the best, {_describe(best['what'], best['settings'])}, "
-            f"would give an expected delta BIC of {best['expected_delta_bic']:.2g}"), **best)
-    return NextMeasurement(menu=menu, **{k: v for k, v in best.items() if k != "decisive"})
+            f"{_duration(lab.max_seconds)} of lab time: the best, "
+            f"{_describe(m['what'], m['settings'])}, would give an expected delta BIC of "
+            f"{m['expected_delta_bic']:.2g}"), **fields, **common)
+    return NextMeasurement(**fields, **common)
 
 
-def _to_decisive(m: dict, lab, target: float = BIC_DECISIVE) -> dict:
-    """Menu item ``m`` repeated until its expected delta BIC reaches ``target``
-    (its separation grows with the repeats: independent runs, traces or scans, each
-    with its own noise and power error), at most ``lab.max_seconds`` of lab time; the
-    smallest unit when one already reaches it.  Spectra repeat their amplitudes (a
-    repeated amplitude is recorded a hair apart)."""
-    delta, secs = m["expected_delta_bic"], m["lab_seconds"]
-    m = {**m, "decisive": bool(delta >= target)}
-    if delta >= target or delta <= 0 or secs <= 0:
-        return m
-    k = int(min(np.ceil(target / delta), max(lab.max_seconds // secs, 1)))
+def _rank_key(c: dict) -> tuple:
+    m = c["entry"]
+    dec = m["expected_delta_bic"] >= c["target"]
+    return (dec, -m["lab_seconds"] if dec else m["per_hour"], -m["lab_seconds"])
+
+
+def _repeats(dirs, unit_seconds: float, lab, target: float) -> int:
+    """The fewest repeats whose linearised separation reaches ``target``, at most a
+    working day of lab time; one when nothing separates."""
+    k_max = int(max(lab.max_seconds // unit_seconds, 1)) if unit_seconds > 0 else 1
+    if _separation(dirs, k_max)[0] <= 0:
+        return 1
+    lo, hi = 1, k_max
+    if _separation(dirs, hi)[0] < target:
+        return hi
+    while lo < hi:                       # the separation grows with k: bisect
+        mid = (lo + hi) // 2
+        if _separation(dirs, mid)[0] >= target:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+def _repeat_settings(what: str, settings: dict, k: int) -> dict:
+    st = dict(settings)
     if k <= 1:
-        return m
-    st = dict(m["settings"])
-    if m["what"] in ("amplitude_run", "phase_run"):
+        return st
+    if what in ("amplitude_run", "phase_run"):
         st["runs"] = k * int(st.get("runs", 1))
-    elif m["what"] == "spectra":
+    elif what == "spectra":
         st["amplitudes"] = sorted(list(st["amplitudes"]) * k)
     else:
         st["scans"] = k * int(st.get("scans", 1))
-    return {**m, "settings": st, "expected_delta_bic": k * delta, "lab_seconds": k * secs,
-            "per_hour": m["per_hour"], "decisive": bool(k * delta >= target)}
+    return st
+
+
+def _candidate(item, dirs, lab, target, separates) -> dict:
+    """One menu entry: the item repeated until it decides (linearised separation)."""
+    k = _repeats(dirs, item.seconds, lab, target)
+    lin, binding = _separation(dirs, k)
+    fixed = _separation(dirs, k, "fixed")[0]
+    return {"item": item, "dirs": dirs, "k": k, "linearised": lin, "fixed": fixed,
+            "binding": binding, "target": target,
+            "entry": _entry(item, k, lin, fixed, separates, target)}
+
+
+def _entry(item, k, sep, fixed, separates, target) -> dict:
+    secs = k * item.seconds
+    return {"what": item.what, "settings": _repeat_settings(item.what, item.settings, k),
+            "expected_delta_bic": float(sep), "separates": list(separates),
+            "lab_seconds": float(secs),
+            "per_hour": float(sep / (secs / 3600.0)) if secs > 0 else 0.0,
+            "decisive": bool(sep >= target), "separation_fixed": float(fixed)}
+
+
+def _confirm(c: dict, lab, target: float) -> dict:
+    """The candidate's separation confirmed by an exact refit of the rival (module doc);
+    repeated further (once) when the refit falls short of ``target``."""
+    item, dirs, k = c["item"], c["dirs"], c["k"]
+    exact, binding = _separation(dirs, k, "refit")
+    if c["linearised"] >= target > exact > 0:
+        k_max = int(max(lab.max_seconds // item.seconds, 1))
+        k2 = int(min(k_max, np.ceil(k * target / exact)))
+        if k2 > k:
+            k = k2
+            exact, binding = _separation(dirs, k, "refit")
+    lin = _separation(dirs, k)[0]
+    fixed = _separation(dirs, k, "fixed")[0]
+    return {**c, "k": k, "linearised": lin, "fixed": fixed, "refit": exact,
+            "binding": binding,
+            "entry": {**_entry(item, k, exact, fixed, c["entry"]["separates"], target),
+                      "separation_linearised": float(lin)}}
 
 
 # ----------------------------------------------------------------- text

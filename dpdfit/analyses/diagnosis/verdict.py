@@ -115,7 +115,8 @@ def mismatch_evidence(p_base: float, mismatches: list, ranking: list) -> list[st
     if mismatches:
         out.append("located_interval")
     if gate_side:
-        best = min(gate_side, key=lambda r: r["delta_bic"])
+        best = min(gate_side, key=lambda r: r.get("family_delta_bic_tempered",
+                                                  r["delta_bic"]))
         if decisive(best, len(singles)):
             out.append(f"targeted:{best['effect']}")
     return out
@@ -237,10 +238,13 @@ def decisive(entry: dict, n_tests: int) -> bool:
     """A hypothesis is decisive against the one it extends: its *tempered* delta BIC below
     ``-BIC_DECISIVE`` and its tempered likelihood-ratio p-value, Bonferroni-corrected
     over ``n_tests``, below ALPHA (the chi2 difference divided by the dispersion of the
-    evidence, :mod:`dpdfit.analyses.diagnosis.tempering`; entries without it: the raw
-    ones)."""
-    dbic = entry.get("delta_bic_tempered", entry["delta_bic"])
-    p = entry.get("p_value_tempered", entry["p_value"])
+    evidence, :mod:`dpdfit.analyses.diagnosis.tempering`).  Entries that carry their
+    family's evidence (``family_delta_bic_tempered``, ``family_p_value_tempered``:
+    :mod:`dpdfit.analyses.diagnosis.families`) are judged on it, a family being the
+    unit of every decision; entries without tempering on the raw values."""
+    dbic = entry.get("family_delta_bic_tempered",
+                     entry.get("delta_bic_tempered", entry["delta_bic"]))
+    p = entry.get("family_p_value_tempered", entry.get("p_value_tempered", entry["p_value"]))
     return dbic < -BIC_DECISIVE and p * n_tests < ALPHA
 
 
