@@ -36,10 +36,11 @@ from dpdfit.analyses.diagnosis.families import NOISE_Z, separation_z
 from dpdfit.analyses.diagnosis.tempering import tempered_gap
 from dpdfit.analyses.diagnosis.verdict import ALPHA, BIC_DECISIVE, decisive
 
-#: an addition the tempered evidence does not decide is in reach when it still favours
-#: it "strongly" on Kass & Raftery's scale (a BIC difference of 6-10; 2-6 is "positive",
-#: the weakest evidence worth more than a mention): the simpler named set is the default
-ADDITION_IN_REACH = 6.0
+#: an addition the raw likelihood would make but the tempered evidence does not decide is
+#: in reach while its chi2 gain, divided by the dispersion of the evidence, is at least
+#: this (the decisive threshold with its parameters free: a parameter count alone never
+#: puts a family out of reach); the simpler named set is the default
+ADDITION_IN_REACH = BIC_DECISIVE
 
 __all__ = ["ADDITION_IN_REACH", "FORM_IN_REACH", "swap_alternatives",
            "addition_alternatives", "alternatives_sentence", "shifted_hypothesis",
@@ -73,7 +74,7 @@ def _shared_prefixes(a, b) -> tuple | None:
 
 
 def swap_alternatives(fits: dict, form_fits: dict, ranking: list, first: str,
-                      named: list, sides: set | None) -> list:
+                      named: list, sides: set | None, exclude=()) -> list:
     """Families the recordings do not separate from the first named one (module doc):
     ``fits`` the single effects' fits by name (the best form, carried to the gates where
     it was), ``form_fits`` every form's fit, ``ranking`` their ranking entries (with
@@ -82,14 +83,15 @@ def swap_alternatives(fits: dict, form_fits: dict, ranking: list, first: str,
     within ``BIC_DECISIVE`` of the named one's or one of its forms is within the noise
     of the named fit (:func:`~dpdfit.analyses.diagnosis.families.separation_z` below
     :data:`~dpdfit.analyses.diagnosis.families.NOISE_Z`): a parameter count alone
-    never puts a family out of reach.  Returns ``[(alternative dict, its fit)]``."""
+    never puts a family out of reach.  ``exclude``: families already given as complete
+    explanations of their own.  Returns ``[(alternative dict, its fit)]``."""
     out = []
     n_tests = len(ranking)
     by_name = {r["effect"]: r for r in ranking}
     ref = by_name.get(first, {})
     for r in ranking:
         e = r["effect"]
-        if e == first or e in named or "+" in e or e not in fits:
+        if e == first or e in named or "+" in e or e not in fits or e in exclude:
             continue
         if sides is not None and r["side"] not in sides:
             continue
@@ -135,10 +137,9 @@ def addition_alternatives(steps: list, named: list) -> list:
             listed = {f.effects[-1] for _, f, _ in refused}
             for entry, f in entries:
                 c = f.effects[-1]
-                dbic_t = entry.get("family_delta_bic_tempered",
-                                   entry.get("delta_bic_tempered", entry["delta_bic"]))
+                gain_t = entry["delta_chi2"] / max(entry.get("tempering", 1.0), 1.0)
                 if (c not in listed and entry["delta_bic"] < -BIC_DECISIVE
-                        and entry["p_value"] * n < ALPHA and dbic_t <= -ADDITION_IN_REACH):
+                        and entry["p_value"] * n < ALPHA and gain_t >= ADDITION_IN_REACH):
                     out.append((_entry(c, entry["delta_bic"], entry["delta_bic_tempered"],
                                        entry.get("tempering", 1.0), None, list(named) + [c]),
                                 f))

@@ -29,16 +29,21 @@ that test (a weak gate effect beside a tone effect leaves no located interval).
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.families import family_evidence, maximal_forms
+from dpdfit.analyses.diagnosis.families import family_evidence, form_gain, maximal_forms
 from dpdfit.analyses.diagnosis.fitting import (FitResult, combine_sides, fit_all,
                                                fit_hypothesis, param_side)
 from dpdfit.analyses.diagnosis.phase_sign import repredict_gates, tone_held
 from dpdfit.analyses.diagnosis.verdict import (BIC_DECISIVE, DOMINANT_FRACTION, decisive,
                                                locate_mismatches, rank_entry, side_evidence)
 
-__all__ = ["add_effects", "addition_entry", "room_for", "use_field_of", "MAX_EFFECTS",
-           "ADD_NFEV"]
+__all__ = ["Selection", "select_from", "add_effects", "prune", "addition_entry", "room_for",
+           "use_field_of", "set_gain", "MAX_EFFECTS", "ADD_NFEV"]
 
 #: at most this many effects are named
 MAX_EFFECTS = 3
@@ -58,11 +63,12 @@ def addition_entry(prob, ref: FitResult, f: FitResult) -> dict:
 def use_field_of(prob, chosen: FitResult) -> bool:
     """The gate model of the named tone-side effect's field (carried, if it was): whether
     the gate model changed (the gate-side single fits were made with the other one)."""
-    carried = getattr(prob, "carried", None)
-    if carried is not None and carried[0] in chosen.effects:
-        prob.use_tone(carried[1])
-        prob.gate = carried[2]
-        return True
+    carried = getattr(prob, "carried", None) or {}
+    for name in chosen.effects:
+        if name in carried:
+            prob.use_tone(carried[name][0])
+            prob.gate = carried[name][1]
+            return True
     return False
 
 
@@ -117,6 +123,7 @@ def add_effects(prob, base: FitResult, chosen: FitResult, fits: dict, form_fits:
             break
         chosen = added
         chain.append(added)
+        prob.n_tests_of = {**getattr(prob, "n_tests_of", {}), added.effects[-1]: len(cands)}
     tone_side = [e for e in chosen.effects if EFFECTS[e].side == "tones"]
     if prob.gate is not None and tone_side and len(chosen.effects) > 1:
         # the gates under the final field (the tone effects held at their joint fit)
@@ -162,6 +169,99 @@ def _not_a_refinement(base: FitResult, chosen: FitResult, f: FitResult) -> bool:
 
     named_gain = side_chi2(base) - side_chi2(chosen)
     return side_chi2(chosen) - side_chi2(f) >= DOMINANT_FRACTION * max(named_gain, 0.0)
+
+
+# ----------------------------------------------------------------- whole selections
+@dataclass
+class Selection:
+    """One forward selection from a first effect: the final fit, the steps (ranking
+    entries per step), the chain of fits, the candidates tried per step (see
+    :func:`add_effects`), the additions dropped again (:func:`prune`), the models the
+    problem ended on (the gates on the named field) and the set's gain
+    (:func:`set_gain`)."""
+
+    start: str
+    chosen: FitResult
+    steps: list
+    chain: list
+    tried: list
+    dropped: list = field(default_factory=list)
+    models: tuple = ()
+    gain: float = -np.inf
+
+
+def set_gain(prob, base: FitResult, f: FitResult) -> float:
+    """The tempered gain of a set of effects against the baseline, each family paying
+    ``2 ln F`` for the form it was fitted in among its ``F``."""
+    cost = sum(2 * np.log(max(len(prob.forms_of(e)), 1)) for e in f.effects)
+    return form_gain(base, f)[1] - cost
+
+
+def select_from(prob, base: FitResult, start: FitResult, fits: dict, form_fits: dict,
+                ranking: list, pairs: int, sides: set) -> Selection:
+    """The forward selection from first effect ``start`` (:func:`add_effects`), its
+    additions checked again once the set is complete (:func:`prune`).  The problem
+    starts from its baseline models and is left on the selection's."""
+    tone, gate = getattr(prob, "base_models", (prob.tone, prob.gate))
+    prob.use_tone(tone)
+    prob.gate = gate
+    chosen, steps, chain, tried = start, [], [start], []
+    if pairs > 0:
+        chosen, steps, chain, tried = add_effects(prob, base, start, fits, form_fits,
+                                                  ranking, pairs, sides)
+    chosen, chain, dropped = prune(prob, base, chosen, chain, form_fits)
+    return Selection(start.effects[0], chosen, steps, chain, tried, dropped,
+                     (prob.tone, prob.gate), set_gain(prob, base, chosen))
+
+
+def _reordered(f: FitResult, last: str) -> FitResult:
+    """``f`` with effect ``last`` moved to the end of its hypothesis."""
+    hyp = [h for h in f.hypothesis if h[0] != last] + [h for h in f.hypothesis if h[0] == last]
+    return dataclasses.replace(f, effect="+".join(e for e, _ in hyp),
+                               forms=tuple(fo for _, fo in hyp))
+
+
+def prune(prob, base: FitResult, chosen: FitResult, chain: list, form_fits: dict):
+    """Each gate-side addition checked again once every other effect is named: it must
+    still be decisive against the others refitted without it and have room against
+    their maximal forms (:func:`room_for`); otherwise it is dropped (the last such
+    first) and the check repeated.  A tone-side addition was judged against every tone
+    form already.  Returns ``(chosen, chain, dropped)``, ``dropped`` the ``(effect,
+    entry)`` of each addition dropped."""
+    dropped = []
+    n_tests_of = getattr(prob, "n_tests_of", {})
+    while len(chosen.effects) > 1:
+        for e in reversed(chosen.effects[1:]):
+            if EFFECTS[e].side != "gates":
+                continue
+            without = _refit_without(prob, base, chosen, e)
+            f = _reordered(chosen, e)
+            n = n_tests_of.get(e, 1)
+            entry = addition_entry(prob, without, f)
+            if decisive(entry, n) and room_for(prob, base, without, f, form_fits, n) is None:
+                continue
+            dropped.append((e, entry))
+            chosen = without
+            chain = [c for c in chain if e not in c.effects]
+            if len(chain) < len(without.effects):
+                chain.append(without)
+            else:
+                chain[-1] = without
+            break
+        else:
+            break
+    return chosen, chain, dropped
+
+
+def _refit_without(prob, base: FitResult, chosen: FitResult, e: str) -> FitResult:
+    """``chosen`` refitted without gate-side effect ``e`` (the tones held)."""
+    hyp = tuple(h for h in chosen.hypothesis if h[0] != e)
+    pre = e + "."
+    start = {k: v for k, v in chosen.params.items() if not k.startswith(pre)}
+    f = fit_hypothesis(prob, hyp, starts=[start],
+                       fixed=_held_other_side(prob, chosen, "gates"), max_nfev=ADD_NFEV,
+                       init={**base.nuisances, **chosen.nuisances})
+    return combine_sides(prob, chosen, f, "gates", hyp=hyp)
 
 
 # ----------------------------------------------------------------- room

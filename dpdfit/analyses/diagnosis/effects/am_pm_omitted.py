@@ -33,20 +33,28 @@ class AmPmOmitted(Effect):
     meaning = "AM-to-PM conversion left out of the model (phase at full drive ~ |y|^2)"
     params = (Param("dphi", "rad", -1.0, 1.0, 0.0, 0.05, "phase at full drive after the AOM"),
               Param("dphi_x", "rad", -1.0, 1.0, 0.0, 0.05,
-                    "the AOM's own phase at full drive (|x|^2 of the RF drive)"))
-    forms = (Form("post", ("dphi",), {"dphi_x": 0.0}, "phase ~ |y|^2 after the AOM"),
-             Form("aom", ("dphi_x",), {"dphi": 0.0}, "the modulator's own AM-to-PM",
-                  replaces=("pm_x",)))
-    phase_odd = ("dphi", "dphi_x")
+                    "the AOM's own phase at full drive (|x|^2 of the RF drive)"),
+              Param("dphi_x4", "rad", -1.0, 1.0, 0.0, 0.05,
+                    "its next even order at full drive (|x|^4 of the RF drive)"))
+    forms = (Form("post", ("dphi",), {"dphi_x": 0.0, "dphi_x4": 0.0},
+                  "phase ~ |y|^2 after the AOM"),
+             Form("aom", ("dphi_x",), {"dphi": 0.0, "dphi_x4": 0.0},
+                  "the modulator's own AM-to-PM", replaces=("pm_x",)),
+             Form("aom_quartic", ("dphi_x", "dphi_x4"), {"dphi": 0.0},
+                  "the modulator's own AM-to-PM to the next even order of the drive",
+                  replaces=("pm_x",), starts_from="aom", extra_starts=({"dphi_x4": -0.1},
+                                                                       {"dphi_x4": 0.1})))
+    phase_odd = ("dphi", "dphi_x", "dphi_x4")
     stage = 1
     main = "am_pm_rad"
     harness = {"dphi": (0.05, 0.15, True)}
 
     def coefficients(self, tm, v, cy, cp):
-        if not v.get("dphi_x"):
+        if not (v.get("dphi_x") or v.get("dphi_x4")):
             return cy, cp
-        cp = np.concatenate([cp, np.zeros(max(3 - cp.size, 0))])
-        cp[2] += v["dphi_x"]
+        cp = np.concatenate([cp, np.zeros(max(5 - cp.size, 0))])
+        cp[2] += v.get("dphi_x", 0.0)
+        cp[4] += v.get("dphi_x4", 0.0)
         return cy, cp
 
     def transfer(self, tm, v, y, cy):
@@ -57,13 +65,15 @@ class AmPmOmitted(Effect):
 
     def size_values(self, ctx, p):
         v = self.values(p) or {}
-        return {"am_pm_rad": (v.get("dphi", 0.0) + v.get("dphi_x", 0.0), "rad",
+        return {"am_pm_rad": (v.get("dphi", 0.0) + v.get("dphi_x", 0.0)
+                              + v.get("dphi_x4", 0.0), "rad",
                               "missing AM-to-PM phase at full drive")}
 
     def inject_field(self, v, y, x, fs, y_full):
         r2 = (np.abs(y) / y_full) ** 2
-        return y * np.exp(1j * (v.get("dphi", 0.0) * r2
-                                + v.get("dphi_x", 0.0) * np.minimum(np.abs(x), 1.0) ** 2))
+        x2 = np.minimum(np.abs(x), 1.0) ** 2
+        return y * np.exp(1j * (v.get("dphi", 0.0) * r2 + v.get("dphi_x", 0.0) * x2
+                                + v.get("dphi_x4", 0.0) * x2 * x2))
 
 
 EFFECT = AmPmOmitted()

@@ -1,0 +1,64 @@
+"""The separation a recording achieved: named hypotheses fitted again, the same way on
+the campaign before and after it.
+
+A proposed recording (:mod:`~dpdfit.analyses.diagnosis.next_measurement`) names the
+pair of hypotheses whose separation it predicts (``binding``: ``truth`` and
+``rival``, each ``{"effects", "forms"}``).  :func:`refit_label` fits one such
+hypothesis from scratch on a campaign's problem exactly as the diagnosis fits its
+single effects (the other side's nuisances held at the baseline's optimum, a
+tone-side hypothesis's field carried to the gates with the phase-sign convention
+kept), so that its chi2 before and after the recording are comparable;
+:func:`achieved_separation` is how far the recording moved the pair apart:
+``|(chi2_rival - chi2_truth)_after - (chi2_rival - chi2_truth)_before|``.
+"""
+
+from __future__ import annotations
+
+from dpdfit.analyses.diagnosis.effects import EFFECTS
+from dpdfit.analyses.diagnosis.fitting import FitResult, fit_hypothesis
+from dpdfit.analyses.diagnosis.phase_sign import repredict_gates
+
+__all__ = ["refit_label", "achieved_separation"]
+
+
+def _held(prob, base: FitResult, names) -> dict:
+    sides = {EFFECTS[e].side for e in names}
+    if len(sides) != 1:
+        return {}
+    side = sides.pop()
+    return {k: v for k, v in base.nuisances.items()
+            if (k in prob.tone_nuisances) != (side == "tones") and k != "phase_sign"}
+
+
+def refit_label(prob, base: FitResult, label: dict) -> float:
+    """The chi2 of hypothesis ``label`` (``{"effects": [...], "forms": [...]}``) fitted on
+    ``prob`` (module doc); ``base`` is that problem's baseline fit.  The problem's
+    models are left as they were."""
+    effects = list(label.get("effects") or ())
+    if not effects:
+        return float(base.chi2)
+    hyp = tuple(zip(effects, label.get("forms") or [None] * len(effects)))
+    saved = prob.tone, prob.gate
+    # the baseline's models (the diagnosis may have left the gates on a named field)
+    tone, gate = getattr(prob, "base_models", saved)
+    try:
+        prob.use_tone(tone)
+        prob.gate = gate
+        f = fit_hypothesis(prob, hyp, fixed=_held(prob, base, effects), init=base.nuisances)
+        if prob.gate is not None and any(EFFECTS[e].side == "tones" for e in effects):
+            f = repredict_gates(prob, f, keep_sign=True)
+    finally:
+        prob.use_tone(saved[0])
+        prob.gate = saved[1]
+    return float(f.chi2)
+
+
+def achieved_separation(before: dict, after: dict) -> float | None:
+    """``|gap_after - gap_before|``, ``gap`` the rival's chi2 minus the truth's, from two
+    ``{"truth": chi2, "rival": chi2}`` (None when one is missing)."""
+    try:
+        g0 = float(before["rival"]) - float(before["truth"])
+        g1 = float(after["rival"]) - float(after["truth"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    return abs(g1 - g0)
