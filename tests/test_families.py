@@ -114,7 +114,7 @@ def test_separation_z_can_be_restricted_to_one_side():
     ("motional_heating", ["both"]),
     ("gate_rate_miscalibration", ["linear"]),
     ("detector_nonlinearity", ["power"]),
-    ("am_pm_omitted", ["post", "aom"]),
+    ("am_pm_omitted", ["post", "aom_quartic"]),
     ("aom_memory", ["fast", "two_scales_delay"]),
     ("stale_calibration", ["aom_profile", "table"]),
 ])

@@ -8,9 +8,13 @@ Family: a phase that grows with the drive, in one of two places.
 * form ``aom``: the modulator's own AM-to-PM, a phase ``dphi_x |x|^2`` of the
   RF drive amplitude (the form of a phase calibration, Eq. S11).  It
   replaces the baseline's nuisance ``pm_x`` (a campaign without a phase file
-  has its AOM's phase as a nuisance with a narrow prior).
+  has its AOM's phase as a nuisance with a narrow prior);
+* form ``aom_quartic``: the same to the next even order,
+  ``dphi_x |x|^2 + dphi_x4 |x|^4``: the AOM's phase is a smooth even function
+  of the drive amplitude, which a phase calibration fits as a polynomial, so
+  its lowest term alone need not describe it (replaces ``pm_x`` too).
 
-Priors: flat, ``|dphi|, |dphi_x| <= 1`` rad.  Size: the phase at full drive
+Priors: flat, ``|dphi|, |dphi_x|, |dphi_x4| <= 1`` rad.  Size: the phase at full drive
 (rad).  Both phases change sign with the phase-sign convention of the
 recorded phase response.
 """
