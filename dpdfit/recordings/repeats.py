@@ -20,14 +20,15 @@ __all__ = ["check_duplicates", "z_limit", "MEDIAN_EFFICIENCY"]
 MEDIAN_EFFICIENCY = 0.37
 
 
-def z_limit(dof: float, z_max: float = 6.0) -> float:
+def z_limit(dof: float, z_max: float = 6.0, efficiency: float = MEDIAN_EFFICIENCY) -> float:
     """Threshold on ``|residual| / s`` with the false-alarm probability of ``z_max``
-    standard deviations of a Gaussian, when ``s`` is a robust (median-based) scale
-    estimated from ``dof`` residual degrees of freedom: the Student-t quantile at
-    ``MEDIAN_EFFICIENCY * dof`` degrees of freedom (8.0 at 96 dof, 20 at 27, 6.06 at
-    2700; inf without any).  A scale estimated from few repeats is itself uncertain,
-    and judging by it at 6 would refuse honest data now and then."""
-    nu = MEDIAN_EFFICIENCY * float(dof)
+    standard deviations of a Gaussian, when ``s`` is a scale estimated from ``dof``
+    residual degrees of freedom: the Student-t quantile at ``efficiency * dof`` degrees
+    of freedom -- for a robust (median-based) scale ``MEDIAN_EFFICIENCY`` (8.0 at 96 dof,
+    20 at 27, 6.06 at 2700), for a mean of squares independent of the residual 1; inf
+    without any.  A scale estimated from few repeats is itself uncertain, and judging by
+    it at 6 would refuse honest data now and then."""
+    nu = efficiency * float(dof)
     return float(t.isf(norm.sf(z_max), nu)) if nu > 0 else float("inf")
 
 

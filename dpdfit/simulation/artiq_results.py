@@ -217,10 +217,16 @@ def _calibrations(lab: _Lab, percent: bool) -> None:
 
 def _spectra(lab: _Lab, per_amplitude: bool, step: float) -> None:
     """One file per dpd (amplitude an axis, dpd an argument) or per (A, dpd) (amplitude an
-    argument, dpd a parameter override); axes sideband x order."""
+    argument, dpd a parameter override); axes sideband x order.  A spectrum recorded
+    again (repeated rows of a tone) is a further run, after the first: the import reads
+    the runs in that order, so the k-th row of a tone is again its k-th repeat."""
     clock = itertools.count(_epoch(lab.campaign["spectra_recorded"]), step)
     cols = (("tone_power", "P_dB", "dB"), ("valid", "valid", ""), ("snr", "snr_db", "dB"))
-    for key, rows in lab.t["spectra"].groupby(["A", "dpd"] if per_amplitude else ["dpd"]):
+    sp = lab.t["spectra"]
+    rep = sp.groupby(["A", "dpd", "sideband", "n"], sort=False).cumcount().rename("_repeat")
+    keys = (["A", "dpd"] if per_amplitude else ["dpd"])
+    for key, rows in sp.groupby([sp[k] for k in keys] + [rep]):
+        key = key[:-1]
         axes = [axis("sideband", (rows["sideband"] == "blue").to_numpy(np.int64)),
                 axis("order", rows["n"].to_numpy(np.int64))]
         ch = {name: channel(rows[col], unit) for name, col, unit in cols if col in rows}
