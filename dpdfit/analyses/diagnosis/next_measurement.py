@@ -197,8 +197,9 @@ def _to_decisive(m: dict, lab, target: float = BIC_DECISIVE) -> dict:
     """Menu item ``m`` repeated until its expected delta BIC reaches ``target``
     (its separation grows with the repeats: independent runs, traces or scans, each
     with its own noise and power error), at most ``lab.max_seconds`` of lab time; the
-    smallest unit when one already reaches it.  Spectra repeat their amplitudes (a
-    repeated amplitude is recorded a hair apart)."""
+    smallest unit when one already reaches it.  Spectra repeat their amplitudes (each
+    recorded again at the same amplitude: repeated rows of ``spectra.csv``, pooled, so
+    that the separation adds up)."""
     delta, secs = m["expected_delta_bic"], m["lab_seconds"]
     m = {**m, "decisive": bool(delta >= target)}
     if delta >= target or delta <= 0 or secs <= 0:
