@@ -142,3 +142,31 @@ def test_analyze_takes_the_mapping_and_matches_the_csv_campaign(ndscan_set, tmp_
     shutil.rmtree(kept)
     assert compare_analyze.compare(tmp_path / "res_csv", tmp_path / "res_imp",
                                    inputs_differ=True) == []
+
+
+def test_a_spectrum_recorded_again_round_trips_as_repeated_rows(tmp_path):
+    """A campaign whose spectra at A = 0.5 were recorded twice more: written as ARTIQ
+    results (a further run per repeat) and imported back, its spectra.csv has the same
+    repeated rows in the same order of each tone, and the campaign folder pools them."""
+    src = tmp_path / "camp"
+    src.mkdir()
+    for name in [f"{t}.csv" for t in TABLES] + ["campaign.json"]:
+        (src / name).write_bytes((BUNDLED / name).read_bytes())
+    sp = _bundled("spectra")
+    again = []
+    for j in (1, 2):
+        r = sp[sp.A == 0.5].copy()
+        r["P_dB"] = np.round(r["P_dB"] + 0.3 * j + 0.01 * np.arange(len(r)), 8)
+        again.append(r)
+    want = pd.concat([sp, *again], ignore_index=True)
+    want.to_csv(src / "spectra.csv", index=False)
+    for shape, write in (("ndscan", write_ndscan_campaign),
+                         ("per_shot", lambda c, o: write_per_shot_campaign(c, o, seed=3))):
+        imp = import_campaign(write(src, tmp_path / shape), complete_only=True)
+        got = imp.tables["spectra"]
+        _same_rows("spectra", got, want)                 # stable order: repeats in order
+        folder = imp.write(tmp_path / f"{shape}_campaign")
+        from dpdfit.recordings.campaign_folder import CampaignFolder
+        pooled = CampaignFolder(folder).pooled_spectra
+        assert len(pooled) == len(sp)
+        assert set(pooled.loc[pooled.A == 0.5, "n_repeats"]) == {3}
