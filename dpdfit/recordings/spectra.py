@@ -232,39 +232,8 @@ def check_spectra_repeats(df: pd.DataFrame, name: str | None = None,
            & (low >= JUDGED_SNR_DB)).to_numpy()].copy()
     if len(d) < 4:
         return
-    trace = [d[c] for c in TRACE_KEY]
-    d["ref"] = d.groupby(TONE_KEY, sort=False)["snr"].transform("min") >= REFERENCE_SNR_DB
-    strong = d["ref"].groupby(trace, sort=False).transform("any")
-    d["ref"] = d["ref"] | ~strong                # a trace without one: its judged tones
-    tone = d.groupby(TONE_KEY, sort=False)
-    k = tone["P"].transform("size").to_numpy(dtype=float)
-    dev = d["P"] - tone["P"].transform("mean")
-    # a repeat's jitter: the mean deviation of its reference tones
-    ref = d["ref"].to_numpy()
-    rep_key = trace + [d["repeat"]]
-    jit = dev.where(ref).groupby(rep_key, sort=False).transform("mean")
-    e = (dev - jit).to_numpy()
-    m = d["ref"].astype(float).groupby(rep_key, sort=False).transform("sum").to_numpy()
-    # Var e = (1 - 1/k) [(1 - 2/m) V_t + sum_ref V / m^2] for a reference tone, without
-    # the -2/m for another (V = s^2 + v): a s^2 + b
     known = "snr_db" in df.columns and bool(np.isfinite(df["snr_db"]).all())
-    vt = tone["v"].transform("mean").to_numpy()
-    if not known:
-        # a floor bounded from above overstates the reference tones' floor part; it is
-        # below MIN_REPEAT_NOISE_DB for them
-        vt = np.where(ref, 0.0, vt)
-    vref = pd.Series(np.where(ref, vt / k, 0.0)).groupby(
-        [np.asarray(c) for c in trace], sort=False).transform("sum").to_numpy()
-    own = np.where(ref, 1 - 2 / m, 1.0)
-    a = (1 - 1 / k) * (own + 1 / m)
-    b = (1 - 1 / k) * (own * vt + vref / m ** 2)
-    # the repeatability is learnt where the noise model holds: every judged tone when
-    # the floor is recorded, else the reference tones (a floor bounded from above
-    # overstates the others' noise)
-    fit = (a > 1e-12) & (np.ones(len(d), bool) if known else
-                         ref & (strong.to_numpy() | ~strong.to_numpy().any()))
-    w = (1 - 1 / k) * np.where(ref, 1 - 1 / m, 1.0)        # residual degrees of freedom
-    tid = d.groupby(TRACE_KEY, sort=False).ngroup().to_numpy()
+    e, a, b, w, fit, tid = _residuals(d, known)
     z, dof, s = _deleted_z(e, a, b, w, fit, tid)
     limit = np.array([z_limit(x, z_max, efficiency=1.0) for x in dof])[tid]
     worst = int(np.argmax(z / limit))
@@ -281,6 +250,46 @@ def check_spectra_repeats(df: pd.DataFrame, name: str | None = None,
         f"{i + 1}'s ratio to the other tones of its repeat is {z[worst]:.1f} sigma from "
         f"the other repeats' (repeatability {s:.3g} dB): a mistyped or mislabelled row?",
         file=name, column="P_dB", row=i + 1)
+
+
+def _residuals(d: pd.DataFrame, known: bool):
+    """The judged readings ``d`` (:func:`check_spectra_repeats`) as residuals free of
+    each repeat's jitter and each tone's mean: ``e``, their variance ``a s^2 + b``, their
+    degrees of freedom ``w``, the rows the repeatability is learnt from (``known``: the
+    floor is recorded) and each row's trace."""
+    trace = [d[c] for c in TRACE_KEY]
+    top = d.groupby(TONE_KEY, sort=False)["snr"].transform("min") >= REFERENCE_SNR_DB
+    strong = top.groupby(trace, sort=False).transform("any")
+    d["ref"] = top | ~strong                     # a trace without one: its judged tones
+    top = top.to_numpy()
+    tone = d.groupby(TONE_KEY, sort=False)
+    k = tone["P"].transform("size").to_numpy(dtype=float)
+    dev = d["P"] - tone["P"].transform("mean")
+    # a repeat's jitter: the mean deviation of its reference tones
+    ref = d["ref"].to_numpy()
+    rep_key = trace + [d["repeat"]]
+    jit = dev.where(ref).groupby(rep_key, sort=False).transform("mean")
+    e = (dev - jit).to_numpy()
+    m = d["ref"].astype(float).groupby(rep_key, sort=False).transform("sum").to_numpy()
+    # Var e = (1 - 1/k) [(1 - 2/m) V_t + sum_ref V / m^2] for a reference tone, without
+    # the -2/m for another (V = s^2 + v): a s^2 + b
+    vt = tone["v"].transform("mean").to_numpy()
+    if not known:
+        # a floor bounded from above overstates the floor part of the tones 50 dB above
+        # it; it is below MIN_REPEAT_NOISE_DB for them
+        vt = np.where(top, 0.0, vt)
+    vref = pd.Series(np.where(ref, vt / k, 0.0)).groupby(
+        [np.asarray(c) for c in trace], sort=False).transform("sum").to_numpy()
+    own = np.where(ref, 1 - 2 / m, 1.0)
+    a = (1 - 1 / k) * (own + 1 / m)
+    b = (1 - 1 / k) * (own * vt + vref / m ** 2)
+    # the repeatability is learnt where the noise model holds: every judged tone when
+    # the floor is recorded, else the reference tones (a floor bounded from above
+    # overstates the others' noise)
+    fit = (a > 1e-12) & (np.ones(len(d), bool) if known else top if top.any() else ref)
+    w = (1 - 1 / k) * np.where(ref, 1 - 1 / m, 1.0)        # residual degrees of freedom
+    tid = d.groupby(TRACE_KEY, sort=False).ngroup().to_numpy()
+    return e, a, b, w, fit, tid
 
 
 def _deleted_z(e, a, b, w, fit, tid):

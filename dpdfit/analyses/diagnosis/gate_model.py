@@ -235,8 +235,7 @@ class GateModel:
         self._tab = tab = dict(self._stacks())
         vj = self.sig_jit ** 2
         ns = g.n_scans.to_numpy(dtype=float)
-        # a rate pooled from repeated calibrations: 1/n_rates of one calibration's variance
-        vx = self.rate_error_db() ** 2 / self._n_rates(self.keys)
+        vx = self.rate_error_db() ** 2 / self._n_rates(self.keys)   # pooled: 1/n of one
         tab["var"] = (vj / ns + vx, 2 * (vj ** 2 / ns + vx ** 2))
         return tab
 
@@ -394,9 +393,8 @@ class GateModel:
         return one if key is None else float(one / np.sqrt(self._n_rates([key])[0]))
 
     def _n_rates(self, keys) -> np.ndarray:
-        """Calibrations pooled into the rate of each setting of ``keys`` (1 for a setting
-        without gate data, whose rate comes from the tones, or without the count)."""
+        """Calibrations pooled into the rate of each setting of ``keys`` (1 without the
+        count, or for a time scan's setting without gate data: its rate is the tones')."""
         g = self.gates
-        n = dict(zip(self.keys, g["n_rates"].to_numpy(dtype=float))) if "n_rates" in g \
-            else {}
-        return np.array([n.get(tuple(k), 1.0) for k in keys], dtype=float)
+        n = dict(zip(self.keys, g["n_rates"] if "n_rates" in g else np.ones(len(g))))
+        return np.array([float(n.get(tuple(k), 1.0)) for k in keys])

@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.analyses.diagnosis.calibration_drift import RunsAfter, drift_modes, runs_after_recordings
+from dpdfit.analyses.diagnosis.tone_grid import tone_grid
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
 from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
 from dpdfit.recordings.campaign_folder import CampaignFolder
@@ -209,40 +210,6 @@ def _calibrations(cf: CampaignFolder, noise: dict, given=None, learnt=None):
     return amp, amp_res, ph, ph_res
 
 
-def _grid(df: pd.DataFrame, A: np.ndarray, columns, fill=np.nan, extra=()):
-    """Values of ``columns`` of a tone table on the (A, [extra,] dpd, sideband, harmonic)
-    grid (``extra``: an index column and its size), and which rows were placed."""
-    iA = np.searchsorted(A, df["A"].to_numpy(dtype=float))
-    d = df["dpd"].to_numpy(dtype=int)
-    s = (df["sideband"] == "blue").to_numpy(dtype=int)
-    n = df["n"].to_numpy(dtype=int)
-    keep = np.isin(n, TONE_HARMONICS)
-    h = np.searchsorted(TONE_HARMONICS, n[keep])
-    lead = (iA[keep],) + tuple(np.asarray(df[c].to_numpy())[keep] for c, _ in extra)
-    shape = (A.size,) + tuple(size for _, size in extra) + (2, 2, len(TONE_HARMONICS))
-    out = []
-    for c in columns:
-        x = np.full(shape, fill, dtype=float)
-        x[lead + (d[keep], s[keep], h)] = df[c].to_numpy(dtype=float)[keep]
-        out.append(x)
-    return out
-
-
-def _tones(cf: CampaignFolder):
-    """Recorded tone powers, their repeats pooled (mean linear power,
-    :func:`~dpdfit.recordings.spectra.pool_spectra`), on the (A, dpd, sideband, harmonic)
-    grid: ``A``, pooled powers, SNRs (NaN without ``snr_db``), the number of readings of
-    each tone (0 where none), whether ``snr_db`` is recorded, and every reading on the
-    grid (A, repeat, dpd, sideband, harmonic) -- the repeats in their order of a tone."""
-    pooled, reads = cf.pooled_spectra, cf.spectra
-    A = np.unique(pooled["A"].to_numpy(dtype=float))
-    has_snr = "snr_db" in pooled.columns
-    P, n = _grid(pooled, A, ["P_dB", "n_repeats"])
-    n = np.where(np.isfinite(n), n, 0.0)
-    snr = _grid(pooled, A, ["snr_db"])[0] if has_snr else np.full_like(P, np.nan)
-    k = reads.groupby(["A", "dpd", "sideband", "n"], sort=False).cumcount().to_numpy()
-    each = _grid(reads.assign(_k=k), A, ["P_dB"], extra=(("_k", int(k.max()) + 1),))[0]
-    return A, P, snr, has_snr, n, each
 def debias_tones(P_raw: np.ndarray, N0: np.ndarray, n_repeats=1):
     """Tone powers debiased for the noise in their bin, and the noise part of their error.
 
@@ -385,7 +352,7 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                         f"{amp.source.get('run', '?')}: amplitude calibration decreases on "
                         f"A in {iv}; the predistortion table clamps there")
     cf.require("spectra.csv", "the diagnosis")
-    A, P_raw, snr, has_snr, n_rep, P_each = _tones(cf)
+    A, P_raw, snr, has_snr, n_rep, P_each = tone_grid(cf, TONE_HARMONICS)
     if has_snr:
         # the recorded SNR is over the median noise power: mean power = floor / ln 2
         # (pooled: over the mean of the repeats' floors)
