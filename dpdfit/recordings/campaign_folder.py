@@ -30,10 +30,13 @@ Required and optional (everything else in the layout is optional):
   ``n00, n01_10, n11`` (:func:`dpdfit.recordings.counts.read_populations`); without
   ``n00``/``n11`` the imbalance ``P00 - P11`` is not available.
 * ``parity.csv`` -- :func:`dpdfit.recordings.counts.read_parity`.
-* ``gate_rates.csv`` -- ``A, dpd, xi0_khz`` (+ ``xi0_err_khz``).
+* ``gate_rates.csv`` -- ``A, dpd, xi0_khz`` (+ ``xi0_err_khz``); a setting
+  calibrated again is pooled (:func:`~dpdfit.recordings.gate_rates.read_gate_rates`).
 * ``time_scans.csv`` -- ``A, dpd, t_us, n00, n11, shots`` (+ ``n01_10``: then
-  ``n00 + n01_10 + n11 = shots`` is checked, else ``n00 + n11 <= shots``).
-* ``traces.csv`` + ``traces/`` -- ``file, A, dpd, fs, fdet, nu, xi0``.
+  ``n00 + n01_10 + n11 = shots`` is checked, else ``n00 + n11 <= shots``); a point
+  recorded again has its counts summed (:func:`~dpdfit.recordings.counts.read_time_scans`).
+* ``traces.csv`` + ``traces/`` -- ``file, A, dpd, fs, fdet, nu, xi0`` (+ ``repeat``:
+  the repeat of ``spectra.csv`` the trace is).
 
 Nothing is ever written into the folder.
 """

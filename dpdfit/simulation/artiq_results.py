@@ -242,6 +242,14 @@ def _duration(rows: pd.DataFrame) -> dict:
     return axis("duration", stored, unit="us", scale=scale)
 
 
+def _time_scan_runs(lab: _Lab):
+    """The time scans, one run per (A, dpd) and repeat: a point recorded again (the same
+    ``A, dpd, t_us``) belongs to a further run, as a lab repeats a scan."""
+    ts = lab.t["time_scans"]
+    rep = ts.groupby(["A", "dpd", "t_us"], sort=False).cumcount().rename("_repeat")
+    return ts.groupby([ts["A"], ts["dpd"], rep])
+
+
 def _ints(rows: pd.DataFrame, cols) -> dict:
     return {c: channel(rows[c].to_numpy(np.int64)) for c in cols}
 
@@ -265,7 +273,7 @@ def _ndscan_gates(lab: _Lab) -> None:
         lab.scan("lab.gates.ParityScan", next(clock), [axis("phase", rows["phase_rad"], "rad")],
                  _ints(rows, ("n_even", "shots")), {"amplitude": float(a), "dpd": int(dpd)},
                  repeats=rows["scan"].nunique())
-    for (a, dpd), rows in lab.t["time_scans"].groupby(["A", "dpd"]):
+    for (a, dpd, _), rows in _time_scan_runs(lab):
         if rows["shots"].nunique() != 1:
             raise DpdfitError(f"time_scans: shots vary at A = {a}, dpd = {dpd}; "
                               "the mapping expects them constant per (A, dpd)")
@@ -325,7 +333,7 @@ def _per_shot_gates(lab: _Lab, rng) -> None:
                 axis("dpd", rows["dpd"].to_numpy(np.int64))]
         ions = _bright_ions(rows[levels].to_numpy(), rng)
         lab.scan("lab.gates.PopulationScan", next(clock), axes, {"bright_ions": channel(ions)})
-    for (a, dpd), rows in lab.t["time_scans"].groupby(["A", "dpd"]):
+    for (a, dpd, _), rows in _time_scan_runs(lab):
         ions = _bright_ions(rows[levels].to_numpy(), rng)
         lab.scan("lab.gates.TimeScan", next(clock), [_duration(rows)],
                  {"bright_ions": channel(ions)}, {"amplitude": float(a), "dpd": int(dpd)})
