@@ -37,8 +37,8 @@ LABELS_ONLY = ("repeat",)
 def missing_optional_columns(path: str | os.PathLike, table: str) -> list[str]:
     """The optional columns of ``table`` that the header of its file ``path`` lacks
     (for ``populations`` the three counts ``n00, n01_10, n11``: ``n_even`` follows from
-    them; never the :data:`LABELS_ONLY`).  Only the header is read; a file whose header cannot be read lacks nothing
-    here (its reader says what is wrong)."""
+    them; never the :data:`LABELS_ONLY`).  Only the header is read; a file whose header
+    cannot be read lacks nothing here (its reader says what is wrong)."""
     try:
         have = {str(c).strip() for c in pd.read_csv(path, comment="#", nrows=0).columns}
     except (OSError, ValueError, UnicodeDecodeError):

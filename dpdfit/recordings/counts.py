@@ -305,10 +305,10 @@ def check_count_repeats(df: pd.DataFrame, keys, counts, file, what: str,
     same = np.flatnonzero(gid == gid[i])
     point = ", ".join(f"{k}={_plain(df[k].iloc[i])}" for k in keys)
     vals = ", ".join(f"{int(df[c].iloc[j])}/{int(df['shots'].iloc[j])}" for j in same[:6])
-    raise InputError(f"repeated {what} {point} in {_rows_text(file, [int(j) + 1 for j in same[:6]])}"
-                     f"{' ...' if same.size > 6 else ''} contradict binomial noise: {c} {vals}"
-                     f", row {i + 1} {z:.1f} sigma from the others", file=file, column=c,
-                     row=i + 1)
+    rows = _rows_text(file, [int(j) + 1 for j in same[:6]])
+    raise InputError(f"repeated {what} {point} in {rows}{' ...' if same.size > 6 else ''} "
+                     f"contradict binomial noise: {c} {vals}, row {i + 1} {z:.1f} sigma "
+                     "from the others", file=file, column=c, row=i + 1)
 
 
 def read_time_scans(path: str | os.PathLike) -> pd.DataFrame:
