@@ -142,3 +142,44 @@ def test_analyze_takes_the_mapping_and_matches_the_csv_campaign(ndscan_set, tmp_
     shutil.rmtree(kept)
     assert compare_analyze.compare(tmp_path / "res_csv", tmp_path / "res_imp",
                                    inputs_differ=True) == []
+
+
+def test_a_spectrum_recorded_again_round_trips_as_repeated_rows(tmp_path):
+    """A campaign whose spectra at A = 0.5 were recorded twice more, one time scan again
+    with other shots and one gate rate calibrated again: written as ARTIQ results (a
+    further run per repeat) and imported back, its tables have the same repeated rows in
+    the same order of each setting, and the campaign folder pools them."""
+    src = tmp_path / "camp"
+    src.mkdir()
+    for name in [f"{t}.csv" for t in TABLES] + ["campaign.json"]:
+        (src / name).write_bytes((BUNDLED / name).read_bytes())
+    sp = _bundled("spectra")
+    again = []
+    for j in (1, 2):
+        r = sp[sp.A == 0.5].copy()
+        r["P_dB"] = np.round(r["P_dB"] + 0.3 * j + 0.01 * np.arange(len(r)), 8)
+        again.append(r)
+    want = {"spectra": pd.concat([sp, *again], ignore_index=True)}
+    ts = _bundled("time_scans")
+    scan = ts[(ts.A == ts.A.iloc[0]) & (ts.dpd == ts.dpd.iloc[0])].copy()
+    for c in ("n01_10", "n11"):                          # the same scan with 400 shots
+        scan[c] = (scan[c] * 400 / scan["shots"]).round().astype(int)
+    scan["n00"], scan["shots"] = 400 - scan["n01_10"] - scan["n11"], 400
+    want["time_scans"] = pd.concat([ts, scan], ignore_index=True)
+    rates = _bundled("gate_rates")
+    again_rate = rates.iloc[[1]].assign(xi0_khz=rates["xi0_khz"].iloc[1] * 1.002)
+    want["gate_rates"] = pd.concat([rates, again_rate], ignore_index=True)
+    for table, df in want.items():
+        df.to_csv(src / f"{table}.csv", index=False)
+    for shape, write in (("ndscan", write_ndscan_campaign),
+                         ("per_shot", lambda c, o: write_per_shot_campaign(c, o, seed=3))):
+        imp = import_campaign(write(src, tmp_path / shape), complete_only=True)
+        for table, df in want.items():                   # stable order: repeats in order
+            _same_rows(table, imp.tables[table], df)
+        from dpdfit.recordings.campaign_folder import CampaignFolder
+        cf = CampaignFolder(imp.write(tmp_path / f"{shape}_campaign"))
+        pooled = cf.pooled_spectra
+        assert len(pooled) == len(sp)
+        assert set(pooled.loc[pooled.A == 0.5, "n_repeats"]) == {3}
+        assert len(cf.time_scans) == len(ts) and cf.time_scans["n_repeats"].max() == 2
+        assert len(cf.gate_rates) == len(rates) and cf.gate_rates["n_repeats"].iloc[1] == 2

@@ -206,3 +206,57 @@ def test_analyze_rerun_clears_what_the_previous_run_wrote(small_campaign, tmp_pa
     assert (out / "my_notes.txt").read_text() == "kept"
     written = json.loads((out / "summary.json").read_text())["outputs"]
     assert sorted(p.name for p in out.iterdir() if p.name != "my_notes.txt") == sorted(written)
+
+
+@pytest.fixture(scope="module")
+def repeated_campaign(tmp_path_factory):
+    """SMALL with 0.5 (a bundled amplitude) and 0.2 recorded once more, after the grid."""
+    out = tmp_path_factory.mktemp("c") / "repeated"
+    cfg = CampaignConfig(**{**SMALL.__dict__,
+                            "trace_amplitudes": SMALL.trace_amplitudes + (0.5, 0.2)})
+    simulate_campaign(out, config=cfg, progress=quiet, include_gates=False)
+    return out
+
+
+def test_a_repeated_amplitude_is_recorded_again_as_repeated_rows(small_campaign,
+                                                                 repeated_campaign):
+    for name in ("calibration_amplitude.csv", "calibration_phase.csv", "traces.csv",
+                 "traces/trace_A0.500_dpd0.npz"):
+        assert (repeated_campaign / name).read_bytes() == (small_campaign / name).read_bytes()
+    assert sorted(p.name for p in (repeated_campaign / "traces").iterdir()) == \
+        sorted(p.name for p in (small_campaign / "traces").iterdir())
+    old = (small_campaign / "spectra.csv").read_text()
+    new = (repeated_campaign / "spectra.csv").read_text()
+    assert new.startswith(old)                   # every earlier recording drawn as before
+    sp0 = pd.read_csv(small_campaign / "spectra.csv")
+    sp = pd.read_csv(repeated_campaign / "spectra.csv")
+    added = sp.iloc[len(sp0):].reset_index(drop=True)
+    per = 2 * 2 * len(SMALL.spectra_harmonics)
+    assert len(added) == 2 * per and list(added.A.unique()) == [0.5, 0.2]
+    # the same tones again, in the same order, each trace from its own stream
+    key = ["A", "dpd", "sideband", "n"]
+    first = pd.concat([sp0[sp0.A == 0.5], sp0[sp0.A == 0.2]]).reset_index(drop=True)
+    assert (added[key] == first[key]).all(axis=None)
+    assert (added.P_dB != first.P_dB).all()
+    gate = added.n.isin([1, 2])
+    assert np.abs(added.P_dB - first.P_dB)[gate].max() < 2.0    # the same tones, jittered
+
+
+@pytest.mark.slow
+def test_analyze_pools_repeated_spectra_and_checks_each_trace_against_its_repeat(
+        repeated_campaign, tmp_path):
+    out = tmp_path / "res"
+    s = analyze(repeated_campaign, out, plots=False, diagnosis=False).summary
+    assert s["analyses"]["spectra"]["status"] == "ok"
+    m = pd.read_csv(out / "spectra_measured.csv")
+    raw = pd.read_csv(repeated_campaign / "spectra.csv")
+    assert len(m) == 3 * 2 * 3                   # (A, dpd) x (red, blue, mean), one each
+    for (A, d, sb), g in raw[raw.n == 1].groupby(["A", "dpd", "sideband"]):
+        row = m[(m.A == A) & (m.dpd == d) & (m.sideband == sb)].iloc[0]
+        pooled = 10 * np.log10(np.mean(10 ** (g.P_dB.to_numpy() / 10)))
+        assert row["P1_dB"] == pytest.approx(pooled, abs=1e-7)      # written to 10 digits
+        assert len(g) == (2 if A in (0.5, 0.2) else 1)
+    chk = pd.read_csv(out / "traces_check.csv")
+    # the bundled trace is the first recording at 0.5: checked against repeat 1's rows
+    assert set(chk["repeat"].astype(str)) == {"1"}
+    assert s["traces"]["max_abs_difference_to_spectra_csv_dB"] < 1e-6

@@ -88,15 +88,27 @@ def test_phase_run_is_one_more_phase_run(base_cal, tmp_path):
     assert list(dict.fromkeys(ph.run)) == ["P001", "P002", "P003", "P004"]
 
 
-def test_spectra_are_added_at_their_amplitudes_a_recorded_one_just_beside(base_cal, tmp_path):
+def test_spectra_are_added_at_their_amplitudes_a_recorded_one_recorded_again(base_cal,
+                                                                              tmp_path):
     ext, added = _extended(base_cal, tmp_path, {"what": "spectra", "settings": {
-        "amplitudes": [0.3, 0.6, 0.95, 0.2], "dpd": [0, 1]}}, gates=False)
+        "amplitudes": [0.3, 0.6, 0.95, 0.2, 0.6], "dpd": [0, 1]}}, gates=False)
     sp = pd.read_csv(ext / "spectra.csv")
     per_amplitude = 2 * 2 * len(small_config().spectra_harmonics)     # flags x sidebands
-    assert added == {"spectra.csv": 4 * per_amplitude}
-    # 0.6 and 0.2 were recorded: their repeats are taken REPEAT_STEP towards the middle
-    assert sorted(set(sp.A)) == [0.2, 0.2001, 0.3, 0.4, 0.5999, 0.6, 0.8, 0.95]
+    assert added == {"spectra.csv": 5 * per_amplitude}
+    # 0.6 and 0.2 were recorded: they are recorded again at exactly those amplitudes, as
+    # repeated rows of the same tones (0.6 twice more), never shifted beside them
+    assert sorted(set(sp.A)) == [0.2, 0.3, 0.4, 0.6, 0.8, 0.95]
+    per_tone = sp.groupby(["A", "dpd", "sideband", "n"]).size()
+    assert per_tone.loc[0.6].eq(3).all() and per_tone.loc[0.2].eq(2).all()
+    assert per_tone.loc[0.4].eq(1).all() and per_tone.loc[0.95].eq(1).all()
     assert set(sp[sp.A == 0.95].dpd) == {0, 1}
+    assert not hasattr(C, "REPEAT_STEP")
+    # the campaign folder reads the repeats and pools them: one row per tone
+    from dpdfit.recordings.campaign_folder import CampaignFolder
+    pooled = CampaignFolder(ext).pooled_spectra
+    assert len(pooled) == len(per_tone)
+    assert pooled.set_index(["A", "dpd", "sideband", "n"])["n_repeats"].sort_index().equals(
+        per_tone.sort_index().rename("n_repeats"))
 
 
 def test_populations_scan_at_a_gate_setting_adds_one_population_row(base_gates, tmp_path):

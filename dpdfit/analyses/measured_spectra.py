@@ -1,8 +1,10 @@
 """The measured heterodyne spectra analysed like the simulated sweep (S5, S6.6).
 
 From the recorded tone powers (``spectra.csv``: ``A, dpd, sideband, n, P_dB,
-valid``) :func:`measured_spectra` computes per amplitude, DPD flag and
-sideband (red, blue and their mean)
+valid``; a tone recorded several times is the mean of its linear powers, valid
+when any reading is, :func:`dpdfit.recordings.spectra.pool_spectra`)
+:func:`measured_spectra` computes per amplitude, DPD flag and sideband (red,
+blue and their mean)
 
 * the IM ratios ``R10 = P1 - P0`` and ``R23 = P2 - P3`` (dB);
 * the estimated Bell fidelity ``F_est`` with the chosen formula and with the
@@ -28,6 +30,7 @@ from dpdfit.analyses.sweep import efficiency_spline, first_crossing
 from dpdfit.core.defaults import FORMULA, NBAR
 from dpdfit.errors import InputError
 from dpdfit.models.fidelity import estimate
+from dpdfit.recordings.spectra import pool_spectra
 
 __all__ = ["measured_spectra"]
 
@@ -39,7 +42,10 @@ _A_CORR_FALLBACK = 0.56
 
 
 def _tone_tables(spectra: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Powers and validity flags, one row per (A, dpd, sideband), one column per n."""
+    """Powers and validity flags, one row per (A, dpd, sideband), one column per n; the
+    repeated readings of a tone pooled first (:func:`~dpdfit.recordings.spectra.pool_spectra`:
+    the mean linear power)."""
+    spectra = pool_spectra(spectra)
     P = spectra.pivot_table(index=_KEY, columns="n", values="P_dB").reset_index()
     V = spectra.pivot_table(index=_KEY, columns="n", values="valid", aggfunc="min").reset_index()
     for n in _HARMONICS:

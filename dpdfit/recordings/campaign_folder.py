@@ -22,16 +22,21 @@ Required and optional (everything else in the layout is optional):
 * ``calibration_amplitude.csv`` -- required by every model-based analysis.
 * ``calibration_phase.csv`` -- optional; without it the model has no AM-to-PM.
 * ``spectra.csv`` -- ``A, dpd, sideband, n, P_dB``; optional columns
-  ``valid`` (default 1) and ``snr_db`` (without it the diagnosis estimates the
-  noise floor from the recordings).
+  ``valid`` (default 1), ``snr_db`` (without it the diagnosis estimates the
+  noise floor from the recordings) and ``repeat`` (a tone recorded again is a
+  further row; without the column its k-th row belongs to the k-th repeat):
+  :mod:`dpdfit.recordings.spectra`.
 * ``populations.csv`` -- ``A, dpd, scan, shots`` and ``n_even`` or
   ``n00, n01_10, n11`` (:func:`dpdfit.recordings.counts.read_populations`); without
   ``n00``/``n11`` the imbalance ``P00 - P11`` is not available.
 * ``parity.csv`` -- :func:`dpdfit.recordings.counts.read_parity`.
-* ``gate_rates.csv`` -- ``A, dpd, xi0_khz`` (+ ``xi0_err_khz``).
+* ``gate_rates.csv`` -- ``A, dpd, xi0_khz`` (+ ``xi0_err_khz``); a setting
+  calibrated again is pooled (:func:`~dpdfit.recordings.gate_rates.read_gate_rates`).
 * ``time_scans.csv`` -- ``A, dpd, t_us, n00, n11, shots`` (+ ``n01_10``: then
-  ``n00 + n01_10 + n11 = shots`` is checked, else ``n00 + n11 <= shots``).
-* ``traces.csv`` + ``traces/`` -- ``file, A, dpd, fs, fdet, nu, xi0``.
+  ``n00 + n01_10 + n11 = shots`` is checked, else ``n00 + n11 <= shots``); a point
+  recorded again has its counts summed (:func:`~dpdfit.recordings.counts.read_time_scans`).
+* ``traces.csv`` + ``traces/`` -- ``file, A, dpd, fs, fdet, nu, xi0`` (+ ``repeat``:
+  the repeat of ``spectra.csv`` the trace is).
 
 Nothing is ever written into the folder.
 """
@@ -51,10 +56,11 @@ from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, 
 from dpdfit.errors import ImplausibleValueError, InputError
 
 from .columns import CAMPAIGN_TABLES, missing_column_lines
-from .counts import read_parity, read_populations, shots_below_one
+from .counts import read_parity, read_populations, read_time_scans
 from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
+from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
 
 __all__ = ["CampaignFolder", "META_DEFAULTS", "FILES", "RECORDING_KEYS", "MAX_FUTURE_DAYS"]
@@ -230,39 +236,16 @@ class CampaignFolder:
     # ------------------------------------------------------------------ spectra
     @functools.cached_property
     def spectra(self) -> pd.DataFrame:
-        """``A, dpd, sideband, n, P_dB, valid`` (+ ``snr_db`` when recorded)."""
-        path = self.require("spectra.csv", "the spectra analysis")
-        df = read_table(path, *(list(c) for c in CAMPAIGN_TABLES["spectra"]),
-                        numeric=["A", "dpd", "n", "P_dB"], ranges={"A": (0, 1), "dpd": (0, 1)})
-        bad = ~df["sideband"].isin(["red", "blue"])
-        if bad.any():
-            i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise InputError(f"sideband must be red or blue, got '{df['sideband'].iloc[i]}'",
-                             file=str(path), column="sideband", row=i + 1)
-        for col in ("dpd", "n"):
-            v = df[col].to_numpy()
-            bad = v != np.round(v)
-            if bad.any():
-                i = int(np.flatnonzero(bad)[0])
-                raise InputError(f"{col} = {v[i]:g} must be an integer", file=str(path),
-                                 column=col, row=i + 1)
-        df["dpd"] = df["dpd"].astype(int)
-        df["n"] = df["n"].astype(int)
-        dup = df.duplicated(["A", "dpd", "sideband", "n"], keep="first")
-        if dup.any():
-            i = int(np.flatnonzero(dup.to_numpy())[0])
-            raise InputError(f"tone (A={df['A'].iloc[i]:g}, dpd={df['dpd'].iloc[i]}, "
-                             f"{df['sideband'].iloc[i]}, n={df['n'].iloc[i]}) appears twice",
-                             file=str(path), column="n", row=i + 1)
-        if "valid" in df.columns:      # a flag that is not a finite number: not valid (0)
-            v = pd.to_numeric(df["valid"], errors="coerce")
-            df["valid"] = v.where(np.isfinite(v), 0).astype(int)
-        else:
-            df["valid"] = 1
-        if "snr_db" in df.columns:
-            df["snr_db"] = pd.to_numeric(df["snr_db"], errors="coerce")
-        df.attrs["source"] = str(path)
-        return df
+        """Every reading of ``spectra.csv``: ``A, dpd, sideband, n, P_dB, valid, repeat``
+        (+ ``snr_db`` when recorded), repeated recordings of a tone as rows of their own
+        (:func:`~.spectra.read_spectra`)."""
+        return read_spectra(self.require("spectra.csv", "the spectra analysis"))
+
+    @functools.cached_property
+    def pooled_spectra(self) -> pd.DataFrame:
+        """One row per tone, its repeated recordings pooled (mean linear power, with
+        ``n_repeats``): :func:`~.spectra.pool_spectra` of :attr:`spectra`."""
+        return pool_spectra(self.spectra)
 
     # -------------------------------------------------------------------- gates
     @functools.cached_property
@@ -292,45 +275,11 @@ class CampaignFolder:
 
     @functools.cached_property
     def time_scans(self) -> pd.DataFrame | None:
-        """``A, dpd, t_us, t_s, n00, n11, shots`` (+ ``n01_10``)."""
+        """``A, dpd, t_us, t_s, n00, n11, shots`` (+ ``n01_10``), one row per time point,
+        repeated recordings of a point pooled (:func:`~.counts.read_time_scans`)."""
         if not self.has("time_scans.csv"):
             return None
-        path = self.file("time_scans.csv")
-        ts = read_table(path, *(list(c) for c in CAMPAIGN_TABLES["time_scans"]),
-                        ranges={"A": (0, 1), "dpd": (0, 1)})
-        counts = ["n00", "n11", "shots"] + (["n01_10"] if "n01_10" in ts.columns else [])
-        for c in counts:
-            v = ts[c].to_numpy()
-            few = (v < 1) if c == "shots" else np.zeros(v.shape, dtype=bool)
-            bad = few | (v < 0) | (v != np.round(v))
-            if bad.any():
-                i = int(np.flatnonzero(bad)[0])
-                if few[i]:
-                    raise ImplausibleValueError(shots_below_one(v[i]), file=str(path),
-                                                column=c, row=i + 1)
-                raise InputError(f"count {v[i]:g}: must be a non-negative integer",
-                                 file=str(path), column=c, row=i + 1)
-        if "n01_10" in ts.columns:
-            tot = ts["n00"] + ts["n01_10"] + ts["n11"]
-            bad = (tot != ts["shots"]).to_numpy()
-            what = "does not equal"
-        else:
-            tot = ts["n00"] + ts["n11"]
-            bad = (tot > ts["shots"]).to_numpy()
-            what = "exceeds"
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise InputError(f"counts sum to {tot.iloc[i]:g}, which {what} shots = "
-                             f"{ts['shots'].iloc[i]:g}", file=str(path), column="shots",
-                             row=i + 1)
-        bad = (ts["t_us"] < 0).to_numpy()
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise InputError("time must be >= 0", file=str(path), column="t_us", row=i + 1)
-        ts["dpd"] = ts["dpd"].astype(int)
-        ts["t_s"] = ts["t_us"] * 1e-6
-        ts.attrs["source"] = str(path)
-        return ts
+        return read_time_scans(self.file("time_scans.csv"))
 
     @functools.cached_property
     def traces(self) -> pd.DataFrame | None:

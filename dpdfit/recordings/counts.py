@@ -26,11 +26,14 @@ from .columns import CAMPAIGN_TABLES
 from .plausibility import check_phase_span
 from .tables import read_table
 
-__all__ = ["PHASE_GRID_RAD", "read_populations", "read_parity", "check_counts", "grid_keys",
-           "fringe_points", "setting_label", "shots_below_one"]
+__all__ = ["PHASE_GRID_RAD", "COUNT_Z_MAX", "read_populations", "read_parity", "read_time_scans",
+           "check_counts", "check_count_repeats", "grid_keys", "fringe_points", "setting_label",
+           "shots_below_one"]
 
 #: Phase grid (rad) on which repeated parity scans are compared and merged (S7.4).
 PHASE_GRID_RAD = 0.01
+#: repeated counts of one point this many binomial standard deviations apart contradict
+COUNT_Z_MAX = 6.0
 
 
 def shots_below_one(shots) -> str:
@@ -265,3 +268,117 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
         raise InputError(f"phase grid {float(grid):g} must be > 0")
     df.attrs["source"] = name
     return df
+
+
+def check_count_repeats(df: pd.DataFrame, keys, counts, file, what: str,
+                        z_max: float = COUNT_Z_MAX) -> None:
+    """Refuse repeated rows of one point (the same ``keys``) whose counts contradict
+    binomial noise.
+
+    Each row's fraction ``c/shots`` of each count column is compared with the pooled
+    fraction of the point's other rows: ``z = (p_i - p_rest) / sqrt(p (1 - p) (1/N_i +
+    1/N_rest))``, ``p`` the point's pooled fraction (kept ``0.5/N`` from 0 and 1); beyond
+    ``z_max`` the rows are refused, naming them, the point and the count.  Rows with
+    different shots are fine.
+    """
+    gid = df.groupby(list(keys), sort=False).ngroup().to_numpy()
+    n = np.bincount(gid)[gid]
+    if not (n > 1).any():
+        return
+    N = df["shots"].to_numpy(dtype=float)
+    Ng = np.bincount(gid, N)[gid]
+    worst = (0.0, None, None)
+    for c in counts:
+        k = df[c].to_numpy(dtype=float)
+        kg = np.bincount(gid, k)[gid]
+        p = np.clip(kg / Ng, 0.5 / Ng, 1 - 0.5 / Ng)
+        rest = np.maximum(Ng - N, 1.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = np.abs(k / N - (kg - k) / rest) / np.sqrt(p * (1 - p) * (1 / N + 1 / rest))
+        z = np.where(n > 1, z, 0.0)
+        i = int(np.argmax(z))
+        if z[i] > worst[0]:
+            worst = (float(z[i]), i, c)
+    z, i, c = worst
+    if not z > z_max:
+        return
+    same = np.flatnonzero(gid == gid[i])
+    point = ", ".join(f"{k}={_plain(df[k].iloc[i])}" for k in keys)
+    vals = ", ".join(f"{int(df[c].iloc[j])}/{int(df['shots'].iloc[j])}" for j in same[:6])
+    rows = _rows_text(file, [int(j) + 1 for j in same[:6]])
+    raise InputError(f"repeated {what} {point} in {rows}{' ...' if same.size > 6 else ''} "
+                     f"contradict binomial noise: {c} {vals}, row {i + 1} {z:.1f} sigma "
+                     "from the others", file=file, column=c, row=i + 1)
+
+
+def read_time_scans(path: str | os.PathLike) -> pd.DataFrame:
+    """Read, validate and pool a time-scan file ``A, dpd, t_us, n00, n11, shots``
+    (+ ``n01_10``).
+
+    Counts are non-negative integers, ``shots >= 1``, ``n00 + n01_10 + n11 == shots``
+    (without ``n01_10``: ``n00 + n11 <= shots``), ``t_us >= 0``.  A point ``(A, dpd,
+    t_us)`` recorded again (a repeated time scan, or a repeated point) is a further row:
+    the rows of a point are pooled, their counts and shots summed (``n_repeats`` counts
+    them), unless their counts contradict binomial noise (:func:`check_count_repeats`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per point in order of its first row (the index is that row's 0-based
+        data row), ``dpd`` int, ``t_s`` the time in seconds, ``n_repeats``.
+    """
+    name = str(path)
+    ts = read_table(path, *(list(c) for c in CAMPAIGN_TABLES["time_scans"]),
+                    ranges={"A": (0, 1), "dpd": (0, 1)})
+    counts = ["n00", "n11", "shots"] + (["n01_10"] if "n01_10" in ts.columns else [])
+    for c in counts:
+        v = ts[c].to_numpy()
+        few = (v < 1) if c == "shots" else np.zeros(v.shape, dtype=bool)
+        bad = few | (v < 0) | (v != np.round(v))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            if few[i]:
+                raise ImplausibleValueError(shots_below_one(v[i]), file=name, column=c,
+                                            row=i + 1)
+            raise InputError(f"count {v[i]:g}: must be a non-negative integer", file=name,
+                             column=c, row=i + 1)
+    if "n01_10" in ts.columns:
+        tot = ts["n00"] + ts["n01_10"] + ts["n11"]
+        bad = (tot != ts["shots"]).to_numpy()
+        what = "does not equal"
+    else:
+        tot = ts["n00"] + ts["n11"]
+        bad = (tot > ts["shots"]).to_numpy()
+        what = "exceeds"
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"counts sum to {tot.iloc[i]:g}, which {what} shots = "
+                         f"{ts['shots'].iloc[i]:g}", file=name, column="shots", row=i + 1)
+    bad = (ts["t_us"] < 0).to_numpy()
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError("time must be >= 0", file=name, column="t_us", row=i + 1)
+    ts["dpd"] = ts["dpd"].astype(int)
+    keys = ["A", "dpd", "t_us"]
+    outcomes = [c for c in ("n00", "n01_10", "n11") if c in ts.columns]
+    check_count_repeats(ts, keys, outcomes, name, "time-scan point")
+    ts = _pooled_counts(ts, keys, outcomes + ["shots"])
+    ts["t_s"] = ts["t_us"] * 1e-6
+    ts.attrs["source"] = name
+    return ts
+
+
+def _pooled_counts(df: pd.DataFrame, keys, counts) -> pd.DataFrame:
+    """One row per ``keys``: ``counts`` summed, ``n_repeats`` rows pooled, the other
+    columns of the first row; index the first row's (a table without repeats comes back
+    as it was, plus ``n_repeats`` 1)."""
+    g = df.groupby(list(keys), sort=False)
+    n = g[counts[0]].transform("size").to_numpy()
+    if (n == 1).all():
+        return df.assign(n_repeats=1)
+    first = ~df.duplicated(list(keys)).to_numpy()
+    out = df[first].copy()
+    sums = g[list(counts)].sum()
+    out[list(counts)] = sums.to_numpy().astype(df[counts].to_numpy().dtype)
+    out["n_repeats"] = g.size().to_numpy()
+    return out

@@ -62,7 +62,9 @@ def check_gate_rates(rates: pd.DataFrame, nu_hz: float, xi0_spectra_hz: float, f
     """Refuse a gate rate above the mode frequency or more than :data:`RATE_SPECTRA_FACTOR`
     away from the spectra's gate detuning (module doc).
 
-    ``rates``: a validated ``gate_rates.csv`` (``xi0_khz``, data rows in order);
+    ``rates``: a validated ``gate_rates.csv`` (``xi0_khz``; the index is each row's
+    0-based data row, as :func:`~dpdfit.recordings.gate_rates.read_gate_rates` gives it:
+    a pooled setting is named by its first row);
     ``defaults``: the ``campaign.json`` keys that took their defaults (named as such);
     ``campaign_file``: the ``campaign.json`` named when ``nu_hz`` or
     ``xi0_spectra_hz`` is not positive.
@@ -71,6 +73,7 @@ def check_gate_rates(rates: pd.DataFrame, nu_hz: float, xi0_spectra_hz: float, f
         if not v > 0:
             raise InputError(f"key '{key}' must be > 0 (Hz), got {v:g}", file=campaign_file)
     xi = rates["xi0_khz"].to_numpy(dtype=float) * 1e3
+    rows = np.asarray(rates.index, dtype=int) + 1
     near = ((xi <= RATE_SPECTRA_FACTOR * xi0_spectra_hz)
             & (xi >= xi0_spectra_hz / RATE_SPECTRA_FACTOR))
     above = xi > nu_hz
@@ -79,7 +82,7 @@ def check_gate_rates(rates: pd.DataFrame, nu_hz: float, xi0_spectra_hz: float, f
         cause = ("nu_hz written in kHz, not Hz?" if near[i] else "stored in Hz with unit kHz?")
         raise ImplausibleValueError(f"gate rate {xi[i] / 1e3:.4g} kHz exceeds the mode frequency "
                                     f"{nu_hz / 1e3:.4g} kHz ({_source('nu_hz', defaults)}): "
-                                    f"{cause}", file=file, column="xi0_khz", row=i + 1)
+                                    f"{cause}", file=file, column="xi0_khz", row=int(rows[i]))
     if not near.all():
         i = int(np.flatnonzero(~near)[0])
         high = xi[i] > xi0_spectra_hz
@@ -89,7 +92,7 @@ def check_gate_rates(rates: pd.DataFrame, nu_hz: float, xi0_spectra_hz: float, f
             f"the spectra's gate detuning {xi0_spectra_hz / 1e3:.4g} kHz "
             f"({_source('xi0_spectra_hz', defaults)}), more than {RATE_SPECTRA_FACTOR:g}x "
             f"away: stored in {'Hz' if high else 'MHz'} with unit kHz, or a wrong "
-            "xi0_spectra_hz?", file=file, column="xi0_khz", row=i + 1)
+            "xi0_spectra_hz?", file=file, column="xi0_khz", row=int(rows[i]))
 
 
 def check_phase_span(df: pd.DataFrame, column: str, keys, file: str, label) -> None:

@@ -1,15 +1,35 @@
-"""Repeated amplitudes in a calibration run: legitimate unless their values contradict the noise.
+"""Repeated recordings of one setting: legitimate unless their values contradict the noise.
 
-(Kept apart from :mod:`dpdfit.recordings.tables`, which re-exports it.)
+:func:`check_duplicates` judges repeated amplitudes of a calibration run (kept apart
+from :mod:`dpdfit.recordings.tables`, which re-exports it); :func:`z_limit` is the
+threshold of a 6-sigma rule whose noise scale is estimated from the repeats themselves
+(``spectra.csv``, ``gate_rates.csv`` without stated errors).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.stats import norm, t
 
 from dpdfit.errors import InputError
 
-__all__ = ["check_duplicates"]
+__all__ = ["check_duplicates", "z_limit", "MEDIAN_EFFICIENCY"]
+
+#: statistical efficiency of a median-based scale (the MAD's, 0.37): the degrees of
+#: freedom a robust scale estimated from ``nu`` residual degrees of freedom is worth
+MEDIAN_EFFICIENCY = 0.37
+
+
+def z_limit(dof: float, z_max: float = 6.0, efficiency: float = MEDIAN_EFFICIENCY) -> float:
+    """Threshold on ``|residual| / s`` with the false-alarm probability of ``z_max``
+    standard deviations of a Gaussian, when ``s`` is a scale estimated from ``dof``
+    residual degrees of freedom: the Student-t quantile at ``efficiency * dof`` degrees
+    of freedom -- for a robust (median-based) scale ``MEDIAN_EFFICIENCY`` (8.0 at 96 dof,
+    20 at 27, 6.06 at 2700), for a mean of squares independent of the residual 1; inf
+    without any.  A scale estimated from few repeats is itself uncertain, and judging by
+    it at 6 would refuse honest data now and then."""
+    nu = efficiency * float(dof)
+    return float(t.isf(norm.sf(z_max), nu)) if nu > 0 else float("inf")
 
 
 def check_duplicates(A: np.ndarray, value: np.ndarray, error: np.ndarray | None,

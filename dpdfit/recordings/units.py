@@ -80,7 +80,7 @@ COLUMN_KINDS = {
     "A": ("fraction", ""), "t_us": ("time", "us"), "xi0_khz": ("frequency", "kHz"),
     "xi0_err_khz": ("frequency", "kHz"), "phase_rad": ("angle", "rad"),
     "phase_err": ("angle", "rad"), "P_dB": ("dB", "dB"), "snr_db": ("dB", "dB"),
-    "dpd": ("number", ""), "n": ("number", ""), "scan": ("number", ""),
+    "dpd": ("number", ""), "n": ("number", ""), "scan": ("number", ""), "repeat": ("number", ""),
     "valid": ("number", ""), "shots": ("number", ""), "n_even": ("number", ""),
     "n00": ("number", ""), "n01_10": ("number", ""), "n11": ("number", ""),
     # the photodiode signal is in the lab's own (arbitrary) unit: taken as stored

@@ -217,10 +217,16 @@ def _calibrations(lab: _Lab, percent: bool) -> None:
 
 def _spectra(lab: _Lab, per_amplitude: bool, step: float) -> None:
     """One file per dpd (amplitude an axis, dpd an argument) or per (A, dpd) (amplitude an
-    argument, dpd a parameter override); axes sideband x order."""
+    argument, dpd a parameter override); axes sideband x order.  A spectrum recorded
+    again (repeated rows of a tone) is a further run, after the first: the import reads
+    the runs in that order, so the k-th row of a tone is again its k-th repeat."""
     clock = itertools.count(_epoch(lab.campaign["spectra_recorded"]), step)
     cols = (("tone_power", "P_dB", "dB"), ("valid", "valid", ""), ("snr", "snr_db", "dB"))
-    for key, rows in lab.t["spectra"].groupby(["A", "dpd"] if per_amplitude else ["dpd"]):
+    sp = lab.t["spectra"]
+    rep = sp.groupby(["A", "dpd", "sideband", "n"], sort=False).cumcount().rename("_repeat")
+    keys = (["A", "dpd"] if per_amplitude else ["dpd"])
+    for key, rows in sp.groupby([sp[k] for k in keys] + [rep]):
+        key = key[:-1]
         axes = [axis("sideband", (rows["sideband"] == "blue").to_numpy(np.int64)),
                 axis("order", rows["n"].to_numpy(np.int64))]
         ch = {name: channel(rows[col], unit) for name, col, unit in cols if col in rows}
@@ -234,6 +240,14 @@ def _spectra(lab: _Lab, per_amplitude: bool, step: float) -> None:
 def _duration(rows: pd.DataFrame) -> dict:
     stored, scale = _si(rows["t_us"], 1e-6)
     return axis("duration", stored, unit="us", scale=scale)
+
+
+def _time_scan_runs(lab: _Lab):
+    """The time scans, one run per (A, dpd) and repeat: a point recorded again (the same
+    ``A, dpd, t_us``) belongs to a further run, as a lab repeats a scan."""
+    ts = lab.t["time_scans"]
+    rep = ts.groupby(["A", "dpd", "t_us"], sort=False).cumcount().rename("_repeat")
+    return ts.groupby([ts["A"], ts["dpd"], rep])
 
 
 def _ints(rows: pd.DataFrame, cols) -> dict:
@@ -259,7 +273,7 @@ def _ndscan_gates(lab: _Lab) -> None:
         lab.scan("lab.gates.ParityScan", next(clock), [axis("phase", rows["phase_rad"], "rad")],
                  _ints(rows, ("n_even", "shots")), {"amplitude": float(a), "dpd": int(dpd)},
                  repeats=rows["scan"].nunique())
-    for (a, dpd), rows in lab.t["time_scans"].groupby(["A", "dpd"]):
+    for (a, dpd, _), rows in _time_scan_runs(lab):
         if rows["shots"].nunique() != 1:
             raise DpdfitError(f"time_scans: shots vary at A = {a}, dpd = {dpd}; "
                               "the mapping expects them constant per (A, dpd)")
@@ -319,7 +333,7 @@ def _per_shot_gates(lab: _Lab, rng) -> None:
                 axis("dpd", rows["dpd"].to_numpy(np.int64))]
         ions = _bright_ions(rows[levels].to_numpy(), rng)
         lab.scan("lab.gates.PopulationScan", next(clock), axes, {"bright_ions": channel(ions)})
-    for (a, dpd), rows in lab.t["time_scans"].groupby(["A", "dpd"]):
+    for (a, dpd, _), rows in _time_scan_runs(lab):
         ions = _bright_ions(rows[levels].to_numpy(), rng)
         lab.scan("lab.gates.TimeScan", next(clock), [_duration(rows)],
                  {"bright_ions": channel(ions)}, {"amplitude": float(a), "dpd": int(dpd)})

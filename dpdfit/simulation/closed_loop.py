@@ -29,7 +29,7 @@ from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.harness_external import truth_in_reach
 
-__all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "REPEAT_STEP", "extend_config", "default_menu",
+__all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
            "random_menu_choice", "close_loop", "ambiguity", "loop_summary",
            "loop_report_lines"]
 
@@ -40,10 +40,6 @@ MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "time_scan": "time_scan"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
-#: A spectrum at an amplitude already recorded is taken this far from it (towards the
-#: middle of the range): a campaign holds one trace per (A, dpd), and the model is
-#: evaluated at the amplitude as recorded, so the repeat is exactly modelled.
-REPEAT_STEP = 1e-4
 #: Random stream of the random choice: ``SeedSequence([job seed, this])``.
 _RANDOM_KEY = 8_101
 
@@ -100,7 +96,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         amplitudes appended); every recording of ``cfg`` is drawn exactly as before.
         Amplitude runs are taken an hour or two after the last run, phase runs
         one step of the phase-run schedule after the last; spectra with both
-        flags (a recorded amplitude :data:`REPEAT_STEP` off); a population (parity)
+        flags (at a recorded amplitude: recorded again at exactly that amplitude, as
+        repeated rows of ``spectra.csv``); a population (parity)
         scan at a gate setting adds population (parity) rows only, at a new
         amplitude a setting with its gate-rate calibration and both (the
         diagnosis analyses a setting only with both).
@@ -120,14 +117,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         if sorted(set(st.get("dpd", (0, 1)))) != [0, 1]:
             raise InputError("spectra are recorded with both dpd flags (dpd [0, 1]), got "
                              f"{st.get('dpd')!r}")
-        have = [float(a) for a in cfg.trace_amplitudes]
-        new = []
-        for a in st.get("amplitudes") or ():
-            a = _amplitude(a)
-            step = -REPEAT_STEP if a > 0.5 else REPEAT_STEP
-            while any(abs(a - b) < 1e-9 for b in have + new):
-                a = round(a + step, 10)          # a repeated tone is refused by the reader
-            new.append(a)
+        # an amplitude already recorded is recorded again at exactly that amplitude
+        have = tuple(cfg.trace_amplitudes)
+        new = [_amplitude(a, have) for a in st.get("amplitudes") or ()]
         if not new:
             raise InputError("spectra: no amplitudes given")
         return dataclasses.replace(cfg, trace_amplitudes=tuple(cfg.trace_amplitudes)

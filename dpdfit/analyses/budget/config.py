@@ -179,5 +179,6 @@ def load_budget_config(path) -> dict:
 def gate_rates_khz(path) -> list[float]:
     """Gate rates ``xi0`` [kHz] of a gate-rate file (``A, dpd, xi0_khz``), read by the one
     reader of such files (:func:`dpdfit.recordings.gate_rates.read_gate_rates`: A in
-    [0, 1], dpd 0/1, xi0_khz > 0, no (A, dpd) twice; InputError names file, column, row)."""
+    [0, 1], dpd 0/1, xi0_khz > 0, repeated calibrations of a setting pooled into one rate;
+    InputError names file, column, row)."""
     return [float(x) for x in read_gate_rates(path)["xi0_khz"]]

@@ -234,8 +234,8 @@ class GateModel:
         g = self.gates
         self._tab = tab = dict(self._stacks())
         vj = self.sig_jit ** 2
-        vx = self.rate_error_db() ** 2
         ns = g.n_scans.to_numpy(dtype=float)
+        vx = self.rate_error_db() ** 2 / self._n_rates(self.keys)   # pooled: 1/n of one
         tab["var"] = (vj / ns + vx, 2 * (vj ** 2 / ns + vx ** 2))
         return tab
 
@@ -384,7 +384,17 @@ class GateModel:
         """Number of time-scan settings ``(A, dpd)`` the model predicts."""
         return len(self.ts_keys)
 
-    def rate_error_db(self) -> float:
-        """1-sigma power-equivalent error (dB) of one setting's gate-rate calibration."""
+    def rate_error_db(self, key=None) -> float:
+        """1-sigma power-equivalent error (dB) of one setting's gate-rate calibration; with
+        ``key`` (a setting ``(A, dpd)``), of that setting's rate, which may be pooled from
+        ``n_rates`` repeated calibrations (``1/sqrt(n_rates)`` of one)."""
         rel = getattr(self, "rate_rel", None)
-        return float(self.db_per_rel_xi * (self.stated_rate_error if rel is None else rel))
+        one = float(self.db_per_rel_xi * (self.stated_rate_error if rel is None else rel))
+        return one if key is None else float(one / np.sqrt(self._n_rates([key])[0]))
+
+    def _n_rates(self, keys) -> np.ndarray:
+        """Calibrations pooled into the rate of each setting of ``keys`` (1 without the
+        count, or for a time scan's setting without gate data: its rate is the tones')."""
+        g = self.gates
+        n = dict(zip(self.keys, g["n_rates"] if "n_rates" in g else np.ones(len(g))))
+        return np.array([float(n.get(tuple(k), 1.0)) for k in keys])

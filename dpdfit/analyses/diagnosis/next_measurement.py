@@ -367,6 +367,9 @@ def _repeats(dirs, unit_seconds: float, lab, target: float) -> int:
 
 
 def _repeat_settings(what: str, settings: dict, k: int) -> dict:
+    """``settings`` repeated ``k`` times: more runs or scans; spectra repeat their
+    amplitudes, each recorded again at the same amplitude (repeated rows of
+    ``spectra.csv``, pooled)."""
     st = dict(settings)
     if k <= 1:
         return st

@@ -14,12 +14,17 @@ contains every known noise source and nothing else:
   floor is the *median* noise power, the mean is ``floor / ln 2``
   (:mod:`dpdfit.fits.tones`), so ``P = |c|^2 + N0`` and the error of a
   tone at SNR ``s`` is ``(10/ln 10) sqrt(2 N0 / P)`` dB.  Tones below
-  ``MIN_SNR_DB`` are not used (their reading is an upper limit).
+  ``MIN_SNR_DB`` are not used (their reading is an upper limit).  A tone
+  recorded ``k`` times (repeated rows of ``spectra.csv``) is the mean of its
+  linear readings (:func:`dpdfit.recordings.spectra.pool_spectra`), which keeps
+  ``E P = |c|^2 + N0``; its noise error is ``1/sqrt(k)`` of one reading's, and
+  ``Campaign.n_repeats`` carries ``k`` to the null model.
 * **gate observables** per setting ``(A, dpd)``, pooled over the scans:
   population fidelity ``F_pop = P00 + P11``, imbalance ``P00 - P11`` and the
   mean of the scans' parity contrasts (binomial MLE per scan, :mod:`dpdfit.fits.counts`;
   not the count-level merge, whose contrast the scans' power jitter washes out).
-* **time scans**: ``P00`` and ``P11`` at each scan time (binomial).
+* **time scans**: ``P00`` and ``P11`` at each scan time (binomial; a point
+  recorded again has its counts summed).
 * **calibration residuals** of the model's own amplitude and phase runs.
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.tone_model`
@@ -35,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.analyses.diagnosis.calibration_drift import RunsAfter, drift_modes, runs_after_recordings
+from dpdfit.analyses.diagnosis.tone_grid import tone_grid
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
 from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
 from dpdfit.recordings.campaign_folder import CampaignFolder
@@ -76,9 +82,12 @@ class Campaign:
     A_tones : ndarray
         Amplitudes of the spectra grid.
     P_dB, sd_dB : ndarray, shape (nA, 2 dpd, 2 sideband, len(TONE_HARMONICS))
-        Debiased tone powers and their errors (NaN where unusable).
+        Debiased tone powers and their errors (NaN where unusable); a tone recorded
+        several times (repeated rows of ``spectra.csv``) is their pooled reading, one
+        row per distinct A, with ``n_repeats`` readings.
     gates : pandas.DataFrame
-        Per setting: ``A, dpd, xi0_hz, xi0_rel_err, n_scans`` and the measured
+        Per setting: ``A, dpd, xi0_hz, xi0_rel_err`` (of one calibration), ``n_rates``
+        (repeated calibrations pooled into ``xi0_hz``), ``n_scans`` and the measured
         ``F_pop, imb, C`` with shot-noise errors ``*_shot``.
     time_scans : pandas.DataFrame
         ``A, dpd, t_s, n00, n11, shots``.
@@ -105,6 +114,12 @@ class Campaign:
     P_raw: np.ndarray | None = None
     #: recorded SNR over the median noise power (NaN without ``snr_db``)
     snr_raw: np.ndarray | None = None
+    #: readings pooled into each tone of ``P_raw`` (repeated recordings of a setting; 0
+    #: where the tone has none), same shape; None: one each
+    n_repeats: np.ndarray | None = None
+    #: every reading (dB) before pooling, shape (nA, repeats, 2 dpd, 2 sideband,
+    #: len(TONE_HARMONICS)), NaN where a tone has fewer repeats; None: ``P_raw`` itself
+    P_readings: np.ndarray | None = None
     #: spectra.csv carries snr_db (else the noise floor is estimated by the diagnosis)
     has_snr: bool = True
     #: campaign.json carries the lab's error_model
@@ -195,45 +210,30 @@ def _calibrations(cf: CampaignFolder, noise: dict, given=None, learnt=None):
     return amp, amp_res, ph, ph_res
 
 
-def _tones(cf: CampaignFolder):
-    """Recorded tone powers and (if recorded) SNRs on the (A, dpd, sideband, harmonic) grid."""
-    df = cf.spectra
-    A = np.unique(df["A"].to_numpy(dtype=float))
-    P = np.full((A.size, 2, 2, len(TONE_HARMONICS)), np.nan)
-    snr = np.full_like(P, np.nan)
-    iA = np.searchsorted(A, df["A"].to_numpy(dtype=float))
-    d = df["dpd"].to_numpy(dtype=int)
-    s = (df["sideband"] == "blue").to_numpy(dtype=int)
-    n = df["n"].to_numpy(dtype=int)
-    keep = np.isin(n, TONE_HARMONICS)
-    h = np.searchsorted(TONE_HARMONICS, n[keep])
-    P[iA[keep], d[keep], s[keep], h] = df["P_dB"].to_numpy(dtype=float)[keep]
-    if "snr_db" in df.columns:
-        snr[iA[keep], d[keep], s[keep], h] = df["snr_db"].to_numpy(dtype=float)[keep]
-    return A, P, snr, "snr_db" in df.columns
-
-
-def debias_tones(P_raw: np.ndarray, N0: np.ndarray):
+def debias_tones(P_raw: np.ndarray, N0: np.ndarray, n_repeats=1):
     """Tone powers debiased for the noise in their bin, and the noise part of their error.
 
     ``P_raw`` (dB) reads ``|c + n|^2`` with complex noise of mean power ``N0``
     (linear, broadcastable), so ``E P = |c|^2 + N0``; the debiased power is
     ``10 log10(P - N0)`` and its error ``(10/ln 10) sqrt(2 N0 / (P - N0))`` dB.
-    Tones below ``MIN_SNR_DB`` over the *median* noise power ``N0 ln 2`` are
-    not used (NaN: their reading is an upper limit).
+    ``P_raw`` may be the mean of ``n_repeats`` such readings (broadcastable; the mean
+    of linear powers keeps the expectation): the error is then ``1/sqrt(n_repeats)``
+    of one reading's.  Tones below ``MIN_SNR_DB`` over the *median* noise power
+    ``N0 ln 2`` are not used (NaN: their reading is an upper limit).
 
     Returns
     -------
     (P_dB, sd_noise_dB) : arrays of the shape of ``P_raw``
     """
     N0 = np.broadcast_to(np.asarray(N0, dtype=float), P_raw.shape)
+    k = np.broadcast_to(np.maximum(np.asarray(n_repeats, dtype=float), 1.0), P_raw.shape)
     with np.errstate(invalid="ignore", divide="ignore"):
         snr = P_raw - 10 * np.log10(N0 * np.log(2))
         lin = 10 ** (P_raw / 10) - N0
         ok = np.isfinite(P_raw) & (snr >= MIN_SNR_DB) & (lin > 0)
         lin = np.where(ok, lin, 1.0)
         val = np.where(ok, 10 * np.log10(lin), np.nan)
-        err = np.where(ok, 10 / np.log(10) * np.sqrt(2 * N0 / lin), np.nan)
+        err = np.where(ok, 10 / np.log(10) * np.sqrt(2 * N0 / (lin * k)), np.nan)
     return val, err
 
 
@@ -302,10 +302,14 @@ def _gates(cf: CampaignFolder):
             cs.append(f.A)
             es.append(f.A_err)
         xi = float(r["xi0_khz"].iloc[0]) * 1e3
-        rel = (float(r["xi0_err_khz"].iloc[0]) * 1e3 / xi if "xi0_err_khz" in r.columns
-               else np.nan)
+        # a rate pooled from repeated calibrations: its error is 1/sqrt(n) of one's, and
+        # xi0_rel_err states one calibration's (the scatter the null model learns)
+        n_rates = int(r["n_repeats"].iloc[0]) if "n_repeats" in r.columns else 1
+        rel = (float(r["xi0_err_khz"].iloc[0]) * 1e3 / xi * np.sqrt(n_rates)
+               if "xi0_err_khz" in r.columns else np.nan)
         pe = max(min(F, 1 - 0.5 / N), 0.5 / N)
         row = {"A": float(A), "dpd": int(d), "xi0_hz": xi, "xi0_rel_err": rel,
+               "n_rates": n_rates,
                "n_scans": int(g["scan"].nunique()), "shots": N,
                "F_pop": F, "F_pop_shot": np.sqrt(pe * (1 - pe) / N),
                "imb": np.nan, "imb_shot": np.nan,
@@ -348,11 +352,12 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                         f"{amp.source.get('run', '?')}: amplitude calibration decreases on "
                         f"A in {iv}; the predistortion table clamps there")
     cf.require("spectra.csv", "the diagnosis")
-    A, P_raw, snr, has_snr = _tones(cf)
+    A, P_raw, snr, has_snr, n_rep, P_each = tone_grid(cf, TONE_HARMONICS)
     if has_snr:
         # the recorded SNR is over the median noise power: mean power = floor / ln 2
+        # (pooled: over the mean of the repeats' floors)
         N0 = 10 ** ((P_raw - snr) / 10) / np.log(2)
-        P, sd = debias_tones(P_raw, np.where(np.isfinite(N0), N0, np.inf))
+        P, sd = debias_tones(P_raw, np.where(np.isfinite(N0), N0, np.inf), n_rep)
     else:
         P, sd = np.full_like(P_raw, np.nan), np.full_like(P_raw, np.nan)
     try:        # the campaign's error_model over the defaults (an unknown key refused)
@@ -379,6 +384,7 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     amp_residuals=amp_res, phase_residuals=ph_res, A_tones=A, P_dB=P,
                     sd_dB=sd, gates=gates, time_scans=_time_scans(cf), error_model=em,
                     warnings=tuple(warnings), P_raw=P_raw, snr_raw=snr, has_snr=has_snr,
+                    n_repeats=n_rep, P_readings=P_each,
                     has_error_model="error_model" in cf.raw_meta, left_out=tuple(left),
                     drift_modes=modes, drift_significant=n_sig,
                     calibration_noise={k: None if v is None else v.to_dict()

@@ -24,7 +24,8 @@ import pandas as pd
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, effect_of_key
 from dpdfit.analyses.diagnosis.gate_model import DETECTION_PRIOR_SIGMA, GateModel
-from dpdfit.analyses.diagnosis.null_model import learn_tone_noise
+from dpdfit.analyses.diagnosis.null_model import (learn_tone_noise, repeats_of,
+                                                  trace_jitter_multiple)
 from dpdfit.analyses.diagnosis.observables import Campaign, tone_features
 from dpdfit.analyses.diagnosis.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.tone_model import ToneModel
@@ -93,6 +94,8 @@ class Problem:
         self.camp = camp
         self.meas = tone_features(camp.P_dB, camp.A_tones, camp.sd_dB)
         self.sig_jit = self.tone_noise.s_trace_db
+        # a trace pooled from repeated recordings carries a share of one trace's jitter
+        self.jit_multiple = trace_jitter_multiple(repeats_of(camp))
         self.prior = {k: 1.0 for k in self.tone.mode_names}
         self.center = {k: 0.0 for k in self.tone.mode_names}
         self.bounds = {}
@@ -146,13 +149,13 @@ class Problem:
             self.prior[k], self.center[k] = DETECTION_PRIOR_SIGMA, self.gate.p_det
             self.bounds[k] = (0.0, self.gate.p_det + 50 * DETECTION_PRIOR_SIGMA)
         for k in range(self.gate.n_time_scans):
-            self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
+            self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
             self.center[f"eps_ts{k}"] = 0.0
         if camp.phase is not None:
             self._choose_phase_sign()
         self.gate.compute_responses()
         for k in range(self.gate.n_time_scans):
-            self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
+            self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
         self.rate_scatter = learn_rate_scatter(self)
 
     def _gate_chi2(self) -> float:
@@ -211,7 +214,7 @@ class Problem:
         scans' rate-error priors with it)."""
         self.gate.set_rate_scatter(rel)
         for k in range(self.gate.n_time_scans):
-            self.prior[f"eps_ts{k}"] = self.gate.rate_error_db()
+            self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
 
     # -------------------------------------------------------------- residuals
     def _is_tone_key(self, k: str) -> bool:
@@ -285,7 +288,7 @@ class Problem:
             m = model[name]
             if name == "gate_power":
                 # absolute scale of the tone powers: profiled (weighted mean), 1 parameter
-                e = np.sqrt(e ** 2 + self.sig_jit ** 2)
+                e = np.sqrt(e ** 2 + self.sig_jit ** 2 * self.jit_multiple)
                 r = v - m
                 ok = np.isfinite(r)
                 m = m + (np.sum(r[ok] / e[ok] ** 2) / np.sum(1 / e[ok] ** 2) if ok.any() else 0)

@@ -103,7 +103,8 @@ def spectra_step(ctx: Context, sweep: SimulatedSweep | None) -> MeasuredSpectra 
 
 
 def _trace_rows(folder, i, r, idx_path, raw) -> list[dict]:
-    """Tone powers of one listed trace, with the same tone's power in ``spectra.csv``."""
+    """Tone powers of one listed trace, with the same tone's power in ``spectra.csv``: the
+    reading of the trace's repeat (``r["repeat"]``, :func:`_trace_repeats`)."""
     f = folder / r["file"]
     if not f.exists():
         raise InputError(f"listed trace file '{r['file']}' not found", file=str(idx_path),
@@ -116,12 +117,36 @@ def _trace_rows(folder, i, r, idx_path, raw) -> list[dict]:
             ref = np.nan
             if raw is not None:
                 s = raw[np.isclose(raw.A, r["A"]) & (raw.dpd == int(r["dpd"]))
-                        & (raw.sideband == sb) & (raw.n == n)]
+                        & (raw.sideband == sb) & (raw.n == n) & (raw.repeat == r["repeat"])]
                 ref = float(s["P_dB"].iloc[0]) if len(s) else np.nan
-            rows.append({"file": r["file"], "A": r["A"], "dpd": int(r["dpd"]), "sideband": sb,
-                         "n": int(n), "P_dB": tones.P_dB[n], "valid": int(tones.valid[n]),
+            rows.append({"file": r["file"], "A": r["A"], "dpd": int(r["dpd"]),
+                         "repeat": r["repeat"], "sideband": sb, "n": int(n),
+                         "P_dB": tones.P_dB[n], "valid": int(tones.valid[n]),
                          "P_dB_in_spectra_csv": ref, "difference_dB": tones.P_dB[n] - ref})
     return rows
+
+
+def _trace_repeats(idx: pd.DataFrame, raw: pd.DataFrame | None) -> pd.DataFrame:
+    """``traces.csv`` with the repeat of ``spectra.csv`` each trace was recorded as: its own
+    ``repeat`` column, else the k-th trace listed of an ``(A, dpd)`` is that setting's
+    k-th repeat in ``spectra.csv`` (the repeats in the order of their first row)."""
+    idx = idx.copy()
+    if "repeat" in idx.columns:
+        idx["repeat"] = idx["repeat"].astype(str)
+        return idx
+    order = {}
+    if raw is not None:
+        for (A, d), g in raw.groupby(["A", "dpd"], sort=False):
+            order[(float(A), int(d))] = list(dict.fromkeys(g["repeat"]))
+
+    def label(A, d, j):
+        ls = next((v for (a, dd), v in order.items() if dd == d and np.isclose(a, A)), [])
+        return ls[j] if j < len(ls) else str(j + 1)
+
+    k = idx.groupby(["A", "dpd"], sort=False).cumcount().to_numpy()
+    idx["repeat"] = [label(A, int(d), j) for A, d, j in zip(idx["A"].to_numpy(float),
+                                                             idx["dpd"].to_numpy(), k)]
+    return idx
 
 
 def traces_step(ctx: Context):
@@ -140,6 +165,7 @@ def traces_step(ctx: Context):
             raw = ctx.campaign.spectra
         except InputError:
             raw = None
+    idx = _trace_repeats(idx, raw)
     rows = [row for i, r in idx.iterrows() for row in _trace_rows(folder, i, r, idx_path, raw)]
     chk = pd.DataFrame(rows)
     res.table("traces_check.csv", chk)

@@ -133,6 +133,9 @@ class CampaignConfig:
     f_det: float = 20e6
     nu: float = NU_HZ
     xi0_spec: float = XI0_SPECTRA_HZ
+    #: amplitudes of the heterodyne traces (both flags each); an amplitude listed again
+    #: is recorded again (repeated rows of spectra.csv, each trace with the stream of its
+    #: index, so appending one leaves every earlier trace as it was)
     trace_amplitudes: tuple = tuple(np.round(np.linspace(0.05, 1.0, 39), 4))
     trace_noise_rms: float = 0.015
     power_jitter_db: float = ERROR_MODEL.power_jitter_db

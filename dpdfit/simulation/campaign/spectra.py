@@ -2,7 +2,8 @@
 
 Every trace has its own random stream (purpose 4, amplitude index, dpd), so
 any trace of the grid can be regenerated from the seed string recorded in
-``traces.csv`` (:func:`regenerate_trace`).
+``traces.csv`` (:func:`regenerate_trace`), and an amplitude listed again is a
+further recording with streams of its own.
 """
 
 from __future__ import annotations
@@ -165,7 +166,14 @@ def _trace_rows(cfg, aom, lut, A, d, key):
 
 def spectra_tables(cfg: CampaignConfig, aom: BraggAOM, lut, progress):
     """All traces of the grid: ``spectra.csv`` and ``traces.csv`` tables, bundled raw traces
-    (file name -> ``.npz`` bytes)."""
+    (file name -> ``.npz`` bytes).
+
+    An amplitude that ``cfg.trace_amplitudes`` lists again is recorded again, as a lab
+    repeats a recording: further traces of that amplitude, each from the stream of its
+    own index, their rows appended in the order of the list (``spectra.csv`` then has
+    repeated rows of those tones, :mod:`dpdfit.recordings.spectra`).  Only the first
+    recording of a bundled amplitude is bundled.
+    """
     rows, index, bundled = [], [], {}
     items = [(i, A, d) for i, A in enumerate(cfg.trace_amplitudes) for d in (0, 1)]
     with progress("heterodyne traces", len(items)) as p:
@@ -178,7 +186,8 @@ def spectra_tables(cfg: CampaignConfig, aom: BraggAOM, lut, progress):
             trace_rows, q, scale = _trace_rows(cfg, aom, lut, A, d, key)
             rows += trace_rows
             seed_str = f"{cfg.seed}:4:{i}:{d}"
-            if any(abs(A - a) < 1e-9 and d == dd for a, dd in cfg.bundled_traces):
+            first = not any(abs(A - a) < 1e-9 for a in cfg.trace_amplitudes[:i])
+            if first and any(abs(A - a) < 1e-9 and d == dd for a, dd in cfg.bundled_traces):
                 fname = f"traces/trace_A{A:.3f}_dpd{d}.npz"
                 bundled[fname] = _npz_bytes({"trace": q, "scale": np.array(scale)})
                 index.append({"file": fname, "A": float(A), "dpd": d, "fs": cfg.fs,
