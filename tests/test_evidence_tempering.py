@@ -120,9 +120,10 @@ def test_a_gap_with_white_residuals_stays_decisive():
     assert evidence_dispersion(best, best) == 1.0
 
 
-def _entry(effect, dbic, dbic_t, p=1e-12, side="tones", tau=1.0):
+def _entry(effect, dbic, dbic_t, p=1e-12, side="tones", tau=1.0, dchi2=None):
     return {"effect": effect, "delta_bic": dbic, "delta_bic_tempered": dbic_t,
-            "p_value": p, "p_value_tempered": p, "side": side, "tempering": tau}
+            "p_value": p, "p_value_tempered": p, "side": side, "tempering": tau,
+            "delta_chi2": -dbic if dchi2 is None else dchi2}
 
 
 def test_swap_alternatives_keep_the_candidates_in_reach():
@@ -130,13 +131,13 @@ def test_swap_alternatives_keep_the_candidates_in_reach():
     n = 400
     x = np.linspace(0, 1, n)
     e = 0.7 * np.cos(2 * np.pi * x) + rng.normal(size=n)
-    fa = _fit(float(e @ e), 5, e, effects=("a",))
+    fa = _fit(float(e @ e), 5, e, effects=("a",), forms=("f",))
     zb = e + 0.2 * np.cos(2 * np.pi * x)
-    fb = _fit(fa.chi2 + 30.0, 5, zb, effects=("b",))
+    fb = _fit(fa.chi2 + 30.0, 5, zb, effects=("b",), forms=("f",))
     zc = e + 3.0 * np.sin(2 * np.pi * x)
-    fc = _fit(float(zc @ zc), 5, zc, effects=("c",))
+    fc = _fit(float(zc @ zc), 5, zc, effects=("c",), forms=("f",))
     ranking = [_entry("a", -500, -200), _entry("b", -470, -190), _entry("c", -50, -5)]
-    alts = swap_alternatives({"a": fa, "b": fb, "c": fc}, ranking, "a", ["a"], None)
+    alts = swap_alternatives({"a": fa, "b": fb, "c": fc}, {}, ranking, "a", ["a"], None)
     assert [a["effect"] for a, _ in alts] == ["b"]      # c is not decisive on its own
     a = alts[0][0]
     assert a["delta_bic"] == pytest.approx(30.0) and a["delta_bic_tempered"] < 10
@@ -146,11 +147,14 @@ def test_swap_alternatives_keep_the_candidates_in_reach():
 
 
 def test_additions_decisive_only_before_tempering_are_alternatives():
+    """In reach: the raw likelihood would add it, and its chi2 gain divided by the
+    dispersion of the evidence is still decisive (>= 10), whatever its parameters cost."""
     f_add = SimpleNamespace(effects=("a", "c"))
     f_far = SimpleNamespace(effects=("a", "d"))
     f_weak = SimpleNamespace(effects=("a", "e"))
-    steps = [([(_entry("a+c", -40, -7), f_add), (_entry("a+d", -40, 12), f_far),
-               (_entry("a+e", -40, -3), f_weak)], None)]
+    steps = [([(_entry("a+c", -40, -7, tau=3.0, dchi2=46.0), f_add),
+               (_entry("a+d", -40, 12, tau=10.0, dchi2=46.0), f_far),
+               (_entry("a+e", -40, -3, tau=5.0, dchi2=46.0), f_weak)], None)]
     alts = addition_alternatives(steps, ["a"])
     assert [(a["effect"], a["named"], a["replaces"]) for a, _ in alts] == [("c", ["a", "c"],
                                                                             None)]

@@ -67,7 +67,7 @@ def _shared_prefixes(a, b) -> tuple | None:
     """The observables on which two single-effect fits can be compared: both sides when
     both were predicted there alike; the tone side when both act on the tones and only
     one had its field carried to the gates (the other's gates are the baseline's)."""
-    sides = {EFFECTS[e].side for e in a.effects + b.effects}
+    sides = {getattr(EFFECTS.get(e), "side", None) for e in a.effects + b.effects}
     if sides == {"tones"}:
         return _SIDE_PREFIXES["tones"]
     return None
