@@ -232,13 +232,24 @@ def _stub(named, alternatives=(), proposal=None, verdict=None):
                            extra=extra)
 
 
-def test_close_loop_is_none_unless_ambiguous_with_a_proposal():
+def test_close_loop_is_none_unless_ambiguous_or_wrong(monkeypatch):
     assert close_loop(JOB, _stub(["dephasing"])) is None
     assert close_loop(JOB, _stub(["dephasing"], proposal=PROPOSAL)) is None
-    assert close_loop(JOB, _stub(["dephasing"], ALTS, {"what": None, "reason": "x"})) is None
     # the dict form (to_dict: extra at the top level) and a run record
-    assert close_loop(JOB, {"verdict": "dephasing", "effects": [{"effect": "dephasing"}],
+    assert close_loop(JOB, {"verdict": "dephasing", "named": ["dephasing"],
                             "alternatives": []}) is None
+    # ambiguous, or wrong, without a proposal: the proposal arm records none, the random
+    # arm still takes its recordings
+    monkeypatch.setattr(C, "simulate_campaign",
+                        lambda folder, seed, config, progress: folder.mkdir()
+                        or (folder / "truth.json").write_text("{}"))
+    monkeypatch.setattr(C, "_diagnose", lambda folder, refit=None: _stub(["dephasing"]))
+    for first in (_stub(["dephasing"], ALTS, {"what": None, "reason": "x"}),
+                  _stub(["spam_offset"])):
+        out = close_loop(JOB, first)
+        assert out["recommended"]["n_steps"] == 0 and not out["recommended"]["resolved"]
+        assert out["recommended"]["reason"] == "no measurement was proposed"
+        assert out["random"]["n_steps"] == 1 and out["random"]["resolved"]
 
 
 def test_close_loop_rediagnoses_with_the_proposal_and_a_random_choice(monkeypatch):
@@ -249,7 +260,7 @@ def test_close_loop_rediagnoses_with_the_proposal_and_a_random_choice(monkeypatc
         folder.mkdir()
         (folder / "truth.json").write_text("{}")
 
-    def fake_diagnose(folder):       # the proposal resolves; anything else stays ambiguous
+    def fake_diagnose(folder, refit=None):   # the proposal resolves; else still ambiguous
         if seen[-1] == (("scan", 0.6, 1, 0, 625 // 16),):
             return _stub(["dephasing"])
         return _stub(["dephasing"], ALTS)
@@ -263,12 +274,18 @@ def test_close_loop_rediagnoses_with_the_proposal_and_a_random_choice(monkeypatc
     assert rec["named"] == ["dephasing"]
     assert rnd["what"] in ("parity", "spectra")
     assert rnd["resolved"] == (rnd["what"] == "parity")
+    # the proposal resolves at once; a random arm that does not is tried again, up to
+    # LOOP_STEPS recordings, and never turns the verdict wrong here
+    assert rec["n_steps"] == 1 and rec["resolved_final"] and not rec["turned_wrong"]
+    assert 1 <= rnd["n_steps"] <= C.LOOP_STEPS
+    assert rnd["resolved_final"] == any(st["resolved"] for st in rnd["steps"])
     again = close_loop(JOB, _stub(["dephasing"], ALTS, PROPOSAL))
     assert again["random"]["what"] == rnd["what"]             # seeded by the job's seed
 
 
 def test_close_loop_records_a_measurement_it_cannot_take(monkeypatch):
-    monkeypatch.setattr(C, "_diagnose", lambda folder: pytest.fail("nothing to diagnose"))
+    monkeypatch.setattr(C, "_diagnose", lambda folder, refit=None: pytest.fail(
+        "nothing to diagnose"))
     bad = {**PROPOSAL, "what": "lunch", "menu": [{"what": "lunch"}]}
     monkeypatch.setattr(C, "random_menu_choice", lambda rng, m, cfg: bad)
     out = close_loop(JOB, _stub(["dephasing"], ALTS, bad))
@@ -310,8 +327,12 @@ def test_summary_counts_ambiguity_confident_errors_and_the_closed_loop():
     assert s["n_runs"] == 6
     assert s["ambiguous_rate"] == pytest.approx(2 / 6)
     assert s["confidently_wrong_rate"] == pytest.approx(2 / 6)
-    assert s["closed_loop"] == {"n": 2, "resolved_recommended": 0.5, "resolved_random": 0.5,
-                                "n_failed": 1}
+    cl = s["closed_loop"]
+    assert {k: cl[k] for k in ("n", "resolved_recommended", "resolved_random", "n_failed")
+            } == {"n": 2, "resolved_recommended": 0.5, "resolved_random": 0.5, "n_failed": 1}
+    # records of a one-step loop: the final state is the first step's
+    assert cl["resolved_recommended_final"] == 0.5 and cl["turned_wrong_recommended"] == 0
+    assert cl["separation_ratios"] == [] and cl["separation_ratio_median"] is None
     assert s["false_alarm_rate"] == 0.5 and "recovery" in s       # the older keys stay
     text = H.report({**s, "seconds": 1.0})
     assert "ambiguous: 0.333, confidently wrong: 0.333" in text
@@ -350,3 +371,39 @@ def test_harness_campaign_keeps_its_recordings_under_every_extension(tmp_path):
         ext = tmp_path / f"ext{i}"
         simulate_campaign(ext, seed=SEED, config=extend_config(cfg, m), progress=False)
         assert _added(base, ext), m
+
+
+def test_loop_steps_record_the_separation_achieved_and_a_verdict_turned_wrong(monkeypatch):
+    """A proposal's binding pair is refitted after its recording: the separation achieved
+    is how far the recording moved the pair apart; a recording that turns a verdict with
+    the truth among its alternatives into a confidently wrong one is counted."""
+    binding = {"truth": {"effects": ["spam_offset"], "forms": ["total"], "chi2": 100.0},
+               "rival": {"effects": ["dephasing"], "forms": ["independent"], "chi2": 110.0}}
+    proposal = {**PROPOSAL, "expected_delta_bic": 27.0, "binding": binding}
+    seen = []
+
+    def fake_simulate(folder, seed, config, progress):
+        folder.mkdir()
+        (folder / "truth.json").write_text("{}")
+
+    def fake_diagnose(folder, refit=None):
+        seen.append(refit)
+        d = _stub(["spam_offset"])                   # confidently wrong, unambiguous
+        d.extra["refits"] = [{**refit[0], "chi2": 200.0}, {**refit[1], "chi2": 240.0}]
+        return d
+
+    monkeypatch.setattr(C, "simulate_campaign", fake_simulate)
+    monkeypatch.setattr(C, "_diagnose", fake_diagnose)
+    first = _stub(["spam_offset"], [{"effect": "dephasing", "named": ["dephasing"]}],
+                  proposal)                          # the truth among the alternatives
+    out = close_loop(JOB, first)
+    rec = out["recommended"]
+    assert seen[0] == [{"effects": ["spam_offset"], "forms": ["total"]},
+                       {"effects": ["dephasing"], "forms": ["independent"]}]
+    assert rec["n_steps"] == 1 and rec["status"] == "wrong" and rec["turned_wrong"]
+    assert rec["separation_predicted"] == 27.0
+    assert rec["separation_achieved"] == pytest.approx(30.0)      # |(240-200) - (110-100)|
+    s = H.summarise([{**_record("dephasing", ["spam_offset"], alternatives=[]),
+                      "closed_loop": out}])
+    assert s["closed_loop"]["turned_wrong_recommended"] == 1
+    assert s["closed_loop"]["separation_ratios"] == [pytest.approx(30.0 / 27.0)]

@@ -27,9 +27,10 @@ import numpy as np
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
+from dpdfit.analyses.diagnosis.refits import achieved_separation
 from dpdfit.simulation.harness_external import truth_in_reach
 
-__all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
+__all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "LOOP_STEPS", "extend_config", "default_menu",
            "random_menu_choice", "close_loop", "ambiguity", "loop_summary",
            "loop_report_lines"]
 
@@ -244,39 +245,109 @@ def _extra(d) -> dict:
     return dict(getattr(d, "extra", None) or {})
 
 
-def _diagnose(folder):
+def _diagnose(folder, refit=None):
     # imported when needed, as run_one does: the diagnosis is heavy to import
     from dpdfit.analyses.diagnosis.diagnose import diagnose
-    return diagnose(folder, progress=False)
+    return diagnose(folder, progress=False, refit=refit) if refit else diagnose(
+        folder, progress=False)
 
 
-def _arm(job: dict, cfg: CampaignConfig, m: dict, workdir) -> dict:
-    """Simulate the campaign with measurement ``m`` added, diagnose it, compare."""
+def _status(d, concealed: list) -> str:
+    """``"exact"`` (the concealed set named; ``none`` for a null), ``"in_reach"`` (among
+    the alternatives) or ``"wrong"`` (confidently wrong)."""
+    named = sorted(getattr(d, "named", None) if not isinstance(d, dict)
+                   else d.get("named") or [])
+    verdict = d.get("verdict") if isinstance(d, dict) else getattr(d, "verdict", None)
+    if (named == concealed) if concealed else verdict == "none":
+        return "exact"
+    rec = {"verdict": verdict, "named": named, "alternatives": ambiguity(d)["alternatives"]}
+    return "in_reach" if truth_in_reach(rec, concealed) else "wrong"
+
+
+def _binding_refits(proposal: dict | None) -> list | None:
+    """The binding pair of a proposal (the hypotheses whose separation it predicts), as
+    the refits a later diagnosis makes."""
+    b = (proposal or {}).get("binding") or {}
+    if not b.get("truth") or not b.get("rival"):
+        return None
+    return [{k: b[r][k] for k in ("effects", "forms")} for r in ("truth", "rival")]
+
+
+def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
+    """One recording: the campaign config with ``m`` added, simulated, diagnosed (the
+    proposal's binding pair refitted); ``(config, record, diagnosis or None)``."""
+    concealed = sorted(job["effects"])
     out = {"what": m.get("what"), "settings": m.get("settings")}
     t0 = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix="dpdfit-loop-", dir=workdir))
+    refit = _binding_refits(m)
     try:
+        cfg = extend_config(cfg, m)
         folder = tmp / "campaign"
-        simulate_campaign(folder, seed=job["seed"], config=extend_config(cfg, m),
-                          progress=False)
+        simulate_campaign(folder, seed=job["seed"], config=cfg, progress=False)
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
-        d = _diagnose(folder)
-    except Exception as e:                   # noqa: BLE001 - recorded; the first diagnosis stays
-        return {**out, "error": f"{type(e).__name__}: {e}", "resolved": False,
-                "ambiguous_after": None, "seconds": time.perf_counter() - t0}
+        d = _diagnose(folder, refit)
+    except Exception as e:                   # noqa: BLE001 - recorded; the loop stops there
+        return cfg, {**out, "error": f"{type(e).__name__}: {e}", "resolved": False,
+                     "ambiguous_after": None, "seconds": time.perf_counter() - t0}, None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    amb, concealed = ambiguity(d), sorted(job["effects"])
-    # the harness's named_correctly: the concealed set, or the verdict none for a null
-    correct = sorted(d.named) == concealed if concealed else d.verdict == "none"
-    return {**out, "verdict": d.verdict, "named": list(d.named),
-            "alternatives": [a.get("named", [a.get("effect")]) for a in amb["alternatives"]],
-            "resolved": correct and not amb["ambiguous"],
-            "ambiguous_after": amb["ambiguous"], "seconds": time.perf_counter() - t0}
+    amb = ambiguity(d)
+    status = _status(d, concealed)
+    rec = {**out, "verdict": d.verdict, "named": list(d.named),
+           "alternatives": [a.get("named", [a.get("effect")]) for a in amb["alternatives"]],
+           "status": status, "resolved": status == "exact" and not amb["ambiguous"],
+           "ambiguous_after": amb["ambiguous"],
+           "turned_wrong": status == "wrong" and _status(before, concealed) != "wrong",
+           "seconds": time.perf_counter() - t0}
+    refits = (getattr(d, "extra", None) or {}).get("refits")
+    b = (m or {}).get("binding") or {}
+    if refit and refits and len(refits) == 2 and "chi2" in b.get("truth", {}):
+        rec["separation_predicted"] = float(m.get("expected_delta_bic", float("nan")))
+        rec["separation_achieved"] = achieved_separation(
+            {"truth": b["truth"]["chi2"], "rival": b["rival"]["chi2"]},
+            {"truth": refits[0]["chi2"], "rival": refits[1]["chi2"]})
+    return cfg, rec, d
 
 
-def close_loop(job: dict, first, workdir: str | None = None) -> dict | None:
-    """Take the proposed measurement (and a random one) and diagnose again.
+def _arm(job: dict, cfg: CampaignConfig, first, choose, workdir, steps: int) -> dict:
+    """Up to ``steps`` recordings, each chosen by ``choose(diagnosis, config)`` (a
+    measurement or None) from the latest diagnosis, while it is still ambiguous or wrong.
+    The arm's record has the first step's keys at the top (as a one-step loop gives
+    them), ``steps`` (every step's record), ``n_steps``, ``resolved_final`` (exact with no
+    alternative after the last step) and ``turned_wrong`` (a step turned an exact verdict,
+    or one with the truth among its alternatives, into a confidently wrong one)."""
+    d, records = first, []
+    for _ in range(steps):
+        m = choose(d, cfg)
+        if m is None or m.get("what") is None:
+            break
+        cfg, rec, d_new = _step(job, cfg, m, d, workdir)
+        records.append(rec)
+        if d_new is None or rec["resolved"] or not (rec["ambiguous_after"]
+                                                    or rec["status"] != "exact"):
+            break
+        d = d_new
+    if not records:
+        return {"what": None, "settings": None, "resolved": False, "ambiguous_after": None,
+                "steps": [], "n_steps": 0, "resolved_final": False, "turned_wrong": False,
+                "reason": "no measurement was proposed"}
+    top = {k: v for k, v in records[0].items()}
+    return {**top, "steps": records, "n_steps": len(records),
+            "resolved_final": bool(records[-1].get("resolved")),
+            "status_final": records[-1].get("status"),
+            "turned_wrong": any(r.get("turned_wrong") for r in records)}
+
+
+#: steps of the closed loop at most: propose, record under the truth, add, diagnose
+#: again, and propose again while it is still ambiguous
+LOOP_STEPS = 3
+
+
+def close_loop(job: dict, first, workdir: str | None = None,
+               steps: int = LOOP_STEPS) -> dict | None:
+    """Take the proposed measurements (and random ones) and diagnose again, up to
+    ``steps`` times.
 
     Parameters
     ----------
@@ -287,30 +358,42 @@ def close_loop(job: dict, first, workdir: str | None = None) -> dict | None:
         The diagnosis of the job's campaign (or its dict, or the run record).
     workdir : str, optional
         Where the temporary campaigns are written.
+    steps : int
+        Recordings at most per arm (:data:`LOOP_STEPS`).
 
     Returns
     -------
     dict or None
-        None unless the diagnosis is ambiguous (has alternatives) and proposed a
-        measurement.  Else ``{"recommended": arm, "random": arm}``, each arm
-        ``{"what", "settings", "verdict", "named", "alternatives", "resolved",
-        "ambiguous_after", "seconds"}`` (``error`` instead of the diagnosis when
-        that campaign could not be simulated or diagnosed; then not resolved):
-        resolved = the new diagnosis names the concealed set (``none`` for a
-        null) and has no alternatives left.  The random measurement is drawn by
-        :func:`random_menu_choice` from a stream seeded by the job's seed.
+        None when the diagnosis is neither ambiguous (no alternatives) nor wrong (the
+        concealed set, or ``none`` for a null, named).  Else ``{"recommended": arm,
+        "random": arm}``.  The recommended arm takes the diagnosis's proposal at each
+        step (none when it proposes nothing); the random arm a recording drawn by
+        :func:`random_menu_choice` from the proposal's menu (the default menu without
+        one), from a stream seeded by the job's seed.  Each arm records its steps
+        (``what``, ``settings``, ``verdict``, ``named``, ``alternatives``, ``status``
+        exact / in_reach / wrong, ``resolved`` = exact with no alternative left,
+        ``turned_wrong``, and for a proposal with a binding pair
+        ``separation_predicted`` and ``separation_achieved``), with the first step's keys
+        at the top; ``error`` where a campaign could not be simulated or diagnosed.
     """
     amb = ambiguity(first)
-    proposal = amb["next_measurement"]
-    if not amb["ambiguous"] or not isinstance(proposal, dict) or proposal.get("what") is None:
+    concealed = sorted(job["effects"])
+    if not amb["ambiguous"] and _status(first, concealed) == "exact":
         return None
     # imported here: the harness imports this module
     from dpdfit.simulation.harness import harness_config
     cfg = harness_config(job["seed"]).inject(job["effects"])
     rng = np.random.default_rng(np.random.SeedSequence([int(job["seed"]), _RANDOM_KEY]))
-    chance = random_menu_choice(rng, proposal, cfg)
-    return {"recommended": _arm(job, cfg, proposal, workdir),
-            "random": _arm(job, cfg, chance, workdir)}
+
+    def proposed(d, cfg):
+        m = ambiguity(d)["next_measurement"]
+        return m if isinstance(m, dict) else None
+
+    def chance(d, cfg):
+        return random_menu_choice(rng, ambiguity(d)["next_measurement"], cfg)
+
+    return {"recommended": _arm(job, cfg, first, proposed, workdir, steps),
+            "random": _arm(job, cfg, first, chance, workdir, steps)}
 
 
 def _named_correctly(r: dict) -> bool:
@@ -335,25 +418,52 @@ def loop_summary(results: list) -> dict:
         ``ambiguous_rate`` (runs with alternatives), ``confidently_wrong_rate``
         (runs named wrongly -- a null: any verdict but ``none`` -- whose truth is
         not among the alternatives), both over all runs (None without runs), and
-        ``closed_loop``: ``n`` (ambiguous runs with a proposal, closed),
-        ``resolved_recommended``, ``resolved_random`` (fractions of those, None
-        when n is 0), ``n_failed`` (re-simulations or re-diagnoses that failed).
+        ``closed_loop``: ``n`` (ambiguous or wrong runs whose loop was closed),
+        ``resolved_recommended``, ``resolved_random`` (fractions of those exact with no
+        alternative after one recording), ``resolved_recommended_final``,
+        ``resolved_random_final`` (after the loop's last, at most :data:`LOOP_STEPS`),
+        ``turned_wrong_recommended``, ``turned_wrong_random`` (loops in which a recording
+        turned an exact verdict, or one with the truth among its alternatives, into a
+        confidently wrong one), ``separation_ratios`` (achieved / predicted separation of
+        every recommended step with a prediction) and their median
+        ``separation_ratio_median``, ``no_proposal`` (loops whose diagnosis proposed
+        nothing), ``n_failed`` (re-simulations or re-diagnoses that failed).
     """
     n = len(results)
     wrong = [not _named_correctly(r)
              and not truth_in_reach(r, sorted(r.get("effects") or {})) for r in results]
     loops = [r["closed_loop"] for r in results if r.get("closed_loop")]
 
-    def rate(arm):
-        return (sum(bool(x[arm].get("resolved")) for x in loops) / len(loops)) if loops else None
+    def rate(arm, key="resolved"):
+        if not loops:
+            return None
+        return sum(bool(x[arm].get(key, x[arm].get("resolved"))) for x in loops) / len(loops)
 
+    ratios = [st["separation_achieved"] / st["separation_predicted"]
+              for x in loops for st in x["recommended"].get("steps") or ()
+              if st.get("separation_achieved") is not None
+              and (st.get("separation_predicted") or 0) > 0]
+    steps = [st for x in loops for a in ("recommended", "random")
+             for st in (x[a].get("steps") or [x[a]])]
     return {"ambiguous_rate": (sum(bool(r.get("alternatives")) for r in results) / n)
             if n else None,
             "confidently_wrong_rate": (sum(wrong) / n) if n else None,
             "closed_loop": {"n": len(loops), "resolved_recommended": rate("recommended"),
                             "resolved_random": rate("random"),
-                            "n_failed": sum("error" in x[a] for x in loops
-                                            for a in ("recommended", "random"))}}
+                            "resolved_recommended_final": rate("recommended",
+                                                               "resolved_final"),
+                            "resolved_random_final": rate("random", "resolved_final"),
+                            "turned_wrong_recommended": sum(
+                                bool(x["recommended"].get("turned_wrong")) for x in loops),
+                            "turned_wrong_random": sum(
+                                bool(x["random"].get("turned_wrong")) for x in loops),
+                            "separation_ratios": [float(v) for v in ratios],
+                            "separation_ratio_median": (float(np.median(ratios)) if ratios
+                                                        else None),
+                            "no_proposal": sum(x["recommended"].get("what") is None
+                                               and not x["recommended"].get("error")
+                                               for x in loops),
+                            "n_failed": sum("error" in st for st in steps)}}
 
 
 def loop_report_lines(s: dict) -> list:
@@ -375,9 +485,19 @@ def loop_report_lines(s: dict) -> list:
     if "ambiguous_rate" not in s:
         return []
     cl = s.get("closed_loop") or {}
-    return [f"  ambiguous: {num(s['ambiguous_rate'])}, confidently wrong: "
-            f"{num(s.get('confidently_wrong_rate'))}",
-            f"  closed loop ({cl.get('n', 0)} ambiguous with a proposal): resolved to the "
-            f"truth by the proposal {num(cl.get('resolved_recommended'))}, by a random "
-            f"choice {num(cl.get('resolved_random'))}"
-            + (f" ({cl['n_failed']} failed)" if cl.get("n_failed") else "")]
+    lines = [f"  ambiguous: {num(s['ambiguous_rate'])}, confidently wrong: "
+             f"{num(s.get('confidently_wrong_rate'))}",
+             f"  closed loop ({cl.get('n', 0)} ambiguous with a proposal): resolved to the "
+             f"truth by the proposal {num(cl.get('resolved_recommended'))}, by a random "
+             f"choice {num(cl.get('resolved_random'))}"
+             + (f" ({cl['n_failed']} failed)" if cl.get("n_failed") else "")]
+    if "resolved_recommended_final" in cl:
+        lines.append(f"    after up to {LOOP_STEPS} recordings: proposal "
+                     f"{num(cl.get('resolved_recommended_final'))}, random "
+                     f"{num(cl.get('resolved_random_final'))}; turned confidently wrong: "
+                     f"proposal {cl.get('turned_wrong_recommended', 0)}, random "
+                     f"{cl.get('turned_wrong_random', 0)}; achieved / predicted separation "
+                     f"median {num(cl.get('separation_ratio_median'))} over "
+                     f"{len(cl.get('separation_ratios') or [])} recordings; no proposal "
+                     f"{cl.get('no_proposal', 0)}")
+    return lines
