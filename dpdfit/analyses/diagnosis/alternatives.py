@@ -112,14 +112,17 @@ def swap_alternatives(fits: dict, form_fits: dict, ranking: list, first: str,
     return out
 
 
-def addition_alternatives(steps: list, named: list) -> list:
+def addition_alternatives(steps: list, named: list, open_sides=()) -> list:
     """Alternatives from the forward selection's steps
     (:func:`~dpdfit.analyses.diagnosis.selection.add_effects`): ``steps`` is a list of
     ``(entries, added, refused)`` per step, ``entries`` the ``(ranking entry, fit)`` of
     each candidate tried (against the named effects before the step), ``added`` the fit
     added at that step or None, ``refused`` the ``(entry, fit, room)`` of candidates
     decisive against the named model that a form of a named family leaves no room for
-    (module doc).  Returns ``[(alternative dict, its fit)]``."""
+    (module doc).  ``open_sides``: the sides on which the named model still shows a
+    mismatch; there an addition the raw likelihood would make stays in reach whatever
+    its tempering, since the misfit that tempers it is itself unexplained.  Returns
+    ``[(alternative dict, its fit)]``."""
     out = []
     for step in steps:
         entries, added = step[0], step[1]
@@ -138,8 +141,10 @@ def addition_alternatives(steps: list, named: list) -> list:
             for entry, f in entries:
                 c = f.effects[-1]
                 gain_t = entry["delta_chi2"] / max(entry.get("tempering", 1.0), 1.0)
+                open_side = getattr(EFFECTS.get(c), "side", None) in open_sides
                 if (c not in listed and entry["delta_bic"] < -BIC_DECISIVE
-                        and entry["p_value"] * n < ALPHA and gain_t >= ADDITION_IN_REACH):
+                        and entry["p_value"] * n < ALPHA
+                        and (gain_t >= ADDITION_IN_REACH or open_side)):
                     out.append((_entry(c, entry["delta_bic"], entry["delta_bic_tempered"],
                                        entry.get("tempering", 1.0), None, list(named) + [c]),
                                 f))

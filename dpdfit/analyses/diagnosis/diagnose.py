@@ -183,7 +183,7 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
     alts = ([] if not named else _start_alternatives(prob, base, chosen, others, named)
             + swap_alternatives(fits, form_fits, ranking, first, named, sides,
                                 exclude={o.start for o in others})
-            + addition_alternatives(tried, named))
+            + addition_alternatives(tried, named, _open_sides(prob, chosen, sides)))
     effects_out = (named_effects(prob, base, chosen, named, chain, form_fits)
                    if chosen is not None else [])
     lap("sizes")
@@ -271,6 +271,14 @@ def _select(prob: Problem, base: FitResult, first: str, fits: dict, form_fits: d
     prob.use_tone(best.models[0])
     prob.gate = best.models[1]
     return best, [r for r in runs if r is not best]
+
+
+def _open_sides(prob: Problem, chosen, sides: set) -> set:
+    """The sides on which the named model still shows a mismatch (a located interval, or
+    that side's chi2), among those that showed one before any effect."""
+    if chosen is None:
+        return set()
+    return side_evidence(chosen, locate_mismatches(prob, chosen.all_params), []) & sides
 
 
 def _better(prob: Problem, a, b) -> bool:
