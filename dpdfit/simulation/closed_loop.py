@@ -252,10 +252,11 @@ def _extra(d) -> dict:
     return dict(getattr(d, "extra", None) or {})
 
 
-def _diagnose(folder):
-    # imported when needed, as run_one does: the diagnosis is heavy to import
+def _diagnose(folder, forms_left_out=None):
+    # imported when needed, as run_one does: the diagnosis is heavy to import; a job's
+    # left-out forms stay left out of the diagnosis after the further recording
     from dpdfit.analyses.diagnosis.diagnose import diagnose
-    return diagnose(folder, progress=False)
+    return diagnose(folder, progress=False, forms_left_out=forms_left_out)
 
 
 def _arm(job: dict, cfg: CampaignConfig, m: dict, workdir) -> dict:
@@ -268,7 +269,8 @@ def _arm(job: dict, cfg: CampaignConfig, m: dict, workdir) -> dict:
         simulate_campaign(folder, seed=job["seed"], config=extend_config(cfg, m),
                           progress=False)
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
-        d = _diagnose(folder)
+        left = job.get("forms_left_out")
+        d = _diagnose(folder, left) if left else _diagnose(folder)
     except Exception as e:                   # noqa: BLE001 - recorded; the first diagnosis stays
         return {**out, "error": f"{type(e).__name__}: {e}", "resolved": False,
                 "ambiguous_after": None, "seconds": time.perf_counter() - t0}

@@ -41,6 +41,7 @@ class AmPmOmitted(Effect):
     stage = 1
     main = "am_pm_rad"
     harness = {"dphi": (0.05, 0.15, True)}
+    harness_forms = {"aom": {"dphi_x": (0.05, 0.15, True)}}
 
     def coefficients(self, tm, v, cy, cp):
         if not v.get("dphi_x"):
