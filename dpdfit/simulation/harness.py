@@ -53,7 +53,6 @@ from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.closed_loop import ambiguity, close_loop
 from dpdfit.simulation.dispatch import run_jobs
 from dpdfit.simulation.harness_external import spurious_extra, truth_in_reach
-from dpdfit.simulation.harness_kinds import label
 from dpdfit.simulation.harness_summary import report, summarise, write_report
 
 __all__ = ["harness_config", "concealed_effects", "PER_EFFECT", "NULLS", "PAIRS", "TRIPLES",
@@ -314,8 +313,9 @@ def _round_robin(jobs: list, skip: set) -> list:
     prefix of the log, e.g. of a stopped harness, is then a balanced sample."""
     rank, seen = {}, {}
     for j in jobs:
-        seen[label(j)] = seen.get(label(j), -1) + 1
-        rank[_job_key(j)] = seen[label(j)]
+        # by family: a left-out form's jobs take turns with the other families' too
+        seen[j["concealed"]] = seen.get(j["concealed"], -1) + 1
+        rank[_job_key(j)] = seen[j["concealed"]]
     todo = [j for j in jobs if _job_key(j) not in skip]
     todo.sort(key=lambda j: rank[_job_key(j)])
     return todo
