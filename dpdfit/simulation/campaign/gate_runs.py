@@ -3,7 +3,11 @@
 Each setting (gate amplitude, DPD flag) drives the exact gate engine
 (:mod:`dpdfit.models.gate_sim`) with the optical tones the day's AOM
 produces; its ``xi0`` is calibrated with a relative error, and every scan
-carries a laser-power jitter (an injected effect may add a systematic offset).  All draws
+carries a laser-power jitter (an injected effect may add a systematic offset).
+Injected effects change the engine's inputs (``Effect.inject_engine``) and may decay
+the final state's coherences before the analysis pulse (``Effect.inject_coherence``);
+those that need the campaign's reference amplitude or gate time get them as the
+diagnosis's gate model defines them (``Effect.inject_refs``).  All draws
 come from one random stream (purpose 5), in a fixed order; the ``further``
 scans and time scans (:attr:`CampaignConfig.further`) come after, each from
 its own stream, so that adding one leaves every other row as it was.
