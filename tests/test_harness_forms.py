@@ -146,7 +146,7 @@ def test_figures_per_kind_of_run():
     assert table[first]["named_forms"] == {"mixed": 1}
     s = H.summarise(runs)
     text = H.report({**s, "seconds": 1.0})
-    for needle in ("leave_one_form_out", "triples", "higher_order_im: 2 runs, unexplained 1",
+    for needle in ("leave_one_form_out", "triples", "higher_order_im: n=2, unexplained 1",
                    f"dephasing without {first}"):
         assert needle in text, needle
     # the keys of earlier harnesses describe the catalog-form singles and the pairs

@@ -229,14 +229,15 @@ def kind_report_lines(s: dict) -> list:
         for e, rows in table.items():
             for f, row in rows.items():
                 named = ", ".join(f"{k} {v}" for k, v in sorted(row["named_forms"].items()))
-                lines.append(f"    {e:>26s} without {f:<20s}: {row['exact_set']}/{row['n']}, "
+                what = f"{e} without {f}"
+                lines.append(f"    {what:>46s}: {row['exact_set']}/{row['n']}, "
                              f"confidently wrong {row['confidently_wrong']}; {named}")
     empty = s.get("empty_families") or {}
     if empty:
         lines += ["", "  families with nothing left when their form is left out:"]
         for e, row in empty.items():
             other = ", ".join(f"{k} {v}" for k, v in sorted(row["named_other_effects"].items()))
-            lines.append(f"    {e:>26s}: {row['n']} runs, unexplained {row['unexplained']}, "
+            lines.append(f"    {e:>26s}: n={row['n']}, unexplained {row['unexplained']}, "
                          f"none {row['none']}, another effect named (confidently wrong) "
                          f"{row['named_other']}" + (f" ({other})" if other else ""))
     return lines
