@@ -91,8 +91,10 @@ def _num(v) -> float:
 def coverage(rs: list) -> dict:
     """Per family: the pulls ``(fitted - injected) / error`` of the main size of the form
     it was injected in (:meth:`~dpdfit.analyses.diagnosis.effects.Effect.main_size`) over
-    the runs ``rs`` that named it, with their 1- and 2-sigma coverage.  A run whose fit
-    does not report that size (another form) gives no pull."""
+    the runs ``rs`` that named it, with their 1- and 2-sigma coverage; ``quantity`` lists
+    the sizes compared (forms of one family may have different main sizes; a pull is in
+    units of its error either way).  A run whose fit does not report that size (another
+    form) gives no pull."""
     acc: dict = {}
     for r in rs:
         named = set(r.get("named") or [r.get("verdict")])
@@ -103,8 +105,9 @@ def coverage(rs: list) -> dict:
             q = EFFECTS[e].main_size(forms.get(e))
             t = ((r.get("truth_sizes") or {}).get(e) or {}).get(q)
             f = ((r.get("fit_sizes") or {}).get(e) or {}).get(q)
-            a = acc.setdefault(e, {"quantity": q, "n_named": 0, "pulls": []})
+            a = acc.setdefault(e, {"quantities": set(), "n_named": 0, "pulls": []})
             a["n_named"] += 1
+            a["quantities"].add(q)
             if t is None or f is None or f.get("value") is None:
                 continue
             err = _num(f.get("error"))
@@ -113,7 +116,8 @@ def coverage(rs: list) -> dict:
     out = {}
     for e, a in sorted(acc.items()):
         p = np.asarray(a["pulls"], dtype=float)
-        out[e] = {"quantity": a["quantity"], "n_named": a["n_named"], "n": int(p.size),
+        out[e] = {"quantity": ", ".join(sorted(a["quantities"])), "n_named": a["n_named"],
+                  "n": int(p.size),
                   "coverage_1sigma": float(np.mean(np.abs(p) <= 1)) if p.size else None,
                   "coverage_2sigma": float(np.mean(np.abs(p) <= 2)) if p.size else None,
                   "pulls": [float(x) for x in p]}
@@ -221,8 +225,8 @@ def kind_report_lines(s: dict) -> list:
         for e, c in m["coverage"].items():
             cov1 = "n/a" if c["coverage_1sigma"] is None else f"{100 * c['coverage_1sigma']:.0f} %"
             cov2 = "n/a" if c["coverage_2sigma"] is None else f"{100 * c['coverage_2sigma']:.0f} %"
-            lines.append(f"    {'':>20s}  {e:>26s} {c['quantity']:>18s}: named {c['n_named']}, "
-                         f"pulls {c['n']}, 1 sigma {cov1}, 2 sigma {cov2}")
+            lines.append(f"    {'':>20s}  {e:>26s}: named {c['n_named']}, pulls {c['n']} "
+                         f"({c['quantity']}), 1 sigma {cov1}, 2 sigma {cov2}")
     table = s.get("forms_left_out") or {}
     if table:
         lines += ["", "  left-out forms (exact set / runs; named instead in form):"]
