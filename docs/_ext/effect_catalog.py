@@ -20,9 +20,9 @@ Usage (MyST)::
     ```
 
 ``:table:`` is ``effects`` (default: one row per effect), ``parameters`` (one row per
-parameter of each family) or ``injection`` (the harness's strengths, the simulator's
-hooks and the ``simulate-campaign --effects`` knob of the same name, followed by the
-simulator's knobs that have no catalog effect).
+parameter of each family) or ``injection`` (the harness's strengths -- the catalog
+harness's and, per form, the leave-one-form-out harness's -- the simulator's hooks and
+the ``simulate-campaign --effects`` knob of the same name).
 """
 
 from __future__ import annotations
@@ -56,7 +56,10 @@ INJECT_HOOKS = {
     "inject_field": "optical field",
     "inject_photodiode": "calibration photodiode",
     "inject_aom": "AOM between runs",
+    "inject_rf_gain": "RF gain ahead of the AOM between runs",
+    "inject_table": "calibration behind the table",
     "inject_engine": "gate engine",
+    "inject_coherence": "final state's coherences",
 }
 TABLES = ("effects", "parameters", "injection")
 
@@ -170,27 +173,43 @@ def parameter_rows() -> tuple[list, list]:
     return header, rows
 
 
+def _ranges(e, ranges: dict) -> list:
+    """``name ±[lo, hi] unit, ...`` of harness ranges, as one paragraph's pieces."""
+    out = []
+    for name, (lo, hi, signed) in ranges.items():
+        rng = f"{'±' if signed else ''}[{_num(lo)}, {_num(hi)}]"
+        unit = next((p.unit for p in e.params if p.name == name), "")
+        out.append([Code(name), f" {rng} {unit}".rstrip()])
+    return _join(out)
+
+
+def _fixed(e, form: str) -> list:
+    """The values :meth:`form_values` sets for an injection in ``form`` where they differ
+    from the injection's defaults (pieces)."""
+    default = e.injected({})
+    vals = {k: v for k, v in e.form_values(form).items() if default.get(k) != v}
+    if not vals:
+        return []
+    return [" with "] + _join([[Code(f"{k}={_num(v)}")] for k, v in vals.items()])
+
+
 def injection_rows() -> tuple[list, list]:
     """Header and rows of the ``injection`` table: one row per registered effect."""
     from dpdfit.analyses.diagnosis.effects.registry import EFFECTS
-    header = ["effect", "harness draws (uniform)", "simulator hooks",
-              [Code("simulate-campaign --effects")]]
+    header = ["effect", "harness draws (uniform)", "per form (leave-one-form-out harness)",
+              "simulator hooks", [Code("simulate-campaign --effects")]]
     rows = []
     for e in EFFECTS.values():
-        draws = []
-        for name, (lo, hi, signed) in e.harness.items():
-            rng = f"{'±' if signed else ''}[{_num(lo)}, {_num(hi)}]"
-            unit = next((p.unit for p in e.params if p.name == name), "")
-            draws.append([Code(name), f" {rng} {unit}".rstrip()])
-        if not draws:
-            draws = [["none"]]
-        elif not e.default:
+        draws = [_ranges(e, e.harness)] if e.harness else [["none"]]
+        if e.harness and not e.default:
             draws.append(["not concealed by default"])
+        forms = [[Code(f), ": "] + _ranges(e, r) + _fixed(e, f)
+                 for f, r in e.harness_table().items()] or [["none"]]
         hooks = [[Code(h), f" ({w})"] for h, w in INJECT_HOOKS.items() if _overrides(e, h)]
         param, unit, _ = e.strength_of()
         knob = [[Code(f"{e.name}=STRENGTH"), " sets ", Code(param),
                  f" ({unit})" if unit else ""]]
-        rows.append([[[Code(e.name)]], draws, hooks or [["none"]], knob])
+        rows.append([[[Code(e.name)]], draws, forms, hooks or [["none"]], knob])
     return header, rows
 
 

@@ -14,8 +14,8 @@ import json
 from dpdfit.cli.options import nonneg_int, positive_int
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.simulation.harness import (NULLS, PAIRS, PER_EFFECT, PLAN_SEED, report,
-                                       run_harness, write_report)
+from dpdfit.simulation.harness import (NULLS, PAIRS, PER_EFFECT, PER_FORM, PLAN_SEED,
+                                       TRIPLES, report, run_harness, write_report)
 from dpdfit.simulation.harness_external import report_external, run_external
 
 __all__ = ["add_harness_command", "cmd_harness"]
@@ -28,7 +28,8 @@ def cmd_harness(args) -> int:
     effects = tuple(args.effects.split(",")) if args.effects else None
     s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
                     effects, progress=args.progress, log=args.log, pairs=args.pairs,
-                    closed_loop=args.closed_loop)
+                    closed_loop=args.closed_loop, triples=args.triples,
+                    leave_one_form_out=args.leave_one_form_out, per_form=args.per_form)
     if args.output:
         write_report(s, args.output)
     if args.json:
@@ -60,15 +61,25 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
         "harness", help="injection-recovery harness of the diagnosis (parallel)",
         description="Simulate campaigns with each catalog effect concealed at realistic "
-                    "strengths (and pairs of them, and null campaigns), diagnose each, and "
-                    "report the confusion matrix, false-alarm rate, recovery of each effect's "
-                    "size (pulls and their coverage) and fit improvement.")
+                    "strengths (and pairs and triples of them, and null campaigns), diagnose "
+                    "each, and report the confusion matrix, false-alarm rate, recovery of "
+                    "each effect's size (pulls and their coverage) and fit improvement. "
+                    "--leave-one-form-out also conceals each effect in each of its forms "
+                    "and diagnoses it with that form left out of the catalog.")
     s.add_argument("--per-effect", type=nonneg_int, default=PER_EFFECT,
                    help=f"campaigns per effect ({PER_EFFECT})")
     s.add_argument("--nulls", type=nonneg_int, default=NULLS,
                    help=f"campaigns with nothing concealed ({NULLS})")
     s.add_argument("--pairs", type=nonneg_int, default=PAIRS,
                    help=f"campaigns with two effects concealed at once, random pairs ({PAIRS})")
+    s.add_argument("--triples", type=nonneg_int, default=TRIPLES,
+                   help=f"campaigns with three effects concealed at once ({TRIPLES})")
+    s.add_argument("--leave-one-form-out", action="store_true",
+                   help="also conceal each effect in each of its forms, diagnosed with that "
+                        "form left out of the catalog (--per-form campaigns each)")
+    s.add_argument("--per-form", type=positive_int, default=PER_FORM,
+                   help=f"campaigns per effect and form with --leave-one-form-out "
+                        f"({PER_FORM})")
     s.add_argument("--workers", type=positive_int, default=None, help="local processes (all cores)")
     s.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address")
     s.add_argument("--effects", help="comma-separated subset of concealed effects")

@@ -63,6 +63,13 @@ class BraggAOM:
         Optical phase shift at full drive, rad.
     eta_ref : float
         Peak first-order diffraction efficiency at ``A = 1``.
+    rf_gain : float
+        The RF drive reaching the crystal per unit of normalised amplitude, relative to
+        the amplifier that ``A_corr`` describes (1: that one).  A drifting RF gain (an
+        amplifier, a cable, a connector warming up) scales the drive ahead of the
+        compression, ``u(A) = tanh(g rf_gain A)/tanh(g)``: the pi/2 point moves away from
+        ``A = 1`` and the curve changes in another shape than a change of ``A_corr``.
+        The field's unit is kept (``y`` has slope ``rf_gain`` at the origin).
 
     Notes
     -----
@@ -74,18 +81,22 @@ class BraggAOM:
     A_corr: float = A_CORR
     phi_1: float = PHI_1
     eta_ref: float = ETA_REF
+    rf_gain: float = 1.0
     g: float = field(init=False)
 
     def __post_init__(self):
         if not 0 < self.A_corr < 2 / np.pi:
             raise ValueError("A_corr must lie in (0, 2/pi) for a compressing amplifier")
+        if not (np.isfinite(self.rf_gain) and self.rf_gain > 0):
+            raise ValueError(f"rf_gain must be finite and > 0, got {self.rf_gain}")
         c = 2.0 / (np.pi * self.A_corr)          # required u'(0)
         g = brentq(lambda g: g / np.tanh(g) - c, 1e-6, 50.0, xtol=1e-15, rtol=1e-15)
         object.__setattr__(self, "g", g)
 
     def u(self, A):
         """Acoustic amplitude normalised to the Bragg pi/2 point (u(1) = 1)."""
-        return np.tanh(self.g * np.asarray(A, dtype=float)) / np.tanh(self.g)
+        # (g rf_gain) A: exactly g A at rf_gain = 1
+        return np.tanh((self.g * self.rf_gain) * np.asarray(A, dtype=float)) / np.tanh(self.g)
 
     @property
     def slope0(self) -> float:
@@ -120,6 +131,13 @@ class BraggAOM:
     def true_A_corr(self) -> float:
         """y(1), the exact maximum correctable amplitude."""
         return float(self.y(1.0))
+
+    @property
+    def measured_A_corr(self) -> float:
+        """``y(1)`` over the field's slope at ``A = 0``: the ``A_corr`` a calibration run
+        (normalised to unit slope at the origin) measures; ``true_A_corr`` unless the RF
+        gain drifted."""
+        return float(self.y(1.0)) / self.rf_gain
 
     @property
     def true_phi_1(self) -> float:

@@ -245,11 +245,12 @@ def _extra(d) -> dict:
     return dict(getattr(d, "extra", None) or {})
 
 
-def _diagnose(folder, refit=None):
-    # imported when needed, as run_one does: the diagnosis is heavy to import
+def _diagnose(folder, refit=None, forms_left_out=None):
+    # imported when needed, as run_one does: the diagnosis is heavy to import; a job's
+    # left-out forms stay left out of the diagnosis after the further recording
     from dpdfit.analyses.diagnosis.diagnose import diagnose
-    return diagnose(folder, progress=False, refit=refit) if refit else diagnose(
-        folder, progress=False)
+    kw = {k: v for k, v in (("refit", refit), ("forms_left_out", forms_left_out)) if v}
+    return diagnose(folder, progress=False, **kw)
 
 
 def _status(d, concealed: list) -> str:
@@ -286,7 +287,8 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
         folder = tmp / "campaign"
         simulate_campaign(folder, seed=job["seed"], config=cfg, progress=False)
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
-        d = _diagnose(folder, refit)
+        left = job.get("forms_left_out")
+        d = _diagnose(folder, refit, left) if left else _diagnose(folder, refit)
     except Exception as e:                   # noqa: BLE001 - recorded; the loop stops there
         return cfg, {**out, "error": f"{type(e).__name__}: {e}", "resolved": False,
                      "ambiguous_after": None, "seconds": time.perf_counter() - t0}, None

@@ -1,9 +1,9 @@
 """Injection-recovery harness of the discrepancy diagnosis.
 
 Campaigns are simulated with effects of the diagnosis's catalog injected --
-one (``per_effect`` campaigns per effect), two at once (``pairs`` campaigns,
-random pairs of distinct effects) or none (``nulls``) -- at realistic
-strengths (each effect's :attr:`~dpdfit.analyses.diagnosis.effects.Effect.harness`
+one (``per_effect`` campaigns per effect), two or three at once (``pairs``,
+``triples`` campaigns: random sets of distinct effects) or none (``nulls``) -- at
+realistic strengths (each effect's :attr:`~dpdfit.analyses.diagnosis.effects.Effect.harness`
 ranges, drawn by :meth:`~dpdfit.analyses.diagnosis.effects.Effect.draw` from a
 fixed seed), by the effects' own simulator hooks.  Each is diagnosed as a lab
 would (the diagnosis reads only the recordings, never ``truth.json``) and the
@@ -12,6 +12,13 @@ named effects and their sizes are compared with the truth
 the same set of effects; pulls ``(fitted - injected) / error`` of each
 effect's main size (:attr:`~dpdfit.analyses.diagnosis.effects.Effect.main`)
 and their 1-sigma coverage.
+
+The leave-one-form-out mode (``leave_one_form_out``) conceals each effect in each
+of its forms (``per_form`` campaigns each, strengths per form:
+:meth:`~dpdfit.analyses.diagnosis.effects.Effect.harness_table`) and diagnoses it
+with that form left out of the catalog (``forms_left_out``): how the diagnosis does
+when a lab's physics takes a form the catalog does not have.  The figures per kind
+of run are :mod:`dpdfit.simulation.harness_kinds`'s.
 
 Harness campaigns use :func:`harness_config`: the campaign simulator with the
 tone powers taken directly from the field (with the noise the heterodyne
@@ -33,6 +40,7 @@ import os
 import shutil
 import tempfile
 import time
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -42,19 +50,27 @@ from dpdfit.core.jsonable import to_jsonable
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
-from dpdfit.simulation.closed_loop import (_named_correctly, ambiguity, close_loop,
-                                           loop_report_lines, loop_summary)
+from dpdfit.simulation.closed_loop import ambiguity, close_loop
 from dpdfit.simulation.dispatch import run_jobs
+from dpdfit.simulation.harness_external import spurious_extra, truth_in_reach
+from dpdfit.simulation.harness_summary import report, summarise, write_report
 
-__all__ = ["harness_config", "concealed_effects", "PER_EFFECT", "NULLS", "PAIRS", "PLAN_SEED",
-           "plan", "run_one", "run_harness", "summarise", "write_report", "report"]
+__all__ = ["harness_config", "concealed_effects", "PER_EFFECT", "NULLS", "PAIRS", "TRIPLES",
+           "PER_FORM", "PLAN_SEED", "plan", "run_one", "run_harness", "summarise",
+           "write_report", "report"]
 
-#: Default size of the plan: campaigns per concealed effect, null campaigns, pairs.
+#: Default size of the plan: campaigns per concealed effect, null campaigns, pairs,
+#: triples, and (leave-one-form-out mode) campaigns per form of each effect.
 PER_EFFECT = 20
 NULLS = 20
 PAIRS = 0
+TRIPLES = 0
+PER_FORM = 2
 #: Default seed of the injection plan.
 PLAN_SEED = 7
+#: Keys of the plan's own random streams for triples and for each left-out form
+#: (``SeedSequence([seed, key, ...])``): adding them leaves the other jobs as they were.
+_TRIPLES_KEY, _FORMS_KEY = 3, 4
 
 
 def concealed_effects() -> tuple:
@@ -73,19 +89,42 @@ def harness_config(seed: int) -> CampaignConfig:
 
 
 def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED,
-         effects=None, pairs: int = PAIRS) -> list:
-    """The list of injections: dicts with ``concealed`` (an effect, ``a+b`` or
-    ``none``), ``seed`` and ``effects`` (``{name: injected values}``)."""
+         effects=None, pairs: int = PAIRS, triples: int = TRIPLES,
+         leave_one_form_out: bool = False, per_form: int = PER_FORM) -> list:
+    """The list of injections: dicts with ``concealed`` (an effect, ``a+b``, ``a+b+c`` or
+    ``none``), ``seed`` and ``effects`` (``{name: injected values}``).
+
+    The jobs of ``per_effect``, ``nulls`` and ``pairs`` come first, drawn as always from
+    ``seed``; then ``triples`` and, with ``leave_one_form_out``, ``per_form`` jobs per
+    form of each effect, each from a stream of its own (the triples', and one per effect
+    and form), so adding them, or another effect's forms, changes no other job.  A
+    left-out-form job also has ``injected_form`` and ``forms_left_out`` (``{effect:
+    form}``, ``{effect: [form]}``).
+    """
     effects = concealed_effects() if effects is None else tuple(effects)
-    if per_effect < 0 or nulls < 0 or pairs < 0 or per_effect + nulls + pairs == 0:
-        raise InputError(f"need --per-effect, --nulls, --pairs >= 0, not all 0 "
-                         f"(got {per_effect}, {nulls}, {pairs})")
+    counts = (per_effect, nulls, pairs, triples)
+    if min(counts) < 0 or (leave_one_form_out and per_form < 1) or (
+            sum(counts) == 0 and not leave_one_form_out):
+        raise InputError(f"need --per-effect, --nulls, --pairs, --triples >= 0, not all 0 "
+                         f"unless --leave-one-form-out, and --per-form >= 1 (got "
+                         f"{per_effect}, {nulls}, {pairs}, {triples}, {per_form})")
     for e in effects:
         if e not in EFFECTS or not EFFECTS[e].harness:
             known = ", ".join(concealed_effects())
             raise InputError(f"unknown concealed effect '{e}'; known: {known}")
     if pairs and len(effects) < 2:
         raise InputError("pairs need at least two effects")
+    if triples and len(effects) < 3:
+        raise InputError("triples need at least three effects")
+    jobs = _catalog_jobs(per_effect, nulls, seed, effects, pairs)
+    jobs += _triple_jobs(triples, seed, effects)
+    if leave_one_form_out:
+        jobs += _form_jobs(per_form, seed, effects)
+    return jobs
+
+
+def _catalog_jobs(per_effect, nulls, seed, effects, pairs) -> list:
+    """The jobs of ``per_effect``, ``nulls`` and ``pairs``, from one stream."""
     rng = np.random.default_rng(seed)
     jobs = []
     for e in effects:
@@ -102,10 +141,44 @@ def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED
     return jobs
 
 
+def _triple_jobs(triples, seed, effects) -> list:
+    """Campaigns with three distinct effects, each drawn as the catalog harness does."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, _TRIPLES_KEY]))
+    jobs = []
+    for _ in range(triples):
+        names = [effects[i] for i in sorted(rng.choice(len(effects), size=3, replace=False))]
+        jobs.append({"concealed": "+".join(names), "seed": int(rng.integers(1, 2 ** 31)),
+                     "effects": {n: get(n).draw(rng) for n in names}})
+    return jobs
+
+
+def _form_jobs(per_form, seed, effects) -> list:
+    """``per_form`` campaigns per effect and form with harness strengths, each injected in
+    that form and diagnosed with it left out; one stream per effect and form."""
+    jobs = []
+    for e in effects:
+        for form in get(e).harness_table():
+            key = zlib.crc32(f"{e}:{form}".encode())
+            rng = np.random.default_rng(np.random.SeedSequence([seed, _FORMS_KEY, key]))
+            for _ in range(per_form):
+                jobs.append({"concealed": e, "seed": int(rng.integers(1, 2 ** 31)),
+                             "effects": {e: get(e).draw(rng, form)},
+                             "injected_form": {e: form}, "forms_left_out": {e: [form]}})
+    return jobs
+
+
 def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> dict:
     """Simulate one harness campaign, diagnose it, compare with the truth; with
     ``closed_loop``, an ambiguous diagnosis's proposed measurement (and a random one)
-    is taken and diagnosed again (:func:`~dpdfit.simulation.closed_loop.close_loop`)."""
+    is taken and diagnosed again (:func:`~dpdfit.simulation.closed_loop.close_loop`).
+
+    A job with ``forms_left_out`` is diagnosed with those forms left out.  The record
+    holds the job, the verdict and named effects (``named_forms``: the form each was
+    named in), ``injected_form`` (``{effect: form}``; the catalog form unless the job
+    says), ``forms_left_out`` (``{}`` if none), ``family_left_empty`` (a concealed family
+    had no form left to fit), ``forms_fitted`` (the concealed families' forms the
+    diagnosis fitted), ``exact_set`` (= ``named_correctly``), ``confidently_wrong``,
+    ``spurious_extra``, ``unexplained``, the truth's and the fits' sizes, and times."""
     from dpdfit.analyses.diagnosis.diagnose import diagnose
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     t0 = time.perf_counter()
@@ -117,14 +190,30 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
         t_sim = time.perf_counter() - t0
         (folder / "truth.json").unlink()                      # the diagnosis never sees it
         c0 = time.process_time()
-        d = diagnose(folder, progress=False)          # the harness has its own bar
+        d = diagnose(folder, progress=False,          # the harness has its own bar
+                     forms_left_out=job.get("forms_left_out"))
         cpu = time.process_time() - c0                # a paused worker shows wall >> CPU
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     concealed = sorted(job["effects"])
+    exact = sorted(d.named) == concealed if concealed else d.verdict == "none"
+    left = {e: list(f) for e, f in (job.get("forms_left_out") or {}).items()}
+    fitted = {e: [f.name for f in d.context.forms_of(e)] for e in concealed
+              if hasattr(d.context, "forms_of")}
+    alts = ambiguity(d)["alternatives"]
+    rec = {"named": d.named, "verdict": d.verdict, "alternatives": alts}
     out = {**job, "verdict": d.verdict, "named": d.named,
-           "named_correctly": sorted(d.named) == concealed if concealed
-           else d.verdict == "none",
+           "named_correctly": exact,
+           "named_forms": {x["effect"]: x.get("form") for x in d.effects},
+           "injected_form": job.get("injected_form") or {
+               e: get(e).forms_for()[0].name for e in concealed},
+           "forms_left_out": left,
+           "family_left_empty": any(not fitted.get(e, [None]) for e in left),
+           "forms_fitted": fitted,
+           "exact_set": exact,
+           "confidently_wrong": not exact and not truth_in_reach(rec, concealed),
+           "spurious_extra": spurious_extra(rec, concealed),
+           "unexplained": d.verdict == "unexplained",
            "seconds_simulation": t_sim, "seconds_diagnosis": d.seconds,
            "cpu_seconds_diagnosis": cpu,
            "redchi_before": float(d.baseline.chi2 / d.baseline.dof),
@@ -147,7 +236,7 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
         if len(concealed) == 1:
             # the keys of earlier reports: the concealed effect's main size
             e = concealed[0]
-            m = get(e).main
+            m = get(e).main_size(out["injected_form"].get(e))
             out["truth_params"] = {m: out["truth_sizes"][e].get(m)}
             fs = out["fit_sizes"].get(e, {}).get(m)
             if fs is not None:
@@ -173,11 +262,18 @@ class _silent:
 
 
 def _job_key(job: dict) -> tuple:
-    return (job["concealed"], int(job["seed"]))
+    """A job's key in the run log: ``(concealed, seed)``, and the forms it leaves out
+    (``"effect:form,..."``) for a left-out-form job, so that the runs of one seed with
+    different forms left out are told apart (keys of older logs are unchanged)."""
+    left = job.get("forms_left_out") or {}
+    if not left:
+        return (job["concealed"], int(job["seed"]))
+    return (job["concealed"], int(job["seed"]),
+            ",".join(f"{e}:{f}" for e in sorted(left) for f in sorted(left[e])))
 
 
 def _read_log(path: Path) -> dict:
-    """Finished runs of a run log (JSON lines), keyed by (concealed, seed)."""
+    """Finished runs of a run log (JSON lines), keyed by :func:`_job_key`."""
     done = {}
     if path.exists():
         lines = path.read_text().splitlines()
@@ -217,6 +313,7 @@ def _round_robin(jobs: list, skip: set) -> list:
     prefix of the log, e.g. of a stopped harness, is then a balanced sample."""
     rank, seen = {}, {}
     for j in jobs:
+        # by family: a left-out form's jobs take turns with the other families' too
         seen[j["concealed"]] = seen.get(j["concealed"], -1) + 1
         rank[_job_key(j)] = seen[j["concealed"]]
     todo = [j for j in jobs if _job_key(j) not in skip]
@@ -234,8 +331,13 @@ def _append_log(log: Path, record: dict) -> None:
 
 def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int | None = None,
                 scheduler: str | None = None, seed: int = PLAN_SEED, effects=None,
-                progress=None, log=None, pairs: int = PAIRS, closed_loop: bool = True) -> dict:
+                progress=None, log=None, pairs: int = PAIRS, closed_loop: bool = True,
+                triples: int = TRIPLES, leave_one_form_out: bool = False,
+                per_form: int = PER_FORM) -> dict:
     """Run the harness; returns the summary (see :func:`summarise`) with all runs.
+
+    The plan is :func:`plan`'s (``triples``, ``leave_one_form_out``, ``per_form``
+    there).
 
     ``log``: path of a run log (JSON lines).  Every finished run is appended
     to it at once, so a stopped harness loses nothing; runs of the plan
@@ -244,7 +346,7 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     callback ``progress(k_done, n_jobs)``.  ``closed_loop``: take the measurement
     each ambiguous diagnosis proposes, and a random one, and diagnose again.
     """
-    jobs = plan(per_effect, nulls, seed, effects, pairs)
+    jobs = plan(per_effect, nulls, seed, effects, pairs, triples, leave_one_form_out, per_form)
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
     t0 = time.perf_counter()
@@ -276,125 +378,7 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     out["seed"] = seed
     out["strengths"] = {k: {n: list(r) for n, r in EFFECTS[k].harness.items()}
                         for k in concealed_effects()}
+    out["strengths_by_form"] = {k: {f: {n: list(r) for n, r in t.items()}
+                                    for f, t in EFFECTS[k].harness_table().items()}
+                                for k in concealed_effects()}
     return out
-
-
-def _num(v) -> float:
-    """A number from a run record (``None``, JSON's NaN, becomes NaN)."""
-    return float("nan") if v is None else float(v)
-
-
-def _pulls(rs: list, effect: str) -> dict:
-    """Pulls ``(fitted - injected) / error`` of ``effect``'s main size over runs ``rs``."""
-    m = get(effect).main
-    d, pulls = [], []
-    for r in rs:
-        t = (r.get("truth_sizes") or {}).get(effect, {}).get(m)
-        f = (r.get("fit_sizes") or {}).get(effect, {}).get(m)
-        if t is None or f is None or f.get("value") is None:
-            continue
-        v, e = _num(f["value"]), _num(f.get("error"))
-        d.append(v - t)
-        if np.isfinite(e) and e > 0:
-            pulls.append((v - t) / e)
-    pulls = np.asarray(pulls)
-    return {"quantity": m, "n": len(d), "bias": float(np.mean(d)) if d else None,
-            "median_abs_error": float(np.median(np.abs(d))) if d else None,
-            "pulls": [float(x) for x in pulls],
-            "coverage_1sigma": float(np.mean(np.abs(pulls) <= 1)) if pulls.size else None,
-            "coverage_2sigma": float(np.mean(np.abs(pulls) <= 2)) if pulls.size else None}
-
-
-def summarise(results: list) -> dict:
-    """Confusion matrix, false-alarm rate, named correctly (singles, and both effects
-    of pairs), recovery of each effect's main size (bias, pulls, their 1-sigma
-    coverage, over the runs that named it), fit improvement, ambiguity and the closed
-    loop (:func:`~dpdfit.simulation.closed_loop.loop_summary`); failed runs
-    (records with ``error``) are counted apart and kept in ``runs``."""
-    every, results = results, [r for r in results if "error" not in r]
-    labels = sorted({r["concealed"] for r in results})
-    confusion = {c: {} for c in labels}
-    for r in results:
-        row = confusion[r["concealed"]]
-        key = "+".join(sorted(r.get("named") or [])) if "+" in r["concealed"] else r["verdict"]
-        key = key or r["verdict"]
-        row[key] = row.get(key, 0) + 1
-    nulls = [r for r in results if r["concealed"] == "none"]
-    far = (sum(r["verdict"] != "none" for r in nulls) / len(nulls)) if nulls else None
-    singles = [r for r in results if r["concealed"] != "none" and "+" not in r["concealed"]]
-    pairs = [r for r in results if "+" in r["concealed"]]
-    named = {}
-    for c in labels:
-        if c == "none":
-            continue
-        rs = [r for r in results if r["concealed"] == c]
-        named[c] = sum(_named_correctly(r) for r in rs) / len(rs)
-    recovery = {}
-    for e in sorted({e for r in singles + pairs for e in r.get("effects", {})}):
-        # the runs that named the effect (alone or among others)
-        rs = [r for r in singles + pairs if e in r.get("effects", {})
-              and e in (r.get("named") or [r["verdict"]])]
-        main = _pulls(rs, e)
-        within = [abs(x) <= 2 for x in main["pulls"]]
-        recovery[e] = {"n_named": len(rs), "params": {main["quantity"]: main},
-                       "all_params_within_2sigma": float(np.mean(within)) if within
-                       else None}
-    conc = singles + pairs
-    return {"n_runs": len(results), "n_failed": len(every) - len(results),
-            "confusion": confusion, "false_alarm_rate": far,
-            "named_correctly": named,
-            "named_correctly_overall": (sum(_named_correctly(r) for r in singles)
-                                        / len(singles)) if singles else None,
-            "pairs_both_named": (sum(_named_correctly(r) for r in pairs) / len(pairs))
-            if pairs else None,
-            "pairs_one_named": (sum(len(set(r.get("named") or []) & set(r["effects"])) >= 1
-                                    for r in pairs) / len(pairs)) if pairs else None,
-            "recovery": recovery, **loop_summary(results),
-            "median_redchi_before": float(np.median([r["redchi_before"] for r in conc]))
-            if conc else None,
-            "median_redchi_after": float(np.median([r["redchi_after"] for r in conc]))
-            if conc else None,
-            "median_seconds_diagnosis": float(np.median([r["seconds_diagnosis"]
-                                                         for r in results]))
-            if results else None,
-            "max_seconds_diagnosis": float(np.max([r["seconds_diagnosis"] for r in results]))
-            if results else None,
-            "median_seconds_per_run": float(np.median([r["seconds_simulation"]
-                                                       + r["seconds_diagnosis"]
-                                                       for r in results])) if results else None,
-            "runs": every}
-
-
-def write_report(summary: dict, path) -> None:
-    """Write the harness summary as JSON (atomically)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(to_jsonable(summary), indent=1, sort_keys=True) + "\n")
-    os.replace(tmp, path)
-
-
-def report(s: dict) -> str:
-    """Readable harness summary."""
-    def num(v):
-        return "n/a" if v is None else f"{v:.3g}"
-
-    lines = [f"Injection-recovery harness: {s['n_runs']} campaigns in {s['seconds']:.0f} s",
-             f"  named correctly (single effects): {num(s['named_correctly_overall'])}",
-             f"  pairs, both named: {num(s.get('pairs_both_named'))}, at least one: "
-             f"{num(s.get('pairs_one_named'))}",
-             f"  false-alarm rate (nulls): {num(s['false_alarm_rate'])}",
-             *loop_report_lines(s),
-             f"  diagnosis seconds: median {num(s.get('median_seconds_diagnosis'))}, max "
-             f"{num(s.get('max_seconds_diagnosis'))}",
-             f"  median reduced chi2 before -> after: {num(s['median_redchi_before'])} -> "
-             f"{num(s['median_redchi_after'])}", "", "  confusion (concealed -> named):"]
-    for r in (r for r in s["runs"] if "error" in r):
-        lines.insert(1, f"  FAILED: {r['concealed']} seed {r['seed']}: {r['error']}")
-    for c, row in s["confusion"].items():
-        lines.append(f"    {c:>40s}: " + ", ".join(f"{k} {v}" for k, v in sorted(row.items())))
-    lines += ["", "  recovery of each effect's main size (runs that named it):"]
-    for c, r in s["recovery"].items():
-        for q, m in r["params"].items():
-            lines.append(f"    {c:>26s} {q:>20s}: n={m['n']} bias={num(m['bias'])} "
-                         f"cov1={num(m['coverage_1sigma'])} cov2={num(m['coverage_2sigma'])}")
-    return "\n".join(lines)

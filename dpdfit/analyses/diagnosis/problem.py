@@ -30,7 +30,7 @@ from dpdfit.analyses.diagnosis.observables import Campaign, tone_features
 from dpdfit.analyses.diagnosis.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.tone_model import ToneModel
 
-__all__ = ["Problem", "NUISANCES", "PM_PRIOR_RAD"]
+__all__ = ["Problem", "NUISANCES", "PM_PRIOR_RAD", "check_forms_left_out"]
 
 #: without a phase file the lab does not know its AOM's AM-to-PM: the baseline has it as a
 #: nuisance ``pm_x`` (a phase ``pm_x |x|^2`` of the RF drive, rad at full drive) with a

@@ -25,6 +25,7 @@ Modules (each documents the method it implements)
 ``fock``         thermal initial state, Fock-space cutoff
 ``size``         the state's dimensions and memory, checked before an integration
 ``integrators``  Schrodinger and Lindblad equations, DOP853 step loop; decoherence model
+``dephasing``    slow dephasing: a time profile during the gate, decay of the final coherences
 ``evolve``       :func:`evolve`, :func:`evolve_lindblad`: reduced spin states at given times
 ``states``       analysis pulse, outcome/parity probabilities, Bell fidelities, gate target
 ``spam``         preparation branches and their mixing, detection confusion
@@ -32,6 +33,7 @@ Modules (each documents the method it implements)
 ``results``      :class:`SettingProbabilities`, :class:`SampledCounts`
 """
 
+from .dephasing import accumulated_dephasing, dephase_coherences
 from .drive import ETA, calibrate_xi0, field_amplitudes
 from .evolve import evolve, evolve_lindblad
 from .fock import THERMAL_TAIL, displacement_bound, fock_cutoff, thermal_levels, thermal_weights
@@ -50,5 +52,5 @@ __all__ = [
     "parity_outcomes", "confusion", "state_bell_fidelity", "bell_fidelity_max", "gate_target",
     "populations", "parity_even", "SettingProbabilities", "SampledCounts", "simulate_setting",
     "mix_branches", "setting_branches", "thermal_levels", "EngineSize", "engine_size",
-    "check_engine_size", "setting_size",
+    "check_engine_size", "setting_size", "accumulated_dephasing", "dephase_coherences",
 ]

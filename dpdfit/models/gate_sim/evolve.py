@@ -18,6 +18,7 @@ import numpy as np
 from dpdfit.errors import InputError
 
 from ._validate import check_times, check_tones, positive
+from .dephasing import profile_rates
 from .drive import Drive
 from .fock import thermal_weights
 from .integrators import integrate_lindblad, integrate_schrodinger
@@ -29,7 +30,7 @@ _MONITOR_TOL = 1e-12     # top-level population allowed along the integration
 
 
 def _integrate(kind, drive, size, auto, p, tau, rtol, atol, initial, gamma, heat, gamma_c,
-               monitor=_MONITOR_TOL):
+               monitor=_MONITOR_TOL, rates=None):
     """Integrate, enlarging an automatic ``n_fock`` until the top level stays empty (each
     size checked against the memory limit first)."""
     N = size.n_fock
@@ -39,7 +40,7 @@ def _integrate(kind, drive, size, auto, p, tau, rtol, atol, initial, gamma, heat
             out, top, nfev = integrate_schrodinger(drive, N, p, tau, rtol, atol, initial)
         else:
             out, top, nfev = integrate_lindblad(drive, N, p, tau, gamma, heat, rtol, atol,
-                                                initial, gamma_c)
+                                                initial, gamma_c, rates)
         if not auto or top < monitor:
             return out, top, nfev, N
         N = int(math.ceil(1.3 * N)) + 4
@@ -48,7 +49,7 @@ def _integrate(kind, drive, size, auto, p, tau, rtol, atol, initial, gamma, heat
 
 
 def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions,
-         gamma=0.0, heat=0.0, initial=0, gamma_c=0.0, fock_tol=None):
+         gamma=0.0, heat=0.0, initial=0, gamma_c=0.0, fock_tol=None, rates=None):
     b, c, n = check_tones(b, c, n)
     eta_Omega0 = positive("eta_Omega0", eta_Omega0, allow_zero=True)
     xi0 = positive("xi0", xi0)
@@ -72,7 +73,7 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
     drive = Drive(b, c, n, eta_Omega0, xi0, n_ions)
     out, top, nfev, N = _integrate(kind, drive, size, n_fock is None, p, t1 * xi0, rtol, atol,
                                    int(initial), gamma, heat, gamma_c,
-                                   _MONITOR_TOL if fock_tol is None else 10 * fock_tol)
+                                   _MONITOR_TOL if fock_tol is None else 10 * fock_tol, rates)
     rho = np.array(out).reshape((t1.size, drive.dim, drive.dim)) if out else \
         np.zeros((0, drive.dim, drive.dim), dtype=complex)
     rho = 0.5 * (rho + np.conj(np.swapaxes(rho, -1, -2)))
@@ -130,7 +131,8 @@ def evolve(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, atol=1
 
 def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.0,
                     n_fock=None, rtol=1e-9, atol=1e-11, n_ions=2, initial=0,
-                    T2_corr=np.inf, return_info=False, fock_tol=None):
+                    T2_corr=np.inf, return_info=False, fock_tol=None,
+                    dephasing_profile=None):
     """Reduced spin density matrices from the Lindblad master equation.
 
     Same model and arguments as :func:`evolve`, plus ::
@@ -152,6 +154,10 @@ def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.
     fock_tol : float, optional
         Population neglected in the thermal tail and above the Fock cutoff (default:
         the engine's 1e-10 and 1e-14); the diagnosis uses 1e-8, far below shot noise.
+    dephasing_profile : tuple, optional
+        ``(rate, rate_common, beta, t_ref)``: further dephasing, independent on each ion
+        and common to both, that accumulates ``G(t) = rate t_ref (t/t_ref)^beta`` (slow
+        noise), as a time-local rate (:mod:`dpdfit.models.gate_sim.dephasing`).
     """
     T2 = positive("T2", T2, allow_inf=True)
     T2_corr = positive("T2_corr", T2_corr, allow_inf=True)
@@ -159,7 +165,8 @@ def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.
     xi0f = positive("xi0", xi0)
     gamma = 0.0 if np.isinf(T2) else 1.0 / (T2 * xi0f)
     gamma_c = 0.0 if np.isinf(T2_corr) else 1.0 / (T2_corr * xi0f)
+    rates = None if dephasing_profile is None else profile_rates(dephasing_profile, xi0f)
     rho, info = _run("lindblad", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol,
                      n_ions, gamma=gamma, heat=ndot / xi0f, initial=initial, gamma_c=gamma_c,
-                     fock_tol=fock_tol)
+                     fock_tol=fock_tol, rates=rates)
     return (rho, info) if return_info else rho

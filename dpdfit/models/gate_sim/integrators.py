@@ -128,13 +128,9 @@ def integrate_schrodinger(drive, n_fock, p, tau_out, rtol, atol, init=0):
     return step_loop(rhs, psi0.ravel(), tau_out, rtol, atol, reduce, top_of)
 
 
-def _dissipator(d, n_ions, N, gamma, heat, gamma_c):
-    """Real coefficient arrays of the dissipator on the float view of ``rho`` (d, N, d, 2N).
-
-    ``diag2``: the diagonal part (dephasing + heating anticommutator);
-    ``sqsq2``: the coefficients of the heating jump terms ``a rho a^dag``, ``a^dag rho a``.
-    """
-    sq = np.sqrt(np.arange(1, N))
+def _dephasing_patterns(d, n_ions):
+    """``(dist, corr)``: the factors of the independent and of the correlated dephasing
+    rate in the dissipator's diagonal on ``rho_ij`` (``-gamma dist - gamma_c corr``)."""
     # Hamming distance between spin labels: (gamma/2) sum_j (z_j z_j' - 1) = -gamma * dist
     lab = np.arange(d)
     dist = np.zeros((d, d))
@@ -145,6 +141,17 @@ def _dissipator(d, n_ions, N, gamma, heat, gamma_c):
         zsum += 1 - 2 * bit
     # correlated dephasing L = sqrt(gamma_c/2) sum_j Z_j: -(gamma_c/4) (S_i - S_j)^2 on rho_ij
     corr = 0.25 * (zsum[:, None] - zsum[None, :]) ** 2
+    return dist, corr
+
+
+def _dissipator(d, n_ions, N, gamma, heat, gamma_c):
+    """Real coefficient arrays of the dissipator on the float view of ``rho`` (d, N, d, 2N).
+
+    ``diag2``: the diagonal part (dephasing + heating anticommutator);
+    ``sqsq2``: the coefficients of the heating jump terms ``a rho a^dag``, ``a^dag rho a``.
+    """
+    sq = np.sqrt(np.arange(1, N))
+    dist, corr = _dephasing_patterns(d, n_ions)
     k = np.arange(N, dtype=float)
     v = k + np.where(k < N - 1, k + 1, 0.0)          # diag(a^dag a + a a^dag), truncated
     # diagonal part of the dissipator (dephasing + heating anticommutator), real,
@@ -157,14 +164,23 @@ def _dissipator(d, n_ions, N, gamma, heat, gamma_c):
 
 
 def integrate_lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=0,
-                       gamma_c=0.0):
+                       gamma_c=0.0, rates=None):
     """Master equation; ``gamma = 1/(T2 xi0)``, ``heat = ndot/xi0``, ``gamma_c = 1/(T2c xi0)``
-    (correlated dephasing) per unit tau.  Returns what :func:`step_loop` returns."""
+    (correlated dephasing) per unit tau; ``rates``: optional ``tau -> (gamma, gamma_c)`` of
+    further, time-dependent dephasing (:func:`~dpdfit.models.gate_sim.dephasing.profile_rates`).
+    Returns what :func:`step_loop` returns."""
     d = drive.dim
     N = n_fock
     DN = d * N
     sq_c = np.sqrt(np.arange(1, N))[None, :, None].astype(complex)
     diag2, sqsq2 = _dissipator(d, drive.n_ions, N, gamma, heat, gamma_c)
+    if rates is not None:
+        dist, corr = _dephasing_patterns(d, drive.n_ions)
+        # on the float view of rho (re/im interleaved on the last axis), like diag2
+        dist2 = np.repeat(np.broadcast_to((-dist)[:, None, :, None], (d, 1, d, N)), 2,
+                          axis=-1)
+        corr2 = np.repeat(np.broadcast_to((-corr)[:, None, :, None], (d, 1, d, N)), 2,
+                          axis=-1)
     tmp = np.empty((d, N - 1, DN), dtype=complex)
     up = np.empty((d, N - 1, DN), dtype=complex)
     dn = np.empty((d, N - 1, DN), dtype=complex)
@@ -193,6 +209,11 @@ def integrate_lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=
             if heat:
                 of[:, :-1, :, :-2] += sqsq2 * rf[:, 1:, :, 2:]      # a rho a^dag
                 of[:, 1:, :, 2:] += sqsq2 * rf[:, :-1, :, :-2]      # a^dag rho a
+        if rates is not None:
+            g, g_c = rates(tau)
+            rf = y.view(np.float64).reshape(d, N, d, 2 * N)
+            of = out.view(np.float64).reshape(d, N, d, 2 * N)
+            of += (g * dist2 + g_c * corr2) * rf
         return out.ravel()
 
     rho0 = np.zeros((d, N, d, N), dtype=complex)

@@ -130,11 +130,18 @@ def _measured(rho2, rho1, flips, p_prep, p_flip, p_det, phases):
     return pops, collapse_outcomes(confusion(par, p_det))
 
 
+def _with_power_error(eta_Omega0, power_error_db) -> float:
+    """``eta Omega0`` at gate time: with the laser-power error ``power_error_db`` (dB)."""
+    if not np.isfinite(power_error_db):
+        raise InputError(f"power_error_db must be finite, got {power_error_db}")
+    return positive("eta_Omega0", eta_Omega0) * 10 ** (float(power_error_db) / 20)
+
+
 def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
                      p_prep=P_PREP, p_det=P_DET, parity_phases=None, scan_times=None,
                      power_error_db=0.0, n_fock=None, rtol=1e-9, atol=1e-11,
-                     target=None, gate=(1, 2), p_flip=0.0,
-                     T2_corr=np.inf) -> SettingProbabilities:
+                     target=None, gate=(1, 2), p_flip=0.0, T2_corr=np.inf,
+                     dephasing_profile=None, coherence=None) -> SettingProbabilities:
     """Outcome probabilities of one gate setting.
 
     The gate runs for ``T = 1/xi0`` with tones at ``n xi0`` from the sidebands;
@@ -177,6 +184,8 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
         Target state for ``fidelity`` (default :data:`~dpdfit.models.gate_sim.states.BELL_TARGET`).
     gate : tuple of int
         Gate harmonics (for ``fidelity_gate``).
+    dephasing_profile, coherence : tuple, optional
+        Slow dephasing during and after the gate (:mod:`dpdfit.models.gate_sim.dephasing`).
 
     Returns
     -------
@@ -188,15 +197,14 @@ def simulate_setting(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
     ndot = positive("ndot", ndot, allow_zero=True)
     p_prep, p_flip = prep_probabilities(p_prep, p_flip)
     p_det = detection_errors(p_det)
-    if not np.isfinite(power_error_db):
-        raise InputError(f"power_error_db must be finite, got {power_error_db}")
-    eO = positive("eta_Omega0", eta_Omega0) * 10 ** (float(power_error_db) / 20)
+    eO = _with_power_error(eta_Omega0, power_error_db)
     phases = _analysis_phases(parity_phases)
     T = 1.0 / xi0
     scan = None if scan_times is None else np.atleast_1d(check_times(scan_times))
     times = np.concatenate([[T], scan]) if scan is not None else np.array([T])
     rho2, rho1, info, flips = branch_states(b, c, n, eO, xi0, times, nbar, T2, ndot, p_prep,
-                                            n_fock, rtol, atol, p_flip, T2_corr)
+                                            n_fock, rtol, atol, p_flip, T2_corr,
+                                            dephasing_profile, coherence)
     pops, par = _measured(rho2, rho1, flips, p_prep, p_flip, p_det, phases)
     info["seconds"] = time.perf_counter() - t0
     return SettingProbabilities(

@@ -21,6 +21,7 @@ import numpy as np
 from dpdfit.errors import InputError
 
 from ._validate import probability
+from .dephasing import dephase_coherences
 from .evolve import evolve, evolve_lindblad
 
 __all__ = ["confusion", "mix_branches", "branch_states", "mixed_outcomes",
@@ -85,19 +86,24 @@ def mix_branches(p2, p1, p_prep, p_flip=0.0, p2_01=None, p2_11=None, p1_1=None):
 
 
 def branch_states(b, c, n, eta_Omega0, xi0, times, nbar, T2, ndot, p_prep, n_fock, rtol, atol,
-                  p_flip=0.0, T2_corr=np.inf):
+                  p_flip=0.0, T2_corr=np.inf, dephasing_profile=None, coherence=None):
     """Spin states of the preparation branches at ``times``.
 
     Returns ``(rho2, rho1, info, flips)``: the two-ion branch from ``|00>``,
     the single driven ion from ``|0>`` (if ``p_prep > 0``: the other ion is a
     spectator) and, if ``p_flip > 0``, ``flips = (rho2 from |01>, rho2 from |11>,
     rho1 from |1>)`` (ions prepared in the wrong qubit state; the last only if
-    ``p_prep > 0`` too), else None.
+    ``p_prep > 0`` too), else None.  Slow dephasing
+    (:mod:`dpdfit.models.gate_sim.dephasing`): ``dephasing_profile`` during the gate
+    (:func:`~dpdfit.models.gate_sim.evolve.evolve_lindblad`), ``coherence`` the factors
+    ``(k1, k2)`` of every state's coherences after it (its populations untouched).
     """
-    lind = not (np.isinf(T2) and ndot == 0 and np.isinf(T2_corr))
+    lind = not (np.isinf(T2) and ndot == 0 and np.isinf(T2_corr)
+                and dephasing_profile is None)
     kw = dict(n_fock=n_fock, rtol=rtol, atol=atol, return_info=True)
     if lind:
-        f = functools.partial(evolve_lindblad, T2=T2, ndot=ndot, T2_corr=T2_corr)
+        f = functools.partial(evolve_lindblad, T2=T2, ndot=ndot, T2_corr=T2_corr,
+                              dephasing_profile=dephasing_profile)
     else:
         f = evolve
     rho2, info2 = f(b, c, n, eta_Omega0, xi0, times, nbar, n_ions=2, **kw)
@@ -112,6 +118,11 @@ def branch_states(b, c, n, eta_Omega0, xi0, times, nbar, T2, ndot, p_prep, n_foc
         if p_prep > 0:
             r1f, _ = f(b, c, n, eta_Omega0, xi0, times, nbar, n_ions=1, initial=1, **kw)
         flips = (r01, r11, r1f)
+    if coherence is not None:
+        def dephase(r):
+            return None if r is None else dephase_coherences(r, *coherence)
+        rho2, rho1 = dephase(rho2), dephase(rho1)
+        flips = None if flips is None else tuple(dephase(r) for r in flips)
     return rho2, rho1, {"two_ion": info2, "one_ion": info1, "master_equation": lind}, flips
 
 

@@ -46,6 +46,30 @@ def _aom_drift(cfg: CampaignConfig, days_after_table, days_after_recording) -> n
     return d
 
 
+def _rf_gain(cfg: CampaignConfig, days_after_table, days_after_recording) -> np.ndarray:
+    """The RF gain ahead of the AOM (1: the amplifier ``A_corr`` describes), moved by the
+    injected effects (``Effect.inject_rf_gain``)."""
+    g = np.ones(np.shape(days_after_table))
+    for e, v in cfg.injections():
+        g = g + e.inject_rf_gain(v, days_after_table, days_after_recording)
+    return g
+
+
+def _table_change(cfg: CampaignConfig) -> float:
+    """Relative change of A_corr of the calibration behind the table: the simulator's own
+    ``table_drift`` and the injected effects' (``Effect.inject_table``)."""
+    changes = [e.inject_table(v) for e, v in cfg.injections()]
+    if not any(changes):
+        return cfg.table_drift
+    return float(np.prod([1.0 + cfg.table_drift] + [1.0 + c for c in changes])) - 1.0
+
+
+def _aom(cfg: CampaignConfig, A_corr: float, phi_1: float, rf_gain: float = 1.0) -> BraggAOM:
+    """The AOM of one run or of the recordings (``rf_gain`` 1: no RF gain drift, the
+    AOM every campaign had before it could drift)."""
+    return BraggAOM(A_corr=A_corr, phi_1=phi_1, eta_ref=cfg.eta_ref, rf_gain=rf_gain)
+
+
 def table_index(cfg) -> int:
     """Index of the gate day's amplitude run (the table's, unless stale): the last one
     before the recordings."""
@@ -59,19 +83,22 @@ def _amplitude_runs(cfg, rng, t0, grid):
     days = np.sort(days + rng.uniform(0, 2 / 24, days.size))  # session start jitter
     A_corr = raw = cfg.A_corr_mean + ou_series(days, cfg.A_corr_sigma, cfg.A_corr_tau_days,
                                                rng)
+    gain = np.ones(days.size)
     if cfg.injected:
         k = table_index(cfg)
         rec = days[k] + cfg.recording_hours[0] / 24
         A_corr = A_corr * (1 + _aom_drift(cfg, days - days[k], days - rec))
+        gain = _rf_gain(cfg, days - days[k], days - rec)
     rows, truth = [], []
-    for k, (d, ac) in enumerate(zip(days, A_corr)):
-        aom = BraggAOM(A_corr=float(ac), phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
+    for k, (d, ac, gk) in enumerate(zip(days, A_corr, gain)):
+        aom = _aom(cfg, float(ac), cfg.phi1_mean, float(gk))
         df = simulate_amplitude_run(aom, grid, rng_for(cfg, 2, k), cfg.photodiode)
         _detector(cfg, df)
         df.insert(0, "timestamp", _iso(t0, d))
         df.insert(0, "run", f"R{k + 1:03d}")
         rows.append(df)
-        truth.append({"run": f"R{k + 1:03d}", "day": float(d), "A_corr": float(ac)})
+        truth.append({"run": f"R{k + 1:03d}", "day": float(d), "A_corr": float(ac),
+                      **({"rf_gain": float(gk)} if gk != 1.0 else {})})
     _further_amplitude_runs(cfg, t0, grid, days, float(raw[-1]), rows, truth)
     return days, A_corr, rows, truth
 
@@ -101,36 +128,40 @@ def _further_amplitude_runs(cfg, t0, grid, days, raw_last, rows, truth) -> None:
         rng = rng_for(cfg, 8, j)
         d += (1 + rng.uniform(0, 1)) / 24
         x, last = _ou_step(x, d - last, cfg.A_corr_sigma, cfg.A_corr_tau_days, rng), d
-        ac = (cfg.A_corr_mean + x) * (1 + float(_aom_drift(
-            cfg, np.array([d - days[k_day]]), np.array([d - rec]))[0]))
-        aom = BraggAOM(A_corr=float(ac), phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
+        when = (np.array([d - days[k_day]]), np.array([d - rec]))
+        ac = (cfg.A_corr_mean + x) * (1 + float(_aom_drift(cfg, *when)[0]))
+        gk = float(_rf_gain(cfg, *when)[0])
+        aom = _aom(cfg, float(ac), cfg.phi1_mean, gk)
         df = simulate_amplitude_run(aom, grid, rng, cfg.photodiode)
         _detector(cfg, df)
         df.insert(0, "timestamp", _iso(t0, d))
         df.insert(0, "run", f"R{k + 1:03d}")
         rows.append(df)
-        truth.append({"run": f"R{k + 1:03d}", "day": d, "A_corr": float(ac), "further": True})
+        truth.append({"run": f"R{k + 1:03d}", "day": d, "A_corr": float(ac), "further": True,
+                      **({"rf_gain": gk} if gk != 1.0 else {})})
         k += 1
 
 
-def _phase_runs(cfg, rng, t0, grid, gate_day, A_corr_day):
+def _phase_runs(cfg, rng, t0, grid, gate_day, A_corr_day, gain_day=1.0):
     """Drifting ``phi(1)`` and recordings of the phase runs of the gate day."""
     hours = np.linspace(0.5, 0.5 + cfg.phase_span_hours, cfg.n_phase_runs)
     phi1 = cfg.phi1_mean + ou_series(hours, cfg.phi1_sigma, cfg.phi1_tau_hours, rng)
     rows, truth = [], []
     for k, (h, p1) in enumerate(zip(hours, phi1)):
-        aom = BraggAOM(A_corr=A_corr_day, phi_1=float(p1), eta_ref=cfg.eta_ref)
+        aom = _aom(cfg, A_corr_day, float(p1), gain_day)
         df = simulate_phase_run(aom, grid, rng_for(cfg, 3, k), cfg.heterodyne_phase)
         df.insert(0, "timestamp", _iso(t0, gate_day + h / 24))
         df.insert(0, "run", f"P{k + 1:03d}")
         rows.append(df)
         truth.append({"run": f"P{k + 1:03d}", "hours_after_amplitude_run": float(h),
                       "phi_at_1": float(p1)})
-    _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, truth)
+    _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, truth,
+                        gain_day)
     return phi1, rows, truth
 
 
-def _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, truth):
+def _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, truth,
+                        gain_day=1.0):
     """The ``further`` phase runs, appended to ``rows`` and ``truth``: each one step of
     the phase-run schedule after the previous, ``phi(1)`` drifting on from there.  The
     day's truth stays the last phase run of the campaign (the model's run)."""
@@ -141,7 +172,7 @@ def _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, 
             continue
         rng = rng_for(cfg, 8, j)
         x, h = _ou_step(x, step, cfg.phi1_sigma, cfg.phi1_tau_hours, rng), h + step
-        aom = BraggAOM(A_corr=A_corr_day, phi_1=cfg.phi1_mean + x, eta_ref=cfg.eta_ref)
+        aom = _aom(cfg, A_corr_day, cfg.phi1_mean + x, gain_day)
         df = simulate_phase_run(aom, grid, rng, cfg.heterodyne_phase)
         df.insert(0, "timestamp", _iso(t0, gate_day + h / 24))
         df.insert(0, "run", f"P{k + 1:03d}")
@@ -156,10 +187,11 @@ def _table_run(cfg, days, A_corr, amp_rows, grid, gate_day):
     target_day = gate_day - cfg.stale_days
     lut_run = int(np.argmin(np.abs(days - target_day)))
     sub = amp_rows[lut_run]
-    if cfg.table_drift:
+    change = _table_change(cfg)
+    if change:
         # the table was made from a calibration of the AOM before it drifted
         # by table_drift in A_corr (a run that is not among the recordings)
-        aom_t = BraggAOM(A_corr=float(A_corr[lut_run]) * (1 + cfg.table_drift),
+        aom_t = BraggAOM(A_corr=float(A_corr[lut_run]) * (1 + change),
                          phi_1=cfg.phi1_mean, eta_ref=cfg.eta_ref)
         sub = simulate_amplitude_run(aom_t, grid, rng_for(cfg, 7), cfg.photodiode)
         _detector(cfg, sub)
@@ -175,6 +207,14 @@ def _reading_error_at_max(cfg: CampaignConfig) -> float:
     return float(read[0] / cfg.photodiode.p_full - 1)
 
 
+def _y1_drift(cfg: CampaignConfig, day_aom: BraggAOM, A_corr_run: float) -> float:
+    """Today's y(1) as a calibration run measures it over that of the gate day's run,
+    minus 1 (``A_corr``'s own ratio unless the RF gain drifted)."""
+    if day_aom.rf_gain == 1.0:
+        return day_aom.A_corr / A_corr_run - 1
+    return day_aom.measured_A_corr / _aom(cfg, A_corr_run, day_aom.phi_1).measured_A_corr - 1
+
+
 def calibration_runs(cfg: CampaignConfig):
     """Amplitude and phase calibration runs with run-to-run drift.
 
@@ -188,13 +228,14 @@ def calibration_runs(cfg: CampaignConfig):
     k_day = table_index(cfg)
     gate_day = days[k_day]
     # the AOM at the recordings: the gate day's run's, moved by what is injected
-    A_rec = float(A_corr[k_day]) * (1 + float(_aom_drift(
-        cfg, np.array([cfg.recording_hours[0] / 24]), np.zeros(1))[0]))
-    phi1, ph_rows, ph_truth = _phase_runs(cfg, rng, t0, grid, gate_day, A_rec)
+    at_rec = (np.array([cfg.recording_hours[0] / 24]), np.zeros(1))
+    A_rec = float(A_corr[k_day]) * (1 + float(_aom_drift(cfg, *at_rec)[0]))
+    gain_rec = float(_rf_gain(cfg, *at_rec)[0])
+    phi1, ph_rows, ph_truth = _phase_runs(cfg, rng, t0, grid, gate_day, A_rec, gain_rec)
     amp = pd.concat(amp_rows, ignore_index=True)
     ph = pd.concat(ph_rows, ignore_index=True)
     # the day's truth: drift value of the gate day's amplitude run, last phase run
-    day_aom = BraggAOM(A_corr=A_rec, phi_1=float(phi1[-1]), eta_ref=cfg.eta_ref)
+    day_aom = _aom(cfg, A_rec, float(phi1[-1]), gain_rec)
     # predistortion table: from the run of the gate day, or a stale one
     lut_run, sub = _table_run(cfg, days, A_corr, amp_rows, grid, gate_day)
     fit = fit_amplitude(sub["A"], sub["power"], sub["power_err"], cfg.order)
@@ -207,6 +248,6 @@ def calibration_runs(cfg: CampaignConfig):
              "lut_relative_A_corr": fit.A_corr / day_fit.A_corr - 1,
              "lut_relative_y05": float(fit.y(0.5) / day_fit.y(0.5) - 1),
              "detector_nonlinearity_rel_max": _reading_error_at_max(cfg),
-             "recording_y1_drift": A_rec / float(A_corr[k_day]) - 1,
+             "recording_y1_drift": _y1_drift(cfg, day_aom, float(A_corr[k_day])),
              "day_A_corr": A_rec, "day_phi_at_1": float(phi1[-1])}
     return amp, ph, day_aom, tf, truth

@@ -62,7 +62,7 @@ def _effect_param(name: str) -> tuple:
     e = EFFECTS[eff]
     if not dot:
         return eff, e.strength_of()[0]
-    known = list(e.injected({}))          # the parameters its injection takes
+    known = list(e.injection_params())    # the parameters its injection takes
     if par not in known:
         raise InputError(f"effect '{eff}' has no parameter '{par}'; known: {', '.join(known)}")
     return eff, par

@@ -3,7 +3,11 @@
 Each setting (gate amplitude, DPD flag) drives the exact gate engine
 (:mod:`dpdfit.models.gate_sim`) with the optical tones the day's AOM
 produces; its ``xi0`` is calibrated with a relative error, and every scan
-carries a laser-power jitter (an injected effect may add a systematic offset).  All draws
+carries a laser-power jitter (an injected effect may add a systematic offset).
+Injected effects change the engine's inputs (``Effect.inject_engine``) and may decay
+the final state's coherences before the analysis pulse (``Effect.inject_coherence``);
+those that need the campaign's reference amplitude or gate time get them as the
+diagnosis's gate model defines them (``Effect.inject_refs``).  All draws
 come from one random stream (purpose 5), in a fixed order; the ``further``
 scans and time scans (:attr:`CampaignConfig.further`) come after, each from
 its own stream, so that adding one leaves every other row as it was.
@@ -31,17 +35,44 @@ def _t2(cfg) -> float:
     return 1.0 / (1.0 / cfg.T2)
 
 
-def _engine(cfg, A: float, power_error_db: float) -> dict:
+def _references(cfg, spectra: dict, eta_Omega0: float) -> dict:
+    """The campaign's reference values an injection may read (``Effect.inject_refs``), as
+    the diagnosis's gate model defines them: ``A_ref``, the mean amplitude of the gate
+    settings, and ``t_ref``, their median gate time (here the nominal one, ``1/xi0`` of
+    the exact calibration, known before any rate is drawn)."""
+    t = [1.0 / gate_sim.calibrate_xi0(b, c, n, eta_Omega0) for n, b, c in spectra.values()]
+    return {"A_ref": float(np.mean([A for A, _ in spectra])), "t_ref": float(np.median(t))}
+
+
+def _injections(cfg, refs: dict) -> list:
+    """The injected effects with their values, the references they read added."""
+    return [(e, {**v, **{k: refs[k] for k in e.inject_refs}}) for e, v in cfg.injections()]
+
+
+def _engine(cfg, A: float, power_error_db: float, refs: dict) -> dict:
     """The gate engine's physical inputs at a setting of amplitude ``A``: the
     configuration's, changed by the injected effects (``Effect.inject_engine``)."""
     kw = dict(nbar=cfg.nbar, T2=_t2(cfg), T2_corr=np.inf, ndot=cfg.ndot, p_prep=cfg.p_prep,
               p_flip=0.0, p_det=cfg.p_det, power_error_db=power_error_db)
-    for e, v in cfg.injections():
+    for e, v in _injections(cfg, refs):
         kw = e.inject_engine(v, kw, A)
     return kw
 
 
-def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
+def _after_gate(cfg, t_gate: float, refs: dict) -> dict:
+    """The engine's argument for the decay of the final state's coherences after a gate
+    of ``t_gate`` (s) by the injected effects (``Effect.inject_coherence``): ``{}`` when
+    none decays them, so the engine runs exactly as without."""
+    k1 = k2 = 1.0
+    found = False
+    for e, v in _injections(cfg, refs):
+        k = e.inject_coherence(v, t_gate)
+        if k is not None:
+            k1, k2, found = k1 * float(k[0]), k2 * float(k[1]), True
+    return {"coherence": (k1, k2)} if found else {}
+
+
+def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p, refs):
     """Gate rate, population and parity scans of one setting: rows appended to ``out``."""
     xi_true = gate_sim.calibrate_xi0(b, c, n, eta_Omega0)
     xi_cal = xi_true * (1 + cfg.xi0_rel_err * rng.standard_normal())
@@ -52,7 +83,8 @@ def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
     for s, (shots_pop, shots_par) in enumerate(cfg.scan_shots):
         eps_db = cfg.power_jitter_db * rng.standard_normal()
         res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
-                                        **_engine(cfg, A, eps_db))
+                                        **_engine(cfg, A, eps_db, refs),
+                                        **_after_gate(cfg, 1.0 / xi_cal, refs))
         counts = res.sample(rng, shots_pop, shots_par)
         out["pop"].append({"A": A, "dpd": d, "scan": s + 1, "n00": counts["n00"],
                            "n01_10": counts["n01_10"], "n11": counts["n11"],
@@ -70,7 +102,7 @@ def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p):
                          "apparent_fidelity_mean_over_scans": float(np.mean(fids_app))})
 
 
-def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, A=None, shots=_SCAN_SHOTS,
+def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, refs, A=None, shots=_SCAN_SHOTS,
                points=None):
     """Time scan at ``A`` (``cfg.time_scan_A``) of one flag: rows appended to ``out["time"]``."""
     A = cfg.time_scan_A if A is None else A
@@ -78,9 +110,10 @@ def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, A=None, shots=_SCAN_SHOTS,
     xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
     t = np.linspace(0, cfg.time_scan_max / xi_cal, points)
     # a time scan is a gate run: it carries any injected power offset
-    # (no per-scan jitter is drawn, which keeps older campaigns' bytes)
+    # (no per-scan jitter is drawn, which keeps older campaigns' bytes); a decay of the
+    # final coherences leaves its populations alone
     res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
-                                    scan_times=t, **_engine(cfg, A, 0.0))
+                                    scan_times=t, **_engine(cfg, A, 0.0, refs))
     counts = res.sample(rng, 0, 0, shots_scan=shots)
     for ti, cnt in zip(t, counts.scan_counts):
         out["time"].append({"A": A, "dpd": d, "t_us": ti * 1e6, "n00": int(cnt[0]),
@@ -98,7 +131,8 @@ def _rate(cfg, rng, eta_Omega0, A, d, n, b, c, out) -> None:
                          "xi0_err_khz": cfg.xi0_rel_err * xi_cal / 1e3})
 
 
-def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out) -> None:
+def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out,
+                  refs) -> None:
     """One further scan of a setting (the next scan label there): population rows if
     ``shots_pop``, parity rows if ``shots_par``; a scan of no shots writes no rows."""
     xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
@@ -106,7 +140,8 @@ def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out
                      if r["A"] == A and r["dpd"] == d), default=0)
     eps_db = cfg.power_jitter_db * rng.standard_normal()
     res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
-                                    **_engine(cfg, A, eps_db))
+                                    **_engine(cfg, A, eps_db, refs),
+                                    **_after_gate(cfg, 1.0 / xi_cal, refs))
     counts = res.sample(rng, shots_pop, shots_par)
     if shots_pop:
         out["pop"].append({"A": A, "dpd": d, "scan": label, "n00": counts["n00"],
@@ -118,7 +153,7 @@ def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out
                                "n_even": int(k), "shots": shots_par})
 
 
-def _further_gates(cfg, aom, lut, eta_Omega0, out) -> None:
+def _further_gates(cfg, aom, lut, eta_Omega0, out, refs) -> None:
     """The ``further`` scans and time scans, each from its own stream, appended to ``out``."""
     for j, item in enumerate(cfg.further):
         if item[0] not in ("scan", "time_scan"):
@@ -128,9 +163,10 @@ def _further_gates(cfg, aom, lut, eta_Omega0, out) -> None:
         n, b, c = gate_spectrum(cfg, aom, lut, A, d)
         _rate(cfg, rng, eta_Omega0, A, d, n, b, c, out)
         if item[0] == "scan":
-            _further_scan(cfg, rng, eta_Omega0, A, d, int(item[3]), int(item[4]), n, b, c, out)
+            _further_scan(cfg, rng, eta_Omega0, A, d, int(item[3]), int(item[4]), n, b, c, out,
+                          refs)
         else:
-            _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, A=A, shots=int(item[3]),
+            _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, refs, A=A, shots=int(item[3]),
                        points=int(item[4]))
 
 
@@ -144,13 +180,14 @@ def gate_tables(cfg: CampaignConfig, aom, lut, progress):
     n0, b0, c0 = gate_spectrum(cfg, aom, lut, 0.4, 0)
     xi_unit = gate_sim.calibrate_xi0(b0, c0, n0, 1.0)
     eta_Omega0 = cfg.alpha_khz * 1e3 / xi_unit
+    refs = _references(cfg, spectra, eta_Omega0)
     out = {"pop": [], "par": [], "rates": [], "time": [], "truth": []}
     with progress("gate experiments", len(settings) * len(cfg.scan_shots) + 2) as p:
         for (A, d) in settings:
-            _setting_scans(cfg, rng, eta_Omega0, A, d, *spectra[(A, d)], out, p)
+            _setting_scans(cfg, rng, eta_Omega0, A, d, *spectra[(A, d)], out, p, refs)
         for d in (0, 1):
-            _time_scan(cfg, rng, eta_Omega0, d, *spectra[(cfg.time_scan_A, d)], out)
+            _time_scan(cfg, rng, eta_Omega0, d, *spectra[(cfg.time_scan_A, d)], out, refs)
             p.update()
-    _further_gates(cfg, aom, lut, eta_Omega0, out)
+    _further_gates(cfg, aom, lut, eta_Omega0, out, refs)
     return (pd.DataFrame(out["pop"]), pd.DataFrame(out["par"]), pd.DataFrame(out["rates"]),
             pd.DataFrame(out["time"]), {"eta_Omega0": eta_Omega0, "settings": out["truth"]})

@@ -5,13 +5,13 @@ Family: a phase that grows with the drive, in one of two places.
 * form ``post`` (catalog): ``exp(i dphi r^2)``, ``r = |y|/y(1)``, after the
   static transfer (beam path after the calibrated AOM; ``r`` of the forward
   curve in use, calibration modes applied);
-* form ``aom`` (a campaign without a phase calibration only: with one, the AOM's
-  own AM-to-PM is in the lab's model): the modulator's own AM-to-PM, a phase
-  ``dphi_x |x|^2`` of the RF drive amplitude (the form of a phase calibration,
-  Eq. S11).  It
+* form ``aom``: the modulator's own AM-to-PM, a phase ``dphi_x |x|^2`` of the RF
+  drive amplitude (the form of a phase calibration, Eq. S11).  It
   replaces the baseline's nuisance ``pm_x`` (a campaign without a phase file
   has its AOM's phase as a nuisance with a narrow prior);
-* form ``aom_quartic``: the same to the next even order,
+* form ``aom_quartic`` (a campaign without a phase calibration: with one, the
+  AOM's phase polynomial is in the lab's model and only a small residual of the
+  lowest order can be missing): the same to the next even order,
   ``dphi_x |x|^2 + dphi_x4 |x|^4``: the AOM's phase is a smooth even function
   of the drive amplitude, which a phase calibration fits as a polynomial, so
   its lowest term alone need not describe it (replaces ``pm_x`` too).
@@ -54,16 +54,20 @@ class AmPmOmitted(Effect):
     stage = 1
     main = "am_pm_rad"
     harness = {"dphi": (0.05, 0.15, True)}
+    harness_forms = {"aom": {"dphi_x": (0.05, 0.15, True)},
+                     "aom_quartic": {"dphi_x": (0.05, 0.15, True),
+                                     "dphi_x4": (0.02, 0.08, True)}}
 
     def forms_for(self, ctx=None):
-        """Every form without a phase calibration; with one, ``post`` only: the AOM's own
-        AM-to-PM is then in the lab's model (its phase calibration), so only a phase
-        added after it can have been left out (a phase calibration that no longer
-        matches the AOM is a stale calibration, not an omission)."""
+        """Every form without a phase calibration; with one, not ``aom_quartic``: the
+        AOM's phase polynomial is then in the lab's model to the calibration's
+        precision, and what can be missing from it is a small residual of the lowest
+        even order (``aom``), not a free polynomial (a phase calibration that no longer
+        matches the AOM is a stale calibration)."""
         prior = getattr(ctx, "prior", None)
         if prior is None or "pm_x" in prior:
             return self.forms
-        return tuple(f for f in self.forms if not f.replaces)
+        return tuple(f for f in self.forms if f.name != "aom_quartic")
 
     def coefficients(self, tm, v, cy, cp):
         if not (v.get("dphi_x") or v.get("dphi_x4")):

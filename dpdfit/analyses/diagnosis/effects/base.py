@@ -22,9 +22,9 @@ emcee's ``moves/``):
   (:meth:`Effect.power_offset_db`), preparation and detection errors
   (:meth:`Effect.preparation`);
 * how the **campaign simulator injects** it (``inject_*`` hooks, applied by
-  :mod:`dpdfit.simulation.campaign`), the strengths the **harness** draws
-  (:attr:`Effect.harness`, :meth:`Effect.draw`) and which **truth** it
-  compares (:meth:`Effect.truth`);
+  :mod:`dpdfit.simulation.campaign`), in every one of its forms, the strengths the
+  **harness** draws per form (:attr:`Effect.harness`, :attr:`Effect.harness_forms`,
+  :meth:`Effect.draw`) and which **truth** it compares (:meth:`Effect.truth`);
 * its **size in a laboratory's terms** (:meth:`Effect.size_values`, with
   errors by :meth:`Effect.sizes`).
 
@@ -43,6 +43,8 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+
+from .delta_method import delta_method_errors, draw_uniform
 
 __all__ = ["Param", "Form", "Knob", "Prep", "Size", "Effect", "SIDES"]
 
@@ -165,6 +167,14 @@ class Effect:
     #: harness strengths: parameter -> (lo, hi, signed) of its injected value; others at
     #: :meth:`draw`'s defaults
     harness: dict = {}
+    #: harness strengths per form (leave-one-form-out harness): form -> {param: (lo, hi,
+    #: signed)}; the catalog form's default to :attr:`harness` (:meth:`harness_table`)
+    harness_forms: dict = {}
+    #: the size the harness compares for forms that do not report :attr:`main`
+    main_forms: dict = {}
+    #: campaign references the gate-side injection reads from its values, as the gate
+    #: model defines them (``"A_ref"``, ``"t_ref"``); the simulator adds them
+    inject_refs: tuple = ()
     #: what ``simulate-campaign --effects NAME=S`` injects: ``(param, unit, meaning)`` of
     #: the one parameter ``S`` sets (the others as :meth:`injected` gives them); empty:
     #: the first :attr:`harness` parameter, else the catalog form's first free one
@@ -280,39 +290,54 @@ class Effect:
         gradient over the fitted parameters ``free`` (steps of ``1e-4`` x their
         ``scales``), covariance ``cov`` in their order."""
         base = self.size_values(ctx, p)
-        out = {}
-        grads = {k: np.zeros(len(free)) for k in base}
-        if cov is not None and len(free):
-            for i, (name, s) in enumerate(zip(free, scales)):
-                h = 1e-4 * s
-                up = self.size_values(ctx, {**p, name: p[name] + h})
-                dn = self.size_values(ctx, {**p, name: p[name] - h})
-                for k in base:
-                    grads[k][i] = (up[k][0] - dn[k][0]) / (2 * h)
-        for k, (val, unit, meaning) in base.items():
-            err = float("nan")
-            g = grads[k]
-            if (cov is not None and len(free) and np.all(np.isfinite(cov))
-                    and np.all(np.isfinite(g))):
-                err = float(np.sqrt(max(g @ cov @ g, 0.0)))
-            out[k] = Size(k, float(val), err, unit, meaning)
-        return out
+        errs = delta_method_errors(lambda q: self.size_values(ctx, q), p, cov, free, scales)
+        return {k: Size(k, *errs[k], unit, meaning) for k, (_, unit, meaning) in base.items()}
 
     # ---------------------------------------------------------------- simulation
-    def draw(self, rng: np.random.Generator) -> dict:
-        """Injected values for one harness campaign: each :attr:`harness` parameter
-        uniform in its range (a random sign when signed), the others at their start."""
-        v = {}
-        for name, (lo, hi, signed) in self.harness.items():
-            x = float(rng.uniform(lo, hi))
-            v[name] = x * (float(rng.choice([-1.0, 1.0])) if signed else 1.0)
-        return v
+    def harness_table(self) -> dict:
+        """Harness strengths per form, in the forms' order (:attr:`harness_forms`); a
+        form missing here cannot be concealed by the harness."""
+        table = dict(self.harness_forms)
+        forms = self.forms_for()
+        if self.harness and forms:
+            table.setdefault(forms[0].name, dict(self.harness))
+        return {f.name: table[f.name] for f in forms if f.name in table}
+
+    def form_values(self, form: str) -> dict:
+        """Injection values that put the injected effect in ``form`` (besides the drawn
+        strengths): the form's fixed parameters that the injection takes."""
+        keys = set(self.injection_params())
+        return {k: float(x) for k, x in self.form(form).fixed.items() if k in keys}
+
+    def draw(self, rng: np.random.Generator, form: str | None = None) -> dict:
+        """Injected values for one harness campaign: each strength parameter uniform in
+        its range (a random sign when signed).  ``form`` None: the catalog harness,
+        :attr:`harness`, drawn as always; a form: its strengths (:meth:`harness_table`)
+        with its other values (:meth:`form_values`), so the effect takes that form."""
+        if form is None:
+            ranges, v = self.harness, {}
+        else:
+            table = self.harness_table()
+            if form not in table:
+                self.form(form)                    # a KeyError naming the forms
+                raise KeyError(f"{self.name}: form {form!r} has no harness strengths "
+                               f"(forms with them: {', '.join(table) or 'none'})")
+            ranges, v = table[form], self.form_values(form)
+        return draw_uniform(rng, ranges, v)
+
+    def main_size(self, form: str | None = None) -> str:
+        """The size the harness compares for an injection in ``form`` (:attr:`main_forms`)."""
+        return self.main_forms.get(form, self.main)
 
     def injected(self, v: dict) -> dict:
         """The complete injected parameter set (the family's parameters not drawn keep
         their catalog form's fixed value, else 0)."""
         fixed = dict(self.forms_for()[0].fixed) if self.forms_for() else {}
         return {p.name: float(v.get(p.name, fixed.get(p.name, 0.0))) for p in self.params}
+
+    def injection_params(self) -> tuple:
+        """The parameters the injection takes (default: those :meth:`injected` gives)."""
+        return tuple(self.injected({}))
 
     def strength_of(self) -> tuple:
         """``(param, unit, meaning)`` of :attr:`strength` (default: see there)."""
@@ -343,11 +368,28 @@ class Effect:
         the recordings themselves are at 0)."""
         return np.zeros(np.shape(days_after_table))
 
+    def inject_rf_gain(self, v: dict, days_after_table: np.ndarray,
+                       days_after_recording: np.ndarray) -> np.ndarray:
+        """Simulator: relative change of the RF gain ahead of the AOM, as
+        :meth:`inject_aom` (a drift of another shape than ``A_corr``'s)."""
+        return np.zeros(np.shape(days_after_table))
+
+    def inject_table(self, v: dict) -> float:
+        """Simulator: relative change of ``A_corr`` of the calibration the predistortion
+        table was built from, against the run the records name (0: that run's)."""
+        return 0.0
+
     def inject_engine(self, v: dict, kw: dict, A: float) -> dict:
         """Simulator: the gate engine's keyword arguments at a setting of amplitude
         ``A`` (``nbar``, ``T2``, ``T2_corr``, ``ndot``, ``p_prep``, ``p_flip``,
-        ``p_det``, ``power_error_db``)."""
+        ``p_det``, ``power_error_db``, ``dephasing_profile``)."""
         return kw
+
+    def inject_coherence(self, v: dict, t_gate: float):
+        """Simulator: factors ``(k1, k2)`` of the final state's single-ion and
+        ``|00><11|`` coherences after a gate of ``t_gate`` (s), as :meth:`coherence`
+        (None: no such decay)."""
+        return None
 
     def truth(self, v: dict, sim_truth: dict, ctx=None) -> dict:
         """The injected size in the terms of :meth:`size_values` (what the harness

@@ -57,6 +57,9 @@ class DetectorNonlinearity(Effect):
     stage = 0
     main = "k_det"
     harness = {"k": (0.05, 0.15, True)}
+    # a reading error growing faster than P towards full scale (q = 1.5 in the
+    # independent simulator's campaigns)
+    harness_forms = {"power": {"k": (0.05, 0.15, True), "q": (1.5, 3.0, False)}}
 
     def transfer(self, tm, v, y, cy):
         k = v.get("k", 0.0)

@@ -45,6 +45,10 @@ class MotionalHeating(Effect):
              Form("both", ("ndot", "dnbar"), {}, "both", starts_from="during"))
     main = "heating_q_per_ms"
     harness = {"ndot": (0.05, 0.2, False)}
+    # extra initial phonons as higher_nbar's harness draws them
+    harness_forms = {"initial": {"dnbar": (0.1, 0.5, False)},
+                     "both": {"ndot": (0.05, 0.2, False), "dnbar": (0.1, 0.5, False)}}
+    main_forms = {"initial": "mean_nbar"}
 
     def knobs(self):
         return (NDOT, NBAR)

@@ -43,6 +43,8 @@ class SpamOffset(Effect):
                                                                         {"p_flip": 0.005})))
     main = "extra_preparation"
     harness = {"p_extra": (0.005, 0.02, False)}
+    # the split form with a flip share the lab's (spectator-only) split cannot take
+    harness_forms = {"split": {"p_spec": (0.002, 0.01, False), "p_flip": (0.004, 0.012, False)}}
 
     def preparation(self, gm, v, prep):
         x = v.get("p_extra", 0.0)
