@@ -21,8 +21,10 @@ import dpdfit.simulation.harness as H
 from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import simulate_campaign
-from dpdfit.simulation.closed_loop import (close_loop, default_menu, extend_config,
-                                           random_menu_choice)
+import dpdfit.simulation.further_recordings as F
+from dpdfit.simulation.closed_loop import close_loop
+from dpdfit.simulation.further_recordings import (default_menu, extend_config,
+                                                  random_menu_choice)
 
 SEED = 4242
 
@@ -194,7 +196,7 @@ def test_default_menu_is_valid_and_the_random_choice_is_uniform_over_kinds():
     rng = np.random.default_rng(1)
     for m in default_menu(rng, cfg):
         assert extend_config(cfg, m) != cfg
-    kinds = Counter(C.MEASUREMENTS[random_menu_choice(rng, {"what": "spectra"}, cfg)["what"]]
+    kinds = Counter(F.MEASUREMENTS[random_menu_choice(rng, {"what": "spectra"}, cfg)["what"]]
                     for _ in range(2000))
     assert set(kinds) == {"amplitude_run", "phase_run", "spectra", "scan", "time_scan"}
     assert all(abs(n / 2000 - 0.2) < 0.04 for n in kinds.values()), kinds
@@ -209,7 +211,7 @@ def test_random_choice_draws_from_the_menu_when_there_is_one():
     rng = np.random.default_rng(2)
     picks = [random_menu_choice(rng, {"what": "parity", "menu": menu}, cfg)
              for _ in range(1000)]
-    kinds = Counter(C.MEASUREMENTS[p["what"]] for p in picks)
+    kinds = Counter(F.MEASUREMENTS[p["what"]] for p in picks)
     assert set(kinds) == {"scan", "phase_run"} and abs(kinds["scan"] / 1000 - 0.5) < 0.06
     assert all(p["settings"] == {"runs": 1} for p in picks if p["what"] == "phase_run")
 

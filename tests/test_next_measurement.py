@@ -272,7 +272,7 @@ def test_profiled_separation_is_the_rival_refitted_to_the_truths_recording():
     recording, the rival refitted to them with its information from the recordings so
     far, leave min_theta k |W (m_a - m_b(theta))|^2 + theta^T C^-1 theta; the exact
     refit finds the same, and holding the parameters gives the larger k d.d."""
-    from dpdfit.analyses.diagnosis.next_measurement import _Direction
+    from dpdfit.analyses.diagnosis.separation import Direction as _Direction
     rng = np.random.default_rng(11)
     n, q = 12, 3
     sd = rng.uniform(0.5, 2.0, n)
@@ -300,7 +300,7 @@ def test_the_expected_separation_is_what_a_refit_to_recorded_data_achieves():
     """Recordings drawn under the truth (noise included), the rival refitted to them and
     to its prior information: the achieved chi2 difference averages the predicted
     separation less the noise the rival's parameters absorb (their number, here 3)."""
-    from dpdfit.analyses.diagnosis.next_measurement import _Direction
+    from dpdfit.analyses.diagnosis.separation import Direction as _Direction
     rng = np.random.default_rng(12)
     n, q, k = 40, 3, 2
     sd = np.full(n, 1.0)

@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from threadpoolctl import threadpool_limits
 
 from dpdfit.analyses.diagnosis.alternatives import (addition_alternatives, propose,
@@ -50,12 +49,12 @@ from dpdfit.analyses.diagnosis.fitting import FitResult, fit_effects, fit_hypoth
 from dpdfit.analyses.diagnosis.gate_model import GATE_NUISANCES
 from dpdfit.analyses.diagnosis.generic import generic_discrepancy
 from dpdfit.analyses.diagnosis.observables import Campaign, load_campaign
-from dpdfit.analyses.diagnosis.phase_sign import refit_other_sign, repredict_gates
+from dpdfit.analyses.diagnosis.explanations import open_sides, select, start_alternatives
+from dpdfit.analyses.diagnosis.phase_sign import carry
 from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem, check_forms_left_out
 from dpdfit.analyses.diagnosis.refits import refit_label
 from dpdfit.analyses.diagnosis.named_effects import named_effects
 from dpdfit.analyses.diagnosis.result import Diagnosis
-from dpdfit.analyses.diagnosis.selection import select_from
 from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
                                                EXPLAINED_FRACTION, NULL_REDCHI_MAX,
                                                choose_first, explained_fraction,
@@ -173,17 +172,17 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
     first, _ = (None, False) if not evidence else choose_first(ranking, len(ranking), sides)
     chosen, steps, chain, tried, others, dropped = None, [], [], [], [], []
     if first is not None:
-        sel, others = _select(prob, base, first, fits, form_fits, ranking, pairs, sides)
+        sel, others = select(prob, base, first, fits, form_fits, ranking, pairs, sides)
         first = sel.start
         chosen, steps, chain, tried, dropped = (sel.chosen, sel.steps, sel.chain, sel.tried,
                                                 sel.dropped)
     lap("more effects")
     verdict, verdict_fit, named, chosen, unnamed, null_range = _verdict(
         base, chosen, evidence, mismatches)
-    alts = ([] if not named else _start_alternatives(prob, base, chosen, others, named)
+    alts = ([] if not named else start_alternatives(prob, base, chosen, others, named)
             + swap_alternatives(fits, form_fits, ranking, first, named, sides,
                                 exclude={o.start for o in others})
-            + addition_alternatives(tried, named, _open_sides(prob, chosen, sides)))
+            + addition_alternatives(tried, named, open_sides(prob, chosen, sides)))
     effects_out = (named_effects(prob, base, chosen, named, chain, form_fits)
                    if chosen is not None else [])
     lap("sizes")
@@ -195,121 +194,57 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
         # physics is missing, and how much of the excess chi2 it holds
         generic = generic_discrepancy(prob, (chosen or unnamed or base).all_params)
     one = fits[named[0]] if named else None
-    nxt = (propose(prob, chosen, alts, effects_out, form_fits) if chosen is not None
-           and (alts or any(e.get("poorly_constrained") for e in effects_out)) else None)
-    if nxt and nxt.get("binding"):
-        # the binding pair fitted as a later diagnosis will fit it again: the gap the
-        # recording starts from
-        nxt["binding"] = {k: {**v, "chi2": refit_label(prob, base, v)}
-                          for k, v in nxt["binding"].items()}
+    nxt = _proposal(prob, base, chosen, alts, effects_out, form_fits)
     refits = ([{**lab, "chi2": refit_label(prob, base, lab)} for lab in refit]
               if refit else None)
     lap("report")
+    extra = {"mismatch_evidence": evidence, "verdict_fit": verdict_fit,
+             "alternatives": [a for a, _ in alts], "next_measurement": nxt,
+             "null_range": null_range,
+             "explained_fraction": (None if chosen is None
+                                    else explained_fraction(base, chosen)),
+             "null_model": null_model, **({"refits": refits} if refits is not None else {}),
+             "generic": generic, "timing_seconds": timing,
+             **_campaign_extra(prob, camp, dropped)}
     return Diagnosis(
         campaign=str(camp.folder), mismatches=mismatches, ranking=ranking, verdict=verdict,
         redchi_before=base.redchi(), redchi_after=after.redchi(), baseline=base,
         chosen=chosen, baseline_p_value=base.p_fit, seconds=time.perf_counter() - t0,
         effects=effects_out, steps=steps,
-        redchi_one=None if one is None else one.redchi(),
-        extra={"mismatch_evidence": evidence, "verdict_fit": verdict_fit,
-               "alternatives": [a for a, _ in alts],
-               "next_measurement": nxt,
-               "null_range": null_range,
-               "explained_fraction": (None if chosen is None
-                                      else explained_fraction(base, chosen)),
-               "nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
-                             **{k: v[0] for k, v in GATE_NUISANCES.items()}},
-               "null_model": null_model,
-               **({"refits": refits} if refits is not None else {}),
-               "generic": generic,
-               "recording_times": {k: v.isoformat() for k, v in camp.recorded.items()},
-               "runs_after_recordings": (None if camp.runs_after is None
-                                         else list(camp.runs_after.runs)),
-               "timing_seconds": timing,
-               "warnings": list(camp.warnings), "left_out": list(camp.left_out),
-               "dropped": [{"effect": e, **{k: v for k, v in en.items()
-                                            if k in ("delta_bic", "delta_bic_tempered",
-                                                     "family_delta_bic_tempered")}}
-                           for e, en in dropped],
-               **({"forms_left_out": {k: sorted(v) for k, v in prob.forms_left_out.items()}}
-                  if prob.forms_left_out else {})},
+        redchi_one=None if one is None else one.redchi(), extra=extra,
         series_before=series_before, series_after=prob.series(pa), context=prob)
 
 
-#: at most this many first effects are each completed by a forward selection: the best
-#: single family and the swaps in reach of it
-MAX_STARTS = 3
+def _proposal(prob: Problem, base: FitResult, chosen, alts: list, effects_out: list,
+              form_fits: dict) -> dict | None:
+    """The next measurement (:func:`~dpdfit.analyses.diagnosis.alternatives.propose`)
+    when the verdict has alternatives or a poorly constrained size; its binding pair
+    with the chi2 a later diagnosis will compare its own refit of them with."""
+    if chosen is None or not (alts or any(e.get("poorly_constrained") for e in effects_out)):
+        return None
+    nxt = propose(prob, chosen, alts, effects_out, form_fits)
+    if nxt and nxt.get("binding"):
+        # the binding pair fitted as a later diagnosis will fit it again: the gap the
+        # recording starts from
+        nxt["binding"] = {k: {**v, "chi2": refit_label(prob, base, v)}
+                          for k, v in nxt["binding"].items()}
+    return nxt
 
 
-def _select(prob: Problem, base: FitResult, first: str, fits: dict, form_fits: dict,
-            ranking: list, pairs: int, sides: set):
-    """Complete explanations, not first steps: the best single family and each family in
-    reach of it (a swap, :func:`~dpdfit.analyses.diagnosis.alternatives.swap_alternatives`)
-    start a forward selection each (:func:`~dpdfit.analyses.diagnosis.selection.select_from`;
-    a tone-side start has its field carried to the gates first, :func:`carry`).  The
-    selection whose set has the largest gain
-    (:func:`~dpdfit.analyses.diagnosis.selection.set_gain`) is the verdict's, and the
-    problem is left on its models.  Returns ``(selection, the other selections)``."""
-    starts = [first]
-    if pairs > 0:
-        swaps = swap_alternatives(fits, form_fits, ranking, first, [first], sides)
-        starts += [a["effect"] for a, _ in swaps][:MAX_STARTS - 1]
-    carried = getattr(prob, "carried", None) or {}
-    runs = []
-    for name in starts:
-        if (name not in carried and prob.gate is not None
-                and EFFECTS[name].side == "tones"):
-            fits[name] = carry(prob, base, fits[name])
-        runs.append(select_from(prob, base, fits[name], fits, form_fits, ranking, pairs,
-                                sides))
-    best = runs[0]
-    for r in runs[1:]:
-        # compared directly (the misfit of the better of the two tempers the gap), each
-        # family paying for its form as in set_gain
-        if _better(prob, r, best):
-            best = r
-    prob.use_tone(best.models[0])
-    prob.gate = best.models[1]
-    return best, [r for r in runs if r is not best]
-
-
-def _open_sides(prob: Problem, chosen, sides: set) -> set:
-    """The sides on which the named model still shows a mismatch (a located interval, or
-    that side's chi2), among those that showed one before any effect."""
-    if chosen is None:
-        return set()
-    return side_evidence(chosen, locate_mismatches(prob, chosen.all_params), []) & sides
-
-
-def _better(prob: Problem, a, b) -> bool:
-    """Whether selection ``a``'s set beats ``b``'s: the tempered BIC gap between their
-    fits with each family's ``2 ln F`` for its form."""
-    from dpdfit.analyses.diagnosis.tempering import tempered_gap
-
-    def cost(f):
-        return sum(2 * np.log(max(len(prob.forms_of(e)), 1)) for e in f.effects)
-    gap = tempered_gap(b.chosen, a.chosen)[1] + cost(b.chosen) - cost(a.chosen)
-    return gap > 0
-
-
-def _start_alternatives(prob: Problem, base: FitResult, chosen: FitResult, others: list,
-                        named: list) -> list:
-    """The complete explanations from other first effects still in reach of the named
-    set: the gap of their gains (:func:`~dpdfit.analyses.diagnosis.selection.set_gain`)
-    below ``BIC_DECISIVE``, or within the noise of the named fit
-    (:func:`~dpdfit.analyses.diagnosis.families.separation_z`)."""
-    from dpdfit.analyses.diagnosis.alternatives import _entry
-    from dpdfit.analyses.diagnosis.families import NOISE_Z, separation_z
-    from dpdfit.analyses.diagnosis.tempering import tempered_gap
-    out = []
-    for o in others:
-        if sorted(o.chosen.effects) == sorted(named):
-            continue
-        z = separation_z(chosen, o.chosen)
-        raw, gap_t, tau = tempered_gap(o.chosen, chosen)
-        if gap_t < BIC_DECISIVE or z < NOISE_Z:
-            out.append((_entry(o.start, raw, gap_t, tau, named[0], list(o.chosen.effects),
-                               z=z), o.chosen))
+def _campaign_extra(prob: Problem, camp, dropped: list) -> dict:
+    """The JSON keys that describe the campaign and the run rather than the verdict."""
+    out = {"nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
+                         **{k: v[0] for k, v in GATE_NUISANCES.items()}},
+           "recording_times": {k: v.isoformat() for k, v in camp.recorded.items()},
+           "runs_after_recordings": (None if camp.runs_after is None
+                                     else list(camp.runs_after.runs)),
+           "warnings": list(camp.warnings), "left_out": list(camp.left_out),
+           "dropped": [{"effect": e, **{k: v for k, v in en.items()
+                                        if k in ("delta_bic", "delta_bic_tempered",
+                                                 "family_delta_bic_tempered")}}
+                       for e, en in dropped]}
+    if prob.forms_left_out:
+        out["forms_left_out"] = {k: sorted(v) for k, v in prob.forms_left_out.items()}
     return out
 
 
@@ -388,21 +323,3 @@ def _carry_tone_best(prob: Problem, base: FitResult, fits: dict, form_fits: dict
         return ranking
     fits[tone_best] = carry(prob, base, fits[tone_best])
     return _rank(prob, base, fits, form_fits)
-
-
-def carry(prob: Problem, base: FitResult, f: FitResult) -> FitResult:
-    """Tone-side fit ``f`` with its gates re-predicted from its field and refitted (tone
-    parameters held at their fit), under the other phase sign too (refitted there when
-    its spectra depend on the sign).  The problem's models are left as they were; the
-    field's are kept in ``prob.carried`` under the effect's name, for the forward
-    selection that starts from it
-    (:func:`~dpdfit.analyses.diagnosis.selection.use_field_of`)."""
-    name = f.effects[0]
-    saved = prob.tone, prob.gate
-    f = repredict_gates(prob, f)
-    if prob.camp.phase is not None and EFFECTS[name].sign_sensitive:
-        f = refit_other_sign(prob, f, _side_nuisances(prob, base, "gates"), base.nuisances)
-    prob.carried = {**(getattr(prob, "carried", None) or {}), name: (prob.tone, prob.gate)}
-    prob.use_tone(saved[0])
-    prob.gate = saved[1]
-    return f

@@ -25,8 +25,8 @@ from dpdfit.analyses.diagnosis.observables import MIN_SNR_DB, tone_features
 from dpdfit.analyses.diagnosis.phase_sign import tone_held
 from dpdfit.core.defaults import ERROR_MODEL, PHASE_MIN_A, PHASE_RUN_NOISE_RAD
 
-__all__ = ["Hypothesis", "Item", "BUILDERS", "SPECTRA_GRID", "SPECTRA_COUNTS",
-           "RUN_AMPLITUDES", "MODE_STEP"]
+__all__ = ["Hypothesis", "Item", "white", "BUILDERS", "SPECTRA_GRID", "SPECTRA_COUNTS",
+           "RUN_AMPLITUDES", "MODE_STEP", "PARAM_STEP"]
 
 #: amplitudes a spectra recording may choose from
 SPECTRA_GRID = np.round(np.linspace(0.05, 1.0, 20), 4)

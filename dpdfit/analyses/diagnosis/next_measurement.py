@@ -59,12 +59,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.stats import norm
 
 from dpdfit.analyses.diagnosis.measurement_menu import (BUILDERS, RUN_AMPLITUDES,
                                                         SPECTRA_COUNTS, SPECTRA_GRID,
-                                                        Hypothesis, white)
+                                                        Hypothesis)
+from dpdfit.analyses.diagnosis.separation import REFIT_NFEV, directions, separation
 from dpdfit.analyses.diagnosis.verdict import BIC_DECISIVE
 from dpdfit.core.defaults import LAB_TIMES
 
@@ -76,9 +76,9 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
 #: the best candidates whose expected separation is confirmed by an exact refit
+#: (:meth:`~dpdfit.analyses.diagnosis.separation.Direction.refit`, at most
+#: :data:`~dpdfit.analyses.diagnosis.separation.REFIT_NFEV` evaluations)
 CONFIRMED = 3
-#: evaluations of that refit
-REFIT_NFEV = 30
 
 
 @dataclass(frozen=True)
@@ -177,99 +177,6 @@ def decisive_target(tempering: float = 1.0, probability: float = DECIDE_PROBABIL
     return float(tempering * (z + np.sqrt(z * z + BIC_DECISIVE)) ** 2)
 
 
-# ----------------------------------------------------------------- separations
-class _Direction:
-    """One direction of one pair on one item: ``truth`` is taken as true, ``rival``'s
-    parameters absorb what they can (module doc)."""
-
-    def __init__(self, item, truth: Hypothesis, rival: Hypothesis, W, profile: bool):
-        self.item, self.truth, self.rival, self.W = item, truth, rival, W
-        self.d = white(W, item.vector(truth) - item.vector(rival))
-        self.dd = float(self.d @ self.d)
-        self.keys, self.Cinv, self.J = [], None, None
-        if not profile or self.dd == 0.0:
-            return
-        absorbing = rival.absorbing(item.source)
-        C = rival.covariance([k for k, _ in absorbing])
-        if C is None:
-            return
-        p0, v0 = rival.p, item.vector(rival)
-        J = np.empty((self.d.size, len(absorbing)))
-        for j, (k, h) in enumerate(absorbing):
-            J[:, j] = white(W, item.vector(rival, {**p0, k: p0.get(k, 0.0) + h}) - v0) / h
-        keep = np.any(J != 0, axis=0)
-        if not keep.any():
-            return
-        self.keys = [k for (k, _), y in zip(absorbing, keep) if y]
-        self.J = J[:, keep]
-        self.Cinv = np.linalg.pinv(C[np.ix_(keep, keep)])
-        self.g = self.J.T @ self.d
-        self.H = self.J.T @ self.J
-
-    def linearised(self, k) -> np.ndarray:
-        """The profiled separation of ``k`` repeats (array-valued in ``k``)."""
-        k = np.atleast_1d(np.asarray(k, dtype=float))
-        if self.J is None:
-            return k * self.dd
-        out = np.empty(k.size)
-        for i, kk in enumerate(k):
-            out[i] = kk * self.dd - kk * kk * float(
-                self.g @ np.linalg.solve(self.Cinv + kk * self.H, self.g))
-        return np.maximum(out, 0.0)
-
-    def refit(self, k: int) -> float:
-        """The separation of ``k`` repeats with the rival refitted exactly to the truth's
-        predicted recording, the recordings so far entering through its information."""
-        if self.J is None:
-            return float(k * self.dd)
-        L = np.linalg.cholesky(self.Cinv + 1e-12 * np.eye(len(self.keys)) * np.trace(
-            self.Cinv) / len(self.keys))
-        vt, p0, item, rival, W = (self.item.vector(self.truth), self.rival.p, self.item,
-                                  self.rival, self.W)
-        root = np.sqrt(float(k))
-
-        def fun(x):
-            p = {**p0, **{key: p0.get(key, 0.0) + v for key, v in zip(self.keys, x)}}
-            return np.concatenate([root * white(W, vt - item.vector(rival, p)), L.T @ x])
-
-        scale = np.sqrt(np.maximum(np.diag(np.linalg.pinv(self.Cinv)), 1e-300))
-        x0 = np.linalg.solve(self.Cinv + k * self.H, k * self.g)   # the linear optimum
-        try:
-            r = least_squares(fun, x0, x_scale=scale, max_nfev=REFIT_NFEV, method="trf")
-            f = r.fun
-        except (ValueError, np.linalg.LinAlgError):
-            f = fun(x0)
-        return float(min(f @ f, k * self.dd))
-
-
-def _directions(item, groups, profile: bool) -> list:
-    """For each rival group (against the verdict's group), every pair of forms in both
-    directions: ``[[_Direction, ...] per rival group]``."""
-    out = []
-    for g in groups[1:]:
-        dirs = []
-        for a in groups[0]:
-            for b in g:
-                W = item.whitener(a, b)
-                dirs += [_Direction(item, a, b, W, profile), _Direction(item, b, a, W, profile)]
-        out.append(dirs)
-    return out
-
-
-def _separation(dirs: list, k, how: str = "linearised"):
-    """The verdict's separation from its nearest rival: the smallest over the rival
-    groups, the pairs of forms and both directions, at ``k`` repeats (``how``:
-    ``"linearised"``, ``"fixed"`` or ``"refit"``); ``(value, binding direction)``."""
-    best, arg = np.inf, None
-    for group in dirs:
-        for d in group:
-            v = float(d.linearised(k)[0]) if how == "linearised" else (
-                float(k * d.dd) if how == "fixed" else d.refit(k))
-            if v < best:
-                best, arg = v, d
-    return (0.0 if not np.isfinite(best) else best), arg
-
-
 def propose_next_measurement(prob, hypotheses: list, lab=None,
                              tempering: float = 1.0, profile: bool = True
                              ) -> NextMeasurement:
@@ -311,7 +218,7 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     cands = []
     for build in BUILDERS:
         for item in build(prob, [g[0] for g in groups], lab):
-            dirs = _directions(item, groups, profile)
+            dirs = directions(item, groups, profile)
             cands.append(_candidate(item, dirs, lab, target, separates))
     if not cands:
         return NextMeasurement(None, reason=_why_none(prob))
@@ -352,14 +259,14 @@ def _repeats(dirs, unit_seconds: float, lab, target: float) -> int:
     """The fewest repeats whose linearised separation reaches ``target``, at most a
     working day of lab time; one when nothing separates."""
     k_max = int(max(lab.max_seconds // unit_seconds, 1)) if unit_seconds > 0 else 1
-    if _separation(dirs, k_max)[0] <= 0:
+    if separation(dirs, k_max)[0] <= 0:
         return 1
     lo, hi = 1, k_max
-    if _separation(dirs, hi)[0] < target:
+    if separation(dirs, hi)[0] < target:
         return hi
     while lo < hi:                       # the separation grows with k: bisect
         mid = (lo + hi) // 2
-        if _separation(dirs, mid)[0] >= target:
+        if separation(dirs, mid)[0] >= target:
             hi = mid
         else:
             lo = mid + 1
@@ -385,8 +292,8 @@ def _repeat_settings(what: str, settings: dict, k: int) -> dict:
 def _candidate(item, dirs, lab, target, separates) -> dict:
     """One menu entry: the item repeated until it decides (linearised separation)."""
     k = _repeats(dirs, item.seconds, lab, target)
-    lin, binding = _separation(dirs, k)
-    fixed = _separation(dirs, k, "fixed")[0]
+    lin, binding = separation(dirs, k)
+    fixed = separation(dirs, k, "fixed")[0]
     return {"item": item, "dirs": dirs, "k": k, "linearised": lin, "fixed": fixed,
             "binding": binding, "target": target,
             "entry": _entry(item, k, lin, fixed, separates, target)}
@@ -405,15 +312,15 @@ def _confirm(c: dict, lab, target: float) -> dict:
     """The candidate's separation confirmed by an exact refit of the rival (module doc);
     repeated further (once) when the refit falls short of ``target``."""
     item, dirs, k = c["item"], c["dirs"], c["k"]
-    exact, binding = _separation(dirs, k, "refit")
+    exact, binding = separation(dirs, k, "refit")
     if c["linearised"] >= target > exact > 0:
         k_max = int(max(lab.max_seconds // item.seconds, 1))
         k2 = int(min(k_max, np.ceil(k * target / exact)))
         if k2 > k:
             k = k2
-            exact, binding = _separation(dirs, k, "refit")
-    lin = _separation(dirs, k)[0]
-    fixed = _separation(dirs, k, "fixed")[0]
+            exact, binding = separation(dirs, k, "refit")
+    lin = separation(dirs, k)[0]
+    fixed = separation(dirs, k, "fixed")[0]
     return {**c, "k": k, "linearised": lin, "fixed": fixed, "refit": exact,
             "binding": binding,
             "entry": {**_entry(item, k, exact, fixed, c["entry"]["separates"], target),

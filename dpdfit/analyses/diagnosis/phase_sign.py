@@ -18,7 +18,7 @@ from dpdfit.analyses.diagnosis.effects import EFFECTS, effect_of_key
 from dpdfit.analyses.diagnosis.fitting import FitResult, combine_sides, fit_hypothesis
 from dpdfit.analyses.diagnosis.gate_model import GateModel
 
-__all__ = ["repredict_gates", "refit_other_sign", "tone_held"]
+__all__ = ["repredict_gates", "refit_other_sign", "tone_held", "carry"]
 
 
 def _phase_odd(p: dict) -> list:
@@ -100,4 +100,23 @@ def refit_other_sign(prob, f: FitResult, gate_nuis: dict, init: dict) -> FitResu
         return g
     prob.tone, prob.gate, prob.prior = saved
     prob._cache_key = None
+    return f
+
+
+def carry(prob, base: FitResult, f: FitResult) -> FitResult:
+    """Tone-side fit ``f`` with its gates re-predicted from its field and refitted (tone
+    parameters held at their fit), under the other phase sign too (refitted there when
+    its spectra depend on the sign).  The problem's models are left as they were; the
+    field's are kept in ``prob.carried`` under the effect's name, for the forward
+    selection that starts from it
+    (:func:`~dpdfit.analyses.diagnosis.selection.use_field_of`)."""
+    name = f.effects[0]
+    saved = prob.tone, prob.gate
+    f = repredict_gates(prob, f)
+    if prob.camp.phase is not None and EFFECTS[name].sign_sensitive:
+        f = refit_other_sign(prob, f, {k: v for k, v in base.nuisances.items()
+                                                if k not in prob.tone_nuisances and k != "phase_sign"}, base.nuisances)
+    prob.carried = {**(getattr(prob, "carried", None) or {}), name: (prob.tone, prob.gate)}
+    prob.use_tone(saved[0])
+    prob.gate = saved[1]
     return f

@@ -25,7 +25,7 @@ def _nbar(nominal, step):
     return {**nominal, "nbar": nominal["nbar"] + step}
 
 
-NDOT = Knob("heating.ndot", 0.1, "quanta/ms", _ndot)
+NDOT = Knob("heating.ndot", 0.1, "quanta/ms", _ndot, nonlinear=True)
 #: shared with :mod:`.higher_nbar`
 NBAR = Knob("initial.nbar", 0.2, "quanta", _nbar)
 

@@ -1,0 +1,126 @@
+"""The expected separation a further recording brings between two causes, the rival
+refitted to it.
+
+For two hypotheses, ``a`` taken as true and ``b`` its rival, the rival's parameters
+(its fitted ones of the recording's side, and for the tone side the calibration's
+error modes) are refitted to ``a``'s predicted recording together with the
+recordings so far (T-optimality, Atkinson & Fedorov 1975; KL-optimality for counts,
+Lopez-Fidalgo, Tommasi & Trandafir 2007).  Linearised, with ``d`` the whitened
+difference of the predictions on the new recording, ``J`` the rival's whitened
+Jacobian there and ``F`` its information from the recordings so far
+(:meth:`~dpdfit.analyses.diagnosis.measurement_menu.Hypothesis.covariance`), ``k``
+independent repeats separate them by
+
+    ``d_k^T (I + J_k F^-1 J_k^T)^-1 d_k = k d.d - k^2 g^T (F + k J^T J)^-1 g``,
+    ``g = J^T d``
+
+(Woodbury: :meth:`Direction.linearised`); :meth:`Direction.refit` fits the rival's
+parameters by nonlinear least squares instead, the recordings so far entering
+through ``F``.  A pair is judged in both directions and over every pair of their
+forms in reach (:func:`directions`, :func:`separation`): a recording must separate
+every form of one from every form of the other.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from dpdfit.analyses.diagnosis.measurement_menu import Hypothesis, white
+
+__all__ = ["Direction", "directions", "separation", "REFIT_NFEV"]
+
+#: evaluations of the exact refit of the rival
+REFIT_NFEV = 30
+
+
+class Direction:
+    """One direction of one pair on one item: ``truth`` is taken as true, ``rival``'s
+    parameters absorb what they can (module doc)."""
+
+    def __init__(self, item, truth: Hypothesis, rival: Hypothesis, W, profile: bool):
+        self.item, self.truth, self.rival, self.W = item, truth, rival, W
+        self.d = white(W, item.vector(truth) - item.vector(rival))
+        self.dd = float(self.d @ self.d)
+        self.keys, self.Cinv, self.J = [], None, None
+        if not profile or self.dd == 0.0:
+            return
+        absorbing = rival.absorbing(item.source)
+        C = rival.covariance([k for k, _ in absorbing])
+        if C is None:
+            return
+        p0, v0 = rival.p, item.vector(rival)
+        J = np.empty((self.d.size, len(absorbing)))
+        for j, (k, h) in enumerate(absorbing):
+            J[:, j] = white(W, item.vector(rival, {**p0, k: p0.get(k, 0.0) + h}) - v0) / h
+        keep = np.any(J != 0, axis=0)
+        if not keep.any():
+            return
+        self.keys = [k for (k, _), y in zip(absorbing, keep) if y]
+        self.J = J[:, keep]
+        self.Cinv = np.linalg.pinv(C[np.ix_(keep, keep)])
+        self.g = self.J.T @ self.d
+        self.H = self.J.T @ self.J
+
+    def linearised(self, k) -> np.ndarray:
+        """The profiled separation of ``k`` repeats (array-valued in ``k``)."""
+        k = np.atleast_1d(np.asarray(k, dtype=float))
+        if self.J is None:
+            return k * self.dd
+        out = np.empty(k.size)
+        for i, kk in enumerate(k):
+            out[i] = kk * self.dd - kk * kk * float(
+                self.g @ np.linalg.solve(self.Cinv + kk * self.H, self.g))
+        return np.maximum(out, 0.0)
+
+    def refit(self, k: int) -> float:
+        """The separation of ``k`` repeats with the rival refitted exactly to the truth's
+        predicted recording, the recordings so far entering through its information."""
+        if self.J is None:
+            return float(k * self.dd)
+        L = np.linalg.cholesky(self.Cinv + 1e-12 * np.eye(len(self.keys)) * np.trace(
+            self.Cinv) / len(self.keys))
+        vt, p0, item, rival, W = (self.item.vector(self.truth), self.rival.p, self.item,
+                                  self.rival, self.W)
+        root = np.sqrt(float(k))
+
+        def fun(x):
+            p = {**p0, **{key: p0.get(key, 0.0) + v for key, v in zip(self.keys, x)}}
+            return np.concatenate([root * white(W, vt - item.vector(rival, p)), L.T @ x])
+
+        scale = np.sqrt(np.maximum(np.diag(np.linalg.pinv(self.Cinv)), 1e-300))
+        x0 = np.linalg.solve(self.Cinv + k * self.H, k * self.g)   # the linear optimum
+        try:
+            r = least_squares(fun, x0, x_scale=scale, max_nfev=REFIT_NFEV, method="trf")
+            f = r.fun
+        except (ValueError, np.linalg.LinAlgError):
+            f = fun(x0)
+        return float(min(f @ f, k * self.dd))
+
+
+def directions(item, groups, profile: bool) -> list:
+    """For each rival group (against the verdict's group), every pair of forms in both
+    directions: ``[[Direction, ...] per rival group]``."""
+    out = []
+    for g in groups[1:]:
+        dirs = []
+        for a in groups[0]:
+            for b in g:
+                W = item.whitener(a, b)
+                dirs += [Direction(item, a, b, W, profile), Direction(item, b, a, W, profile)]
+        out.append(dirs)
+    return out
+
+
+def separation(dirs: list, k, how: str = "linearised"):
+    """The verdict's separation from its nearest rival: the smallest over the rival
+    groups, the pairs of forms and both directions, at ``k`` repeats (``how``:
+    ``"linearised"``, ``"fixed"`` or ``"refit"``); ``(value, binding direction)``."""
+    best, arg = np.inf, None
+    for group in dirs:
+        for d in group:
+            v = float(d.linearised(k)[0]) if how == "linearised" else (
+                float(k * d.dd) if how == "fixed" else d.refit(k))
+            if v < best:
+                best, arg = v, d
+    return (0.0 if not np.isfinite(best) else best), arg
