@@ -195,3 +195,22 @@ def test_one_left_out_form_campaign_end_to_end(tmp_path):
     s = H.summarise([r])
     assert s["by_kind"]["leave_one_form_out"]["n_concealed"] == 1
     assert list(s["forms_left_out"]["am_pm_omitted"]) == ["aom"]
+
+
+def test_pairs_and_triples_with_left_out_forms_are_drawn_apart_and_reproducibly():
+    """Two or three effects at once, each in a form of its own left out of the catalog:
+    families of one form never (left out, they could not be named), the other jobs of
+    the plan unchanged, the same jobs for the same seed."""
+    base = plan(per_effect=1, nulls=1, seed=21, pairs=2)
+    mixed = plan(per_effect=1, nulls=1, seed=21, pairs=2, pairs_left_out=4,
+                 triples_left_out=3)
+    assert mixed[:len(base)] == base
+    extra = mixed[len(base):]
+    assert [len(j["effects"]) for j in extra] == [2] * 4 + [3] * 3
+    for j in extra:
+        assert set(j["forms_left_out"]) == set(j["effects"]) == set(j["injected_form"])
+        for e, forms in j["forms_left_out"].items():
+            assert forms == [j["injected_form"][e]]
+            assert len(get(e).forms_for()) > 1
+    assert extra == plan(per_effect=1, nulls=1, seed=21, pairs=2, pairs_left_out=4,
+                         triples_left_out=3)[len(base):]

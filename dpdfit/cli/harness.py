@@ -29,7 +29,9 @@ def cmd_harness(args) -> int:
     s = run_harness(args.per_effect, args.nulls, args.workers, args.scheduler, args.seed,
                     effects, progress=args.progress, log=args.log, pairs=args.pairs,
                     closed_loop=args.closed_loop, triples=args.triples,
-                    leave_one_form_out=args.leave_one_form_out, per_form=args.per_form)
+                    leave_one_form_out=args.leave_one_form_out, per_form=args.per_form,
+                    pairs_left_out=args.pairs_left_out,
+                    triples_left_out=args.triples_left_out)
     if args.output:
         write_report(s, args.output)
     if args.json:
@@ -80,6 +82,12 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--per-form", type=positive_int, default=PER_FORM,
                    help=f"campaigns per effect and form with --leave-one-form-out "
                         f"({PER_FORM})")
+    s.add_argument("--pairs-left-out", type=nonneg_int, default=0,
+                   help="campaigns with two effects at once, each in a form left out of the "
+                        "catalog (0)")
+    s.add_argument("--triples-left-out", type=nonneg_int, default=0,
+                   help="campaigns with three effects at once, each in a form left out of "
+                        "the catalog (0)")
     s.add_argument("--workers", type=positive_int, default=None, help="local processes (all cores)")
     s.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address")
     s.add_argument("--effects", help="comma-separated subset of concealed effects")

@@ -40,10 +40,8 @@ import os
 import shutil
 import tempfile
 import time
-import zlib
 from pathlib import Path
 
-import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
 from dpdfit.core.jsonable import to_jsonable
@@ -53,6 +51,8 @@ from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.closed_loop import ambiguity, close_loop
 from dpdfit.simulation.dispatch import run_jobs
 from dpdfit.simulation.harness_external import spurious_extra, truth_in_reach
+from dpdfit.simulation.harness_jobs import (catalog_jobs, form_jobs, mixed_form_jobs,
+                                            triple_jobs)
 from dpdfit.simulation.harness_summary import report, summarise, write_report
 
 __all__ = ["harness_config", "concealed_effects", "PER_EFFECT", "NULLS", "PAIRS", "TRIPLES",
@@ -68,9 +68,6 @@ TRIPLES = 0
 PER_FORM = 2
 #: Default seed of the injection plan.
 PLAN_SEED = 7
-#: Keys of the plan's own random streams for triples and for each left-out form
-#: (``SeedSequence([seed, key, ...])``): adding them leaves the other jobs as they were.
-_TRIPLES_KEY, _FORMS_KEY = 3, 4
 
 
 def concealed_effects() -> tuple:
@@ -90,7 +87,8 @@ def harness_config(seed: int) -> CampaignConfig:
 
 def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED,
          effects=None, pairs: int = PAIRS, triples: int = TRIPLES,
-         leave_one_form_out: bool = False, per_form: int = PER_FORM) -> list:
+         leave_one_form_out: bool = False, per_form: int = PER_FORM,
+         pairs_left_out: int = 0, triples_left_out: int = 0) -> list:
     """The list of injections: dicts with ``concealed`` (an effect, ``a+b``, ``a+b+c`` or
     ``none``), ``seed`` and ``effects`` (``{name: injected values}``).
 
@@ -99,10 +97,13 @@ def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED
     form of each effect, each from a stream of its own (the triples', and one per effect
     and form), so adding them, or another effect's forms, changes no other job.  A
     left-out-form job also has ``injected_form`` and ``forms_left_out`` (``{effect:
-    form}``, ``{effect: [form]}``).
+    form}``, ``{effect: [form]}``).  ``pairs_left_out`` and ``triples_left_out``
+    campaigns conceal two or three distinct effects at once, each in one of its forms
+    drawn at random and left out of the catalog (families of one form excepted: left
+    out, they could not be named), each set from a stream of its own.
     """
     effects = concealed_effects() if effects is None else tuple(effects)
-    counts = (per_effect, nulls, pairs, triples)
+    counts = (per_effect, nulls, pairs, triples, pairs_left_out, triples_left_out)
     if min(counts) < 0 or (leave_one_form_out and per_form < 1) or (
             sum(counts) == 0 and not leave_one_form_out):
         raise InputError(f"need --per-effect, --nulls, --pairs, --triples >= 0, not all 0 "
@@ -116,54 +117,12 @@ def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED
         raise InputError("pairs need at least two effects")
     if triples and len(effects) < 3:
         raise InputError("triples need at least three effects")
-    jobs = _catalog_jobs(per_effect, nulls, seed, effects, pairs)
-    jobs += _triple_jobs(triples, seed, effects)
+    jobs = catalog_jobs(per_effect, nulls, seed, effects, pairs)
+    jobs += triple_jobs(triples, seed, effects)
     if leave_one_form_out:
-        jobs += _form_jobs(per_form, seed, effects)
-    return jobs
-
-
-def _catalog_jobs(per_effect, nulls, seed, effects, pairs) -> list:
-    """The jobs of ``per_effect``, ``nulls`` and ``pairs``, from one stream."""
-    rng = np.random.default_rng(seed)
-    jobs = []
-    for e in effects:
-        for _ in range(per_effect):
-            jobs.append({"concealed": e, "seed": int(rng.integers(1, 2 ** 31)),
-                         "effects": {e: get(e).draw(rng)}})
-    for _ in range(nulls):
-        jobs.append({"concealed": "none", "seed": int(rng.integers(1, 2 ** 31)), "effects": {}})
-    for _ in range(pairs):
-        a, b = sorted(rng.choice(len(effects), size=2, replace=False))
-        ea, eb = effects[a], effects[b]
-        jobs.append({"concealed": f"{ea}+{eb}", "seed": int(rng.integers(1, 2 ** 31)),
-                     "effects": {ea: get(ea).draw(rng), eb: get(eb).draw(rng)}})
-    return jobs
-
-
-def _triple_jobs(triples, seed, effects) -> list:
-    """Campaigns with three distinct effects, each drawn as the catalog harness does."""
-    rng = np.random.default_rng(np.random.SeedSequence([seed, _TRIPLES_KEY]))
-    jobs = []
-    for _ in range(triples):
-        names = [effects[i] for i in sorted(rng.choice(len(effects), size=3, replace=False))]
-        jobs.append({"concealed": "+".join(names), "seed": int(rng.integers(1, 2 ** 31)),
-                     "effects": {n: get(n).draw(rng) for n in names}})
-    return jobs
-
-
-def _form_jobs(per_form, seed, effects) -> list:
-    """``per_form`` campaigns per effect and form with harness strengths, each injected in
-    that form and diagnosed with it left out; one stream per effect and form."""
-    jobs = []
-    for e in effects:
-        for form in get(e).harness_table():
-            key = zlib.crc32(f"{e}:{form}".encode())
-            rng = np.random.default_rng(np.random.SeedSequence([seed, _FORMS_KEY, key]))
-            for _ in range(per_form):
-                jobs.append({"concealed": e, "seed": int(rng.integers(1, 2 ** 31)),
-                             "effects": {e: get(e).draw(rng, form)},
-                             "injected_form": {e: form}, "forms_left_out": {e: [form]}})
+        jobs += form_jobs(per_form, seed, effects)
+    for k, n in ((2, pairs_left_out), (3, triples_left_out)):
+        jobs += mixed_form_jobs(n, k, seed, effects)
     return jobs
 
 
@@ -333,11 +292,12 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
                 scheduler: str | None = None, seed: int = PLAN_SEED, effects=None,
                 progress=None, log=None, pairs: int = PAIRS, closed_loop: bool = True,
                 triples: int = TRIPLES, leave_one_form_out: bool = False,
-                per_form: int = PER_FORM) -> dict:
+                per_form: int = PER_FORM, pairs_left_out: int = 0,
+                triples_left_out: int = 0) -> dict:
     """Run the harness; returns the summary (see :func:`summarise`) with all runs.
 
-    The plan is :func:`plan`'s (``triples``, ``leave_one_form_out``, ``per_form``
-    there).
+    The plan is :func:`plan`'s (``triples``, ``leave_one_form_out``, ``per_form``,
+    ``pairs_left_out``, ``triples_left_out`` there).
 
     ``log``: path of a run log (JSON lines).  Every finished run is appended
     to it at once, so a stopped harness loses nothing; runs of the plan
@@ -346,7 +306,8 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     callback ``progress(k_done, n_jobs)``.  ``closed_loop``: take the measurement
     each ambiguous diagnosis proposes, and a random one, and diagnose again.
     """
-    jobs = plan(per_effect, nulls, seed, effects, pairs, triples, leave_one_form_out, per_form)
+    jobs = plan(per_effect, nulls, seed, effects, pairs, triples, leave_one_form_out, per_form,
+                pairs_left_out, triples_left_out)
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
     t0 = time.perf_counter()

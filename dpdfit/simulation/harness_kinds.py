@@ -8,6 +8,8 @@ A harness run (:func:`dpdfit.simulation.harness.run_one`) is one of
   that form left out of the catalog (``forms_left_out``): how the diagnosis does when
   a lab's physics takes a form the catalog does not have;
 * ``pairs``, ``triples``: two or three distinct effects concealed at once;
+* ``pairs_left_out``, ``triples_left_out``: the same, each effect in one of its forms
+  left out of the catalog;
 * ``nulls``: nothing concealed.
 
 For each kind, and overall, :func:`by_kind` gives the fraction named as the exact
@@ -35,7 +37,8 @@ __all__ = ["KINDS", "run_kind", "label", "is_empty_family", "outcome", "coverage
            "kind_summary", "by_kind", "empty_families", "forms_table", "kind_report_lines"]
 
 #: the kinds of run, in the order the report gives them
-KINDS = ("catalog", "leave_one_form_out", "pairs", "triples", "nulls")
+KINDS = ("catalog", "leave_one_form_out", "pairs", "triples", "pairs_left_out",
+         "triples_left_out", "nulls")
 
 
 def run_kind(r: dict) -> str:
@@ -44,7 +47,7 @@ def run_kind(r: dict) -> str:
     if n == 0:
         return "nulls"
     if r.get("forms_left_out"):
-        return "leave_one_form_out"
+        return {1: "leave_one_form_out", 2: "pairs_left_out"}.get(n, "triples_left_out")
     return {1: "catalog", 2: "pairs"}.get(n, "triples")
 
 
