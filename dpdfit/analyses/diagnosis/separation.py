@@ -90,8 +90,12 @@ class Direction:
 
         scale = np.sqrt(np.maximum(np.diag(np.linalg.pinv(self.Cinv)), 1e-300))
         x0 = np.linalg.solve(self.Cinv + k * self.H, k * self.g)   # the linear optimum
+        # the Jacobian at the fit, held: each step costs one prediction (the residuals,
+        # and so the optimum, are exact; the Jacobian only guides the steps)
+        jac = np.vstack([-root * self.J, L.T])
         try:
-            r = least_squares(fun, x0, x_scale=scale, max_nfev=REFIT_NFEV, method="trf")
+            r = least_squares(fun, x0, jac=lambda x: jac, x_scale=scale,
+                              max_nfev=REFIT_NFEV, method="trf")
             f = r.fun
         except (ValueError, np.linalg.LinAlgError):
             f = fun(x0)
