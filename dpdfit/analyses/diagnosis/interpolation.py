@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["uniform_interp", "cubic_interp"]
+__all__ = ["uniform_interp", "cubic_interp", "cubic_weights", "cubic_apply"]
 
 
 def uniform_interp(x, table):
@@ -22,10 +22,10 @@ def uniform_interp(x, table):
     return t0 + f * (table[i + 1] - t0)
 
 
-def cubic_interp(table: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Cubic Lagrange interpolation of ``table`` (last axis: uniform grid on [0, 1]) at
-    ``x`` in [0, 1] (hand-written: vectorised over the leading table axis)."""
-    K = table.shape[-1] - 1
+def cubic_weights(x: np.ndarray, K: int):
+    """The indices and Lagrange weights of :func:`cubic_interp` at ``x`` for a table of
+    ``K + 1`` points: ``(i, (l0, l1, l2, l3))``, for :func:`cubic_apply` (the weights of
+    fixed points are computed once for any number of tables)."""
     s = np.clip(x, 0.0, 1.0) * K
     i = np.clip(np.floor(s).astype(np.intp) - 1, 0, K - 3)
     f = s - i
@@ -33,5 +33,18 @@ def cubic_interp(table: np.ndarray, x: np.ndarray) -> np.ndarray:
     l1 = f * (f - 2) * (f - 3) / 2
     l2 = -f * (f - 1) * (f - 3) / 2
     l3 = f * (f - 1) * (f - 2) / 6
+    return i, (l0, l1, l2, l3)
+
+
+def cubic_apply(table: np.ndarray, weights) -> np.ndarray:
+    """Cubic Lagrange interpolation of ``table`` (last axis: uniform grid on [0, 1]) with
+    the weights :func:`cubic_weights` gave."""
+    i, (l0, l1, l2, l3) = weights
     return (l0 * table[..., i] + l1 * table[..., i + 1] + l2 * table[..., i + 2]
             + l3 * table[..., i + 3])
+
+
+def cubic_interp(table: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Cubic Lagrange interpolation of ``table`` (last axis: uniform grid on [0, 1]) at
+    ``x`` in [0, 1] (hand-written: vectorised over the leading table axis)."""
+    return cubic_apply(table, cubic_weights(x, table.shape[-1] - 1))

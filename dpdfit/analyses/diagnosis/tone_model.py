@@ -45,7 +45,8 @@ import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
-from dpdfit.analyses.diagnosis.interpolation import cubic_interp, uniform_interp
+from dpdfit.analyses.diagnosis.effects.base import Effect
+from dpdfit.analyses.diagnosis.interpolation import cubic_apply, cubic_weights, uniform_interp
 from dpdfit.analyses.diagnosis.mode_profile import calibration_error_modes
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
 from dpdfit.core.defaults import ERROR_MODEL
@@ -68,6 +69,8 @@ N_QUAD = 16
 STATIC_TABLE = 8192
 #: harmonics of the gate tones handed to the gate engine
 GATE_HARMONICS = tuple(range(-2, 6))
+#: entries kept by each of the envelope engine's caches (least recently used dropped)
+_CACHE_ENTRIES = 8
 
 
 class ToneModel:
@@ -135,6 +138,13 @@ class ToneModel:
         self._Eg = np.linspace(0.0, 1.0, K_TABLE + 1)
         self._gx, self._gw = np.polynomial.legendre.leggauss(N_QUAD)
         self._k_slow = np.fft.fftfreq(M_SLOW, 1.0 / M_SLOW)   # slow harmonic index
+        rot = self._rot
+        self._rot_powers = {1: rot, -1: np.conj(rot)}
+        for k in range(2, 6):
+            self._rot_powers[k], self._rot_powers[-k] = rot ** k, np.conj(rot) ** k
+        # frequencies of the drive power's components at 0, +-2 nu, +-4 nu (slow memory)
+        f_slow = self._k_slow * self.xi0
+        self._f_power = {m: m * self.nu + f_slow for m in (0, 2, -2, 4, -4)}
 
     # ------------------------------------------------------------- copies
     def with_phase_sign(self, sign: int) -> "ToneModel":
@@ -225,9 +235,15 @@ class ToneModel:
         return y
 
     # ------------------------------------------------------------- envelope engine
-    def _harmonics(self, coef, table, act: ActiveEffects, memory: bool):
-        """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field and ``S_m(u)`` (m = 0, 2, 4)
-        of the drive power, over ``u`` on [0, 1] (module doc)."""
+    def _quadrature(self, table):
+        """The quadrature of the harmonic tables for ``table`` (None: without DPD), on
+        both sides of the clip point: per piece the nodes' angles ``th``, weights ``w``,
+        drive magnitudes ``x`` and ``cos(m th)`` (m = 1..5).  It depends on the table
+        only, so it is cached (a fit moves the transfer far more often than the table)."""
+        key = None if table is None else table.tobytes()
+        pieces = _lru_get(self.__dict__.setdefault("_quad_cache", {}), key)
+        if pieces is not None:
+            return pieces
         Eg = self._Eg
         if table is None:
             u_c = 1.0
@@ -235,54 +251,124 @@ class ToneModel:
             sat = np.nonzero(table >= 1.0)[0]
             u_c = sat[0] / (table.size - 1) if sat.size else 1.0 + 1e-12
         thc = np.where(Eg > u_c, np.arccos(np.minimum(u_c / np.maximum(Eg, 1e-300), 1.0)), 0.0)
-        ms = (1, 3, 5) if memory else (1,)
-        G = np.zeros((len(ms), Eg.size), dtype=complex)
-        S = np.zeros((3, Eg.size)) if memory else None
+        pieces = []
         for lo, hi in ((thc, np.full_like(Eg, np.pi / 2)), (np.zeros_like(Eg), thc)):
             th = lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None]
             w = self._gw[None, :] * (hi - lo)[:, None] / 2
             u = Eg[:, None] * np.cos(th)
             x = u if table is None else uniform_interp(u, table)
+            cos = {m: np.cos(m * th) for m in range(1, 6)}
+            pieces.append((th, w, x, cos))
+        return _lru_put(self._quad_cache, key, pieces)
+
+    def _harmonics(self, coef, table, act: ActiveEffects, memory: bool) -> np.ndarray:
+        """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field over ``u`` on [0, 1] (module
+        doc)."""
+        Eg = self._Eg
+        ms = (1, 3, 5) if memory else (1,)
+        G = np.zeros((len(ms), Eg.size), dtype=complex)
+        for th, w, x, cos in self._quadrature(table):
             g = self._static(x, coef, act)
             for j, m in enumerate(ms):
-                G[j] += (4 / np.pi) * np.sum(g * np.cos(m * th) * w, axis=-1)
-            if memory:
-                pw = np.minimum(x, 1.0) ** 2
-                S[0] += (2 / np.pi) * np.sum(pw * w, axis=-1)
-                S[1] += (4 / np.pi) * np.sum(pw * np.cos(2 * th) * w, axis=-1)
-                S[2] += (4 / np.pi) * np.sum(pw * np.cos(4 * th) * w, axis=-1)
-        return G, S
+                G[j] += (4 / np.pi) * np.sum(g * cos[m] * w, axis=-1)
+        return G
+
+    def _power_harmonics(self, table) -> np.ndarray:
+        """Tables of ``S_m(u)`` (m = 0, 2, 4) of the drive power over ``u`` on [0, 1]
+        (module doc): they depend on the table only."""
+        Eg = self._Eg
+        S = np.zeros((3, Eg.size))
+        for th, w, x, cos in self._quadrature(table):
+            pw = np.minimum(x, 1.0) ** 2
+            S[0] += (2 / np.pi) * np.sum(pw * w, axis=-1)
+            S[1] += (4 / np.pi) * np.sum(pw * cos[2] * w, axis=-1)
+            S[2] += (4 / np.pi) * np.sum(pw * cos[4] * w, axis=-1)
+        return S
+
+    def _static_key(self, coef, table, act: ActiveEffects, memory: bool) -> tuple:
+        """What the harmonic tables depend on: the transfer's coefficients, the table,
+        the hooks that act on the static field (an effect's ``transfer``, a memory's
+        gain: its kernel does not enter them) and whether a memory is present."""
+        parts = [self.phase_sign, memory, coef[0].dtype.str, coef[0].tobytes(),
+                 coef[1].dtype.str, coef[1].tobytes(), None if table is None else table.tobytes()]
+        for e, v in act.items:
+            if type(e).transfer is not Effect.transfer:
+                parts.append((e.name, tuple(sorted(v.items()))))
+            mem = e.power_memory(self, v, np.zeros(1))
+            if mem is not None:
+                parts.append((e.name, complex(mem[0])))
+        return tuple(parts)
+
+    def _slow_parts(self, A, coef, table, act: ActiveEffects, memory: bool) -> dict:
+        """The slow signals of the bands that do not depend on a memory's kernel, cached
+        (a slow memory's fit moves its kernel's time scales at fixed harmonic tables):
+        ``blue``, ``red`` (memoryless bands) and, with ``memory``, ``gm`` (the field's
+        bands at +-1, 3, 5 nu) and ``pc_fft`` (the spectra of the drive power's
+        components at 0, +-2, +-4 nu)."""
+        A = np.ascontiguousarray(A, dtype=float)
+        key = (A.tobytes(), self._static_key(coef, table, act, memory))
+        out = _lru_get(self.__dict__.setdefault("_slow_cache", {}), key)
+        if out is not None:
+            return out
+        wts = self._cubic_weights(A)
+        rp = self._rot_powers
+        g = cubic_apply(self._harmonics(coef, table, act, memory), wts) / 2
+        blue, red = g[0] * rp[1], g[0] * rp[-1]
+        out = {"blue": blue, "red": red}
+        if memory:
+            g3, g5 = g[1], g[2]
+            out["gm"] = {1: blue, -1: red, 3: g3 * rp[3], -3: g3 * rp[-3],
+                         5: g5 * rp[5], -5: g5 * rp[-5]}
+            out["pc_fft"] = self._power_spectra(A, table, wts)
+        _read_only(out)
+        return _lru_put(self._slow_cache, key, out)
+
+    def _power_spectra(self, A, table, wts) -> dict:
+        """Spectra (along the slow time) of the drive power's components at 0, +-2 nu,
+        +-4 nu for amplitudes ``A``, cached: they depend on the table only."""
+        key = (A.tobytes(), None if table is None else table.tobytes())
+        out = _lru_get(self.__dict__.setdefault("_power_cache", {}), key)
+        if out is not None:
+            return out
+        rp = self._rot_powers
+        s0, s2, s4 = cubic_apply(self._power_harmonics(table), wts)
+        pc = {0: s0.astype(complex), 2: s2 * rp[2] / 2, -2: s2 * rp[-2] / 2,
+              4: s4 * rp[4] / 2, -4: s4 * rp[-4] / 2}
+        out = {m: np.fft.fft(comp, axis=-1) for m, comp in pc.items()}
+        _read_only(out)
+        return _lru_put(self._power_cache, key, out)
+
+    def _cubic_weights(self, A: np.ndarray):
+        """Cubic interpolation weights of the harmonic tables at the slow envelope's
+        magnitudes ``A |eps(t)|`` (fixed by the amplitudes, so cached per ``A``)."""
+        key = A.tobytes()
+        out = _lru_get(self.__dict__.setdefault("_weights_cache", {}), key)
+        if out is None:
+            out = _lru_put(self._weights_cache, key,
+                           cubic_weights(A[:, None] * self._E_unit[None, :], K_TABLE))
+        return out
 
     def _bands(self, A, coef, table, act: ActiveEffects) -> tuple[np.ndarray, np.ndarray]:
         """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
         drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
         mems = act.memories(np.zeros(1))
-        G, S = self._harmonics(coef, table, act, bool(mems))
-        E = np.asarray(A, dtype=float)[:, None] * self._E_unit[None, :]
-        rot = self._rot
-        g1 = cubic_interp(G[0], E) / 2
-        blue, red = g1 * rot, g1 * np.conj(rot)
+        parts = self._slow_parts(A, coef, table, act, bool(mems))
+        blue, red = parts["blue"], parts["red"]
         if not mems:
             return blue, red
-        g3, g5 = cubic_interp(G[1], E) / 2, cubic_interp(G[2], E) / 2
-        s0, s2, s4 = (cubic_interp(S[j], E) for j in range(3))
-        gm = {1: blue, -1: red, 3: g3 * rot ** 3, -3: g3 * np.conj(rot) ** 3,
-              5: g5 * rot ** 5, -5: g5 * np.conj(rot) ** 5}
-        f_slow = self._k_slow * self.xi0
+        gm, pc_fft = parts["gm"], parts["pc_fft"]
         out_b, out_r = blue.copy(), red.copy()
         # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
         # its own frequencies (every memory present adds its own term)
-        pc = {0: s0.astype(complex), 2: s2 * rot ** 2 / 2, -2: s2 * np.conj(rot) ** 2 / 2,
-              4: s4 * rot ** 4 / 2, -4: s4 * np.conj(rot) ** 4 / 2}
         for e, v in act.items:
             mem = e.power_memory(self, v, np.zeros(1))
             if mem is None:
                 continue
             gain = mem[0]
             s = {}
-            for m, comp in pc.items():
-                H = e.power_memory(self, v, m * self.nu + f_slow)[1]
-                s[m] = np.fft.ifft(np.fft.fft(comp, axis=-1) * H, axis=-1)
+            for m, comp in pc_fft.items():
+                H = e.power_memory(self, v, self._f_power[m])[1]
+                s[m] = np.fft.ifft(comp * H, axis=-1)
             out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
                                     + gm[-3] * s[4] + gm[5] * s[-4])
             out_r = out_r + gain * (gm[-1] * s[0] + gm[1] * s[-2] + gm[-3] * s[2]
@@ -394,3 +480,28 @@ class ToneModel:
 
 def _dB(a: np.ndarray) -> np.ndarray:
     return 10 * np.log10(np.maximum(np.abs(a) ** 2, 1e-300))
+
+
+def _lru_get(cache: dict, key):
+    """The entry of ``key`` in a least-recently-used ``cache`` (None when absent)."""
+    out = cache.pop(key, None)
+    if out is not None:
+        cache[key] = out                                  # most recently used last
+    return out
+
+
+def _lru_put(cache: dict, key, value):
+    """Store ``value`` under ``key``, dropping the least recently used entry when full."""
+    while len(cache) >= _CACHE_ENTRIES:
+        cache.pop(next(iter(cache)))
+    cache[key] = value
+    return value
+
+
+def _read_only(tree) -> None:
+    """Mark the arrays of a cached entry read-only (every caller shares them)."""
+    for v in (tree.values() if isinstance(tree, dict) else (tree,)):
+        if isinstance(v, dict):
+            _read_only(v)
+        elif isinstance(v, np.ndarray):
+            v.flags.writeable = False
