@@ -269,30 +269,48 @@ class GateModel:
             prep = e.preparation(self, v, prep)
         return prep
 
+    @staticmethod
+    def _knob_terms(base, d, coefs, qs) -> dict:
+        """The knobs' changes of the two-ion outcomes ``qs`` for knob weights ``coefs``
+        (``{knob: array over the rows' times}``), in the order they add: they do not
+        depend on the power error, so :meth:`predict` computes them once for its three
+        power errors."""
+        out = {q: [] for q in qs}
+        for kk, c in coefs.items():
+            c = np.asarray(c, dtype=float)
+            if not np.any(c):
+                continue
+            for q in qs:
+                out[q].append(d[kk][q](c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
+                                       if c.ndim else c))
+        return out
+
     def _observe(self, base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
-                 coherence=None):
+                 coherence=None, terms=None, det=None):
         """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
         ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
-        ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics."""
+        ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics.
+        ``terms``: the knobs' changes (:meth:`_knob_terms`) when already computed;
+        ``det``: the detection confusion matrix, transposed, when already made."""
         eps = np.asarray(eps, dtype=float)
         vm = np.asarray(v_mean, dtype=float)
+        if terms is None:
+            terms = self._knob_terms(base, d, coefs, ("p2", "par2") if gate else ("p2",))
 
         def two_ion(q):
             shape = (-1,) + (1,) * (base[q].ndim - 1)
             e = eps.reshape(shape) if eps.ndim else eps
             v = base[q] + lin[q] * e + quad[q] * (e ** 2 + (vm.reshape(shape) if vm.ndim
                                                             else vm))
-            for kk, c in coefs.items():
-                c = np.asarray(c, dtype=float)
-                if np.any(c):
-                    v = v + d[kk][q](c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
-                                     if c.ndim else c)
+            for t in terms[q]:
+                v = v + t
             return v
 
-        det = (prep.e01, prep.e10)
+        if det is None:
+            det = _confusion_t(prep)
         pop = gate_sim.mix_branches(two_ion("p2"), base["p1"], prep.spectator, prep.flip,
                                     base["p2_01"], None, base["p1_1"])
-        pop = gate_sim.confusion(pop, det)
+        pop = pop @ det
         if not gate:
             return pop, None
         par2 = two_ion("par2")
@@ -301,7 +319,7 @@ class GateModel:
             par2, par2_01 = (decohere(x, *coherence) for x in (par2, par2_01))
         par = gate_sim.mix_branches(par2, base["par1"], prep.spectator, prep.flip,
                                     par2_01, None, base["par1_1"])
-        return pop, gate_sim.confusion(par, det)
+        return pop, par @ det
 
     def _coherence(self, active, t):
         """Product of the active effects' coherence factors ``(k1, k2)`` at times ``t``
@@ -346,8 +364,11 @@ class GateModel:
         base, d, lin, quad = tab["gate"]
         h = POWER_STEP_DB / 3
         vals = {}
+        det = _confusion_t(prep)
+        terms = self._knob_terms(base, d, coefs, ("p2", "par2"))
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
-            pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh)
+            pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
+                                     terms, det)
             F, imb = collapse(pop)
             vals[s] = {"F_pop": F, "imb": imb, "C": contrast(par)}
         res = {}
@@ -366,7 +387,7 @@ class GateModel:
             pop, _ = self._observe(b, dd, li, qu, {kk: np.asarray(c)[None, :]
                                                     if np.ndim(c) else c
                                                     for kk, c in c_t.items()},
-                                   e, 0.0, prep, False)
+                                   e, 0.0, prep, False, det=det)
             acc["P00_t"].append(pop[0, :, 0])
             acc["P11_t"].append(pop[0, :, 3])
         for q, v in acc.items():
@@ -398,3 +419,11 @@ class GateModel:
         g = self.gates
         n = dict(zip(self.keys, g["n_rates"] if "n_rates" in g else np.ones(len(g))))
         return np.array([float(n.get(tuple(k), 1.0)) for k in keys])
+
+
+def _confusion_t(prep: Prep) -> np.ndarray:
+    """The transposed four-outcome confusion matrix of the detection errors of ``prep``
+    (:func:`~dpdfit.models.gate_sim.confusion` applies ``p4 @`` it)."""
+    e01, e10 = float(prep.e01), float(prep.e10)
+    C = np.array([[1 - e01, e10], [e01, 1 - e10]])
+    return np.kron(C, C).T
