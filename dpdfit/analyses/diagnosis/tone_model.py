@@ -71,6 +71,8 @@ STATIC_TABLE = 8192
 GATE_HARMONICS = tuple(range(-2, 6))
 #: entries kept by each of the envelope engine's caches (least recently used dropped)
 _CACHE_ENTRIES = 8
+#: filtered drives kept by the time-domain engine (megabytes each: a Jacobian's worth)
+_TD_CACHE_ENTRIES = 6
 
 
 class ToneModel:
@@ -215,7 +217,7 @@ class ToneModel:
         if mag.size > 8 * STATIC_TABLE:
             grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
             F = self._static(grid, coef, act)
-            return uniform_interp(mag, F)
+            return uniform_interp(mag, F, F[1:] - F[:-1])
         cy, cp = coef
         m = np.minimum(mag, 1.0)
         y = np.polynomial.polynomial.polyval(m, cy)
@@ -414,6 +416,23 @@ class ToneModel:
             cache[key] = (table, np.fft.fft(x, axis=-1))      # table kept: its id stays valid
         return cache[key][1]
 
+    def _filtered_drive(self, A, d: int, table, H) -> dict:
+        """The drive through the filter ``H`` on the time-domain grid: its magnitude
+        ``mag`` and phase factor ``phase`` (``x / |x|``), cached by the filter (a fit of
+        the fast memory also moves the calibration modes and nuisances, which act after
+        it)."""
+        A = np.ascontiguousarray(A, dtype=float)
+        key = (A.tobytes(), int(bool(d)), table.tobytes() if d else None, H.tobytes())
+        cache = self.__dict__.setdefault("_drive_td_cache", {})
+        out = _lru_get(cache, key)
+        if out is None:
+            x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
+            mag = np.abs(x)
+            out = {"mag": mag, "phase": x / np.maximum(mag, 1e-300)}
+            _read_only(out)
+            out = _lru_put(cache, key, out, _TD_CACHE_ENTRIES)
+        return out
+
     def _tones_time_domain(self, A, p, act, dpd_flags, harmonics):
         coef = self._coefficients(p, act)
         table = self._table(act)
@@ -424,14 +443,15 @@ class ToneModel:
             H = np.ones(freq.size, dtype=complex)
             for h in act.filters(freq):
                 H = H * h
-            x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
-            mag = np.abs(x)
-            y = self._static(mag, coef, act) * (x / np.maximum(mag, 1e-300))
+            drive = self._filtered_drive(A, d, table, H)
+            mag = drive["mag"]
+            y = self._static(mag, coef, act) * drive["phase"]
             for e, v in act.items:
                 mem = e.power_memory(self, v, freq)
                 if mem is not None:
-                    s = np.fft.ifft(np.fft.fft(np.minimum(mag, 1.0) ** 2, axis=-1) * mem[1],
-                                    axis=-1).real
+                    if "power_fft" not in drive:
+                        drive["power_fft"] = np.fft.fft(np.minimum(mag, 1.0) ** 2, axis=-1)
+                    s = np.fft.ifft(drive["power_fft"] * mem[1], axis=-1).real
                     y = y * (1 + mem[0] * s)
             spec = np.fft.fft(y, axis=-1) / grid.n_samples
             out.append(np.stack([spec[:, kr], spec[:, kb]], axis=1))
@@ -490,9 +510,9 @@ def _lru_get(cache: dict, key):
     return out
 
 
-def _lru_put(cache: dict, key, value):
+def _lru_put(cache: dict, key, value, entries: int = _CACHE_ENTRIES):
     """Store ``value`` under ``key``, dropping the least recently used entry when full."""
-    while len(cache) >= _CACHE_ENTRIES:
+    while len(cache) >= entries:
         cache.pop(next(iter(cache)))
     cache[key] = value
     return value
