@@ -71,6 +71,8 @@ STATIC_TABLE = 8192
 GATE_HARMONICS = tuple(range(-2, 6))
 #: entries kept by each of the envelope engine's caches (least recently used dropped)
 _CACHE_ENTRIES = 8
+#: harmonics of the drive power's components through a slow memory's kernel (x nu)
+_POWER_M = (0, 2, -2, 4, -4)
 #: filtered drives kept by the time-domain engine (megabytes each: a Jacobian's worth)
 _TD_CACHE_ENTRIES = 6
 
@@ -146,7 +148,7 @@ class ToneModel:
             self._rot_powers[k], self._rot_powers[-k] = rot ** k, np.conj(rot) ** k
         # frequencies of the drive power's components at 0, +-2 nu, +-4 nu (slow memory)
         f_slow = self._k_slow * self.xi0
-        self._f_power = {m: m * self.nu + f_slow for m in (0, 2, -2, 4, -4)}
+        self._f_power = np.stack([m * self.nu + f_slow for m in _POWER_M])
 
     # ------------------------------------------------------------- copies
     def with_phase_sign(self, sign: int) -> "ToneModel":
@@ -306,7 +308,7 @@ class ToneModel:
         (a slow memory's fit moves its kernel's time scales at fixed harmonic tables):
         ``blue``, ``red`` (memoryless bands) and, with ``memory``, ``gm`` (the field's
         bands at +-1, 3, 5 nu) and ``pc_fft`` (the spectra of the drive power's
-        components at 0, +-2, +-4 nu)."""
+        components at 0, +-2, +-4 nu, rows in the order of ``_POWER_M``)."""
         A = np.ascontiguousarray(A, dtype=float)
         key = (A.tobytes(), self._static_key(coef, table, act, memory))
         out = _lru_get(self.__dict__.setdefault("_slow_cache", {}), key)
@@ -325,7 +327,7 @@ class ToneModel:
         _read_only(out)
         return _lru_put(self._slow_cache, key, out)
 
-    def _power_spectra(self, A, table, wts) -> dict:
+    def _power_spectra(self, A, table, wts) -> np.ndarray:
         """Spectra (along the slow time) of the drive power's components at 0, +-2 nu,
         +-4 nu for amplitudes ``A``, cached: they depend on the table only."""
         key = (A.tobytes(), None if table is None else table.tobytes())
@@ -336,7 +338,7 @@ class ToneModel:
         s0, s2, s4 = cubic_apply(self._power_harmonics(table), wts)
         pc = {0: s0.astype(complex), 2: s2 * rp[2] / 2, -2: s2 * rp[-2] / 2,
               4: s4 * rp[4] / 2, -4: s4 * rp[-4] / 2}
-        out = {m: np.fft.fft(comp, axis=-1) for m, comp in pc.items()}
+        out = np.stack([np.fft.fft(pc[m], axis=-1) for m in _POWER_M])
         _read_only(out)
         return _lru_put(self._power_cache, key, out)
 
@@ -361,16 +363,14 @@ class ToneModel:
         gm, pc_fft = parts["gm"], parts["pc_fft"]
         out_b, out_r = blue.copy(), red.copy()
         # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
-        # its own frequencies (every memory present adds its own term)
+        # its own frequencies (every memory present adds its own term), all at once
         for e, v in act.items:
             mem = e.power_memory(self, v, np.zeros(1))
             if mem is None:
                 continue
             gain = mem[0]
-            s = {}
-            for m, comp in pc_fft.items():
-                H = e.power_memory(self, v, self._f_power[m])[1]
-                s[m] = np.fft.ifft(comp * H, axis=-1)
+            H = e.power_memory(self, v, self._f_power)[1]            # (5, M_SLOW)
+            s = dict(zip(_POWER_M, np.fft.ifft(pc_fft * H[:, None, :], axis=-1)))
             out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
                                     + gm[-3] * s[4] + gm[5] * s[-4])
             out_r = out_r + gain * (gm[-1] * s[0] + gm[1] * s[-2] + gm[-3] * s[2]
