@@ -150,6 +150,10 @@ class ToneModel:
         f_slow = self._k_slow * self.xi0
         self._f_power = np.stack([m * self.nu + f_slow for m in _POWER_M])
 
+    def __getstate__(self):
+        # the engines' caches (megabytes) are not part of the model: not pickled
+        return {k: v for k, v in self.__dict__.items() if not k.endswith("_cache")}
+
     # ------------------------------------------------------------- copies
     def with_phase_sign(self, sign: int) -> "ToneModel":
         """A copy in which the recorded phase response enters as ``exp(sign i phi)``.
