@@ -48,6 +48,7 @@ from dpdfit.analyses.diagnosis.knob_response import (KNOB_MULTIPLES, POWER_STEP_
                                                      response_tables)
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
+from dpdfit.models.gate_sim.spam import spectator_outcomes
 
 __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES", "ENGINE_PRECISION",
            "POWER_STEP_DB"]
@@ -286,12 +287,14 @@ class GateModel:
         return out
 
     def _observe(self, base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
-                 coherence=None, terms=None, det=None):
+                 coherence=None, terms=None, det=None, mixers=None):
         """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
         ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
         ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics.
         ``terms``: the knobs' changes (:meth:`_knob_terms`) when already computed;
-        ``det``: the detection confusion matrix, transposed, when already made."""
+        ``det``: the detection confusion matrix, transposed, when already made;
+        ``mixers``: the preparation branches' mixers (:class:`_Mixer`, ``{"p": ...,
+        "par": ...}``), made here when missing (a dict passed in keeps them)."""
         eps = np.asarray(eps, dtype=float)
         vm = np.asarray(v_mean, dtype=float)
         if terms is None:
@@ -308,18 +311,21 @@ class GateModel:
 
         if det is None:
             det = _confusion_t(prep)
-        pop = gate_sim.mix_branches(two_ion("p2"), base["p1"], prep.spectator, prep.flip,
-                                    base["p2_01"], None, base["p1_1"])
-        pop = pop @ det
+        mixers = {} if mixers is None else mixers
+        if "p" not in mixers:
+            mixers["p"] = _Mixer(prep, base["p1"], base["p2_01"], base["p1_1"])
+        pop = mixers["p"](two_ion("p2")) @ det
         if not gate:
             return pop, None
         par2 = two_ion("par2")
-        par2_01 = base["par2_01"]
         if coherence is not None:
-            par2, par2_01 = (decohere(x, *coherence) for x in (par2, par2_01))
-        par = gate_sim.mix_branches(par2, base["par1"], prep.spectator, prep.flip,
-                                    par2_01, None, base["par1_1"])
-        return pop, par @ det
+            par2 = decohere(par2, *coherence)
+        if "par" not in mixers:
+            par2_01 = base["par2_01"]
+            if coherence is not None:
+                par2_01 = decohere(par2_01, *coherence)
+            mixers["par"] = _Mixer(prep, base["par1"], par2_01, base["par1_1"])
+        return pop, mixers["par"](par2) @ det
 
     def _coherence(self, active, t):
         """Product of the active effects' coherence factors ``(k1, k2)`` at times ``t``
@@ -366,9 +372,10 @@ class GateModel:
         vals = {}
         det = _confusion_t(prep)
         terms = self._knob_terms(base, d, coefs, ("p2", "par2"))
+        mixers = {}
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
             pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
-                                     terms, det)
+                                     terms, det, mixers)
             F, imb = collapse(pop)
             vals[s] = {"F_pop": F, "imb": imb, "C": contrast(par)}
         res = {}
@@ -419,6 +426,36 @@ class GateModel:
         g = self.gates
         n = dict(zip(self.keys, g["n_rates"] if "n_rates" in g else np.ones(len(g))))
         return np.array([float(n.get(tuple(k), 1.0)) for k in keys])
+
+
+class _Mixer:
+    """:func:`~dpdfit.models.gate_sim.mix_branches` of two-ion outcomes ``p2`` with fixed
+    other branches (the one-ion and flipped ones, which no power error or knob moves):
+    their terms are made once, then added to each ``p2`` in the order ``mix_branches``
+    adds them (the same values)."""
+
+    def __init__(self, prep: Prep, p1, p2_01, p1_1):
+        q, f = prep.spectator, prep.flip
+        self.q, self.f, self.g = q, f, 1.0 - q - f
+        self.spec = q * self.g * spectator_outcomes(p1) if q > 0 else None
+        if f > 0:
+            p01 = np.asarray(p2_01, dtype=float)
+            self.flip = f * self.g * (p01 + p01[..., [0, 2, 1, 3]])
+            self.spec_flip = q * f * spectator_outcomes(p1_1) if q > 0 else None
+
+    def __call__(self, p2):
+        q, f, g = self.q, self.f, self.g
+        p2 = np.asarray(p2, dtype=float)
+        out = g ** 2 * p2
+        if q > 0:
+            out = out + self.spec
+            out[..., 0] += q ** 2
+        if f > 0:
+            out = out + self.flip
+            out = out + f * f * p2[..., ::-1]
+            if q > 0:
+                out = out + self.spec_flip
+        return out
 
 
 def _confusion_t(prep: Prep) -> np.ndarray:
