@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.sparse import csr_matrix
 
-__all__ = ["uniform_interp", "cubic_interp", "cubic_weights", "cubic_apply", "CubicWeights"]
+__all__ = ["uniform_interp", "uniform_place", "uniform_at", "cubic_interp", "cubic_weights", "cubic_apply", "CubicWeights"]
 
 
 def uniform_interp(x, table, slopes=None):
@@ -17,11 +17,28 @@ def uniform_interp(x, table, slopes=None):
     tables only); on a uniform grid the index is arithmetic (5-10x faster).
     """
     n = table.size - 1
+    if slopes is not None:
+        return uniform_at(uniform_place(x, n), table, slopes)
     u = np.clip(x, 0.0, 1.0) * n
     i = np.minimum(u.astype(np.intp), n - 1)
     f = u - i
     t0 = table[i]
-    return t0 + f * (table[i + 1] - t0 if slopes is None else slopes[i])
+    return t0 + f * (table[i + 1] - t0)
+
+
+def uniform_place(x, n: int):
+    """The places of ``x`` in a uniform table of ``n + 1`` points on 0..1: ``(i, f)``, the
+    interval and the fraction in it (:func:`uniform_at`; fixed samples, any table)."""
+    u = np.clip(x, 0.0, 1.0) * n
+    i = np.minimum(u.astype(np.intp), n - 1)
+    return i, u - i
+
+
+def uniform_at(where, table, slopes):
+    """:func:`uniform_interp` at places ``where`` (:func:`uniform_place`) of ``table`` with
+    its ``slopes`` (``table[1:] - table[:-1]``)."""
+    i, f = where
+    return table[i] + f * slopes[i]
 
 
 class CubicWeights:

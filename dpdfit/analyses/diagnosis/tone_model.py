@@ -46,7 +46,8 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
 from dpdfit.analyses.diagnosis.effects.base import Effect
-from dpdfit.analyses.diagnosis.interpolation import cubic_apply, cubic_weights, uniform_interp
+from dpdfit.analyses.diagnosis.interpolation import (cubic_apply, cubic_weights, uniform_at,
+                                                     uniform_interp, uniform_place)
 from dpdfit.analyses.diagnosis.mode_profile import calibration_error_modes
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
 from dpdfit.core.defaults import ERROR_MODEL
@@ -212,18 +213,22 @@ class ToneModel:
                 return np.where(self.lut_target >= yt[-1], 1.0, inv)
         return self.lut_rf
 
-    def _static(self, mag, coef, act: ActiveEffects):
+    def _static(self, mag, coef, act: ActiveEffects, where=None):
         """Field (complex, phase of the drive not included) of drive magnitudes ``mag``.
 
         On many samples (the time-domain field) the transfer is tabulated on
         ``STATIC_TABLE + 1`` magnitudes and interpolated linearly: the curves are
         smooth on [0, 1] (interpolation error ~1e-9 of the field, far below the
-        weakest tone used), and a table lookup costs a fifth of evaluating them."""
+        weakest tone used), and a table lookup costs a fifth of evaluating them.
+        ``where``: the samples' places in that table (:func:`uniform_place`) when the
+        caller keeps them."""
         mag = np.asarray(mag)
         if mag.size > 8 * STATIC_TABLE:
             grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
             F = self._static(grid, coef, act)
-            return uniform_interp(mag, F, F[1:] - F[:-1])
+            if where is None:
+                return uniform_interp(mag, F, F[1:] - F[:-1])
+            return uniform_at(where, F, F[1:] - F[:-1])
         cy, cp = coef
         m = np.minimum(mag, 1.0)
         y = np.polynomial.polynomial.polyval(m, cy)
@@ -433,6 +438,8 @@ class ToneModel:
             x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
             mag = np.abs(x)
             out = {"mag": mag, "phase": x / np.maximum(mag, 1e-300)}
+            if mag.size > 8 * STATIC_TABLE:
+                out["where"] = uniform_place(mag, STATIC_TABLE)
             _read_only(out)
             out = _lru_put(cache, key, out, _TD_CACHE_ENTRIES)
         return out
@@ -449,7 +456,7 @@ class ToneModel:
                 H = H * h
             drive = self._filtered_drive(A, d, table, H)
             mag = drive["mag"]
-            y = self._static(mag, coef, act) * drive["phase"]
+            y = self._static(mag, coef, act, drive.get("where")) * drive["phase"]
             for e, v in act.items:
                 mem = e.power_memory(self, v, freq)
                 if mem is not None:
