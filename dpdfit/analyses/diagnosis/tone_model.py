@@ -250,13 +250,14 @@ class ToneModel:
     # ------------------------------------------------------------- envelope engine
     def _quadrature(self, table):
         """The quadrature of the harmonic tables for ``table`` (None: without DPD), on
-        both sides of the clip point: per piece the nodes' angles ``th``, weights ``w``,
-        drive magnitudes ``x`` and ``cos(m th)`` (m = 1..5).  It depends on the table
-        only, so it is cached (a fit moves the transfer far more often than the table)."""
+        both sides of the clip point (the first axis: the piece above it, then below):
+        the nodes' angles ``th``, weights ``w``, drive magnitudes ``x`` and ``cos(m th)``
+        (m = 1..5).  It depends on the table only, so it is cached (a fit moves the
+        transfer far more often than the table)."""
         key = None if table is None else table.tobytes()
-        pieces = _lru_get(self.__dict__.setdefault("_quad_cache", {}), key)
-        if pieces is not None:
-            return pieces
+        quad = _lru_get(self.__dict__.setdefault("_quad_cache", {}), key)
+        if quad is not None:
+            return quad
         Eg = self._Eg
         if table is None:
             u_c = 1.0
@@ -264,38 +265,40 @@ class ToneModel:
             sat = np.nonzero(table >= 1.0)[0]
             u_c = sat[0] / (table.size - 1) if sat.size else 1.0 + 1e-12
         thc = np.where(Eg > u_c, np.arccos(np.minimum(u_c / np.maximum(Eg, 1e-300), 1.0)), 0.0)
-        pieces = []
+        th, w = [], []
         for lo, hi in ((thc, np.full_like(Eg, np.pi / 2)), (np.zeros_like(Eg), thc)):
-            th = lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None]
-            w = self._gw[None, :] * (hi - lo)[:, None] / 2
-            u = Eg[:, None] * np.cos(th)
-            x = u if table is None else uniform_interp(u, table)
-            cos = {m: np.cos(m * th) for m in range(1, 6)}
-            pieces.append((th, w, x, cos))
-        return _lru_put(self._quad_cache, key, pieces)
+            th.append(lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None])
+            w.append(self._gw[None, :] * (hi - lo)[:, None] / 2)
+        th, w = np.stack(th), np.stack(w)
+        u = Eg[:, None] * np.cos(th)
+        x = u if table is None else uniform_interp(u, table)
+        quad = {"th": th, "w": w, "x": x, "cos": {m: np.cos(m * th) for m in range(1, 6)}}
+        _read_only(quad)
+        return _lru_put(self._quad_cache, key, quad)
 
     def _harmonics(self, coef, table, act: ActiveEffects, memory: bool) -> np.ndarray:
         """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field over ``u`` on [0, 1] (module
         doc)."""
-        Eg = self._Eg
+        q = self._quadrature(table)
+        w, cos = q["w"], q["cos"]
+        g = self._static(q["x"], coef, act)                # both pieces at once
         ms = (1, 3, 5) if memory else (1,)
-        G = np.zeros((len(ms), Eg.size), dtype=complex)
-        for th, w, x, cos in self._quadrature(table):
-            g = self._static(x, coef, act)
-            for j, m in enumerate(ms):
-                G[j] += (4 / np.pi) * np.sum(g * cos[m] * w, axis=-1)
+        G = np.empty((len(ms), self._Eg.size), dtype=complex)
+        for j, m in enumerate(ms):
+            part = (4 / np.pi) * np.sum(g * cos[m] * w, axis=-1)
+            G[j] = part[0] + part[1]
         return G
 
     def _power_harmonics(self, table) -> np.ndarray:
         """Tables of ``S_m(u)`` (m = 0, 2, 4) of the drive power over ``u`` on [0, 1]
         (module doc): they depend on the table only."""
-        Eg = self._Eg
-        S = np.zeros((3, Eg.size))
-        for th, w, x, cos in self._quadrature(table):
-            pw = np.minimum(x, 1.0) ** 2
-            S[0] += (2 / np.pi) * np.sum(pw * w, axis=-1)
-            S[1] += (4 / np.pi) * np.sum(pw * cos[2] * w, axis=-1)
-            S[2] += (4 / np.pi) * np.sum(pw * cos[4] * w, axis=-1)
+        q = self._quadrature(table)
+        w, cos = q["w"], q["cos"]
+        pw = np.minimum(q["x"], 1.0) ** 2
+        S = np.empty((3, self._Eg.size))
+        for j, (c, wm) in enumerate(((2 / np.pi, None), (4 / np.pi, cos[2]), (4 / np.pi, cos[4]))):
+            part = c * np.sum((pw * w) if wm is None else (pw * wm * w), axis=-1)
+            S[j] = part[0] + part[1]
         return S
 
     def _static_key(self, coef, table, act: ActiveEffects, memory: bool) -> tuple:
