@@ -32,7 +32,11 @@ amplitude of the predicted fringe on 16 phases (exact: the spectator branches
 add ``cos phi`` terms, orthogonal on that grid).
 
 The engine runs at ``ENGINE_PRECISION``: probabilities to ~1e-5, two orders
-below the shot noise of a campaign's pooled scans.
+below the shot noise of a campaign's pooled scans.  Its runs go through
+:func:`~dpdfit.analyses.diagnosis.engine_runs.run_settings`, which keeps every
+branch's outcome: a model rebased on a field already seen (:meth:`GateModel.rebased`,
+e.g. a tone-side fit carried to the gates again) integrates nothing.  The measured
+probabilities are mixed in :mod:`~dpdfit.analyses.diagnosis.gate_observe`.
 """
 
 from __future__ import annotations
@@ -43,12 +47,12 @@ import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
 from dpdfit.analyses.diagnosis.engine_runs import run_settings
-from dpdfit.analyses.diagnosis.fringes import PHASES, collapse, contrast, decohere
+from dpdfit.analyses.diagnosis.fringes import PHASES, collapse, contrast
+from dpdfit.analyses.diagnosis.gate_observe import confusion_t, knob_terms, observe
 from dpdfit.analyses.diagnosis.knob_response import (KNOB_MULTIPLES, POWER_STEP_DB,
                                                      response_tables)
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
-from dpdfit.models.gate_sim.spam import spectator_outcomes
 
 __all__ = ["GateModel", "GATE_NUISANCES", "DETECTION_PRIOR_SIGMA", "PHASES", "ENGINE_PRECISION",
            "POWER_STEP_DB"]
@@ -270,63 +274,6 @@ class GateModel:
             prep = e.preparation(self, v, prep)
         return prep
 
-    @staticmethod
-    def _knob_terms(base, d, coefs, qs) -> dict:
-        """The knobs' changes of the two-ion outcomes ``qs`` for knob weights ``coefs``
-        (``{knob: array over the rows' times}``), in the order they add: they do not
-        depend on the power error, so :meth:`predict` computes them once for its three
-        power errors."""
-        out = {q: [] for q in qs}
-        for kk, c in coefs.items():
-            c = np.asarray(c, dtype=float)
-            if not np.any(c):
-                continue
-            for q in qs:
-                out[q].append(d[kk][q](c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
-                                       if c.ndim else c))
-        return out
-
-    def _observe(self, base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
-                 coherence=None, terms=None, det=None, mixers=None):
-        """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
-        ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
-        ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics.
-        ``terms``: the knobs' changes (:meth:`_knob_terms`) when already computed;
-        ``det``: the detection confusion matrix, transposed, when already made;
-        ``mixers``: the preparation branches' mixers (:class:`_Mixer`, ``{"p": ...,
-        "par": ...}``), made here when missing (a dict passed in keeps them)."""
-        eps = np.asarray(eps, dtype=float)
-        vm = np.asarray(v_mean, dtype=float)
-        if terms is None:
-            terms = self._knob_terms(base, d, coefs, ("p2", "par2") if gate else ("p2",))
-
-        def two_ion(q):
-            shape = (-1,) + (1,) * (base[q].ndim - 1)
-            e = eps.reshape(shape) if eps.ndim else eps
-            v = base[q] + lin[q] * e + quad[q] * (e ** 2 + (vm.reshape(shape) if vm.ndim
-                                                            else vm))
-            for t in terms[q]:
-                v = v + t
-            return v
-
-        if det is None:
-            det = _confusion_t(prep)
-        mixers = {} if mixers is None else mixers
-        if "p" not in mixers:
-            mixers["p"] = _Mixer(prep, base["p1"], base["p2_01"], base["p1_1"])
-        pop = mixers["p"](two_ion("p2")) @ det
-        if not gate:
-            return pop, None
-        par2 = two_ion("par2")
-        if coherence is not None:
-            par2 = decohere(par2, *coherence)
-        if "par" not in mixers:
-            par2_01 = base["par2_01"]
-            if coherence is not None:
-                par2_01 = decohere(par2_01, *coherence)
-            mixers["par"] = _Mixer(prep, base["par1"], par2_01, base["par1_1"])
-        return pop, mixers["par"](par2) @ det
-
     def _coherence(self, active, t):
         """Product of the active effects' coherence factors ``(k1, k2)`` at times ``t``
         (None: no effect decoheres the final state)."""
@@ -370,12 +317,12 @@ class GateModel:
         base, d, lin, quad = tab["gate"]
         h = POWER_STEP_DB / 3
         vals = {}
-        det = _confusion_t(prep)
-        terms = self._knob_terms(base, d, coefs, ("p2", "par2"))
+        det = confusion_t(prep)
+        terms = knob_terms(base, d, coefs, ("p2", "par2"))
         mixers = {}
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
-            pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
-                                     terms, det, mixers)
+            pop, par = observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
+                               terms, det, mixers)
             F, imb = collapse(pop)
             vals[s] = {"F_pop": F, "imb": imb, "C": contrast(par)}
         res = {}
@@ -391,10 +338,9 @@ class GateModel:
         for k, (key, times, (b, dd, li, qu)) in enumerate(tab["ts"]):
             c_t, e_t = self._weights(active, times, np.full(1, key[0]))
             e = float(e_t[0]) + float(p.get(f"eps_ts{k}", 0.0))
-            pop, _ = self._observe(b, dd, li, qu, {kk: np.asarray(c)[None, :]
-                                                    if np.ndim(c) else c
-                                                    for kk, c in c_t.items()},
-                                   e, 0.0, prep, False, det=det)
+            pop, _ = observe(b, dd, li, qu, {kk: np.asarray(c)[None, :] if np.ndim(c) else c
+                                             for kk, c in c_t.items()},
+                             e, 0.0, prep, False, det=det)
             acc["P00_t"].append(pop[0, :, 0])
             acc["P11_t"].append(pop[0, :, 3])
         for q, v in acc.items():
@@ -426,41 +372,3 @@ class GateModel:
         g = self.gates
         n = dict(zip(self.keys, g["n_rates"] if "n_rates" in g else np.ones(len(g))))
         return np.array([float(n.get(tuple(k), 1.0)) for k in keys])
-
-
-class _Mixer:
-    """:func:`~dpdfit.models.gate_sim.mix_branches` of two-ion outcomes ``p2`` with fixed
-    other branches (the one-ion and flipped ones, which no power error or knob moves):
-    their terms are made once, then added to each ``p2`` in the order ``mix_branches``
-    adds them (the same values)."""
-
-    def __init__(self, prep: Prep, p1, p2_01, p1_1):
-        q, f = prep.spectator, prep.flip
-        self.q, self.f, self.g = q, f, 1.0 - q - f
-        self.spec = q * self.g * spectator_outcomes(p1) if q > 0 else None
-        if f > 0:
-            p01 = np.asarray(p2_01, dtype=float)
-            self.flip = f * self.g * (p01 + p01[..., [0, 2, 1, 3]])
-            self.spec_flip = q * f * spectator_outcomes(p1_1) if q > 0 else None
-
-    def __call__(self, p2):
-        q, f, g = self.q, self.f, self.g
-        p2 = np.asarray(p2, dtype=float)
-        out = g ** 2 * p2
-        if q > 0:
-            out = out + self.spec
-            out[..., 0] += q ** 2
-        if f > 0:
-            out = out + self.flip
-            out = out + f * f * p2[..., ::-1]
-            if q > 0:
-                out = out + self.spec_flip
-        return out
-
-
-def _confusion_t(prep: Prep) -> np.ndarray:
-    """The transposed four-outcome confusion matrix of the detection errors of ``prep``
-    (:func:`~dpdfit.models.gate_sim.confusion` applies ``p4 @`` it)."""
-    e01, e10 = float(prep.e01), float(prep.e10)
-    C = np.array([[1 - e01, e10], [e01, 1 - e10]])
-    return np.kron(C, C).T

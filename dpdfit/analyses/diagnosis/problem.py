@@ -38,9 +38,6 @@ __all__ = ["Problem", "NUISANCES", "PM_PRIOR_RAD"]
 #: estimate changes by < 1e-4 (Table S1, exact formula); only a larger PM is missing physics
 PM_PRIOR_RAD = 0.02
 
-#: tone features of this many recent parameter sets kept (:meth:`Problem._tone_features`)
-_RECENT_FEATURES = 8
-
 #: existing parameters of the model, refitted first: name -> (unit, meaning)
 NUISANCES = {"cal_amp*": ("sigma", "error modes of the amplitude calibration "
                                      "(forward model only; prior N(0, 1))"),
@@ -227,16 +224,7 @@ class Problem:
     def _tone_features(self, p: dict) -> dict:
         key = tuple(sorted((k, float(v)) for k, v in p.items() if self._is_tone_key(k)))
         if key != self._cache_key:
-            # the last few parameter sets are kept (with the tone model they were computed
-            # with): a fit evaluates some points again (the modes' linearisation at its
-            # start, the profiled modes and the result at its optimum)
-            recent = self.__dict__.setdefault("_recent_features", {})
-            hit = recent.pop(key, None)
-            val = hit[1] if hit is not None and hit[0] is self.tone else self.tone.features(p)
-            recent[key] = (self.tone, val)
-            while len(recent) > _RECENT_FEATURES:
-                recent.pop(next(iter(recent)))
-            self._cache_key, self._cache_val = key, val
+            self._cache_key, self._cache_val = key, self.tone.features(p)
         return self._cache_val
 
     def gate_whitened(self, p: dict, logdet: bool = False):

@@ -35,6 +35,13 @@ Two engines compute the tones, chosen by the effects present:
   the field on the exact no-alias grid of :mod:`dpdfit.models.waveforms`,
   ``OVERSAMPLE`` x beyond the single-nonlinearity rate, the static transfer
   tabulated (``STATIC_TABLE``).
+
+The envelope engine is :mod:`~dpdfit.analyses.diagnosis.tone_envelope`.  Both keep what
+a fit evaluates again (:mod:`~dpdfit.analyses.diagnosis.caches`): the envelope engine
+each of its tables under what it depends on, the time-domain engine the drive through
+the fast memory's filter (a fit moves the calibration modes and nuisances far more often
+than the filter), the model the features of its last few parameter sets.  A cached
+value is the one the computation would give again.
 """
 
 from __future__ import annotations
@@ -43,17 +50,17 @@ import copy
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.caches import lru_get, lru_put, read_only
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
-from dpdfit.analyses.diagnosis.effects.base import Effect
-from dpdfit.analyses.diagnosis.interpolation import (cubic_apply, cubic_weights, uniform_at,
-                                                     uniform_interp, uniform_place)
+from dpdfit.analyses.diagnosis.interpolation import uniform_at, uniform_interp, uniform_place
 from dpdfit.analyses.diagnosis.mode_profile import calibration_error_modes
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
+from dpdfit.analyses.diagnosis.tone_envelope import K_TABLE, M_SLOW, N_QUAD, EnvelopeEngine
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 from dpdfit.models.transfer import TransferFunction, predistortion_table
-from dpdfit.models.waveforms import cardioid, drive_peak, sample_grid, synthesize
+from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
 
 __all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMONICS", "STATIC_TABLE"]
 
@@ -61,24 +68,15 @@ __all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMO
 #: without and with DPD: against a 16x grid the DPD-off tones agree exactly already at
 #: 1x, the DPD-on tones (the table clips at high A) to 0.07 dB at 2x and at 4x alike
 OVERSAMPLE = (1, 2)
-#: samples of the slow envelope per gate period (envelope engine)
-M_SLOW = 128
-#: amplitudes of the harmonic tables G_m(u) on [0, 1], and quadrature nodes per piece
-K_TABLE = 256
-N_QUAD = 16
 #: magnitudes of the tabulated static transfer of the time-domain engine
 STATIC_TABLE = 8192
 #: harmonics of the gate tones handed to the gate engine
 GATE_HARMONICS = tuple(range(-2, 6))
-#: entries kept by each of the envelope engine's caches (least recently used dropped)
-_CACHE_ENTRIES = 8
-#: harmonics of the drive power's components through a slow memory's kernel (x nu)
-_POWER_M = (0, 2, -2, 4, -4)
 #: filtered drives kept by the time-domain engine (megabytes each: a Jacobian's worth)
 _TD_CACHE_ENTRIES = 6
 
 
-class ToneModel:
+class ToneModel(EnvelopeEngine):
     """Predicted tone powers of every trace of the spectra grid (both flags).
 
     Parameters of :meth:`P_dB` and friends are dicts: the nuisances by name,
@@ -125,31 +123,6 @@ class ToneModel:
         self._setup_envelope()
         self._td = None
         self._off_key = None
-
-    # ------------------------------------------------------------- set-up
-    def _setup_envelope(self):
-        tones = cardioid()
-        grid = sample_grid(self.nu, self.xi0, tones, extra_harmonics=(-2, 0, 3, 5))
-        self._grid0 = grid
-        # peak of the continuous drive (what synthesize normalises to A)
-        peak = drive_peak(tones, grid)
-        t = np.arange(M_SLOW) / (M_SLOW * self.xi0)
-        eps = np.zeros(M_SLOW, dtype=complex)
-        for n, r, ph in zip(tones.n, tones.r_blue, tones.phi_blue):
-            eps += r * np.exp(1j * (2 * np.pi * n * self.xi0 * t + ph))
-        self._E_unit = 2 * np.abs(eps) / peak               # |drive| per unit A
-        self._rot = np.exp(1j * np.angle(eps))              # e^{i arg eps}
-        # quadrature on [0, pi/2], split at the clip point (per table amplitude)
-        self._Eg = np.linspace(0.0, 1.0, K_TABLE + 1)
-        self._gx, self._gw = np.polynomial.legendre.leggauss(N_QUAD)
-        self._k_slow = np.fft.fftfreq(M_SLOW, 1.0 / M_SLOW)   # slow harmonic index
-        rot = self._rot
-        self._rot_powers = {1: rot, -1: np.conj(rot)}
-        for k in range(2, 6):
-            self._rot_powers[k], self._rot_powers[-k] = rot ** k, np.conj(rot) ** k
-        # frequencies of the drive power's components at 0, +-2 nu, +-4 nu (slow memory)
-        f_slow = self._k_slow * self.xi0
-        self._f_power = np.stack([m * self.nu + f_slow for m in _POWER_M])
 
     def __getstate__(self):
         # the engines' caches (megabytes) are not part of the model: not pickled
@@ -247,159 +220,6 @@ class ToneModel:
                 y = y / (1 + mem[0] * m ** 2)
         return y
 
-    # ------------------------------------------------------------- envelope engine
-    def _quadrature(self, table):
-        """The quadrature of the harmonic tables for ``table`` (None: without DPD), on
-        both sides of the clip point (the first axis: the piece above it, then below):
-        the nodes' angles ``th``, weights ``w``, drive magnitudes ``x`` and ``cos(m th)``
-        (m = 1..5).  It depends on the table only, so it is cached (a fit moves the
-        transfer far more often than the table)."""
-        key = None if table is None else table.tobytes()
-        quad = _lru_get(self.__dict__.setdefault("_quad_cache", {}), key)
-        if quad is not None:
-            return quad
-        Eg = self._Eg
-        if table is None:
-            u_c = 1.0
-        else:
-            sat = np.nonzero(table >= 1.0)[0]
-            u_c = sat[0] / (table.size - 1) if sat.size else 1.0 + 1e-12
-        thc = np.where(Eg > u_c, np.arccos(np.minimum(u_c / np.maximum(Eg, 1e-300), 1.0)), 0.0)
-        th, w = [], []
-        for lo, hi in ((thc, np.full_like(Eg, np.pi / 2)), (np.zeros_like(Eg), thc)):
-            th.append(lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None])
-            w.append(self._gw[None, :] * (hi - lo)[:, None] / 2)
-        th, w = np.stack(th), np.stack(w)
-        u = Eg[:, None] * np.cos(th)
-        x = u if table is None else uniform_interp(u, table)
-        quad = {"th": th, "w": w, "x": x, "cos": {m: np.cos(m * th) for m in range(1, 6)}}
-        _read_only(quad)
-        return _lru_put(self._quad_cache, key, quad)
-
-    def _harmonics(self, coef, table, act: ActiveEffects, memory: bool) -> np.ndarray:
-        """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field over ``u`` on [0, 1] (module
-        doc)."""
-        q = self._quadrature(table)
-        w, cos = q["w"], q["cos"]
-        g = self._static(q["x"], coef, act)                # both pieces at once
-        ms = (1, 3, 5) if memory else (1,)
-        G = np.empty((len(ms), self._Eg.size), dtype=complex)
-        for j, m in enumerate(ms):
-            part = (4 / np.pi) * np.sum(g * cos[m] * w, axis=-1)
-            G[j] = part[0] + part[1]
-        return G
-
-    def _power_harmonics(self, table) -> np.ndarray:
-        """Tables of ``S_m(u)`` (m = 0, 2, 4) of the drive power over ``u`` on [0, 1]
-        (module doc): they depend on the table only."""
-        q = self._quadrature(table)
-        w, cos = q["w"], q["cos"]
-        pw = np.minimum(q["x"], 1.0) ** 2
-        S = np.empty((3, self._Eg.size))
-        for j, (c, wm) in enumerate(((2 / np.pi, None), (4 / np.pi, cos[2]), (4 / np.pi, cos[4]))):
-            part = c * np.sum((pw * w) if wm is None else (pw * wm * w), axis=-1)
-            S[j] = part[0] + part[1]
-        return S
-
-    def _static_key(self, coef, table, act: ActiveEffects, memory: bool) -> tuple:
-        """What the harmonic tables depend on: the transfer's coefficients, the table,
-        the hooks that act on the static field (an effect's ``transfer``, a memory's
-        gain: its kernel does not enter them) and whether a memory is present."""
-        parts = [self.phase_sign, memory, coef[0].dtype.str, coef[0].tobytes(),
-                 coef[1].dtype.str, coef[1].tobytes(), None if table is None else table.tobytes()]
-        for e, v in act.items:
-            if type(e).transfer is not Effect.transfer:
-                parts.append((e.name, tuple(sorted(v.items()))))
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is not None:
-                parts.append((e.name, complex(mem[0])))
-        return tuple(parts)
-
-    def _slow_parts(self, A, coef, table, act: ActiveEffects, memory: bool) -> dict:
-        """The slow signals of the bands that do not depend on a memory's kernel, cached
-        (a slow memory's fit moves its kernel's time scales at fixed harmonic tables):
-        ``blue``, ``red`` (memoryless bands) and, with ``memory``, ``gm`` (the field's
-        bands at +-1, 3, 5 nu) and ``pc_fft`` (the spectra of the drive power's
-        components at 0, +-2, +-4 nu, rows in the order of ``_POWER_M``)."""
-        A = np.ascontiguousarray(A, dtype=float)
-        key = (A.tobytes(), self._static_key(coef, table, act, memory))
-        out = _lru_get(self.__dict__.setdefault("_slow_cache", {}), key)
-        if out is not None:
-            return out
-        wts = self._cubic_weights(A)
-        rp = self._rot_powers
-        g = cubic_apply(self._harmonics(coef, table, act, memory), wts) / 2
-        blue, red = g[0] * rp[1], g[0] * rp[-1]
-        out = {"blue": blue, "red": red}
-        if memory:
-            g3, g5 = g[1], g[2]
-            out["gm"] = {1: blue, -1: red, 3: g3 * rp[3], -3: g3 * rp[-3],
-                         5: g5 * rp[5], -5: g5 * rp[-5]}
-            out["pc_fft"] = self._power_spectra(A, table, wts)
-        _read_only(out)
-        return _lru_put(self._slow_cache, key, out)
-
-    def _power_spectra(self, A, table, wts) -> np.ndarray:
-        """Spectra (along the slow time) of the drive power's components at 0, +-2 nu,
-        +-4 nu for amplitudes ``A``, cached: they depend on the table only."""
-        key = (A.tobytes(), None if table is None else table.tobytes())
-        out = _lru_get(self.__dict__.setdefault("_power_cache", {}), key)
-        if out is not None:
-            return out
-        rp = self._rot_powers
-        s0, s2, s4 = cubic_apply(self._power_harmonics(table), wts)
-        pc = {0: s0.astype(complex), 2: s2 * rp[2] / 2, -2: s2 * rp[-2] / 2,
-              4: s4 * rp[4] / 2, -4: s4 * rp[-4] / 2}
-        out = np.stack([np.fft.fft(pc[m], axis=-1) for m in _POWER_M])
-        _read_only(out)
-        return _lru_put(self._power_cache, key, out)
-
-    def _cubic_weights(self, A: np.ndarray):
-        """Cubic interpolation weights of the harmonic tables at the slow envelope's
-        magnitudes ``A |eps(t)|`` (fixed by the amplitudes, so cached per ``A``)."""
-        key = A.tobytes()
-        out = _lru_get(self.__dict__.setdefault("_weights_cache", {}), key)
-        if out is None:
-            out = _lru_put(self._weights_cache, key,
-                           cubic_weights(A[:, None] * self._E_unit[None, :], K_TABLE))
-        return out
-
-    def _bands(self, A, coef, table, act: ActiveEffects) -> tuple[np.ndarray, np.ndarray]:
-        """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
-        drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
-        mems = act.memories(np.zeros(1))
-        parts = self._slow_parts(A, coef, table, act, bool(mems))
-        blue, red = parts["blue"], parts["red"]
-        if not mems:
-            return blue, red
-        gm, pc_fft = parts["gm"], parts["pc_fft"]
-        out_b, out_r = blue.copy(), red.copy()
-        # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
-        # its own frequencies (every memory present adds its own term), all at once
-        for e, v in act.items:
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is None:
-                continue
-            gain = mem[0]
-            H = e.power_memory(self, v, self._f_power)[1]            # (5, M_SLOW)
-            s = dict(zip(_POWER_M, np.fft.ifft(pc_fft * H[:, None, :], axis=-1)))
-            out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
-                                    + gm[-3] * s[4] + gm[5] * s[-4])
-            out_r = out_r + gain * (gm[-1] * s[0] + gm[1] * s[-2] + gm[-3] * s[2]
-                                    + gm[3] * s[-4] + gm[-5] * s[4])
-        return out_b, out_r
-
-    def _tones_envelope(self, A, p, act, dpd_flags, harmonics):
-        coef = self._coefficients(p, act)
-        n = np.asarray(harmonics)
-        out = []
-        for d in dpd_flags:
-            blue, red = self._bands(A, coef, self._table(act) if d else None, act)
-            cb = np.fft.fft(blue, axis=-1) / M_SLOW
-            cr = np.fft.fft(red, axis=-1) / M_SLOW
-            out.append(np.stack([cr[:, (-n) % M_SLOW], cb[:, n % M_SLOW]], axis=1))
-        return np.stack(out, axis=1)                         # (nA, n flags, 2 sb, H)
-
     # ------------------------------------------------------------- time-domain engine
     def _time_domain(self, dpd: int):
         """The time-domain grid of a path (without or with DPD) and its frequencies."""
@@ -436,15 +256,15 @@ class ToneModel:
         A = np.ascontiguousarray(A, dtype=float)
         key = (A.tobytes(), int(bool(d)), table.tobytes() if d else None, H.tobytes())
         cache = self.__dict__.setdefault("_drive_td_cache", {})
-        out = _lru_get(cache, key)
+        out = lru_get(cache, key)
         if out is None:
             x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
             mag = np.abs(x)
             out = {"mag": mag, "phase": x / np.maximum(mag, 1e-300)}
             if mag.size > 8 * STATIC_TABLE:
                 out["where"] = uniform_place(mag, STATIC_TABLE)
-            _read_only(out)
-            out = _lru_put(cache, key, out, _TD_CACHE_ENTRIES)
+            read_only(out)
+            out = lru_put(cache, key, out, _TD_CACHE_ENTRIES)
         return out
 
     def _tones_time_domain(self, A, p, act, dpd_flags, harmonics):
@@ -501,8 +321,18 @@ class ToneModel:
 
     def features(self, p: dict) -> dict:
         """The model's per-trace tone features at the parameter set ``p``, ``{name:
-        array}`` (:func:`~dpdfit.analyses.diagnosis.observables.tone_features`, values only)."""
-        return {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
+        array}`` (:func:`~dpdfit.analyses.diagnosis.observables.tone_features`, values only).
+
+        The last few parameter sets' features are kept (read-only arrays): a fit evaluates
+        some points again (its start for the modes' linearisation and again for the
+        solver, the profiled modes and the result at its optimum)."""
+        key = tuple(sorted((k, float(v)) for k, v in p.items()))
+        out = lru_get(self.__dict__.setdefault("_features_cache", {}), key)
+        if out is None:
+            out = {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
+            read_only(out)
+            lru_put(self._features_cache, key, out)
+        return out
 
     def gate_tones(self, p: dict, A: float, dpd: int, harmonics=GATE_HARMONICS):
         """Engine-convention tone amplitudes (n, b, c) of the gate waveform at ``A``."""
@@ -514,28 +344,3 @@ class ToneModel:
 
 def _dB(a: np.ndarray) -> np.ndarray:
     return 10 * np.log10(np.maximum(np.abs(a) ** 2, 1e-300))
-
-
-def _lru_get(cache: dict, key):
-    """The entry of ``key`` in a least-recently-used ``cache`` (None when absent)."""
-    out = cache.pop(key, None)
-    if out is not None:
-        cache[key] = out                                  # most recently used last
-    return out
-
-
-def _lru_put(cache: dict, key, value, entries: int = _CACHE_ENTRIES):
-    """Store ``value`` under ``key``, dropping the least recently used entry when full."""
-    while len(cache) >= entries:
-        cache.pop(next(iter(cache)))
-    cache[key] = value
-    return value
-
-
-def _read_only(tree) -> None:
-    """Mark the arrays of a cached entry read-only (every caller shares them)."""
-    for v in (tree.values() if isinstance(tree, dict) else (tree,)):
-        if isinstance(v, dict):
-            _read_only(v)
-        elif isinstance(v, np.ndarray):
-            v.flags.writeable = False
