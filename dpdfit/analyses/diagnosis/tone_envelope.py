@@ -216,8 +216,7 @@ class EnvelopeEngine:
         n = np.asarray(harmonics)
         out = []
         for d in dpd_flags:
-            blue, red = self._bands(A, coef, self._table(act) if d else None, act)
-            cb = np.fft.fft(blue, axis=-1) / M_SLOW
-            cr = np.fft.fft(red, axis=-1) / M_SLOW
+            bands = np.stack(self._bands(A, coef, self._table(act) if d else None, act))
+            cb, cr = np.fft.fft(bands, axis=-1) / M_SLOW          # both in one call
             out.append(np.stack([cr[:, (-n) % M_SLOW], cb[:, n % M_SLOW]], axis=1))
         return np.stack(out, axis=1)                         # (nA, n flags, 2 sb, H)

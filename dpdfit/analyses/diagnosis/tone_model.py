@@ -206,7 +206,7 @@ class ToneModel(EnvelopeEngine):
         m = np.minimum(mag, 1.0)
         y = np.polynomial.polynomial.polyval(m, cy)
         if np.any(cp):
-            y = y * np.exp(1j * np.polynomial.polynomial.polyval(m, cp))
+            y = y * _unit_phasor(np.polynomial.polynomial.polyval(m, cp))
         else:
             y = y.astype(complex)
         for e, v in act.items:
@@ -340,6 +340,15 @@ class ToneModel(EnvelopeEngine):
         n = np.asarray(harmonics)
         b, c = gate_sim.field_amplitudes(t[1], t[0])
         return n, b, c
+
+
+def _unit_phasor(phi: np.ndarray) -> np.ndarray:
+    """``exp(i phi)`` of real ``phi`` as ``cos phi + i sin phi`` (numpy's complex exponential
+    of a purely imaginary argument gives these values, more slowly)."""
+    out = np.empty(np.shape(phi), dtype=complex)
+    np.cos(phi, out=out.real)
+    np.sin(phi, out=out.imag)
+    return out
 
 
 def _dB(a: np.ndarray) -> np.ndarray:
