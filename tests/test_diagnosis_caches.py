@@ -152,3 +152,20 @@ def test_engine_runs_are_kept_branch_by_branch(monkeypatch):
     with pytest.raises(ValueError):
         full["p2"][0, 0] = 1.0                                   # shared: read-only
     engine_runs.clear_run_cache()
+
+
+def test_gate_predictions_with_kept_parts_match_a_prediction_from_nothing(campaign):
+    from dpdfit.analyses.diagnosis.gate_model import GateModel
+    effects = ("dephasing", "motional_heating", "spam_offset", "gate_rate_miscalibration")
+    gm = GateModel(campaign, ToneModel(campaign), 0.05, effects=effects)
+    nuis = {"prep_split": 0.3, "e01": 6e-5, "e10": 4e-5, "eps_ts0": 0.02}
+    walk = [{}, nuis, {**nuis, "e01": 8e-5}, {**nuis, "prep_split": 0.6},
+            {**nuis, "dephasing.rate": 5.0}, {**nuis, "dephasing.rate": 5.0, "e10": 1e-5},
+            {**nuis, "motional_heating.ndot": 0.3, "spam_offset.p_extra": 1e-3},
+            {**nuis, "gate_rate_miscalibration.eps": 0.05}, nuis, {}]
+    for p in walk:
+        got = gm.predict(p)
+        gm._stk = gm._tab = None                      # forget every part kept
+        want = gm.predict(p)
+        assert set(got) == set(want)
+        assert all(np.array_equal(got[k], want[k]) for k in want), p
