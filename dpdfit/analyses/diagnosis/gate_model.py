@@ -32,7 +32,11 @@ amplitude of the predicted fringe on 16 phases (exact: the spectator branches
 add ``cos phi`` terms, orthogonal on that grid).
 
 The engine runs at ``ENGINE_PRECISION``: probabilities to ~1e-5, two orders
-below the shot noise of a campaign's pooled scans.
+below the shot noise of a campaign's pooled scans.  Its runs go through
+:func:`~dpdfit.analyses.diagnosis.engine_runs.run_settings`, which keeps every
+branch's outcome: a model rebased on a field already seen (:meth:`GateModel.rebased`,
+e.g. a tone-side fit carried to the gates again) integrates nothing.  The measured
+probabilities are mixed in :mod:`~dpdfit.analyses.diagnosis.gate_observe`.
 """
 
 from __future__ import annotations
@@ -41,9 +45,11 @@ import copy
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.caches import lru_get, lru_put
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
 from dpdfit.analyses.diagnosis.engine_runs import run_settings
-from dpdfit.analyses.diagnosis.fringes import PHASES, collapse, contrast, decohere
+from dpdfit.analyses.diagnosis.fringes import PHASES, collapse, contrast
+from dpdfit.analyses.diagnosis.gate_observe import confusion_t, knob_terms, observe
 from dpdfit.analyses.diagnosis.knob_response import (KNOB_MULTIPLES, POWER_STEP_DB,
                                                      response_tables)
 from dpdfit.core.defaults import ERROR_MODEL
@@ -269,40 +275,6 @@ class GateModel:
             prep = e.preparation(self, v, prep)
         return prep
 
-    def _observe(self, base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
-                 coherence=None):
-        """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
-        ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
-        ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics."""
-        eps = np.asarray(eps, dtype=float)
-        vm = np.asarray(v_mean, dtype=float)
-
-        def two_ion(q):
-            shape = (-1,) + (1,) * (base[q].ndim - 1)
-            e = eps.reshape(shape) if eps.ndim else eps
-            v = base[q] + lin[q] * e + quad[q] * (e ** 2 + (vm.reshape(shape) if vm.ndim
-                                                            else vm))
-            for kk, c in coefs.items():
-                c = np.asarray(c, dtype=float)
-                if np.any(c):
-                    v = v + d[kk][q](c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
-                                     if c.ndim else c)
-            return v
-
-        det = (prep.e01, prep.e10)
-        pop = gate_sim.mix_branches(two_ion("p2"), base["p1"], prep.spectator, prep.flip,
-                                    base["p2_01"], None, base["p1_1"])
-        pop = gate_sim.confusion(pop, det)
-        if not gate:
-            return pop, None
-        par2 = two_ion("par2")
-        par2_01 = base["par2_01"]
-        if coherence is not None:
-            par2, par2_01 = (decohere(x, *coherence) for x in (par2, par2_01))
-        par = gate_sim.mix_branches(par2, base["par1"], prep.spectator, prep.flip,
-                                    par2_01, None, base["par1_1"])
-        return pop, gate_sim.confusion(par, det)
-
     def _coherence(self, active, t):
         """Product of the active effects' coherence factors ``(k1, k2)`` at times ``t``
         (None: no effect decoheres the final state)."""
@@ -323,6 +295,28 @@ class GateModel:
             eps = eps + e.power_offset_db(self, v, A)
         return coefs, eps
 
+    def _effect_parts(self, active) -> dict:
+        """What the active gate-side effects' values alone fix in a prediction, kept per
+        values (a fit's Jacobian moves the nuisances far more often than them): the knob
+        weights, power offsets, coherence and knob changes of the gates (``"gate"``) and
+        of each time scan (``"ts"``), and the preparation mixers made for them per
+        preparation error (``"mixers"``; the detection errors act after them)."""
+        memo = self._stacks().setdefault("parts", {})
+        key = tuple((e.name, tuple(sorted(v.items()))) for e, v in active)
+        parts = lru_get(memo, key)
+        if parts is not None:
+            return parts
+        tab = self._tables()
+        coefs, eps = self._weights(active, self.T_gate, self.A_settings)
+        gate = (coefs, eps, self._coherence(active, self.T_gate),
+                knob_terms(tab["gate"][0], tab["gate"][1], coefs, ("p2", "par2")))
+        ts = []
+        for key_t, times, (b, dd, _, _) in tab["ts"]:
+            c_t, e_t = self._weights(active, times, np.full(1, key_t[0]))
+            c_t = {kk: np.asarray(c)[None, :] if np.ndim(c) else c for kk, c in c_t.items()}
+            ts.append((c_t, float(e_t[0]), knob_terms(b, dd, c_t, ("p2",))))
+        return lru_put(memo, key, {"gate": gate, "ts": ts, "mixers": {}})
+
     def predict(self, p: dict) -> dict:
         """Predicted gate observables and their model-side variances.
 
@@ -340,14 +334,20 @@ class GateModel:
         tab = self._tables()
         active = self._active(p)
         prep = self.preparation(p, active)
-        coefs, eps = self._weights(active, self.T_gate, self.A_settings)
-        coh = self._coherence(active, self.T_gate)
+        parts = self._effect_parts(active)
+        coefs, eps, coh, terms = parts["gate"]
         v_mean, v_quad = tab["var"]
         base, d, lin, quad = tab["gate"]
         h = POWER_STEP_DB / 3
         vals = {}
+        det = confusion_t(prep)
+        mix_key = (prep.spectator, prep.flip)                # what the mixers depend on
+        mixers = lru_get(parts["mixers"], mix_key)
+        if mixers is None:
+            mixers = lru_put(parts["mixers"], mix_key, {"gate": {}, "ts": [{} for _ in tab["ts"]]})
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
-            pop, par = self._observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh)
+            pop, par = observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
+                               terms, det, mixers["gate"])
             F, imb = collapse(pop)
             vals[s] = {"F_pop": F, "imb": imb, "C": contrast(par)}
         res = {}
@@ -361,12 +361,10 @@ class GateModel:
         res["v_lin"], res["v_quad"] = v_mean, v_quad
         acc = {"P00_t": [], "P11_t": []}
         for k, (key, times, (b, dd, li, qu)) in enumerate(tab["ts"]):
-            c_t, e_t = self._weights(active, times, np.full(1, key[0]))
-            e = float(e_t[0]) + float(p.get(f"eps_ts{k}", 0.0))
-            pop, _ = self._observe(b, dd, li, qu, {kk: np.asarray(c)[None, :]
-                                                    if np.ndim(c) else c
-                                                    for kk, c in c_t.items()},
-                                   e, 0.0, prep, False)
+            c_t, e_t, terms_t = parts["ts"][k]
+            e = e_t + float(p.get(f"eps_ts{k}", 0.0))
+            pop, _ = observe(b, dd, li, qu, c_t, e, 0.0, prep, False, terms=terms_t, det=det,
+                             mixers=mixers["ts"][k])
             acc["P00_t"].append(pop[0, :, 0])
             acc["P11_t"].append(pop[0, :, 3])
         for q, v in acc.items():

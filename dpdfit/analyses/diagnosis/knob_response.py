@@ -42,9 +42,12 @@ class KnobResponse:
         b = (d3 - 3 * d1) / 6
         self.qa = np.where(self.exp, 0.0, d1 - np.where(lin, 0.0, b))
         self.qb = np.where(self.exp | lin, 0.0, b)
+        self.any_exp = bool(self.exp.any())
 
     def __call__(self, c):
         x = np.asarray(c, dtype=float) / self.s
+        if not self.any_exp:                 # no exponential element: the quadratic alone
+            return self.qa * x + self.qb * x * x
         return (np.where(self.exp, self.amp * (1 - np.exp(np.clip(self.lnq * x, -50, 50))), 0.0)
                 + self.qa * x + self.qb * x * x)
 

@@ -35,6 +35,13 @@ Two engines compute the tones, chosen by the effects present:
   the field on the exact no-alias grid of :mod:`dpdfit.models.waveforms`,
   ``OVERSAMPLE`` x beyond the single-nonlinearity rate, the static transfer
   tabulated (``STATIC_TABLE``).
+
+The envelope engine is :mod:`~dpdfit.analyses.diagnosis.tone_envelope`.  Both keep what
+a fit evaluates again (:mod:`~dpdfit.analyses.diagnosis.caches`): the envelope engine
+each of its tables under what it depends on, the time-domain engine the drive through
+the fast memory's filter (a fit moves the calibration modes and nuisances far more often
+than the filter), the model the features of its last few parameter sets.  A cached
+value is the one the computation would give again.
 """
 
 from __future__ import annotations
@@ -43,15 +50,17 @@ import copy
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.caches import lru_get, lru_put, read_only
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
-from dpdfit.analyses.diagnosis.interpolation import cubic_interp, uniform_interp
+from dpdfit.analyses.diagnosis.interpolation import uniform_at, uniform_interp, uniform_place
 from dpdfit.analyses.diagnosis.mode_profile import calibration_error_modes
 from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, Campaign, tone_features
+from dpdfit.analyses.diagnosis.tone_envelope import K_TABLE, M_SLOW, N_QUAD, EnvelopeEngine
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 from dpdfit.models.transfer import TransferFunction, predistortion_table
-from dpdfit.models.waveforms import cardioid, drive_peak, sample_grid, synthesize
+from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
 
 __all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMONICS", "STATIC_TABLE"]
 
@@ -59,18 +68,15 @@ __all__ = ["ToneModel", "OVERSAMPLE", "M_SLOW", "K_TABLE", "N_QUAD", "GATE_HARMO
 #: without and with DPD: against a 16x grid the DPD-off tones agree exactly already at
 #: 1x, the DPD-on tones (the table clips at high A) to 0.07 dB at 2x and at 4x alike
 OVERSAMPLE = (1, 2)
-#: samples of the slow envelope per gate period (envelope engine)
-M_SLOW = 128
-#: amplitudes of the harmonic tables G_m(u) on [0, 1], and quadrature nodes per piece
-K_TABLE = 256
-N_QUAD = 16
 #: magnitudes of the tabulated static transfer of the time-domain engine
 STATIC_TABLE = 8192
 #: harmonics of the gate tones handed to the gate engine
 GATE_HARMONICS = tuple(range(-2, 6))
+#: filtered drives kept by the time-domain engine (megabytes each: a Jacobian's worth)
+_TD_CACHE_ENTRIES = 6
 
 
-class ToneModel:
+class ToneModel(EnvelopeEngine):
     """Predicted tone powers of every trace of the spectra grid (both flags).
 
     Parameters of :meth:`P_dB` and friends are dicts: the nuisances by name,
@@ -118,23 +124,9 @@ class ToneModel:
         self._td = None
         self._off_key = None
 
-    # ------------------------------------------------------------- set-up
-    def _setup_envelope(self):
-        tones = cardioid()
-        grid = sample_grid(self.nu, self.xi0, tones, extra_harmonics=(-2, 0, 3, 5))
-        self._grid0 = grid
-        # peak of the continuous drive (what synthesize normalises to A)
-        peak = drive_peak(tones, grid)
-        t = np.arange(M_SLOW) / (M_SLOW * self.xi0)
-        eps = np.zeros(M_SLOW, dtype=complex)
-        for n, r, ph in zip(tones.n, tones.r_blue, tones.phi_blue):
-            eps += r * np.exp(1j * (2 * np.pi * n * self.xi0 * t + ph))
-        self._E_unit = 2 * np.abs(eps) / peak               # |drive| per unit A
-        self._rot = np.exp(1j * np.angle(eps))              # e^{i arg eps}
-        # quadrature on [0, pi/2], split at the clip point (per table amplitude)
-        self._Eg = np.linspace(0.0, 1.0, K_TABLE + 1)
-        self._gx, self._gw = np.polynomial.legendre.leggauss(N_QUAD)
-        self._k_slow = np.fft.fftfreq(M_SLOW, 1.0 / M_SLOW)   # slow harmonic index
+    def __getstate__(self):
+        # the engines' caches (megabytes) are not part of the model: not pickled
+        return {k: v for k, v in self.__dict__.items() if not k.endswith("_cache")}
 
     # ------------------------------------------------------------- copies
     def with_phase_sign(self, sign: int) -> "ToneModel":
@@ -194,23 +186,27 @@ class ToneModel:
                 return np.where(self.lut_target >= yt[-1], 1.0, inv)
         return self.lut_rf
 
-    def _static(self, mag, coef, act: ActiveEffects):
+    def _static(self, mag, coef, act: ActiveEffects, where=None):
         """Field (complex, phase of the drive not included) of drive magnitudes ``mag``.
 
         On many samples (the time-domain field) the transfer is tabulated on
         ``STATIC_TABLE + 1`` magnitudes and interpolated linearly: the curves are
         smooth on [0, 1] (interpolation error ~1e-9 of the field, far below the
-        weakest tone used), and a table lookup costs a fifth of evaluating them."""
+        weakest tone used), and a table lookup costs a fifth of evaluating them.
+        ``where``: the samples' places in that table (:func:`uniform_place`) when the
+        caller keeps them."""
         mag = np.asarray(mag)
         if mag.size > 8 * STATIC_TABLE:
             grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
             F = self._static(grid, coef, act)
-            return uniform_interp(mag, F)
+            if where is None:
+                return uniform_interp(mag, F, F[1:] - F[:-1])
+            return uniform_at(where, F, F[1:] - F[:-1])
         cy, cp = coef
         m = np.minimum(mag, 1.0)
         y = np.polynomial.polynomial.polyval(m, cy)
         if np.any(cp):
-            y = y * np.exp(1j * np.polynomial.polynomial.polyval(m, cp))
+            y = y * _unit_phasor(np.polynomial.polynomial.polyval(m, cp))
         else:
             y = y.astype(complex)
         for e, v in act.items:
@@ -223,82 +219,6 @@ class ToneModel:
                 # transfer, so only the dynamic part 1 + c s(t) acts beyond it
                 y = y / (1 + mem[0] * m ** 2)
         return y
-
-    # ------------------------------------------------------------- envelope engine
-    def _harmonics(self, coef, table, act: ActiveEffects, memory: bool):
-        """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field and ``S_m(u)`` (m = 0, 2, 4)
-        of the drive power, over ``u`` on [0, 1] (module doc)."""
-        Eg = self._Eg
-        if table is None:
-            u_c = 1.0
-        else:
-            sat = np.nonzero(table >= 1.0)[0]
-            u_c = sat[0] / (table.size - 1) if sat.size else 1.0 + 1e-12
-        thc = np.where(Eg > u_c, np.arccos(np.minimum(u_c / np.maximum(Eg, 1e-300), 1.0)), 0.0)
-        ms = (1, 3, 5) if memory else (1,)
-        G = np.zeros((len(ms), Eg.size), dtype=complex)
-        S = np.zeros((3, Eg.size)) if memory else None
-        for lo, hi in ((thc, np.full_like(Eg, np.pi / 2)), (np.zeros_like(Eg), thc)):
-            th = lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None]
-            w = self._gw[None, :] * (hi - lo)[:, None] / 2
-            u = Eg[:, None] * np.cos(th)
-            x = u if table is None else uniform_interp(u, table)
-            g = self._static(x, coef, act)
-            for j, m in enumerate(ms):
-                G[j] += (4 / np.pi) * np.sum(g * np.cos(m * th) * w, axis=-1)
-            if memory:
-                pw = np.minimum(x, 1.0) ** 2
-                S[0] += (2 / np.pi) * np.sum(pw * w, axis=-1)
-                S[1] += (4 / np.pi) * np.sum(pw * np.cos(2 * th) * w, axis=-1)
-                S[2] += (4 / np.pi) * np.sum(pw * np.cos(4 * th) * w, axis=-1)
-        return G, S
-
-    def _bands(self, A, coef, table, act: ActiveEffects) -> tuple[np.ndarray, np.ndarray]:
-        """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
-        drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
-        mems = act.memories(np.zeros(1))
-        G, S = self._harmonics(coef, table, act, bool(mems))
-        E = np.asarray(A, dtype=float)[:, None] * self._E_unit[None, :]
-        rot = self._rot
-        g1 = cubic_interp(G[0], E) / 2
-        blue, red = g1 * rot, g1 * np.conj(rot)
-        if not mems:
-            return blue, red
-        g3, g5 = cubic_interp(G[1], E) / 2, cubic_interp(G[2], E) / 2
-        s0, s2, s4 = (cubic_interp(S[j], E) for j in range(3))
-        gm = {1: blue, -1: red, 3: g3 * rot ** 3, -3: g3 * np.conj(rot) ** 3,
-              5: g5 * rot ** 5, -5: g5 * np.conj(rot) ** 5}
-        f_slow = self._k_slow * self.xi0
-        out_b, out_r = blue.copy(), red.copy()
-        # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
-        # its own frequencies (every memory present adds its own term)
-        pc = {0: s0.astype(complex), 2: s2 * rot ** 2 / 2, -2: s2 * np.conj(rot) ** 2 / 2,
-              4: s4 * rot ** 4 / 2, -4: s4 * np.conj(rot) ** 4 / 2}
-        for e, v in act.items:
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is None:
-                continue
-            gain = mem[0]
-            s = {}
-            for m, comp in pc.items():
-                H = e.power_memory(self, v, m * self.nu + f_slow)[1]
-                s[m] = np.fft.ifft(np.fft.fft(comp, axis=-1) * H, axis=-1)
-            out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
-                                    + gm[-3] * s[4] + gm[5] * s[-4])
-            out_r = out_r + gain * (gm[-1] * s[0] + gm[1] * s[-2] + gm[-3] * s[2]
-                                    + gm[3] * s[-4] + gm[-5] * s[4])
-        return out_b, out_r
-
-    def _tones_envelope(self, A, p, act, dpd_flags, harmonics):
-        coef = self._coefficients(p, act)
-        n = np.asarray(harmonics)
-        out = []
-        for d in dpd_flags:
-            blue, red = self._bands(A, coef, self._table(act) if d else None, act)
-            cb = np.fft.fft(blue, axis=-1) / M_SLOW
-            cr = np.fft.fft(red, axis=-1) / M_SLOW
-            out.append(np.stack([cr[:, (-n) % M_SLOW], cb[:, n % M_SLOW]], axis=1))
-        return np.stack(out, axis=1)                         # (nA, n flags, 2 sb, H)
 
     # ------------------------------------------------------------- time-domain engine
     def _time_domain(self, dpd: int):
@@ -328,6 +248,25 @@ class ToneModel:
             cache[key] = (table, np.fft.fft(x, axis=-1))      # table kept: its id stays valid
         return cache[key][1]
 
+    def _filtered_drive(self, A, d: int, table, H) -> dict:
+        """The drive through the filter ``H`` on the time-domain grid: its magnitude
+        ``mag`` and phase factor ``phase`` (``x / |x|``), cached by the filter (a fit of
+        the fast memory also moves the calibration modes and nuisances, which act after
+        it)."""
+        A = np.ascontiguousarray(A, dtype=float)
+        key = (A.tobytes(), int(bool(d)), table.tobytes() if d else None, H.tobytes())
+        cache = self.__dict__.setdefault("_drive_td_cache", {})
+        out = lru_get(cache, key)
+        if out is None:
+            x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
+            mag = np.abs(x)
+            out = {"mag": mag, "phase": x / np.maximum(mag, 1e-300)}
+            if mag.size > 8 * STATIC_TABLE:
+                out["where"] = uniform_place(mag, STATIC_TABLE)
+            read_only(out)
+            out = lru_put(cache, key, out, _TD_CACHE_ENTRIES)
+        return out
+
     def _tones_time_domain(self, A, p, act, dpd_flags, harmonics):
         coef = self._coefficients(p, act)
         table = self._table(act)
@@ -338,14 +277,15 @@ class ToneModel:
             H = np.ones(freq.size, dtype=complex)
             for h in act.filters(freq):
                 H = H * h
-            x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
-            mag = np.abs(x)
-            y = self._static(mag, coef, act) * (x / np.maximum(mag, 1e-300))
+            drive = self._filtered_drive(A, d, table, H)
+            mag = drive["mag"]
+            y = self._static(mag, coef, act, drive.get("where")) * drive["phase"]
             for e, v in act.items:
                 mem = e.power_memory(self, v, freq)
                 if mem is not None:
-                    s = np.fft.ifft(np.fft.fft(np.minimum(mag, 1.0) ** 2, axis=-1) * mem[1],
-                                    axis=-1).real
+                    if "power_fft" not in drive:
+                        drive["power_fft"] = np.fft.fft(np.minimum(mag, 1.0) ** 2, axis=-1)
+                    s = np.fft.ifft(drive["power_fft"] * mem[1], axis=-1).real
                     y = y * (1 + mem[0] * s)
             spec = np.fft.fft(y, axis=-1) / grid.n_samples
             out.append(np.stack([spec[:, kr], spec[:, kb]], axis=1))
@@ -381,8 +321,18 @@ class ToneModel:
 
     def features(self, p: dict) -> dict:
         """The model's per-trace tone features at the parameter set ``p``, ``{name:
-        array}`` (:func:`~dpdfit.analyses.diagnosis.observables.tone_features`, values only)."""
-        return {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
+        array}`` (:func:`~dpdfit.analyses.diagnosis.observables.tone_features`, values only).
+
+        The last few parameter sets' features are kept (read-only arrays): a fit evaluates
+        some points again (its start for the modes' linearisation and again for the
+        solver, the profiled modes and the result at its optimum)."""
+        key = tuple(sorted((k, float(v)) for k, v in p.items()))
+        out = lru_get(self.__dict__.setdefault("_features_cache", {}), key)
+        if out is None:
+            out = {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
+            read_only(out)
+            lru_put(self._features_cache, key, out)
+        return out
 
     def gate_tones(self, p: dict, A: float, dpd: int, harmonics=GATE_HARMONICS):
         """Engine-convention tone amplitudes (n, b, c) of the gate waveform at ``A``."""
@@ -390,6 +340,15 @@ class ToneModel:
         n = np.asarray(harmonics)
         b, c = gate_sim.field_amplitudes(t[1], t[0])
         return n, b, c
+
+
+def _unit_phasor(phi: np.ndarray) -> np.ndarray:
+    """``exp(i phi)`` of real ``phi`` as ``cos phi + i sin phi`` (numpy's complex exponential
+    of a purely imaginary argument gives these values, more slowly)."""
+    out = np.empty(np.shape(phi), dtype=complex)
+    np.cos(phi, out=out.real)
+    np.sin(phi, out=out.imag)
+    return out
 
 
 def _dB(a: np.ndarray) -> np.ndarray:

@@ -168,6 +168,31 @@ class Drive:
         self.w = -2j * np.pi * n
         self.n_ions = n_ions
         self.dim = 2 ** n_ions
+        # where beta and gamma enter K (flat indices of the dim x dim matrix) and of its
+        # adjoint: sigma+ of each ion (beta), sigma- (gamma)
+        d = self.dim
+        if n_ions == 1:
+            rb, cb = np.array([1]), np.array([0])
+        else:
+            rb, cb = np.array([2, 3, 1, 3]), np.array([0, 1, 0, 2])
+        self._beta_at, self._gam_at = rb * d + cb, cb * d + rb
+
+    def minus_iK(self, tau):
+        """``(-i K(tau)/xi0, -i K(tau)^dag/xi0)``: what the master equation applies on the
+        left of ``a^dag rho`` and ``a rho`` (:meth:`K`'s entries placed directly: the same
+        values as ``-1j * K`` and ``-(-1j * K).conj().T``, without the small matrix
+        algebra)."""
+        e = np.exp(self.w * tau)
+        beta = self.b @ e
+        gam = self.cc @ e
+        d = self.dim
+        mK = np.zeros(d * d, dtype=complex)
+        mK[self._beta_at] = beta
+        mK[self._gam_at] = -gam
+        mKd = np.zeros(d * d, dtype=complex)
+        mKd[self._gam_at] = -np.conj(beta)
+        mKd[self._beta_at] = np.conj(gam)
+        return mK.reshape(d, d), mKd.reshape(d, d)
 
     def K(self, tau):
         """``K(tau)/xi0 = (eta Omega0/2 xi0) i [beta sigma+ - gamma sigma-]``, summed over ions."""

@@ -185,15 +185,16 @@ def integrate_lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=
     up = np.empty((d, N - 1, DN), dtype=complex)
     dn = np.empty((d, N - 1, DN), dtype=complex)
     dissipative = bool(gamma or heat or gamma_c)
+    dbuf = np.empty_like(diag2)
 
     def rhs(tau, y):
         R = y.reshape(d, N, DN)
-        mK = -1j * drive.K(tau)
+        mK, mKd = drive.minus_iK(tau)
         # A = -i H rho, H = K a^dag + K^dag a
         np.multiply(sq_c, R[:, :-1], out=tmp)
         np.matmul(mK, tmp.reshape(d, -1), out=up.reshape(d, -1))
         np.multiply(sq_c, R[:, 1:], out=tmp)
-        np.matmul(-mK.conj().T, tmp.reshape(d, -1), out=dn.reshape(d, -1))
+        np.matmul(mKd, tmp.reshape(d, -1), out=dn.reshape(d, -1))
         A = np.empty((d, N, DN), dtype=complex)
         A[:, 0] = dn[:, 0]
         np.add(up[:, :-1], dn[:, 1:], out=A[:, 1:-1])
@@ -205,7 +206,8 @@ def integrate_lindblad(drive, n_fock, p, tau_out, gamma, heat, rtol, atol, init=
         if dissipative:
             rf = y.view(np.float64).reshape(d, N, d, 2 * N)
             of = out.view(np.float64).reshape(d, N, d, 2 * N)
-            of += diag2 * rf
+            np.multiply(diag2, rf, out=dbuf)
+            of += dbuf
             if heat:
                 of[:, :-1, :, :-2] += sqsq2 * rf[:, 1:, :, 2:]      # a rho a^dag
                 of[:, 1:, :, 2:] += sqsq2 * rf[:, :-1, :, :-2]      # a^dag rho a

@@ -78,7 +78,7 @@ def parity_even(b, c, n, eta_Omega0, xi0, phases=None, *, nbar=NBAR, T2=T2_S, nd
 def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
                      phases=None, scan_times=None, power_error_db=0.0, spectator=True,
                      flip=True, n_fock=None, rtol=1e-9, atol=1e-11, T2_corr=np.inf,
-                     fock_tol=None) -> dict:
+                     fock_tol=None, branches=None) -> dict:
     """Raw outcome probabilities of the preparation branches of one setting.
 
     No preparation mixing and no detection error: what
@@ -96,7 +96,9 @@ def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
         with ``spectator``: ``p1``, ``par1`` (one driven ion from ``|0>``);
         with ``flip``: ``p2_01``, ``par2_01`` (two ions from ``|01>``); with
         both: ``p1_1``, ``par1_1`` (one driven ion from ``|1>``); and
-        ``phases``, ``times``.
+        ``phases``, ``times``.  ``branches``: only those of ``("2", "1", "2_01",
+        "1_1")`` named (each branch is its own integration, so a caller may run them
+        apart, e.g. in parallel, and join the dicts).
     """
     T2 = positive("T2", T2, allow_inf=True)
     ndot = positive("ndot", ndot, allow_zero=True)
@@ -112,6 +114,12 @@ def setting_branches(b, c, n, eta_Omega0, xi0, *, nbar=NBAR, T2=T2_S, ndot=NDOT,
     out = {"phases": phases, "times": times}
     runs = [("2", 2, 0)] + ([("1", 1, 0)] if spectator else []) + (
         [("2_01", 2, 1)] if flip else []) + ([("1_1", 1, 1)] if spectator and flip else [])
+    if branches is not None:
+        unknown = set(branches) - {"2", "1", "2_01", "1_1"}
+        if unknown:
+            raise InputError(f"unknown branches {sorted(unknown)}; known: 2, 1, 2_01, 1_1")
+        runs = [r for r in (("2", 2, 0), ("1", 1, 0), ("2_01", 2, 1), ("1_1", 1, 1))
+                if r[0] in branches]
     for name, ions, init in runs:
         rho = f(b, c, n, eO, xi0, times, nbar, n_ions=ions, initial=init, **kw)
         out["p" + name] = outcome_probabilities(rho)

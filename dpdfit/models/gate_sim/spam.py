@@ -24,7 +24,7 @@ from ._validate import probability
 from .dephasing import dephase_coherences
 from .evolve import evolve, evolve_lindblad
 
-__all__ = ["confusion", "mix_branches", "branch_states", "mixed_outcomes",
+__all__ = ["confusion", "mix_branches", "spectator_outcomes", "branch_states", "mixed_outcomes",
            "prep_probabilities", "detection_errors"]
 
 
@@ -41,7 +41,7 @@ def confusion(p4, p_det):
     return p4 @ (np.kron(C, C).T if p4.shape[-1] == 4 else C.T)
 
 
-def _spectator(p1):
+def spectator_outcomes(p1):
     """Four outcomes of 'one ion a spectator (reads 0), the other driven' summed over
     which ion is out: ``p1`` (..., 2) are the driven ion's outcomes."""
     p1 = np.asarray(p1, dtype=float)
@@ -72,7 +72,7 @@ def mix_branches(p2, p1, p_prep, p_flip=0.0, p2_01=None, p2_11=None, p1_1=None):
     g = 1.0 - q - f
     out = g ** 2 * np.asarray(p2, dtype=float)
     if q > 0:
-        out = out + q * g * _spectator(p1)
+        out = out + q * g * spectator_outcomes(p1)
         out[..., 0] += q ** 2
     if f > 0:
         p01 = np.asarray(p2_01, dtype=float)
@@ -81,7 +81,7 @@ def mix_branches(p2, p1, p_prep, p_flip=0.0, p2_01=None, p2_11=None, p1_1=None):
                else np.asarray(p2_11, dtype=float))
         out = out + f * f * p11
         if q > 0:
-            out = out + q * f * _spectator(p1_1)
+            out = out + q * f * spectator_outcomes(p1_1)
     return out
 
 
