@@ -322,3 +322,13 @@ def test_the_expected_separation_is_what_a_refit_to_recorded_data_achieves():
         got.append(chi_b - chi_a)
     # E[achieved] = pred - tr(absorbed part of the noise) ~ pred - q (prior weak here)
     assert np.mean(got) == pytest.approx(pred - q, abs=0.6)
+
+
+def test_repeated_spectra_are_described_once_per_amplitude_with_their_count():
+    from dpdfit.analyses.diagnosis.next_measurement import _describe
+    even = _describe("spectra", {"amplitudes": [0.8, 0.8, 0.85, 0.85], "dpd": [0, 1]})
+    assert even == "spectra at A = 0.8, 0.85 (2 traces each) with and without DPD"
+    uneven = _describe("spectra", {"amplitudes": [0.8, 0.8, 0.8, 0.85], "dpd": [0, 1]})
+    assert uneven == "spectra at A = 0.8 x3, 0.85 with and without DPD"
+    once = _describe("spectra", {"amplitudes": [0.95, 0.85], "dpd": [0, 1]})
+    assert once == "spectra at A = 0.85, 0.95 with and without DPD"

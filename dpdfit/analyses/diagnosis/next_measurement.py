@@ -245,7 +245,8 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
             f"no recording of the menu separates them within "
             f"{_duration(lab.max_seconds)} of lab time: the best, "
             f"{_describe(m['what'], m['settings'])}, would give an expected delta BIC of "
-            f"{m['expected_delta_bic']:.2g}"), **fields, **common)
+            f"{_number(m['expected_delta_bic'])}, short of the {_number(target)} that "
+            f"decides at this fit's misfit"), **fields, **common)
     return NextMeasurement(**fields, **common)
 
 
@@ -346,7 +347,13 @@ def _describe(what: str, s: dict) -> str:
         return {"amplitude_run": "one more amplitude calibration run now",
                 "phase_run": "a phase calibration run"}[what]
     if what == "spectra":
-        return f"spectra at A = {', '.join(f'{a:g}' for a in s['amplitudes'])} with and without DPD"
+        # repeats are rows at the same amplitude: named once, with their count
+        amps, counts = np.unique(np.asarray(s["amplitudes"], dtype=float), return_counts=True)
+        each = f" ({counts[0]} traces each)" if counts.max() > 1 and counts.min() == counts.max() \
+            else ""
+        listed = ", ".join(f"{a:g}" + (f" x{c}" if c > 1 and not each else "")
+                           for a, c in zip(amps, counts))
+        return f"spectra at A = {listed}{each} with and without DPD"
     at = f"at A = {s['A']:g} {'with' if s['dpd'] else 'without'} DPD"
     if s.get("scans", 1) > 1:
         at += f", {s['scans']} scans"
