@@ -23,7 +23,7 @@ from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
 from dpdfit.analyses.diagnosis.fitting import param_side
 from dpdfit.analyses.diagnosis.observables import MIN_SNR_DB, tone_features
 from dpdfit.analyses.diagnosis.phase_sign import tone_held
-from dpdfit.core.defaults import ERROR_MODEL, PHASE_MIN_A, PHASE_RUN_NOISE_RAD
+from dpdfit.core.defaults import ERROR_MODEL, PHASE_MIN_A
 
 __all__ = ["Hypothesis", "Item", "white", "BUILDERS", "SPECTRA_GRID", "SPECTRA_COUNTS",
            "RUN_AMPLITUDES", "MODE_STEP", "PARAM_STEP"]
@@ -232,15 +232,12 @@ def _amplitude_run(prob, hyps, lab):
 
 
 def _phase_run(prob, hyps, lab):
-    if getattr(prob, "tone", None) is None:
-        return []
-    A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
-    noise = (getattr(prob.camp, "calibration_noise", None) or {}).get("phase")
-    sigma = (np.hypot(noise["c"], noise["d"] / A) if noise
-             else np.full(A.size, PHASE_RUN_NOISE_RAD))
-    w = _inv_sd(sigma)
-    return [Item("phase_run", {"runs": 1}, lab.phase_run_s, "phase",
-                 lambda r: r, lambda a, b: w)]
+    """No phase run is offered: the diagnosis's likelihood has no phase-run term (phase
+    runs only locate a mismatch, :meth:`~dpdfit.analyses.diagnosis.problem.Problem.series`),
+    so a further run cannot separate two hypotheses, whatever their predicted phases (in
+    the closed loop every phase run proposed achieved a separation of exactly 0 and was
+    proposed again).  Once the phase runs are fitted as data, this builds their item."""
+    return []
 
 
 # ----------------------------------------------------------------- spectra

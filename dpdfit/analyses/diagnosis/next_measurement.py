@@ -13,9 +13,8 @@ with the recording's noise:
 
 * ``amplitude_run``: one more amplitude calibration run now, in the run-to-run
   drift modes (the effects' ``run_drift``); sigma: the modes' run-to-run sd;
-* ``phase_run``: one phase run on 101 amplitudes (``A >= PHASE_MIN_A``); sigma:
-  the campaign's learnt phase-run noise, else
-  :data:`~dpdfit.core.defaults.PHASE_RUN_NOISE_RAD`;
+* ``phase_run``: not offered while the diagnosis does not fit phase runs as data (they
+  only locate a mismatch), since such a run cannot separate two hypotheses;
 * ``spectra``: traces at ``k`` (:data:`SPECTRA_COUNTS`) amplitudes of
   :data:`SPECTRA_GRID`, chosen greedily, with and without DPD, through the
   per-trace tone features (the learnt repeatability with the floor's part; the
