@@ -275,6 +275,34 @@ def test_contradicting_time_scan_counts_are_refused_in_one_line(tmp_path, capsys
                     "contradict binomial noise"], list(folder.iterdir()))
 
 
+def test_rare_outcomes_repeated_hundreds_of_times_are_honest_repeats(tmp_path):
+    """A time-scan point repeated 385 times, its n01_10 a rare outcome (mean 0.06 per
+    625 shots): a count of 2 beside zeros is eight normal sigma but an ordinary draw.
+    The exact conditional test over all repeated rows refuses none of 200 honest
+    tables; it still refuses a row far off."""
+    from dpdfit.recordings.counts import check_count_repeats
+    rng = np.random.default_rng(20261128)
+    refused = 0
+    for _ in range(200):
+        rare = rng.binomial(625, 1e-4, size=385)
+        df = pd.DataFrame({"A": 0.6, "dpd": 1, "t_us": 0.0, "n01_10": rare,
+                           "n00": 625 - rare, "shots": 625})
+        try:
+            check_count_repeats(df, ["A", "dpd", "t_us"], ["n00", "n01_10"], "t.csv", "point")
+        except InputError:
+            refused += 1
+    assert refused == 0
+    # the table the closed loop wrote and the normal approximation refused (7.9 sigma)
+    rare = np.array([0] * 363 + [1] * 21 + [2])
+    df = pd.DataFrame({"A": 0.6, "dpd": 1, "t_us": 0.0, "n01_10": rare, "n00": 625 - rare,
+                       "shots": 625})
+    check_count_repeats(df, ["A", "dpd", "t_us"], ["n00", "n01_10"], "t.csv", "point")
+    # twelve where about 0.06 are expected is a contradiction, named with its count
+    df.loc[100, ["n01_10", "n00"]] = [12, 613]
+    with pytest.raises(InputError, match=r"row 101 \(12/625\) .* sigma from the others"):
+        check_count_repeats(df, ["A", "dpd", "t_us"], ["n00", "n01_10"], "t.csv", "point")
+
+
 # ----------------------------------------------------------------------------- populations
 def test_repeated_scans_of_a_setting_are_pooled_at_the_count_level(tmp_path):
     """populations.csv and parity.csv carry the repeat column ``scan``: more scans of a
