@@ -341,6 +341,23 @@ def test_summary_counts_ambiguity_confident_errors_and_the_closed_loop():
     assert "closed loop (2 ambiguous with a proposal)" in text
 
 
+def test_separation_ratios_are_also_given_over_the_steps_whose_premise_held():
+    steps = [{"separation_predicted": 20.0, "separation_achieved": 18.0, "premise_held": True},
+             {"separation_predicted": 10.0, "separation_achieved": 0.0, "premise_held": False},
+             {"separation_predicted": 10.0, "separation_achieved": 13.0, "premise_held": True}]
+    loop = {"recommended": {"resolved": False, "steps": steps},
+            "random": {"resolved": False}}
+    alt = [{"effect": "spam_offset", "named": ["spam_offset"]}]
+    cl = H.summarise([_record("dephasing", ["dephasing"], alternatives=alt,
+                              loop=loop)])["closed_loop"]
+    assert cl["separation_ratios"] == pytest.approx([0.9, 0.0, 1.3])
+    assert cl["separation_ratio_median"] == pytest.approx(0.9)
+    assert cl["separation_ratios_premise_held"] == pytest.approx([0.9, 1.3])
+    assert cl["separation_ratio_median_premise_held"] == pytest.approx(1.1)
+    text = "\n".join(C.loop_report_lines(cl | {"ambiguous_rate": 1.0, "closed_loop": cl}))
+    assert "median 0.9 over 3 recordings (1.1 over the 2 whose premise held)" in text
+
+
 def test_summary_of_runs_without_ambiguity():
     s = H.summarise([_record("dephasing", ["dephasing"])])
     assert s["ambiguous_rate"] == 0 and s["confidently_wrong_rate"] == 0
@@ -409,3 +426,8 @@ def test_loop_steps_record_the_separation_achieved_and_a_verdict_turned_wrong(mo
                       "closed_loop": out}])
     assert s["closed_loop"]["turned_wrong_recommended"] == 1
     assert s["closed_loop"]["separation_ratios"] == [pytest.approx(30.0 / 27.0)]
+    # the prediction assumed spam_offset, and dephasing was concealed: its premise failed,
+    # so the ratio is not counted among the tests of the prediction proper
+    assert rec["premise_held"] is False
+    assert s["closed_loop"]["separation_ratios_premise_held"] == []
+    assert s["closed_loop"]["separation_ratio_median_premise_held"] is None

@@ -124,6 +124,9 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
     b = (m or {}).get("binding") or {}
     if refit and refits and len(refits) == 2 and "chi2" in b.get("truth", {}):
         rec["separation_predicted"] = float(m.get("expected_delta_bic", float("nan")))
+        # the prediction assumed its binding 'truth' hypothesis; the ratio is a test of
+        # the prediction only where that premise held (it was the concealed set)
+        rec["premise_held"] = sorted(b["truth"].get("effects") or []) == concealed
         rec["separation_achieved"] = achieved_separation(
             {"truth": b["truth"]["chi2"], "rival": b["rival"]["chi2"]},
             {"truth": refits[0]["chi2"], "rival": refits[1]["chi2"]})
@@ -246,7 +249,10 @@ def loop_summary(results: list) -> dict:
         turned an exact verdict, or one with the truth among its alternatives, into a
         confidently wrong one), ``separation_ratios`` (achieved / predicted separation of
         every recommended step with a prediction) and their median
-        ``separation_ratio_median``, ``no_proposal`` (loops whose diagnosis proposed
+        ``separation_ratio_median``, the same of the steps whose prediction's premise
+        held (its binding hypothesis was the concealed set; ``premise_held`` on the
+        step) ``separation_ratios_premise_held`` and
+        ``separation_ratio_median_premise_held``, ``no_proposal`` (loops whose diagnosis proposed
         nothing), ``n_failed`` (re-simulations or re-diagnoses that failed).
     """
     n = len(results)
@@ -259,10 +265,12 @@ def loop_summary(results: list) -> dict:
             return None
         return sum(bool(x[arm].get(key, x[arm].get("resolved"))) for x in loops) / len(loops)
 
-    ratios = [st["separation_achieved"] / st["separation_predicted"]
-              for x in loops for st in x["recommended"].get("steps") or ()
-              if st.get("separation_achieved") is not None
-              and (st.get("separation_predicted") or 0) > 0]
+    predicted = [st for x in loops for st in x["recommended"].get("steps") or ()
+                 if st.get("separation_achieved") is not None
+                 and (st.get("separation_predicted") or 0) > 0]
+    ratios = [st["separation_achieved"] / st["separation_predicted"] for st in predicted]
+    held = [st["separation_achieved"] / st["separation_predicted"] for st in predicted
+            if st.get("premise_held")]
     steps = [st for x in loops for a in ("recommended", "random")
              for st in (x[a].get("steps") or [x[a]])]
     return {"ambiguous_rate": (sum(bool(r.get("alternatives")) for r in results) / n)
@@ -280,6 +288,9 @@ def loop_summary(results: list) -> dict:
                             "separation_ratios": [float(v) for v in ratios],
                             "separation_ratio_median": (float(np.median(ratios)) if ratios
                                                         else None),
+                            "separation_ratios_premise_held": [float(v) for v in held],
+                            "separation_ratio_median_premise_held": (
+                                float(np.median(held)) if held else None),
                             "no_proposal": sum(x["recommended"].get("what") is None
                                                and not x["recommended"].get("error")
                                                for x in loops),
@@ -318,6 +329,9 @@ def loop_report_lines(s: dict) -> list:
                      f"proposal {cl.get('turned_wrong_recommended', 0)}, random "
                      f"{cl.get('turned_wrong_random', 0)}; achieved / predicted separation "
                      f"median {num(cl.get('separation_ratio_median'))} over "
-                     f"{len(cl.get('separation_ratios') or [])} recordings; no proposal "
+                     f"{len(cl.get('separation_ratios') or [])} recordings ("
+                     f"{num(cl.get('separation_ratio_median_premise_held'))} over the "
+                     f"{len(cl.get('separation_ratios_premise_held') or [])} whose premise "
+                     "held); no proposal "
                      f"{cl.get('no_proposal', 0)}")
     return lines
