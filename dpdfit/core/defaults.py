@@ -18,7 +18,8 @@ from dpdfit.errors import InputError
 
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
-           "LAB_TIMES", "PHASE_RUN_NOISE_RAD"]
+           "LAB_TIMES", "PHASE_RUN_NOISE_RAD",
+           "MAX_FILES_PER_SOURCE"]
 
 #: sideband detuning nu of the gate tones from the carrier, Hz (S4)
 NU_HZ = 1.84e6
@@ -198,3 +199,9 @@ LAB_TIMES = LabTimes()
 #: phase runs to learn it from: the paper's run-to-run sd of phi(1), 0.0009 rad over six
 #: runs (Supplement, phase stability), rounded up
 PHASE_RUN_NOISE_RAD = 1e-3
+
+#: the most results files one source of an import mapping reads (its globs together): a
+#: year of a busy lab's runs is tens of thousands; a glob that matches more has most
+#: likely met the wrong tree (``**`` under a file server's root), and is refused before
+#: the walk goes on
+MAX_FILES_PER_SOURCE = 100_000

@@ -19,7 +19,6 @@ to the earliest start time of the spectra's and of the gates' files.
 
 from __future__ import annotations
 
-import glob
 import hashlib
 import json
 import os
@@ -30,12 +29,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.defaults import MAX_FILES_PER_SOURCE
 from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 
 from .artiq import ResultsFile, read_results_file
 from .campaign_folder import CampaignFolder
+from .file_globs import glob_files
 from .mapped_columns import column_values, fail
 from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
 from .name_patterns import matching_keys
@@ -146,8 +147,9 @@ def import_campaign(mapping, *, complete_only: bool | None = None,
     complete_only = m.complete_only if complete_only is None else complete_only
     skip = m.skip_bad_files if skip_bad_files is None else skip_bad_files
     plan = {}                                    # results file -> the sources naming it
+    named = {}                                   # (device, inode) -> the path read
     for src in m.sources:
-        for path in _expand(m, src):
+        for path in _expand(m, src, named):
             plan.setdefault(path, []).append(src)
     # per file only its provenance, and per source its rows as plain arrays: a pandas
     # frame per file costs ~8 kB of overhead, which at 10,000 files was 6x the tables
@@ -216,16 +218,20 @@ def _provenance(run, rel: str) -> dict:
             "tables": []}
 
 
-def _expand(m: Mapping, src: SourceSpec) -> list[str]:
-    out = {}                                       # a dict: 10,000 hits stay linear
+def _expand(m: Mapping, src: SourceSpec, named: dict) -> list[str]:
+    """The results files of one source, each once (:mod:`.file_globs`).  ``named`` maps
+    every file already taken by a source (device, inode) to its path, so that a file
+    two sources reach under different names is read once, under one name."""
+    where = f"mapping key '{src.key}.files' (line {src.files_line})"
+    found, out = {}, {}
     for pattern in src.files:
-        full = pattern if os.path.isabs(pattern) else str(m.folder / pattern)
-        hits = sorted(p for p in glob.glob(full, recursive=True) if os.path.isfile(p))
+        hits = glob_files(pattern, m.folder, found, MAX_FILES_PER_SOURCE, where, str(m.path))
         if not hits:
-            raise InputError(f"mapping key '{src.key}.files' (line {src.files_line}): no file "
-                             f"matches '{pattern}'", file=str(m.path))
+            raise InputError(f"{where}: no file matches '{pattern}'", file=str(m.path))
         out.update(dict.fromkeys(hits))
-    return list(out)
+    # the names this source found, or those an earlier source gave the same files
+    first = {path: named.setdefault(ident, path) for ident, path in found.items()}
+    return list(dict.fromkeys(first[p] for p in out))
 
 
 def _relative(path: str, folder: Path) -> str:
