@@ -187,7 +187,10 @@ def _text(path: Path) -> str:
 
 
 def _shown(path: str, folder: Path) -> str:
-    """``path`` relative to the mapping's folder, as messages name files."""
+    """``path`` as the glob wrote it, relative to the mapping's folder (``..`` kept)."""
+    prefix = _text(folder)
+    if not prefix or path.startswith(prefix + os.sep):
+        return Path(path[len(prefix) + 1:] if prefix else path).as_posix() or "."
     try:
         return Path(os.path.relpath(path or os.curdir, folder)).as_posix()
     except ValueError:                                  # another drive (Windows)
