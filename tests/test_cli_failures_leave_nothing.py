@@ -158,3 +158,21 @@ def test_a_new_output_folder_keeps_the_group_bit_its_parent_passes_down(lab, tmp
     assert main(["import", str(lab / "map.toml"), "-o", str(shared / "campaign")]) == 0
     assert (shared / "campaign").stat().st_mode & stat.S_ISGID == \
         plain.stat().st_mode & stat.S_ISGID
+
+
+def test_a_folder_made_only_to_pass_through_is_not_left(lab, tmp_path, capsys):
+    assert main(["import", str(lab / "map.toml"), "-o", str(tmp_path / "new/../c")]) == 0
+    assert (tmp_path / "c" / "campaign.json").is_file() and not (tmp_path / "new").exists()
+
+
+@posix
+@pytest.mark.parametrize("target", ["empty", "nowhere"])
+def test_an_output_that_is_a_link_is_refused_and_kept(target, lab, tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "linked").symlink_to(tmp_path / target)
+    before = _entries(tmp_path)
+    line = _one_line(capsys, main(["import", str(lab / "map.toml"), "-o",
+                                   str(tmp_path / "linked")]))
+    assert line == (f"dpdfit: error: {tmp_path / 'linked'}: is a symbolic link: give the folder "
+                    "itself (a new folder is written in its place)")
+    assert _entries(tmp_path) == before and (tmp_path / "linked").is_symlink()

@@ -249,10 +249,15 @@ def staged_folder(out: str | os.PathLike) -> Iterator[Path]:
     mode: the mode (and group, where allowed) of the empty folder it replaces, else
     what the umask gives a new folder (``mkdtemp`` makes it private).  On any error
     or interrupt the temporary folder is removed, ``out`` is untouched, and the
-    parents of ``out`` made for it are removed again.
+    parents of ``out`` made for it are removed again.  A symbolic link ``out`` is
+    refused (:class:`InputError`).
     """
     out = Path(out)
-    with folder_made(out.parent):
+    if out.is_symlink():
+        # replacing it would cut the link; writing through it would replace its target
+        raise InputError("is a symbolic link: give the folder itself (a new folder is "
+                         "written in its place)", file=str(out))
+    with folder_made(out.parent) as made:
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
         try:
             yield tmp
@@ -263,11 +268,14 @@ def staged_folder(out: str | os.PathLike) -> Iterator[Path]:
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
+    # a folder made only to be passed through (``new/../out``) is empty: not kept
+    _remove_empty(made)
 
 
 @contextlib.contextmanager
-def folder_made(folder: str | os.PathLike) -> Iterator[Path]:
-    """The folder ``folder``, made with its missing parents if need be.
+def folder_made(folder: str | os.PathLike) -> Iterator[list[Path]]:
+    """Make the folder ``folder`` and its missing parents, if need be; yields the folders
+    made, outermost first.
 
     If the block raises, the folders made here are removed again, deepest first, as
     far as they are empty: a failed command leaves no empty folders behind, and never
@@ -275,7 +283,7 @@ def folder_made(folder: str | os.PathLike) -> Iterator[Path]:
     """
     made = _make_folders(Path(folder))
     try:
-        yield Path(folder)
+        yield made
     except BaseException:
         _remove_empty(made)
         raise
