@@ -36,7 +36,7 @@ from dpdfit.errors import InputError
 
 from .artiq import ResultsFile, read_results_file
 from .campaign_folder import CampaignFolder
-from .file_globs import glob_files
+from .file_globs import source_files
 from .mapped_columns import column_values, fail
 from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
 from .name_patterns import matching_keys
@@ -219,19 +219,8 @@ def _provenance(run, rel: str) -> dict:
 
 
 def _expand(m: Mapping, src: SourceSpec, named: dict) -> list[str]:
-    """The results files of one source, each once (:mod:`.file_globs`).  ``named`` maps
-    every file already taken by a source (device, inode) to its path, so that a file
-    two sources reach under different names is read once, under one name."""
     where = f"mapping key '{src.key}.files' (line {src.files_line})"
-    found, out = {}, {}
-    for pattern in src.files:
-        hits = glob_files(pattern, m.folder, found, MAX_FILES_PER_SOURCE, where, str(m.path))
-        if not hits:
-            raise InputError(f"{where}: no file matches '{pattern}'", file=str(m.path))
-        out.update(dict.fromkeys(hits))
-    # the names this source found, or those an earlier source gave the same files
-    first = {path: named.setdefault(ident, path) for ident, path in found.items()}
-    return list(dict.fromkeys(first[p] for p in out))
+    return source_files(src.files, m.folder, named, MAX_FILES_PER_SOURCE, where, str(m.path))
 
 
 def _relative(path: str, folder: Path) -> str:

@@ -17,6 +17,9 @@ lab may hold links, so unlike glob:
   the mapping does not name;
 - at most ``limit`` distinct files are found, across all the globs of one source.
 
+:func:`source_files` gathers the globs of one source of the mapping: each file once,
+also when an earlier source reached it under another name.
+
 The part of a glob before its first wildcard is the mapping's own choice and is
 taken as written: it may be absolute, go up with ``..``, or pass a link (to the
 lab's file server, say).  The mapping's folder is used as it is, never as a glob,
@@ -32,9 +35,29 @@ from pathlib import Path, PurePath
 
 from dpdfit.errors import InputError
 
-__all__ = ["glob_files"]
+__all__ = ["source_files", "glob_files"]
 
 _MAGIC = re.compile(r"[*?\[]")
+
+
+def source_files(patterns, folder, named: dict, limit: int, where: str,
+                 mapping_file: str) -> list[str]:
+    """The results files one source's globs match, each once, in the order of its globs
+    (each sorted).  A glob that matches no file is an :class:`InputError`, as are the
+    refusals of :func:`glob_files`.
+
+    ``named`` maps each file an earlier source took (``(st_dev, st_ino)``) to the path
+    it was read under: a file two sources reach under different names is read once,
+    under one name; this source's files are added to it.
+    """
+    found, out = {}, {}
+    for pattern in patterns:
+        hits = glob_files(pattern, folder, found, limit, where, mapping_file)
+        if not hits:
+            raise InputError(f"{where}: no file matches '{pattern}'", file=mapping_file)
+        out.update(dict.fromkeys(hits))
+    first = {path: named.setdefault(ident, path) for ident, path in found.items()}
+    return list(dict.fromkeys(first[p] for p in out))
 
 
 def glob_files(pattern: str, folder, found: dict, limit: int, where: str,

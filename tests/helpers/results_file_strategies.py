@@ -144,6 +144,8 @@ def apply_file_edits(paths: dict, outside: Path, edits) -> None:
                 _edit(h5, action, _where(key), detail, outside)
         except OSError:
             continue                        # not HDF5 any more (an earlier edit)
+        except (KeyError, ValueError, TypeError):
+            continue                        # its place is gone (an earlier edit): not made
 
 
 def _where(key: str) -> str:
@@ -176,8 +178,8 @@ def _edit(h5, action: str, where: str, detail, outside: Path) -> None:
             h5[where] = h5py.SoftLink("/nowhere")
         elif detail == "external":
             h5[where] = h5py.ExternalLink(str(outside), "/datasets/secret")
-        else:
-            h5[where] = h5["/run_time"]
+        elif where != "/artiq_version" and "/artiq_version" in h5:
+            h5[where] = h5["/artiq_version"]
     # "delete": done above
 
 
