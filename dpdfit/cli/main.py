@@ -143,8 +143,8 @@ def main(argv: list[str] | None = None) -> int:
     for Ctrl-C), and leaves no output behind (each is staged and published only at the
     end).  A :class:`~dpdfit.errors.DpdfitError` says what is wrong with which input.  As
     a last line of defence, any other exception is reported as an internal error naming
-    its type and message, a bug to report (its traceback is logged at DEBUG level, on the
-    logger ``dpdfit.cli.main``); running out of memory or recursion depth says so.
+    its type and message, a bug to report; running out of memory or recursion depth says
+    so.  Their tracebacks are logged at DEBUG level, on the logger ``dpdfit.cli.main``.
     """
     command = "dpdfit"
     try:
@@ -167,8 +167,10 @@ def main(argv: list[str] | None = None) -> int:
         print("dpdfit: interrupted", file=sys.stderr)
         return 130
     except MemoryError as exc:
+        log.debug("out of memory while running %r", command, exc_info=True)
         return _refused(f"{OUT_OF_MEMORY} while running '{command}' ({_described(exc)})")
     except RecursionError as exc:
+        log.debug("recursion too deep while running %r", command, exc_info=True)
         return _refused(f"{TOO_DEEP} for '{command}' ({_described(exc)})")
     except Exception as exc:  # noqa: BLE001 -- the last line of defence: one line, not a traceback
         log.debug("internal error while running %r", command, exc_info=True)
