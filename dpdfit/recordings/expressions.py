@@ -101,8 +101,8 @@ def parse_expression(text: str) -> Expression:
         raise ExpressionError(f"'{text}' is not an expression ({exc.msg})") from None
     except (RecursionError, MemoryError):
         # CPython's parser gives up on a long chain of operators or signs with these
-        raise ExpressionError(f"nests deeper than the parser can read (at most "
-                              f"{EXPR_MAX_DEPTH} levels)") from None
+        raise ExpressionError(f"nests operators and calls more than {EXPR_MAX_DEPTH} "
+                              "levels deep") from None
     _check_size(tree.body)
     refs = []
     _check(tree.body, refs)
@@ -116,10 +116,12 @@ def _check_size(body) -> None:
     while todo:
         node, depth = todo.pop()
         nodes += 1
-        if depth > EXPR_MAX_DEPTH or nodes > EXPR_MAX_NODES:
-            what = "nests deeper than" if depth > EXPR_MAX_DEPTH else "has more parts than"
-            raise ExpressionError(f"{what} an expression may ({EXPR_MAX_DEPTH} levels, "
-                                  f"{EXPR_MAX_NODES} parts)")
+        if depth > EXPR_MAX_DEPTH:
+            raise ExpressionError(f"nests operators and calls more than {EXPR_MAX_DEPTH} "
+                                  "levels deep")
+        if nodes > EXPR_MAX_NODES:
+            raise ExpressionError(f"has more than {EXPR_MAX_NODES} parts (numbers, sources, "
+                                  "operators)")
         if isinstance(node, ast.Constant) and type(node.value) is int \
                 and abs(node.value) > EXPR_MAX_INTEGER:
             raise ExpressionError(f"an integer is larger than {EXPR_MAX_INTEGER} (expressions "

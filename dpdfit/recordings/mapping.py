@@ -49,7 +49,7 @@ from dpdfit.errors import InputError
 from .columns import CAMPAIGN_TABLES
 from .expressions import Expression, ExpressionError, parse_expression
 from .mapping_lines import KeyLines, MappingErrors
-from .mapping_values import check_campaign_types, check_constant, column_modifiers
+from .mapping_values import check_campaign_types, check_constant, column_modifiers, shown
 from .name_patterns import fill, placeholders, repeated_placeholder
 from .units import COLUMN_KINDS
 
@@ -166,16 +166,16 @@ def read_mapping(path) -> Mapping:
     err.table(opts, "import")
     for k in opts:
         if k not in _IMPORT_OPTIONS:
-            err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]")
+            err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]", "import")
     for k in _IMPORT_OPTIONS:
         if not isinstance(opts.get(k, False), bool):
-            err.bad(f"import.{k}", "must be true or false")
+            err.bad(f"import.{k}", f"must be true or false, got {shown(opts[k])}", "import", k)
     complete_only = opts.get("complete_only", False)
     campaign = doc.get("campaign", {})
     err.table(campaign, "campaign")
     for k in campaign:
         if k not in CAMPAIGN_KEYS:
-            err.unknown(f"campaign.{k}", k, CAMPAIGN_KEYS, "campaign.json key")
+            err.unknown(f"campaign.{k}", k, CAMPAIGN_KEYS, "campaign.json key", "campaign")
     check_campaign_types(campaign, err)
     sources = []
     for table in TABLE_COLUMNS:

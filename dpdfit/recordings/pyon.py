@@ -60,7 +60,8 @@ def decode_pyon(text: str):
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
-        raise PyonError(f"not PYON text ({exc.msg})") from None
+        # (an over-long integer's message goes on about sys.set_int_max_str_digits)
+        raise PyonError(f"not PYON text ({exc.msg.partition(';')[0]})") from None
     except (RecursionError, MemoryError):
         # CPython's parser gives up on a long chain of operators or signs with these
         raise PyonError(f"nested deeper than {PYON_MAX_DEPTH} levels") from None
