@@ -5,8 +5,8 @@ each placeholder is a column of the same table, and its value in a row is read
 from the name that matched (channel ``P_red_2`` gives ``sideband = "red"`` and
 ``n = 2``).  A placeholder of a counting column (``n``, ``dpd``, ...) matches a
 whole number (of at most 18 digits: an int64 holds every one), any other a run of
-characters without a dot; a placeholder appears once in a pattern.  Every name of the file that matches the pattern contributes
-its rows.
+characters without a dot; a placeholder appears once in a pattern.  Every name of
+the file that matches the pattern contributes its rows.
 
 Where a name could be split in several ways, a text placeholder takes the
 shortest text and a number the longest that lets the rest of the name match
