@@ -12,7 +12,8 @@ from __future__ import annotations
 import datetime
 import math
 
-from dpdfit.core.defaults import INTEGER_MAX
+from dpdfit.core.defaults import INTEGER_MAX, ErrorModel
+from dpdfit.errors import InputError
 
 from .units import COLUMN_KINDS
 from .value_formats import FormatError, check_format
@@ -65,6 +66,10 @@ def check_campaign_types(campaign: dict, err) -> None:
         want = next((t for t, keys in _CAMPAIGN_TYPES.items() if k in keys), None)
         if want is not None and not _IS[want](v):
             err.bad(f"campaign.{k}", f"must be {want}, got {shown(v)}", "campaign", k)
+    try:           # the error model's own check, which the diagnosis applies to it later
+        ErrorModel.from_dict(campaign.get("error_model", {}))
+    except InputError as exc:
+        err.bad("campaign.error_model", str(exc), "campaign", "error_model")
 
 
 def check_constant(column: str, v, key: str, err, table: str) -> None:
