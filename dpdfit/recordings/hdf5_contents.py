@@ -10,16 +10,13 @@ of their data is read.  A soft link to a dataset inside ``datasets/`` is only
 another name for it, and is read.
 
 :class:`ResultsFileContents` lists a file's datasets (names and link kinds)
-without reading any data, and reads one dataset when it is asked for: its
-declared size (shape times the size of an element) first checked against a
-limit (:data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`, or the mapping's
-``[import] max_dataset_bytes``), so that a dataset that declares gigabytes it
-never wrote is refused rather than allocated.  Its type must be numbers or
-text: records (compound types), opaque bytes and references are refused.
-:func:`check_signature` reads a file's first 8 bytes only, so that anything
-that is not HDF5 is refused before it is read; :func:`file_sha256` streams it.
-:class:`LazyMapping` is the read-only mapping whose values are read on first
-access (the results file's datasets, its ndscan scans, a scan's channels).
+without reading any data, and reads one when asked: its declared size (shape
+times element size) first checked against a limit
+(:data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`, or the mapping's ``[import]
+max_dataset_bytes``), so that a dataset declaring gigabytes it never wrote is
+refused, not allocated; its type must be numbers or text.  :func:`check_signature`
+reads a file's first 8 bytes only; :func:`file_sha256` streams it.
+:class:`LazyMapping` is the read-only mapping whose values are read on first access.
 """
 
 from __future__ import annotations
@@ -45,6 +42,10 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 # elements' own bytes are counted as they are read, a slice at a time.
 _VLEN_ELEMENT_BYTES = 64
 _VLEN_SLICE_ELEMENTS = 1 << 16
+# what h5py raises for a damaged file: a broken link table or chunk, a filter that is
+# not installed, an HDF5 type numpy has no match for
+_H5_ERRORS = (OSError, RuntimeError, KeyError, TypeError)
+_RAISE = "raise it with '[import] max_dataset_bytes = N' in the mapping if the file is right"
 
 
 class LazyMapping(Mapping):
@@ -159,7 +160,7 @@ class ResultsFileContents:
         self.path, self.name = path, name
         self.max_dataset_bytes = int(MAX_DATASET_BYTES if max_dataset_bytes is None
                                      else max_dataset_bytes)
-        self._file, self._depth = None, 0
+        self._file, self._depth, self._opened = None, 0, {}
         #: name -> (kind, target) under ``datasets/`` (:meth:`_listing`), once opened
         self.links = None
 
@@ -175,9 +176,12 @@ class ResultsFileContents:
             if self.links is None:
                 try:
                     self.links = self._listing()
-                except BaseException:
+                except BaseException as exc:
                     self._file.close()
                     self._file = None
+                    if isinstance(exc, _H5_ERRORS):
+                        raise InputError(f"group 'datasets' cannot be listed "
+                                         f"({_one_line(exc)})", file=self.name) from None
                     raise
         self._depth += 1
         return self
@@ -185,6 +189,7 @@ class ResultsFileContents:
     def __exit__(self, *exc_info):
         self._depth -= 1
         if self._depth == 0:
+            self._opened.clear()
             self._file.close()
             self._file = None
 
@@ -219,10 +224,7 @@ class ResultsFileContents:
             else:
                 out[name] = ("other", None)
 
-        try:
-            group.visititems_links(visit)
-        except (OSError, RuntimeError, KeyError) as exc:
-            self._refuse(f"group 'datasets' cannot be listed ({_one_line(exc)})")
+        group.visititems_links(visit)
         return out
 
     def names(self) -> list:
@@ -264,8 +266,11 @@ class ResultsFileContents:
         """The value of the top-level dataset ``key`` (``rid``, ``expid``, ...), or None
         when the file has none."""
         with self:
-            if self._file.get(key, getlink=True) is None:
-                return None
+            try:
+                if self._file.get(key, getlink=True) is None:
+                    return None
+            except _H5_ERRORS as exc:
+                self._refuse(f"dataset '{key}' cannot be read ({_one_line(exc)})")
             return self._read((key,), f"dataset '{key}'", with_attrs=False)
 
     def declared_shape(self, name: str):
@@ -274,41 +279,47 @@ class ResultsFileContents:
         try:
             with self:
                 return self._walk(self._resolved(name), f"dataset '{name}'").shape
-        except InputError:
+        except (InputError, *_H5_ERRORS):
             return None
 
     def _walk(self, parts: tuple, where: str):
-        """The dataset at ``parts``, reached through hard links only (checked again at
-        every read: the file may have changed since it was listed)."""
-        h5py, node = self.h5py, self._file
+        """The dataset at ``parts``, reached through hard links only: checked again in
+        every opening of the file (it may have changed since it was listed), the
+        objects reached kept while it is open."""
+        h5py = self.h5py
+        node = self._file
         for i, part in enumerate(parts):
+            if parts[:i + 1] in self._opened:
+                node = self._opened[parts[:i + 1]]
+                continue
+            if node.id.links.exists(part.encode()) and \
+                    node.id.links.get_info(part.encode()).type == h5py.h5l.TYPE_HARD:
+                node = self._opened[parts[:i + 1]] = node[part]
+                continue
             link = node.get(part, getlink=True)
-            if not isinstance(link, h5py.HardLink):
-                what = "missing" if link is None else _link_kind(h5py, link)
-                self._refuse(f"{where}: '{'/'.join(parts[:i + 1])}' is {what}")
-            node = node[part]
+            what = "missing" if link is None else _link_kind(h5py, link)
+            self._refuse(f"{where}: '{'/'.join(parts[:i + 1])}' is {what}")
         if not isinstance(node, h5py.Dataset):
             self._refuse(f"{where} is a group, not a value")
         return node
 
     def _read(self, parts: tuple, where: str, with_attrs: bool):
-        d = self._walk(parts, where)
         try:
+            d = self._walk(parts, where)
             self._check(d, where)
             value = self._values(d, where)
             attrs = self._attrs(d, where) if with_attrs else None
-        except (OSError, RuntimeError, KeyError, TypeError) as exc:
-            # a damaged chunk, a filter not installed, an HDF5 type numpy has no match for
+        except _H5_ERRORS as exc:
             self._refuse(f"{where} cannot be read ({_one_line(exc)})")
         return (value, attrs) if with_attrs else value
 
     def _check(self, d, where: str) -> None:
         """Refuse, before any data is read, what is not in the file or not numbers or text,
         and what declares more bytes than the limit."""
-        if d.is_virtual:
+        plist = d.id.get_create_plist()
+        if plist.get_layout() == self.h5py.h5d.VIRTUAL:
             self._refuse(f"{where} is a virtual dataset (its data is gathered from other "
                          "files): dpdfit reads only the results file itself")
-        plist = d.id.get_create_plist()
         if plist.get_external_count() > 0:
             other = plist.get_external(0)[0].decode("utf-8", "replace")
             self._refuse(f"{where} keeps its data outside the results file (HDF5 external "
@@ -329,8 +340,7 @@ class ResultsFileContents:
                     f"shape {tuple(shape)} of {dtype}")
             self._refuse(f"{where} declares {_size(declared)} ({what}), over the limit of "
                          f"{_size(self.max_dataset_bytes)} ({self.max_dataset_bytes} bytes) a "
-                         "dataset may have: raise it with '[import] max_dataset_bytes = N' in "
-                         "the mapping if the file is right")
+                         f"dataset may have: {_RAISE}")
 
     def _values(self, d, where: str):
         if d.dtype.kind != "O" or d.ndim == 0:
@@ -345,9 +355,7 @@ class ResultsFileContents:
                          for x in part.ravel())
             if total > self.max_dataset_bytes:
                 self._refuse(f"{where} holds more than {_size(self.max_dataset_bytes)} of "
-                             "variable-length data, the limit a dataset may have: raise it "
-                             "with '[import] max_dataset_bytes = N' in the mapping if the "
-                             "file is right")
+                             f"variable-length data, the limit a dataset may have: {_RAISE}")
             out[start:start + step] = part
         return _plain(out)
 
