@@ -40,8 +40,9 @@ import pandas as pd
 
 from dpdfit.errors import DpdfitError, InputError
 
-from .hdf5_contents import (LazyMapping, ResultsFileContents, check_signature, file_sha256,
-                            one_value, short_repr)
+from .hdf5_contents import (ResultsFileContents, check_signature, file_sha256, one_value,
+                            short_repr)
+from .lazy_mapping import LazyMapping
 from .pyon import PyonError, decode_pyon
 from .units import scale_from_metadata
 
@@ -122,7 +123,7 @@ class NdscanScan:
     """One ndscan root: the scan's axes and result channels, point by point.
 
     Read from a file, ``channels`` and ``subscans`` are read-only mappings whose
-    values are read on first access (:class:`~.hdf5_contents.LazyMapping`), and
+    values are read on first access (:class:`~.lazy_mapping.LazyMapping`), and
     ``declared_points`` gives each channel's number of points from the shape its
     dataset declares."""
 

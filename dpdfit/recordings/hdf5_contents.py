@@ -16,7 +16,6 @@ times element size) first checked against a limit
 max_dataset_bytes``), so that a dataset declaring gigabytes it never wrote is
 refused, not allocated; its type must be numbers or text.  :func:`check_signature`
 reads a file's first 8 bytes only; :func:`file_sha256` streams it.
-:class:`LazyMapping` is the read-only mapping whose values are read on first access.
 """
 
 from __future__ import annotations
@@ -24,15 +23,14 @@ from __future__ import annotations
 import hashlib
 import math
 import posixpath
-from collections.abc import Mapping
 
 import numpy as np
 
 from dpdfit.core.defaults import MAX_DATASET_BYTES
 from dpdfit.errors import InputError
 
-__all__ = ["LazyMapping", "ResultsFileContents", "check_signature", "file_sha256",
-           "one_value", "short_repr", "HDF5_SIGNATURE"]
+__all__ = ["ResultsFileContents", "check_signature", "file_sha256", "one_value",
+           "short_repr", "HDF5_SIGNATURE"]
 
 #: The first 8 bytes of an HDF5 file (ARTIQ writes no user block before them).
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -46,43 +44,6 @@ _VLEN_SLICE_ELEMENTS = 1 << 16
 # not installed, an HDF5 type numpy has no match for
 _H5_ERRORS = (OSError, RuntimeError, KeyError, TypeError)
 _RAISE = "raise it with '[import] max_dataset_bytes = N' in the mapping if the file is right"
-
-
-class LazyMapping(Mapping):
-    """A read-only mapping whose value for a key is built on first access, then kept.
-
-    Parameters
-    ----------
-    keys : iterable
-        The keys, in order (known without building any value).
-    build : callable
-        ``build(key)`` gives the value of ``key``; it may raise
-        :class:`~dpdfit.errors.InputError`.
-    """
-
-    def __init__(self, keys, build):
-        self._keys = dict.fromkeys(keys)
-        self._build = build
-        self._built = {}
-
-    def __getitem__(self, key):
-        if key not in self._keys:
-            raise KeyError(key)
-        if key not in self._built:
-            self._built[key] = self._build(key)
-        return self._built[key]
-
-    def __contains__(self, key) -> bool:
-        return key in self._keys              # Mapping's would build the value
-
-    def __iter__(self):
-        return iter(self._keys)
-
-    def __len__(self) -> int:
-        return len(self._keys)
-
-    def __repr__(self) -> str:
-        return f"<LazyMapping of {len(self._keys)} keys, {len(self._built)} read>"
 
 
 def check_signature(path, name: str) -> None:

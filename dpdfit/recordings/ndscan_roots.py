@@ -20,7 +20,8 @@ import numpy as np
 from dpdfit.errors import InputError
 
 from .artiq import NdscanScan, Quantity, spec_scale
-from .hdf5_contents import LazyMapping, ResultsFileContents, one_value, short_repr
+from .hdf5_contents import ResultsFileContents, one_value, short_repr
+from .lazy_mapping import LazyMapping
 
 __all__ = ["read_scan"]
 
