@@ -159,14 +159,18 @@ def test_a_soft_link_to_another_dataset_of_the_run_is_read(tmp_path):
 
 def _never_read(f, tmp):
     """What the mapping does not name, each of which would fail or be refused if read: a
-    channel of the used root that declares 80 GB, external storage and links to files that
-    do not exist, a virtual dataset of one, a second ndscan root whose schema is not JSON."""
+    channel of the used root that declares 80 GB and one that is an external link,
+    external storage and links to files that do not exist, a virtual dataset of one, a
+    second ndscan root whose schema is not JSON."""
     g = f["datasets"]
     g.create_dataset(ROOT + "points.channel_camera", shape=(16, 10**9 // 16 * 10), dtype="f8",
                      chunks=(1, 4096))
     channels = json.loads(g[ROOT + "channels"][()])
     channels["camera"] = {"path": "camera", "type": "opaque", "description": "camera"}
+    channels["elsewhere"] = {"path": "elsewhere", "type": "float"}
     g[ROOT + "channels"][()] = json.dumps(channels)
+    g[ROOT + "points.channel_elsewhere"] = h5py.ExternalLink(
+        str(tmp / "outside" / "missing.h5"), "/x")
     missing = str(tmp / "outside" / "missing.bin")
     g.create_dataset("raw_trace", shape=(1000,), dtype="f8", external=[(missing, 0, 8000)])
     g["other_run"] = h5py.ExternalLink(str(tmp / "outside" / "missing.h5"), "/datasets")

@@ -124,8 +124,8 @@ class NdscanScan:
 
     Read from a file, ``channels`` and ``subscans`` are read-only mappings whose
     values are read on first access (:class:`~.lazy_mapping.LazyMapping`), and
-    ``declared_points`` gives each channel's number of points from the shape its
-    dataset declares."""
+    ``declared_points`` gives each channel's ``(dataset, number of points)`` from the
+    shape its dataset declares."""
 
     root: str
     source_id: str | None
@@ -145,14 +145,15 @@ class NdscanScan:
 
     def point_counts(self) -> dict:
         """``{dataset: number of points}`` of every axis and channel; a channel's from
-        ``declared_points`` when given (it is then not read for this)."""
+        ``declared_points`` when it names the channel (which is then not read: None
+        there leaves out a channel whose dataset is refused if it is used)."""
         counts = {q.dataset: len(q.values) for q in self.axes}
         for c in self.channels:
-            d = self.declared_points.get(c)
-            if d is None:
+            if c not in self.declared_points:
                 q = self.channels[c]
-                d = (q.dataset, len(q.values))
-            counts[d[0]] = d[1]
+                counts[q.dataset] = len(q.values)
+            elif self.declared_points[c] is not None:
+                counts.update([self.declared_points[c]])
         return counts
 
     def axis(self, name: str) -> Quantity:

@@ -93,9 +93,8 @@ def read_scan(datasets, root: str, name: str, contents: ResultsFileContents) -> 
             elif key in datasets:       # else not saved (ndscan's save_by_default=False)
                 channels[cname] = (key, _fields(spec, spec.get("type", "float"),
                                                 spec.get("description", ""), where, name))
-                shape = contents.declared_shape(key)
-                if shape is not None:
-                    declared[cname] = (key, shape[0] if shape else 1)
+                shape = contents.declared_shape(key)      # None: refused if read
+                declared[cname] = None if shape is None else (key, shape[0] if shape else 1)
         completed = get("completed", lambda v: _flag(v, root + "completed", name))
         rev = get(_SCHEMA_KEY, lambda v: _integer(v, root + _SCHEMA_KEY, name))
         source_id = get("source_id", lambda v: _text(v, root + "source_id", name))
