@@ -194,8 +194,9 @@ class ResultsFile:
 
     ``datasets`` maps each name under ``datasets/`` to ``(value, attributes)`` and
     ``scans`` each ndscan root to its :class:`NdscanScan`; read from a file, both
-    read a value on first access.  The file is opened for each read, or once for a
-    ``with`` block: ``with read_results_file(path) as rf: ...``."""
+    read a value on first access, through ``contents``
+    (:class:`~.hdf5_contents.ResultsFileContents`).  The file is opened for each
+    read, or once for a ``with`` block: ``with read_results_file(path) as rf: ...``."""
 
     run: Run
     scans: Mapping = field(default_factory=dict)
