@@ -18,9 +18,10 @@ from dpdfit.errors import InputError
 
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
-           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "INTEGER_MAX", "FORMAT_MAX_CHARS",
-           "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH", "EXPR_MAX_NODES",
-           "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS", "PYON_MAX_DEPTH"]
+           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "INTEGER_MAX",
+           "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
+           "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
+           "PYON_MAX_DEPTH"]
 
 #: sideband detuning nu of the gate tones from the carrier, Hz (S4)
 NU_HZ = 1.84e6
@@ -200,6 +201,14 @@ LAB_TIMES = LabTimes()
 #: phase runs to learn it from: the paper's run-to-run sd of phi(1), 0.0009 rad over six
 #: runs (Supplement, phase stability), rounded up
 PHASE_RUN_NOISE_RAD = 1e-3
+#: the largest HDF5 dataset the import reads from a results file, bytes (declared shape
+#: times element size, checked before anything is read; a mapping raises it with
+#: ``[import] max_dataset_bytes``): 256 MiB.  The largest record a mapping reads whole,
+#: per-shot outcomes of 10^4 points x 10^3 shots in float64, is 80 MB; the import's copies
+#: of one dataset that size (conversion to float, the table's column) stay near 1 GB,
+#: which a lab PC has.  A damaged or hostile file can declare far more than it holds (a
+#: chunked dataset never written reads as its fill value): it is refused, not allocated.
+MAX_DATASET_BYTES = 256 * 2**20
 
 
 # What an import mapping and a results file's expid may ask of the importer

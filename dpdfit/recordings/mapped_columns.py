@@ -117,6 +117,10 @@ def _found(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
         if value is None:
             fail(spec, rf, f"the results file has no '{name}'")
         v = np.full(n, value, dtype=object if isinstance(value, str) else None)
+    if np.asarray(v).dtype.kind == "c":        # numpy would keep the real part, warning
+        fail(spec, rf, f"values are complex numbers ({np.asarray(v).dtype}), which no "
+              "campaign column takes: record the parts you mean as real datasets", scan,
+              dataset)
     return v, file_unit, dataset
 
 

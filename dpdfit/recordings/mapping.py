@@ -5,9 +5,10 @@ A mapping is a TOML file (read with :mod:`tomllib`); the annotated examples are
 Its top-level keys:
 
 * ``[import]`` -- options of the import: ``complete_only`` (skip ndscan scans
-  that did not complete; the command's ``--complete-only``) and
+  that did not complete; the command's ``--complete-only``),
   ``skip_bad_files`` (skip, with a warning each, the results files a source
-  cannot read; ``--skip-bad-files``).
+  cannot read; ``--skip-bad-files``) and ``max_dataset_bytes`` (the largest
+  HDF5 dataset read, default :data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`).
 * ``[campaign]`` -- keys of ``campaign.json`` (:data:`CAMPAIGN_KEYS`), copied.
 * ``[[calibration_amplitude]]``, ``[[calibration_phase]]``, ``[[spectra]]``,
   ``[[populations]]``, ``[[parity]]``, ``[[time_scans]]``, ``[[gate_rates]]``
@@ -80,7 +81,7 @@ SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run"
 MODIFIERS = ("unit", "full_scale_dbm", "format", "labels", "count")
 _RUN_FIELDS = ("rid", "start_time", "file")
 _SOURCE_KEYS = ("files", "root", "subscan", "columns")
-_IMPORT_OPTIONS = ("complete_only", "skip_bad_files")
+_IMPORT_OPTIONS = ("complete_only", "skip_bad_files", "max_dataset_bytes")
 
 
 @dataclass(frozen=True)
@@ -141,6 +142,7 @@ class Mapping:
     complete_only: bool = False
     text: str = field(default="", repr=False)
     skip_bad_files: bool = False
+    max_dataset_bytes: int | None = None
 
     @property
     def folder(self) -> Path:
@@ -167,9 +169,14 @@ def read_mapping(path) -> Mapping:
     for k in opts:
         if k not in _IMPORT_OPTIONS:
             err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]", "import")
-    for k in _IMPORT_OPTIONS:
+    for k in ("complete_only", "skip_bad_files"):
         if not isinstance(opts.get(k, False), bool):
             err.bad(f"import.{k}", f"must be true or false, got {shown(opts[k])}", "import", k)
+    limit = opts.get("max_dataset_bytes")
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int)
+                              or limit < 1):
+        err.bad("import.max_dataset_bytes", "must be a whole number of bytes, at least 1, "
+                f"got {shown(limit)}", "import", "max_dataset_bytes")
     complete_only = opts.get("complete_only", False)
     campaign = doc.get("campaign", {})
     err.table(campaign, "campaign")
@@ -193,7 +200,7 @@ def read_mapping(path) -> Mapping:
                 "calibration")
     return Mapping(path=path, campaign=campaign, sources=tuple(sources),
                    complete_only=complete_only, text=text,
-                   skip_bad_files=opts.get("skip_bad_files", False))
+                   skip_bad_files=opts.get("skip_bad_files", False), max_dataset_bytes=limit)
 
 
 def _toml(text: str, file: str) -> dict:
