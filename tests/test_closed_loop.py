@@ -154,6 +154,26 @@ def test_time_scan_adds_its_points_on_the_campaign_grid(base_gates, tmp_path):
     assert np.array_equal(new.t_us, old[(old.A == 0.4) & (old.dpd == 1)].t_us)
 
 
+def test_hundreds_of_scans_of_a_setting_share_the_engine(base_gates, tmp_path):
+    """A proposal that fills its lab time with scans (here 60 population scans and two
+    time scans again) is recorded with the engine's work shared between the scans
+    (:mod:`dpdfit.simulation.campaign.further_engine`); the rows are the recording's."""
+    m = {"what": "populations", "settings": {"A": 0.4, "dpd": 1, "shots": 625, "scans": 60}}
+    cfg = extend_config(extend_config(small_config(), m), {"what": "time_scan", "settings": {
+        "A": 0.4, "dpd": 1, "shots": 625, "scans": 2}})
+    ext = _simulate(tmp_path / "ext", cfg)
+    added = _added(base_gates, ext)
+    points = small_config().time_scan_points
+    assert added == {"populations.csv": 60, "time_scans.csv": 2 * points}
+    pop = pd.read_csv(ext / "populations.csv").iloc[-60:]
+    assert pop.scan.tolist() == list(range(2, 62)) and set(pop.shots) == {625}
+    # the scans scatter as binomial draws at a jittered power: the even fraction's spread
+    # is close to binomial (the jitter adds little at these shots)
+    f = (pop.n00 + pop.n11) / pop.shots
+    binom = np.sqrt(f.mean() * (1 - f.mean()) / 625)
+    assert 0.7 * binom < f.std() < 1.5 * binom
+
+
 def test_further_amplitude_run_carries_the_injected_drift(tmp_path):
     """The further run is drifted by the injected effects like any run after the recordings
     (the same draws with and without the injection: only the effect differs)."""

@@ -181,7 +181,7 @@ class _StubGate:
     gates = pd.DataFrame({"A": [0.5, 0.7], "dpd": [0, 1], "shots": [2500.0, 2500.0],
                           "n_scans": [4, 4]})
 
-    def rate_error_db(self):
+    def rate_error_db(self, key=None):
         return 0.0
 
     def predict(self, p):
@@ -212,6 +212,48 @@ def test_gate_side_difference_picks_the_parity_scan_where_it_differs():
     pops = [m for m in nm.menu if m["what"] == "populations"]
     assert len(pops) == 2 and all(m["expected_delta_bic"] == 0.0 for m in pops)
     assert nm.lab_seconds == pytest.approx(k * N * LAB_TIMES.shot_s)
+
+
+class _StubGateSharedRateError(_StubGate):
+    """The same two settings; each setting's rate calibration is off by 0.05 dB (one
+    draw shared by every scan of the setting), which moves the contrast."""
+
+    def rate_error_db(self, key=None):
+        return 0.05
+
+    def predict(self, p):
+        out = super().predict(p)
+        out["dlin_C"] = np.array([0.2, 0.2])          # dC per dB of power error
+        return out
+
+
+def test_scans_of_a_setting_pool_and_their_shared_rate_error_does_not_average():
+    """k more scans of a recorded setting add ``Q_k = S(n+k)^-1 - S(n)^-1``: the
+    setting's rate-calibration error is common to all its scans, so the separation
+    saturates at what that error allows, and the proposal says it cannot decide rather
+    than asking for a working day of scans as if they were independent."""
+    prob = SimpleNamespace(tone=None, tone_noise=None, gate=_StubGateSharedRateError(),
+                           ts=None, runs_after=None, camp=SimpleNamespace(has_imbalance=True))
+    a, b = _fit("spam_offset"), _fit("dephasing", {"dephasing.x": 0.02})
+    nm = propose_next_measurement(prob, [a, b])
+    par = next(m for m in nm.menu if m["what"] == "parity" and m["settings"]["A"] == 0.7)
+    N = 625 * ERROR_MODEL.parity_phases
+    C, n = 0.97, 4
+    shot1 = 2 * (1 - 0.75 * C ** 2) / N                  # one scan's contrast variance
+    vx = (0.2 * 0.05) ** 2 + 2 * 0.0                      # the shared part (dquad = 0)
+
+    def info(k):                                          # delta^2 (S(n+k)^-1 - S(n)^-1)
+        return 0.02 ** 2 * (1 / (shot1 / (n + k) + vx) - 1 / (shot1 / n + vx))
+    # nothing a working day of scans gives reaches the saturated information
+    assert par["expected_delta_bic"] <= 0.02 ** 2 / vx - 0.02 ** 2 / (shot1 / n + vx) + 1e-9
+    k = par["settings"]["scans"]
+    assert par["expected_delta_bic"] == pytest.approx(info(k), rel=1e-9)
+    # short of deciding, it is repeated until it has 95 % of a working day's worth: the
+    # fewest scans that do (here under a quarter of a day's)
+    k_day = int(LAB_TIMES.max_seconds // (N * LAB_TIMES.shot_s))
+    assert info(k) >= 0.95 * info(k_day) > info(k - 1) and k < k_day / 4
+    assert nm.what is None or nm.expected_delta_bic < decisive_target()
+    assert nm.reason and "short of" in nm.reason
 
 
 @pytest.mark.slow

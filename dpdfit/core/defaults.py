@@ -18,8 +18,10 @@ from dpdfit.errors import InputError
 
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
-           "LAB_TIMES", "PHASE_RUN_NOISE_RAD",
-           "MAX_FILES_PER_SOURCE"]
+           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "INTEGER_MAX",
+           "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
+           "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
+           "PYON_MAX_DEPTH", "MAX_FILES_PER_SOURCE"]
 
 #: sideband detuning nu of the gate tones from the carrier, Hz (S4)
 NU_HZ = 1.84e6
@@ -199,6 +201,47 @@ LAB_TIMES = LabTimes()
 #: phase runs to learn it from: the paper's run-to-run sd of phi(1), 0.0009 rad over six
 #: runs (Supplement, phase stability), rounded up
 PHASE_RUN_NOISE_RAD = 1e-3
+#: the largest HDF5 dataset the import reads from a results file, bytes (declared shape
+#: times element size, checked before anything is read; a mapping raises it with
+#: ``[import] max_dataset_bytes``): 256 MiB.  The largest record a mapping reads whole,
+#: per-shot outcomes of 10^4 points x 10^3 shots in float64, is 80 MB; the import's copies
+#: of one dataset that size (conversion to float, the table's column) stay near 1 GB,
+#: which a lab PC has.  A damaged or hostile file can declare far more than it holds (a
+#: chunked dataset never written reads as its fill value): it is refused, not allocated.
+MAX_DATASET_BYTES = 256 * 2**20
+
+
+# What an import mapping and a results file's expid may ask of the importer
+# (dpdfit.recordings: mapping, value_formats, expressions, pyon).  Each bound is far
+# beyond what a lab writes; a crafted file is refused in one line instead of taking
+# the machine's memory or time.
+#: largest integer (in magnitude) a mapping or a run's expid may hold: int64, the range
+#: TOML promises, ARTIQ stores and the campaign tables hold
+INTEGER_MAX = 2**63 - 1
+#: longest ``format`` of a mapping column (``"R{:03d}"`` is 7 characters)
+FORMAT_MAX_CHARS = 100
+#: widest field and most digits after the point a ``format`` may ask for: str.format
+#: pads to any width, so ``"{:300000000}"`` would build a 300 MB text per value
+FORMAT_MAX_WIDTH = 100
+#: longest ``expr`` of a mapping column (the guide's longest is 56 characters)
+EXPR_MAX_CHARS = 1000
+#: deepest nesting of an ``expr`` (calls, brackets, operators): the checker and the
+#: evaluator recurse once per level
+EXPR_MAX_DEPTH = 32
+#: most parts (syntax-tree nodes) of an ``expr``; the sum of three datasets has 12
+EXPR_MAX_NODES = 250
+#: largest integer an ``expr`` may write: expressions compute in float64, which holds
+#: every integer up to 2**53 exactly and no larger one reliably
+EXPR_MAX_INTEGER = 2**53
+#: most decimal places ``round(x, digits)`` may keep or drop: a value in SI units down to
+#: 1e-13 (ps) still keeps float64's 17 significant digits; numpy fails beyond 2**31
+EXPR_MAX_ROUND_DIGITS = 30
+#: longest PYON text (a run's expid: its arguments, a few kB in the real ARTIQ file
+#: the tests read; ndscan's parameter overrides add some)
+PYON_MAX_CHARS = 1_000_000
+#: deepest nesting of PYON (an expid nests dictionaries a few levels deep); the decoder
+#: recurses once per level
+PYON_MAX_DEPTH = 100
 
 #: the most results files one source of an import mapping reads (its globs together): a
 #: year of a busy lab's runs is tens of thousands; a glob that matches more has most

@@ -18,19 +18,21 @@ quantity's ``scale`` is the factor of the ``unit`` it is shown in (a time shown
 in ``us`` has scale 1e-6 and is stored in seconds), so the shown value is
 ``stored / scale`` (:meth:`NdscanScan.points` with ``shown=True``).
 
-:func:`read_results_file` reads one file completely (these files are small:
-one run's scans) and returns a frozen :class:`ResultsFile`.  Every problem is an
-:class:`~dpdfit.errors.InputError` naming the file, the root and the dataset.
+:func:`read_results_file` checks the file's signature, lists its datasets and
+reads the run's provenance, and returns a frozen :class:`ResultsFile` whose
+datasets, scans and channels are read when first used, only from the file
+itself and within a size limit (:mod:`.hdf5_contents`): an import reads what
+its mapping names and the structure of the ndscan roots it uses.  Every
+problem is an :class:`~dpdfit.errors.InputError` naming the file, the root and
+the dataset.
 """
 
 from __future__ import annotations
 
 import fnmatch
-import hashlib
-import io
-import json
 import logging
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +40,9 @@ import pandas as pd
 
 from dpdfit.errors import DpdfitError, InputError
 
+from .hdf5_contents import (ResultsFileContents, check_signature, file_sha256, one_value,
+                            short_repr)
+from .lazy_mapping import LazyMapping
 from .pyon import PyonError, decode_pyon
 from .units import scale_from_metadata
 
@@ -85,9 +90,10 @@ class Run:
                 params = decode_pyon(params)
             except PyonError:
                 params = None
+        overrides = params.get("overrides") if isinstance(params, dict) else None
         out = {}
-        for fqn, entries in ((params or {}).get("overrides") or {}).items():
-            for e in entries or ():
+        for fqn, entries in (overrides.items() if isinstance(overrides, dict) else ()):
+            for e in (entries if isinstance(entries, (list, tuple)) else ()):
                 if isinstance(e, dict) and "value" in e:
                     out.setdefault(fqn, e["value"])
         return out
@@ -114,7 +120,12 @@ class Quantity:
 
 @dataclass(frozen=True)
 class NdscanScan:
-    """One ndscan root: the scan's axes and result channels, point by point."""
+    """One ndscan root: the scan's axes and result channels, point by point.
+
+    Read from a file, ``channels`` and ``subscans`` are read-only mappings whose
+    values are read on first access (:class:`~.lazy_mapping.LazyMapping`), and
+    ``declared_points`` gives each channel's ``(dataset, number of points)`` from the
+    shape its dataset declares."""
 
     root: str
     source_id: str | None
@@ -122,14 +133,28 @@ class NdscanScan:
     completed: bool | None
     schema_revision: int | None
     axes: tuple = ()
-    channels: dict = field(default_factory=dict)
-    subscans: dict = field(default_factory=dict)
+    channels: Mapping = field(default_factory=dict)
+    subscans: Mapping = field(default_factory=dict)
+    declared_points: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_points(self) -> int:
         """Number of scan points (length of the first axis, else of a channel; 0 if none)."""
         q = self.axes[0] if self.axes else next(iter(self.channels.values()), None)
         return 0 if q is None else len(q.values)
+
+    def point_counts(self) -> dict:
+        """``{dataset: number of points}`` of every axis and channel; a channel's from
+        ``declared_points`` when it names the channel (which is then not read: None
+        there leaves out a channel whose dataset is refused if it is used)."""
+        counts = {q.dataset: len(q.values) for q in self.axes}
+        for c in self.channels:
+            if c not in self.declared_points:
+                q = self.channels[c]
+                counts[q.dataset] = len(q.values)
+            elif self.declared_points[c] is not None:
+                counts.update([self.declared_points[c]])
+        return counts
 
     def axis(self, name: str) -> Quantity:
         """An axis by its short name (last part of the parameter's fqn) or its fqn."""
@@ -165,11 +190,27 @@ class NdscanScan:
 
 @dataclass(frozen=True)
 class ResultsFile:
-    """An ARTIQ results file: the run, its ndscan scans (by root) and plain datasets."""
+    """An ARTIQ results file: the run, its ndscan scans (by root) and plain datasets.
+
+    ``datasets`` maps each name under ``datasets/`` to ``(value, attributes)`` and
+    ``scans`` each ndscan root to its :class:`NdscanScan`; read from a file, both
+    read a value on first access, through ``contents``
+    (:class:`~.hdf5_contents.ResultsFileContents`).  The file is opened for each
+    read, or once for a ``with`` block: ``with read_results_file(path) as rf: ...``."""
 
     run: Run
-    scans: dict = field(default_factory=dict)
-    datasets: dict = field(default_factory=dict)
+    scans: Mapping = field(default_factory=dict)
+    datasets: Mapping = field(default_factory=dict)
+    contents: ResultsFileContents | None = field(default=None, repr=False, compare=False)
+
+    def __enter__(self) -> ResultsFile:
+        if self.contents is not None:
+            self.contents.__enter__()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        if self.contents is not None:
+            self.contents.__exit__(*exc_info)
 
     def scan(self, root: str | None = None) -> NdscanScan:
         """The scan at ``root`` (a glob such as ``ndscan.rid_*.`` is allowed); without
@@ -198,131 +239,74 @@ def find_ndscan_roots(names) -> list[str]:
     return sorted(roots)
 
 
-def read_results_file(path, name: str | None = None) -> ResultsFile:
+def read_results_file(path, name: str | None = None, *,
+                      max_dataset_bytes: int | None = None) -> ResultsFile:
     """Read an ARTIQ results file (module doc).  InputError if it is not one.
 
     ``name`` is how messages and :attr:`Run.file` name the file (default: ``path``;
-    the import names it relative to its mapping)."""
-    h5py = h5py_module()
+    the import names it relative to its mapping).  ``max_dataset_bytes`` is the
+    largest dataset read (default
+    :data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`)."""
+    h5py_module()
     path = Path(path)
     name = str(path) if name is None else str(name)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise InputError(f"cannot be read ({exc.strerror})", file=name) from None
-    if not raw.startswith(b"\x89HDF\r\n\x1a\n"):
-        raise InputError("not an HDF5 file (an ARTIQ results file is HDF5)", file=name)
-    try:
-        with h5py.File(io.BytesIO(raw), "r") as f:
-            run = _run(f, name, hashlib.sha256(raw).hexdigest())
-            datasets = {}
-            if "datasets" in f:
-                # a key with "/" is a nested group in the file (ARTIQ's h5py writes it so);
-                # it is read under its key, "group/name"
-                def take(k, d):
-                    if isinstance(d, h5py.Dataset):
-                        datasets[k] = (_plain(d[()]), dict(d.attrs))
-                f["datasets"].visititems(take)
-    except OSError as exc:
-        raise InputError(f"not a readable HDF5 file ({exc})", file=name) from None
-    scans = {r: _scan(datasets, r, name) for r in find_ndscan_roots(datasets)}
-    return ResultsFile(run, scans, datasets)
+    check_signature(path, name)                  # 8 bytes: nothing else is HDF5
+    contents = ResultsFileContents(path, name, max_dataset_bytes)
+    with contents:                               # lists it, then reads the run's keys
+        run = _run(contents, name)
+    # hashed once the file proved to be a results file; in blocks, never whole
+    run = replace(run, sha256=file_sha256(path, name))
+    datasets = LazyMapping(contents.names(), contents.read)
+    from .ndscan_roots import read_scan      # it builds this module's NdscanScan
+    scans = LazyMapping(find_ndscan_roots(contents.names()),
+                        lambda root: read_scan(datasets, root, name, contents))
+    return ResultsFile(run, scans, datasets, contents)
 
 
-def _plain(v):
-    if isinstance(v, bytes):
-        return v.decode("utf-8", errors="replace")
-    if isinstance(v, np.ndarray) and v.dtype.kind == "O":
-        return np.array([x.decode("utf-8", "replace") if isinstance(x, bytes) else x
-                         for x in v.ravel()], dtype=object).reshape(v.shape)
-    return v
+def _run(contents: ResultsFileContents, name: str) -> Run:
+    def top(key):
+        v = contents.read_top(key)
+        return None if v is None else one_value(v, key, name)
 
-
-def _run(f, name: str, sha: str) -> Run:
-    def scalar(key):
-        return _plain(f[key][()]) if key in f else None
-
+    with contents:
+        text, rid, version = top("expid"), top("rid"), top("artiq_version")
+        start, end = top("start_time"), top("run_time")
     expid = {}
-    text = scalar("expid")
     if text is not None:
+        if not isinstance(text, str):
+            raise InputError(f"dataset 'expid' is not PYON text but {short_repr(text)}",
+                             file=name)
         try:
             expid = decode_pyon(text)
         except PyonError as exc:
             raise InputError(f"dataset 'expid': {exc}", file=name) from None
         if not isinstance(expid, dict):
             raise InputError("dataset 'expid' is not a dictionary", file=name)
-    rid = scalar("rid")
-    return Run(file=name, sha256=sha, rid=None if rid is None else int(rid),
-               start_time=_time(scalar("start_time"), name, "start_time"),
-               run_time=_time(scalar("run_time"), name, "run_time"), expid=expid,
-               artiq_version=scalar("artiq_version"))
+        if not isinstance(expid.get("arguments") or {}, dict):
+            raise InputError("dataset 'expid': its 'arguments' is not a dictionary", file=name)
+        if not isinstance(expid.get("class_name", ""), (str, type(None))):
+            raise InputError("dataset 'expid': its 'class_name' is not text", file=name)
+    if rid is not None and (isinstance(rid, bool) or not isinstance(rid, (int, float))
+                            or not float(rid).is_integer()):
+        raise InputError(f"dataset 'rid' is not an integer: {short_repr(rid)}", file=name)
+    if version is not None and not isinstance(version, str):
+        raise InputError(f"dataset 'artiq_version' is not text: {short_repr(version)}",
+                         file=name)
+    return Run(file=name, sha256="", rid=None if rid is None else int(rid),
+               start_time=_time(start, name, "start_time"),
+               run_time=_time(end, name, "run_time"), expid=expid, artiq_version=version)
 
 
 def _time(v, name: str, key: str):
     if v is None:
         return None
     try:
+        if isinstance(v, bool):
+            raise TypeError(key)
         return pd.Timestamp(float(v), unit="s", tz="UTC")
     except (TypeError, ValueError, OverflowError):
-        raise InputError(f"dataset '{key}' is not a time (seconds since the epoch): {v!r}",
-                         file=name) from None
-
-
-def _json(datasets: dict, key: str, name: str):
-    if key not in datasets:
-        raise InputError(f"dataset '{key}' missing", file=name)
-    try:
-        return json.loads(datasets[key][0])
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"dataset '{key}' is not JSON ({exc})", file=name) from None
-
-
-def _scan(datasets: dict, root: str, name: str) -> NdscanScan:
-    def get(key, default=None):
-        return datasets[root + key][0] if root + key in datasets else default
-
-    axes = []
-    spec_axes = _json(datasets, root + "axes", name)
-    for i, ax in enumerate(spec_axes):
-        param = ax.get("param", {})
-        spec = param.get("spec", {})
-        fqn = param.get("fqn", f"axis_{i}")
-        axes.append(_quantity(datasets, root, f"points.axis_{i}", fqn.split(".")[-1], name,
-                              unit=spec.get("unit", ""), scale=spec_scale(spec),
-                              type=param.get("type", "float"), fqn=fqn,
-                              description=param.get("description", "")))
-    channels, subscans = {}, {}
-    for cname, spec in _json(datasets, root + "channels", name).items():
-        key = ("points.channel_" if spec_axes else "point.") + cname
-        if spec.get("type") == "subscan":     # "<scan>_spec": each point's subscan schema
-            subscans[cname[:-len("_spec")] if cname.endswith("_spec") else cname] = \
-                _subscan_schema(datasets.get(root + key, (None,))[0])
-            continue
-        if root + key not in datasets:
-            continue               # not saved by default (ndscan's save_by_default=False)
-        channels[cname] = _quantity(datasets, root, key, cname, name,
-                                    unit=spec.get("unit", "") or "",
-                                    scale=spec_scale(spec),
-                                    type=spec.get("type", "float"),
-                                    description=spec.get("description", ""))
-    completed = get("completed")
-    rev = get(_SCHEMA_KEY)
-    return NdscanScan(root=root, source_id=get("source_id"), fragment_fqn=get("fragment_fqn"),
-                      completed=None if completed is None else bool(completed),
-                      schema_revision=None if rev is None else int(rev), axes=tuple(axes),
-                      channels=channels, subscans=subscans)
-
-
-def _subscan_schema(values) -> dict:
-    # the schema ndscan pushes with every point (JSON text); the first one that parses
-    for text in np.atleast_1d(values if values is not None else []):
-        try:
-            spec = json.loads(text)
-        except (TypeError, ValueError):
-            continue
-        if isinstance(spec, dict):
-            return spec
-    return {}
+        raise InputError(f"dataset '{key}' is not a time (seconds since the epoch): "
+                         f"{short_repr(v)}", file=name) from None
 
 
 def spec_scale(spec: dict):
@@ -332,17 +316,3 @@ def spec_scale(spec: dict):
     if spec.get("scale") is None:
         return scale_from_metadata({"unit": spec.get("unit") or ""})
     return spec["scale"]
-
-
-def _quantity(datasets, root, key, short, name, **kw) -> Quantity:
-    if root + key not in datasets:
-        raise InputError(f"root '{root}': dataset '{root + key}' missing", file=name)
-    v = np.atleast_1d(np.asarray(datasets[root + key][0]))
-    try:
-        scale = float(kw.pop("scale"))
-    except (TypeError, ValueError):
-        raise InputError(f"root '{root}': the scale of '{short}' is not a number",
-                         file=name) from None
-    if not np.isfinite(scale) or scale == 0:
-        raise InputError(f"root '{root}': the scale of '{short}' is {scale}", file=name)
-    return Quantity(name=short, dataset=root + key, values=v, scale=scale, **kw)

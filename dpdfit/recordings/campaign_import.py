@@ -159,7 +159,7 @@ def import_campaign(mapping, *, complete_only: bool | None = None,
                                       unit="file", progress=progress):
         rel = _relative(path, m.folder)
         try:
-            rf = read_results_file(path, name=rel)
+            rf = read_results_file(path, name=rel, max_dataset_bytes=m.max_dataset_bytes)
         except InputError as exc:
             if not skip:
                 raise
@@ -170,7 +170,8 @@ def import_campaign(mapping, *, complete_only: bool | None = None,
         provenance[path] = _provenance(rf.run, rel)
         for src in sources:
             try:
-                df, scan, notes = _rows(src, rf, rel)
+                with rf:                 # the file open while this source's rows are read
+                    df, scan, notes = _rows(src, rf, rel)
             except InputError as exc:
                 if not skip:
                     raise
@@ -326,8 +327,7 @@ def _pattern_keys(src: SourceSpec, rf: ResultsFile, scan) -> list[dict]:
 def _scan_points(scan, rf: ResultsFile):
     """(points, a warning or None): an interrupted scan may end inside a point, whose
     partial last point is dropped, as ndscan's tools do."""
-    qs = (*scan.axes, *scan.channels.values())
-    lengths = {q.dataset: len(q.values) for q in qs}
+    lengths = scan.point_counts()             # a channel not used is not read for it
     n = min(lengths.values()) if lengths else 0
     if len(set(lengths.values())) > 1:
         longest = max(lengths, key=lengths.get)

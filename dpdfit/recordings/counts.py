@@ -274,12 +274,8 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
 
 def _conditional_p(k, kg, N, Ng) -> np.ndarray:
     """Two-sided p-value of each row's count ``k`` (of ``N`` shots) given its point's
-    total ``kg`` (of ``Ng``): under one common probability, ``k`` is hypergeometric
-    given ``kg``, whatever that probability is.
-
-    Exact, not the normal approximation: rare outcomes (a few counts in hundreds of
-    repeats of 625 shots) are where repeats pile up, and there a count of 2 beside
-    zeros is 8 normal sigma but an ordinary draw (p ~ 1e-3)."""
+    total ``kg`` (of ``Ng``), hypergeometric under one common probability.  Exact: for
+    rare outcomes a count of 2 beside hundreds of zeros is 8 normal sigma but p ~ 1e-3."""
     M, n, K = (np.asarray(x, dtype=np.int64) for x in (Ng, kg, N))
     lo = hypergeom.cdf(k, M, n, K)
     hi = hypergeom.sf(k - 1, M, n, K)

@@ -19,15 +19,26 @@ interpreted node by node with numpy, elementwise over the rows.  ``eval`` is
 never used: the standard library has no safe evaluator for a whitelist this
 small, and a general one (numexpr, asteval) would let in more than the mapping
 needs.
+
+An expression is bounded (:mod:`dpdfit.core.defaults`): at most
+``EXPR_MAX_CHARS`` characters, ``EXPR_MAX_NODES`` parts nested at most
+``EXPR_MAX_DEPTH`` deep, integers up to ``EXPR_MAX_INTEGER`` (float64 holds them
+exactly) and ``round`` to at most ``EXPR_MAX_ROUND_DIGITS`` places.
 """
 
 from __future__ import annotations
 
 import ast
+import copy
 import operator
 from dataclasses import dataclass
 
 import numpy as np
+
+from dpdfit.core.defaults import (EXPR_MAX_CHARS, EXPR_MAX_DEPTH, EXPR_MAX_INTEGER,
+                                  EXPR_MAX_NODES, EXPR_MAX_ROUND_DIGITS)
+
+from .name_patterns import fill
 
 __all__ = ["Expression", "ExpressionError", "parse_expression", "SOURCE_FUNCTIONS"]
 
@@ -58,27 +69,66 @@ class Expression:
         """The expression's value, elementwise: ``lookup(source, name, column)`` gives
         each source's values (an array, one per row, or a scalar), or with an integer
         ``column`` that column of a source holding a row of values per point."""
-        return np.asarray(_value(self.tree.body, lookup), dtype=float)
+        # overflow and 0/0 give inf and nan, which the column's finite check names
+        with np.errstate(all="ignore"):
+            return np.asarray(_value(self.tree.body, lookup), dtype=float)
 
     def filled(self, key: dict) -> Expression:
-        """The expression with ``{placeholder}`` in its source names replaced by ``key``."""
+        """The expression with ``{placeholder}`` in its source names replaced by ``key``.
+
+        The names are replaced in the checked tree, not in the text (a name from the
+        results file may hold a quote, which would make the text no expression)."""
+        tree = copy.deepcopy(self.tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and node.func.id in SOURCE_FUNCTIONS:
+                node.args[0].value = fill(node.args[0].value, key)
         text = self.text
         for k, v in key.items():
             text = text.replace("{" + k + "}", str(v))
-        return parse_expression(text)
+        refs = tuple((f, fill(n, key)) for f, n in self.references)
+        return Expression(text=text, references=refs, tree=tree)
 
 
 def parse_expression(text: str) -> Expression:
     """Parse and check ``text`` (module doc); ExpressionError naming the part refused."""
     if not isinstance(text, str) or not text.strip():
         raise ExpressionError("must be a non-empty string")
+    if len(text) > EXPR_MAX_CHARS:
+        raise ExpressionError(f"is {len(text)} characters long (at most {EXPR_MAX_CHARS})")
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"'{text}' is not an expression ({exc.msg})") from None
+    except (RecursionError, MemoryError):
+        # CPython's parser gives up on a long chain of operators or signs with these
+        raise ExpressionError(f"nests operators and calls more than {EXPR_MAX_DEPTH} "
+                              "levels deep") from None
+    _check_size(tree.body)
     refs = []
     _check(tree.body, refs)
     return Expression(text=text.strip(), references=tuple(refs), tree=tree)
+
+
+def _check_size(body) -> None:
+    """Refuse a tree beyond the bounds (module doc), walking it without recursion
+    (the checker and the evaluator recurse once per level)."""
+    nodes, todo = 0, [(body, 1)]
+    while todo:
+        node, depth = todo.pop()
+        nodes += 1
+        if depth > EXPR_MAX_DEPTH:
+            raise ExpressionError(f"nests operators and calls more than {EXPR_MAX_DEPTH} "
+                                  "levels deep")
+        if nodes > EXPR_MAX_NODES:
+            raise ExpressionError(f"has more than {EXPR_MAX_NODES} parts (numbers, sources, "
+                                  "operators)")
+        if isinstance(node, ast.Constant) and type(node.value) is int \
+                and abs(node.value) > EXPR_MAX_INTEGER:
+            raise ExpressionError(f"an integer is larger than {EXPR_MAX_INTEGER} (expressions "
+                                  "compute in float64, which holds integers exactly up to "
+                                  "there)")
+        todo += [(c, depth + 1) for c in ast.iter_child_nodes(node)
+                 if not isinstance(c, ast.expr_context)]
 
 
 def _refuse(node, why: str = ""):
@@ -131,6 +181,8 @@ def _check_call(node: ast.Call, fn: str, refs: list) -> None:
         if not 1 <= len(args) <= 2 or (len(args) == 2 and not (
                 isinstance(args[1], ast.Constant) and type(args[1].value) is int)):
             _refuse(node, " (round takes a value and optionally a whole number of digits)")
+        if len(args) == 2 and abs(args[1].value) > EXPR_MAX_ROUND_DIGITS:
+            _refuse(node, f" (round keeps at most {EXPR_MAX_ROUND_DIGITS} digits)")
         _check(args[0], refs)
     elif fn == "sum":
         if len(args) != 1 or not isinstance(args[0], ast.List) or not args[0].elts:

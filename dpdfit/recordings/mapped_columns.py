@@ -20,6 +20,7 @@ from dpdfit.errors import InputError
 
 from .artiq import ResultsFile
 from .mapping import ColumnSpec
+from .mapping_lines import one_line
 from .units import COLUMN_KINDS, UnitError, convert, scale_from_metadata, stored_unit
 
 __all__ = ["column_values", "fail"]
@@ -56,7 +57,7 @@ def fail(spec: ColumnSpec, rf: ResultsFile, msg: str, scan=None, dataset=None):
     if dataset:
         where.append(f"dataset '{dataset}'")
     prefix = ", ".join(where) + ": " if where else ""
-    raise InputError(f"{prefix}{msg} ({spec.where()})", file=rf.run.file)
+    raise InputError(one_line(f"{prefix}{msg} ({spec.where()})"), file=rf.run.file)
 
 
 def column_values(spec: ColumnSpec, rf: ResultsFile, scan, n: int) -> np.ndarray:
@@ -116,6 +117,10 @@ def _found(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
         if value is None:
             fail(spec, rf, f"the results file has no '{name}'")
         v = np.full(n, value, dtype=object if isinstance(value, str) else None)
+    if np.asarray(v).dtype.kind == "c":        # numpy would keep the real part, warning
+        fail(spec, rf, f"values are complex numbers ({np.asarray(v).dtype}), which no "
+              "campaign column takes: record the parts you mean as real datasets", scan,
+              dataset)
     return v, file_unit, dataset
 
 
@@ -140,6 +145,8 @@ def _computed(spec: ColumnSpec, rf: ResultsFile, scan, n: int):
         try:
             x = np.asarray(v, dtype=float) if np.asarray(v).dtype.kind != "f" else v
         except (TypeError, ValueError):
+            x = None
+        if x is None or _text(v) is not None:
             fail(spec, rf, f"{source}('{name}') is not a number (e.g. {v[0]!r})", scan, dataset)
         if column is not None:
             if x.ndim != 2 or not -x.shape[1] <= column < x.shape[1]:
@@ -201,10 +208,21 @@ def _formatted(v, spec, rf, scan, dataset) -> np.ndarray:
             x = int(x)
         try:
             out.append(spec.format.format(x))
-        except (ValueError, IndexError, KeyError) as exc:
+        except (ValueError, TypeError) as exc:           # e.g. {:d} of 0.5 or of text
             fail(spec, rf, f"format '{spec.format}' does not apply to {x!r} ({exc})", scan,
                   dataset)
     return np.array(out, dtype=object)
+
+
+def _text(v):
+    """The first text (str or bytes) among the values, or None: numpy would read
+    ``"1.5"`` as a number, and a number column takes no text."""
+    v = np.asarray(v)
+    if v.dtype.kind in "SU":
+        return v.flat[0] if v.size else None
+    if v.dtype == object:
+        return next((x for x in v.flat if isinstance(x, (str, bytes))), None)
+    return None
 
 
 def _why_arrays(spec: ColumnSpec, scan) -> str:
@@ -223,6 +241,8 @@ def _in_unit(v, spec: ColumnSpec, unit, rf, scan, dataset, tol: float = 0.0) -> 
         x = np.asarray(v, dtype=float)
     except (TypeError, ValueError):
         fail(spec, rf, f"values are not numbers (e.g. {v[0]!r})", scan, dataset)
+    if (t := _text(v)) is not None:
+        fail(spec, rf, f"values are text, not numbers (e.g. {t!r})", scan, dataset)
     if x.ndim != 1:
         fail(spec, rf, f"one value per point expected, got an array of shape {x.shape} "
               f"({_why_arrays(spec, scan)})", scan, dataset)

@@ -5,9 +5,10 @@ A mapping is a TOML file (read with :mod:`tomllib`); the annotated examples are
 Its top-level keys:
 
 * ``[import]`` -- options of the import: ``complete_only`` (skip ndscan scans
-  that did not complete; the command's ``--complete-only``) and
+  that did not complete; the command's ``--complete-only``),
   ``skip_bad_files`` (skip, with a warning each, the results files a source
-  cannot read; ``--skip-bad-files``).
+  cannot read; ``--skip-bad-files``) and ``max_dataset_bytes`` (the largest
+  HDF5 dataset read, default :data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`).
 * ``[campaign]`` -- keys of ``campaign.json`` (:data:`CAMPAIGN_KEYS`), copied.
 * ``[[calibration_amplitude]]``, ``[[calibration_phase]]``, ``[[spectra]]``,
   ``[[populations]]``, ``[[parity]]``, ``[[time_scans]]``, ``[[gate_rates]]``
@@ -32,13 +33,14 @@ A source name with placeholders (``channel = "P_{sideband}_{n}"``) is a
 pattern: every matching name gives rows, the placeholders' columns read from
 the name (:mod:`.name_patterns`).
 
-Any key dpdfit does not know is an error naming the key and its line.
+Any key dpdfit does not know, and a value of the wrong type (a string where a
+number or ``true``/``false`` belongs, an integer beyond int64), is an error naming
+the key and its line.
 """
 
 from __future__ import annotations
 
-import difflib
-import re
+import sys
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -47,7 +49,9 @@ from dpdfit.errors import InputError
 
 from .columns import CAMPAIGN_TABLES
 from .expressions import Expression, ExpressionError, parse_expression
-from .name_patterns import fill, placeholders
+from .mapping_lines import KeyLines, MappingErrors
+from .mapping_values import check_campaign_types, check_constant, column_modifiers, shown
+from .name_patterns import fill, placeholders, repeated_placeholder
 from .units import COLUMN_KINDS
 
 __all__ = ["ColumnSpec", "SourceSpec", "Mapping", "read_mapping", "TABLE_COLUMNS",
@@ -77,7 +81,7 @@ SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run"
 MODIFIERS = ("unit", "full_scale_dbm", "format", "labels", "count")
 _RUN_FIELDS = ("rid", "start_time", "file")
 _SOURCE_KEYS = ("files", "root", "subscan", "columns")
-_IMPORT_OPTIONS = ("complete_only", "skip_bad_files")
+_IMPORT_OPTIONS = ("complete_only", "skip_bad_files", "max_dataset_bytes")
 
 
 @dataclass(frozen=True)
@@ -138,6 +142,7 @@ class Mapping:
     complete_only: bool = False
     text: str = field(default="", repr=False)
     skip_bad_files: bool = False
+    max_dataset_bytes: int | None = None
 
     @property
     def folder(self) -> Path:
@@ -154,12 +159,8 @@ def read_mapping(path) -> Mapping:
         raise InputError(f"mapping cannot be read ({exc.strerror})", file=str(path)) from None
     except UnicodeDecodeError:
         raise InputError("mapping is not UTF-8 text", file=str(path)) from None
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"mapping is not valid TOML ({exc})", file=str(path)) from None
-    lines = _Lines(text)
-    err = _Errors(str(path), lines)
+    doc = _toml(text, str(path))
+    err = MappingErrors(str(path), KeyLines(text))
     for k in doc:
         if k not in ("import", "campaign", *TABLE_COLUMNS):
             err.unknown(k, k, ("import", "campaign", *TABLE_COLUMNS), "top-level key")
@@ -167,16 +168,22 @@ def read_mapping(path) -> Mapping:
     err.table(opts, "import")
     for k in opts:
         if k not in _IMPORT_OPTIONS:
-            err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]")
-    for k in _IMPORT_OPTIONS:
+            err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]", "import")
+    for k in ("complete_only", "skip_bad_files"):
         if not isinstance(opts.get(k, False), bool):
-            err.bad(f"import.{k}", "must be true or false")
+            err.bad(f"import.{k}", f"must be true or false, got {shown(opts[k])}", "import", k)
+    limit = opts.get("max_dataset_bytes")
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int)
+                              or limit < 1):
+        err.bad("import.max_dataset_bytes", "must be a whole number of bytes, at least 1, "
+                f"got {shown(limit)}", "import", "max_dataset_bytes")
     complete_only = opts.get("complete_only", False)
     campaign = doc.get("campaign", {})
     err.table(campaign, "campaign")
     for k in campaign:
         if k not in CAMPAIGN_KEYS:
-            err.unknown(f"campaign.{k}", k, CAMPAIGN_KEYS, "campaign.json key")
+            err.unknown(f"campaign.{k}", k, CAMPAIGN_KEYS, "campaign.json key", "campaign")
+    check_campaign_types(campaign, err)
     sources = []
     for table in TABLE_COLUMNS:
         entries = doc.get(table, [])
@@ -193,7 +200,21 @@ def read_mapping(path) -> Mapping:
                 "calibration")
     return Mapping(path=path, campaign=campaign, sources=tuple(sources),
                    complete_only=complete_only, text=text,
-                   skip_bad_files=opts.get("skip_bad_files", False))
+                   skip_bad_files=opts.get("skip_bad_files", False), max_dataset_bytes=limit)
+
+
+def _toml(text: str, file: str) -> dict:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"mapping is not valid TOML ({exc})", file=file) from None
+    except ValueError:
+        # tomllib converts an integer with int(), which refuses more digits than this
+        raise InputError(f"mapping is not valid TOML (an integer of more than "
+                         f"{sys.get_int_max_str_digits()} digits)", file=file) from None
+    except RecursionError:
+        raise InputError("mapping is not valid TOML (arrays or tables nested too deeply "
+                         "to read)", file=file) from None
 
 
 def _source(table: str, i: int, entry, err) -> SourceSpec:
@@ -205,7 +226,8 @@ def _source(table: str, i: int, entry, err) -> SourceSpec:
     files = entry.get("files")
     if isinstance(files, str):
         files = [files]
-    if not files or not all(isinstance(f, str) and f.strip() for f in files):
+    if not isinstance(files, list) or not files \
+            or not all(isinstance(f, str) and f.strip() for f in files):
         err.bad(f"{key}.files", "must be a glob or a list of globs of results files", table)
     root = entry.get("root")
     if root is not None and not isinstance(root, str):
@@ -258,6 +280,7 @@ def _placeholders(columns: dict, known: tuple, key: str, err, table: str) -> tup
 def _column(column: str, v, key: str, err, table: str, index: int) -> ColumnSpec:
     line = err.lines.find(table, column, index)
     if not isinstance(v, dict):
+        check_constant(column, v, key, err, table)
         return ColumnSpec(column, "value", v, key, line)
     for k in v:
         if k not in SOURCES + MODIFIERS:
@@ -267,7 +290,9 @@ def _column(column: str, v, key: str, err, table: str, index: int) -> ColumnSpec
         err.bad(key, f"needs exactly one of {', '.join(SOURCES)}; got "
                 f"{', '.join(src) or 'none'}", table, column)
     source, name = src[0], v[src[0]]
-    if source not in ("value",) and not isinstance(name, str):
+    if source == "value":
+        check_constant(column, name, f"{key}.value", err, table)
+    elif not isinstance(name, str):
         err.bad(f"{key}.{source}", "must be a name (a string)", table, column)
     if source == "run" and name not in _RUN_FIELDS:
         err.bad(f"{key}.run", f"must be one of {', '.join(_RUN_FIELDS)}, got '{name}'",
@@ -282,83 +307,12 @@ def _column(column: str, v, key: str, err, table: str, index: int) -> ColumnSpec
                                    for k in placeholders(n)))
     elif source in ("value", "run", "argument", "parameter"):
         keys = ()
-    unit = v.get("unit")
-    if unit is not None and not isinstance(unit, str):
-        err.bad(f"{key}.unit", "must be a string", table, column)
-    count = v.get("count")
-    if count is not None and not (count == "all" or isinstance(count, int)
-                                  or (isinstance(count, list)
-                                      and all(isinstance(c, int) for c in count))):
-        err.bad(f"{key}.count", "must be an integer outcome, a list of them, or \"all\"",
-                table, column)
-    labels = v.get("labels")
-    if labels is not None and not isinstance(labels, dict):
-        err.bad(f"{key}.labels", "must be a table { code = \"name\" }", table, column)
-    fs = v.get("full_scale_dbm")
-    if fs is not None and not isinstance(fs, (int, float)):
-        err.bad(f"{key}.full_scale_dbm", "must be a number", table, column)
+    names = [n for _, n in expression.references] if expression else [name]
+    for n in names if keys else ():
+        if (twice := repeated_placeholder(n)) is not None:
+            err.bad(f"{key}.{source}", f"the placeholder '{{{twice}}}' appears twice in '{n}' "
+                    "(each is read once from a name)", table, column)
     if column not in COLUMN_KINDS:            # pragma: no cover - TABLE_COLUMNS is checked
         err.bad(key, "no unit rule for this column", table, column)
-    return ColumnSpec(column, source, name, key, line, unit=unit,
-                      full_scale_dbm=None if fs is None else float(fs), format=v.get("format"),
-                      labels=labels, count=count, expression=expression,
-                      placeholders=keys)
-
-
-class _Lines:
-    """Line numbers of a mapping's tables and keys, for messages (tomllib gives none)."""
-
-    def __init__(self, text: str):
-        self.text = text.splitlines()
-
-    def find(self, table: str, key: str | None = None, index: int = 0) -> int | None:
-        """The line of ``key`` in the ``index``-th ``[[table]]`` entry (or of the entry's
-        header; or of ``[table]``/``table = ...``); None when not found."""
-        entry = re.compile(r"^\s*\[\[\s*" + re.escape(table) + r"\s*\]\]")
-        header = re.compile(r"^\s*\[\[?\s*" + re.escape(table) + r"(\.[\w.]+)?\s*\]\]?")
-        other = re.compile(r"^\s*\[")
-        keyline = None if key is None else re.compile(r"^\s*" + re.escape(key) + r"\s*=")
-        seen, start, inside = -1, None, False
-        for i, line in enumerate(self.text, 1):
-            if entry.match(line):
-                seen += 1
-                inside = seen == index
-                if inside and start is None:
-                    start = i
-            elif header.match(line):
-                inside = seen <= 0 and index == 0 or seen == index
-                if inside and start is None:
-                    start = i
-            elif other.match(line):
-                inside = False
-            elif start is None and re.match(r"^\s*" + re.escape(table) + r"\s*=", line):
-                start = i
-            if inside and keyline is not None and keyline.match(line):
-                return i
-        return start
-
-
-class _Errors:
-    def __init__(self, file: str, lines: _Lines):
-        self.file, self.lines = file, lines
-
-    def _raise(self, key: str, msg: str, table=None, column=None):
-        m = re.match(r"^(\w+)(?:\[(\d+)\])?", key or "")
-        index = int(m.group(2)) - 1 if m and m.group(2) else 0
-        line = self.lines.find(table or (m.group(1) if m else key), column, index)
-        where = f"key '{key}'" if key else "mapping"
-        where += f" (line {line})" if line else ""
-        raise InputError(f"{where}: {msg}", file=self.file)
-
-    def bad(self, key, msg, table=None, column=None):
-        self._raise(key, msg, table, column)
-
-    def unknown(self, key, name, known, what, table=None, column=None):
-        near = difflib.get_close_matches(str(name), [str(k) for k in known], n=1)
-        hint = f" (did you mean '{near[0]}'?)" if near else ""
-        self._raise(key, f"unknown {what} '{name}'{hint}", table,
-                    column if column else (name if table else None))
-
-    def table(self, v, key, table=None):
-        if not isinstance(v, dict):
-            self._raise(key, "must be a table", table)
+    return ColumnSpec(column, source, name, key, line, expression=expression,
+                      placeholders=keys, **column_modifiers(column, v, key, err, table))

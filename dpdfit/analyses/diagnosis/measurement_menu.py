@@ -23,6 +23,7 @@ from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
 from dpdfit.analyses.diagnosis.fitting import param_side
 from dpdfit.analyses.diagnosis.observables import MIN_SNR_DB, tone_features
 from dpdfit.analyses.diagnosis.phase_sign import tone_held
+from dpdfit.analyses.diagnosis.pooled_scans import pooled_whitener, scan_whitener
 from dpdfit.core.defaults import ERROR_MODEL, PHASE_MIN_A
 
 __all__ = ["Hypothesis", "Item", "white", "BUILDERS", "SPECTRA_GRID", "SPECTRA_COUNTS",
@@ -187,7 +188,9 @@ class Item:
     ``select(raw)`` its predicted values from it, ``noise(raw_a, raw_b)`` the whitening
     of its noise at a pair of hypotheses: a vector (independent errors: 1/sigma, 0
     where unusable) or a matrix ``W`` with ``W Cov W^T = I``.  Repeats of the item are
-    independent recordings of the same values (their own noise and power errors)."""
+    independent recordings of the same values (their own noise and power errors), unless
+    ``pooled(raw_a, raw_b, k)`` gives the whitening of ``k`` repeats pooled with what is
+    recorded (a gate setting's scans share its rate error: :mod:`.pooled_scans`)."""
 
     what: str
     settings: dict
@@ -195,13 +198,18 @@ class Item:
     source: str
     select: Callable
     noise: Callable
+    pooled: Callable | None = None
 
     def vector(self, h: Hypothesis, p: dict | None = None) -> np.ndarray:
         """The item's predicted values under hypothesis ``h`` at ``p`` (default its fit)."""
         return np.asarray(self.select(h.raw(self.source, p)), dtype=float)
 
-    def whitener(self, ha: Hypothesis, hb: Hypothesis):
-        """The whitening of the item's noise at the pair ``(ha, hb)``."""
+    def whitener(self, ha: Hypothesis, hb: Hypothesis, k=None):
+        """The whitening of the item's noise at the pair ``(ha, hb)`` (with ``k``: of
+        ``k`` repeats pooled with what is recorded; None when repeats are independent)."""
+        if k is not None:
+            return None if self.pooled is None else self.pooled(
+                ha.raw(self.source), hb.raw(self.source), k)
         return self.noise(ha.raw(self.source), hb.raw(self.source))
 
 
@@ -319,27 +327,6 @@ def _typical_shots(prob) -> int:
     return int(np.round(np.median(g["shots"].to_numpy(float) / g["n_scans"].to_numpy(float))))
 
 
-def _scan_noise(qs: tuple, i: int, N: float, v_lin: float, v_quad: float):
-    """Whitening of one new scan of ``N`` shots observing ``qs`` at setting ``i``: shot
-    noise at the pair's mean plus the scan's shared random power error."""
-    def noise(pa, pb):
-        mean = {q: (pa[q][i] + pb[q][i]) / 2 for q in ("F_pop", "imb", "C")}
-        F = np.clip(mean["F_pop"], 0.5 / N, 1 - 0.5 / N)
-        imb = np.clip(mean["imb"], -F, F)
-        C = np.clip(mean["C"], -1.0, 1.0)
-        shot = {("F_pop", "F_pop"): F * (1 - F), ("imb", "imb"): F - imb ** 2,
-                ("F_pop", "imb"): imb * (1 - F), ("imb", "F_pop"): imb * (1 - F),
-                ("C", "C"): 2 * (1 - 0.75 * C ** 2)}
-        g = np.array([(pa["dlin_" + q][i] + pb["dlin_" + q][i]) / 2 for q in qs])
-        h = np.array([(pa["dquad_" + q][i] + pb["dquad_" + q][i]) / 2 for q in qs])
-        cov = (np.array([[shot[(a, b)] / N for b in qs] for a in qs])
-               + v_lin * np.outer(g, g) + v_quad * np.outer(h, h))
-        if not np.all(np.isfinite(cov)):
-            return np.zeros(len(qs))
-        return np.linalg.inv(np.linalg.cholesky(cov))
-    return noise
-
-
 def _gate_scans(prob, hyps, lab):
     if getattr(prob, "gate", None) is None or prob.gate.gates is None \
             or len(prob.gate.gates) == 0:
@@ -352,14 +339,19 @@ def _gate_scans(prob, hyps, lab):
     pops = ("F_pop", "imb") if prob.camp.has_imbalance else ("F_pop",)
     items = []
     for i, (A, d) in enumerate(g.keys):
+        # what the setting has: its scans pool with the new ones (module pooled_scans)
+        had = dict(ns=float(g.gates["n_scans"].iloc[i]), n_pop=float(g.gates["shots"].iloc[i]),
+                   vj=g.sig_jit ** 2, vx=g.rate_error_db((A, d)) ** 2)
         items.append(Item("populations", {"A": float(A), "dpd": int(d), "shots": N},
                           N * lab.shot_s, "gates",
                           lambda pr, i=i: [pr[q][i] for q in pops],
-                          _scan_noise(pops, i, N, v_lin, v_quad)))
+                          scan_whitener(pops, i, N, v_lin, v_quad),
+                          pooled_whitener(pops, i, N, n_par, **had)))
         items.append(Item("parity", {"A": float(A), "dpd": int(d), "shots": n_par},
                           n_par * lab.shot_s, "gates",
                           lambda pr, i=i: [pr["C"][i]],
-                          _scan_noise(("C",), i, n_par, v_lin, v_quad)))
+                          scan_whitener(("C",), i, n_par, v_lin, v_quad),
+                          pooled_whitener(("C",), i, N, n_par, **had)))
     return items
 
 

@@ -69,7 +69,7 @@ from dpdfit.core.defaults import LAB_TIMES
 
 __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
            "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID", "SPECTRA_COUNTS",
-           "RUN_AMPLITUDES", "CONFIRMED", "REFIT_NFEV"]
+           "RUN_AMPLITUDES", "CONFIRMED", "REFIT_NFEV", "SATURATION_SHARE"]
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan")
@@ -255,15 +255,23 @@ def _rank_key(c: dict) -> tuple:
     return (dec, -m["lab_seconds"] if dec else m["per_hour"], -m["lab_seconds"])
 
 
+#: a recording that cannot decide is repeated until it has this share of what a working
+#: day of it would give (a separation that saturates -- repeats of a gate setting share
+#: its rate error -- is not worth a day)
+SATURATION_SHARE = 0.95
+
+
 def _repeats(dirs, unit_seconds: float, lab, target: float) -> int:
     """The fewest repeats whose linearised separation reaches ``target``, at most a
-    working day of lab time; one when nothing separates."""
+    working day of lab time (short of it, the fewest that give
+    :data:`SATURATION_SHARE` of the day's); one when nothing separates."""
     k_max = int(max(lab.max_seconds // unit_seconds, 1)) if unit_seconds > 0 else 1
-    if separation(dirs, k_max)[0] <= 0:
+    top = separation(dirs, k_max)[0]
+    if top <= 0:
         return 1
     lo, hi = 1, k_max
-    if separation(dirs, hi)[0] < target:
-        return hi
+    if top < target:
+        target = SATURATION_SHARE * top
     while lo < hi:                       # the separation grows with k: bisect
         mid = (lo + hi) // 2
         if separation(dirs, mid)[0] >= target:

@@ -22,6 +22,7 @@ from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 
 from .config import CampaignConfig, rng_for
+from .further_engine import FurtherEngine, jittered_scan_counts
 from .optics import gate_spectrum
 
 __all__ = ["gate_tables"]
@@ -103,8 +104,9 @@ def _setting_scans(cfg, rng, eta_Omega0, A, d, n, b, c, out, p, refs):
 
 
 def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, refs, A=None, shots=_SCAN_SHOTS,
-               points=None):
-    """Time scan at ``A`` (``cfg.time_scan_A``) of one flag: rows appended to ``out["time"]``."""
+               points=None, engine=None):
+    """Time scan at ``A`` (``cfg.time_scan_A``) of one flag: rows appended to ``out["time"]``
+    (``engine``: a further recording's, which runs a repeated time scan once)."""
     A = cfg.time_scan_A if A is None else A
     points = cfg.time_scan_points if points is None else points
     xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
@@ -112,8 +114,11 @@ def _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, refs, A=None, shots=_SCAN_
     # a time scan is a gate run: it carries any injected power offset
     # (no per-scan jitter is drawn, which keeps older campaigns' bytes); a decay of the
     # final coherences leaves its populations alone
-    res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
-                                    scan_times=t, **_engine(cfg, A, 0.0, refs))
+    if engine is not None:
+        res = engine.time_scan(A, d, xi_cal, t)
+    else:
+        res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
+                                        scan_times=t, **_engine(cfg, A, 0.0, refs))
     counts = res.sample(rng, 0, 0, shots_scan=shots)
     for ti, cnt in zip(t, counts.scan_counts):
         out["time"].append({"A": A, "dpd": d, "t_us": ti * 1e6, "n00": int(cnt[0]),
@@ -131,18 +136,13 @@ def _rate(cfg, rng, eta_Omega0, A, d, n, b, c, out) -> None:
                          "xi0_err_khz": cfg.xi0_rel_err * xi_cal / 1e3})
 
 
-def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out,
-                  refs) -> None:
+def _further_scan(rng, engine, A, d, shots_pop, shots_par, out, sigma_db) -> None:
     """One further scan of a setting (the next scan label there): population rows if
     ``shots_pop``, parity rows if ``shots_par``; a scan of no shots writes no rows."""
-    xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
     label = 1 + max((r["scan"] for r in out["pop"] + out["par"]
                      if r["A"] == A and r["dpd"] == d), default=0)
-    eps_db = cfg.power_jitter_db * rng.standard_normal()
-    res = gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
-                                    **_engine(cfg, A, eps_db, refs),
-                                    **_after_gate(cfg, 1.0 / xi_cal, refs))
-    counts = res.sample(rng, shots_pop, shots_par)
+    eps_db = sigma_db * rng.standard_normal()
+    counts = engine.scan(A, d, eps_db).sample(rng, shots_pop, shots_par)
     if shots_pop:
         out["pop"].append({"A": A, "dpd": d, "scan": label, "n00": counts["n00"],
                            "n01_10": counts["n01_10"], "n11": counts["n11"],
@@ -154,20 +154,37 @@ def _further_scan(cfg, rng, eta_Omega0, A, d, shots_pop, shots_par, n, b, c, out
 
 
 def _further_gates(cfg, aom, lut, eta_Omega0, out, refs) -> None:
-    """The ``further`` scans and time scans, each from its own stream, appended to ``out``."""
+    """The ``further`` scans and time scans, each from its own stream, appended to ``out``
+    (the engine's outcomes shared between the scans of a setting: :mod:`.further_engine`)."""
+    spectra = {}
+
+    def run(A, d, eps_db, scan_times=None):
+        n, b, c = spectra[(A, d)]
+        xi_cal = next(r["xi0_khz"] for r in out["rates"] if r["A"] == A and r["dpd"] == d) * 1e3
+        if scan_times is not None:          # a time scan: no jitter, no coherence decay
+            return gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal,
+                                             parity_phases=_PHASES, scan_times=scan_times,
+                                             **_engine(cfg, A, 0.0, refs))
+        return gate_sim.simulate_setting(b, c, n, eta_Omega0, xi_cal, parity_phases=_PHASES,
+                                         **_engine(cfg, A, eps_db, refs),
+                                         **_after_gate(cfg, 1.0 / xi_cal, refs))
+
+    engine = FurtherEngine(jittered_scan_counts(cfg.further), cfg.power_jitter_db, run)
     for j, item in enumerate(cfg.further):
         if item[0] not in ("scan", "time_scan"):
             continue
         rng = rng_for(cfg, 8, j)
         A, d = float(item[1]), int(item[2])
-        n, b, c = gate_spectrum(cfg, aom, lut, A, d)
+        if (A, d) not in spectra:
+            spectra[(A, d)] = gate_spectrum(cfg, aom, lut, A, d)
+        n, b, c = spectra[(A, d)]
         _rate(cfg, rng, eta_Omega0, A, d, n, b, c, out)
         if item[0] == "scan":
-            _further_scan(cfg, rng, eta_Omega0, A, d, int(item[3]), int(item[4]), n, b, c, out,
-                          refs)
+            _further_scan(rng, engine, A, d, int(item[3]), int(item[4]), out,
+                          cfg.power_jitter_db)
         else:
             _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, refs, A=A, shots=int(item[3]),
-                       points=int(item[4]))
+                       points=int(item[4]), engine=engine)
 
 
 def gate_tables(cfg: CampaignConfig, aom, lut, progress):
