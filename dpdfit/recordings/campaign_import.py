@@ -22,7 +22,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,7 +34,7 @@ from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 
 from .artiq import ResultsFile, read_results_file
-from .campaign_folder import CampaignFolder
+from .imported_check import check_imported
 from .file_globs import source_files
 from .mapped_columns import column_values, fail
 from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
@@ -80,8 +79,9 @@ class ImportedCampaign:
         """Write the campaign folder (atomically: it appears complete or not at all).
 
         Refuses a folder that exists and is not empty (never overwrites).  The
-        written tables are read back with :class:`CampaignFolder` first; a row the
-        readers refuse is reported with the results file it came from.
+        written tables and ``campaign.json`` are read back with the campaign folder's own
+        readers first (:func:`~.imported_check.check_imported`); a value they refuse is
+        reported with the results file it came from.
         """
         folder = Path(folder)
         if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
@@ -96,26 +96,7 @@ class ImportedCampaign:
         return folder
 
     def _check(self, tmp: Path) -> None:
-        camp = CampaignFolder(tmp)
-        readers = {"calibration_amplitude": "amplitude_runs", "calibration_phase": "phase_runs",
-                   "spectra": "spectra", "populations": "populations", "parity": "parity",
-                   "time_scans": "time_scans", "gate_rates": "gate_rates"}
-        for name in self.tables:
-            try:
-                getattr(camp, readers[name])
-            except InputError as exc:
-                raise _traced(exc, name, self.tables[name]) from None
-        camp.recording_times
-
-
-def _traced(exc: InputError, table: str, df: pd.DataFrame) -> InputError:
-    # the row's line in the staged CSV means nothing to the user: the results file does
-    msg = re.sub(r" \(line \d+\)$", "", str(exc).split(": ", 1)[-1])
-    if exc.row is not None and 1 <= exc.row <= len(df):
-        r = df.iloc[exc.row - 1]
-        return InputError(f"imported {table} (row {exc.row}, column '{exc.column}'): {msg}",
-                          file=f"{r['source_file']} (rid {r['source_rid']})")
-    return InputError(f"imported {table}: {msg}")
+        check_imported(tmp, self.tables, self.meta, self.mapping)
 
 
 def import_campaign(mapping, *, complete_only: bool | None = None,
