@@ -109,8 +109,9 @@ EXPRESSIONS = ["axis('amplitude') * 2", "channel('pd_power') ** 10 ** 100", "9 *
                "channel('pd_power') * 1e308 * 1e308", "1e400", "2 ** -2000", "abs(-1)",
                "sum(" * 100 + "[1]" + ")" * 100, "axis('{n}')", "channel('p_{sideband}')",
                "round(axis('amplitude'), -400)", "1j", "True + 1", "'text'"]
-# the widths of a gigabyte last: until widths are bounded, formatting one value with
-# them takes minutes and gigabytes, and shrinking tries the first entries first
+# the widths of a gigabyte last (shrinking tries the first entries first): should their
+# bound (dpdfit.core.defaults.FORMAT_MAX_WIDTH) ever be lost, formatting one value with
+# them would take minutes and gigabytes before failing
 FORMATS = ["R{:03d}", "{0.__class__}", "{!r}", "{0[0]}", "{:c}", "{}{}", "{", "}", "{:x}",
            "{:%Y}", "{:e}", "R{0:{1}}", "{:>{width}}", "P{:09.3f}", "", "{:s}", "{:100000d}",
            "{:99999999999999999999d}", "{:" + "9" * 400 + "}", "{:1000000000d}",

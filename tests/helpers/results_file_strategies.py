@@ -90,9 +90,11 @@ def make_array(kind: str, shape: tuple, fill):
         return np.zeros(shape, dtype=[("a", "f8"), ("b", "i4")])
     if kind == "opaque":
         return np.zeros(shape, dtype="V3")
+    # ragged: ``fill`` 0 gives every element empty (a per-shot channel with no shot),
+    # else lengths 0, 1, 2, 0, ...
     ragged = np.empty(n, dtype=h5py.vlen_dtype(np.float64))
     for i in range(n):
-        ragged[i] = np.arange(i % 3, dtype=float)
+        ragged[i] = np.arange(0 if fill == 0 else i % 3, dtype=float)
     return ragged.reshape(shape)
 
 
