@@ -100,3 +100,28 @@ def test_rates_a_thousand_times_too_large_are_refused_in_one_line(
                                          "1840 kHz", "stored in Hz with unit kHz?"],
                           inputs=[rates_in_hz_labelled_khz])
     assert "(line" not in line and not out.exists()
+
+
+def test_a_refused_recording_time_names_its_results_file_not_the_staged_folder(
+        tmp_path, capsys):
+    import h5py
+    from tests.helpers.small_artiq_lab import SMALL_MAPPING, write_small_lab
+    lab = tmp_path / "lab"
+    parity = write_small_lab(lab)[1]
+    (lab / "map.toml").write_text(SMALL_MAPPING)
+    with h5py.File(parity, "r+") as f:                  # a clock seventy years ahead
+        del f["start_time"]
+        f["start_time"] = 4e9
+    code, out, err = _run(["import", lab / "map.toml", "-o", tmp_path / "c"], capsys)
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith(f"dpdfit: error: {parity.relative_to(lab).as_posix()} (rid 2): its "
+                             "start_time is campaign.json's gates_recorded"), err[0]
+    assert "lies more than a year after the last calibration run" in err[0]
+    assert ".c." not in err[0] and not (tmp_path / "c").exists()
+    (lab / "map.toml").write_text(SMALL_MAPPING.replace(
+        "nu_hz = 1.84e6", "nu_hz = 1.84e6\ngates_recorded = 2090-01-01T00:00:00Z"))
+    code, out, err = _run(["import", lab / "map.toml", "-o", tmp_path / "c"], capsys)
+    assert code == 2 and err == [f"dpdfit: error: {lab / 'map.toml'}: [campaign] key "
+                                 "'gates_recorded' (2090-01-01T00:00:00+00:00) lies more than "
+                                 "a year after the last calibration run "
+                                 "(2025-10-09T08:53:20+00:00)"], err

@@ -17,6 +17,7 @@ import tempfile
 from pathlib import Path
 
 from dpdfit.errors import InputError
+from dpdfit.recordings.outputs import folder_made
 
 __all__ = ["add_import_command", "cmd_import", "campaign_argument", "is_mapping",
            "add_write_artiq_results_command", "cmd_write_artiq_results"]
@@ -51,20 +52,13 @@ def campaign_argument(path, complete_only: bool = False, keep_in=None):
     if target.exists() and not _imported_before(target):
         raise InputError("exists and is not a campaign dpdfit imported: not replaced",
                          file=str(target))
-    keep_in = Path(keep_in)
-    created = not keep_in.exists()
-    keep_in.mkdir(parents=True, exist_ok=True)
-    try:
-        with tempfile.TemporaryDirectory(prefix=".imported_campaign.", dir=keep_in) as tmp:
-            new = imported.write(Path(tmp) / "campaign")
-            if target.exists():
-                new_old = Path(tmp) / "previous"
-                os.replace(target, new_old)
-            os.replace(new, target)
-    except BaseException:
-        if created and not any(keep_in.iterdir()):      # a refused import leaves nothing
-            keep_in.rmdir()
-        raise
+    # a refused import leaves nothing, not even the folders made for it
+    with folder_made(keep_in), \
+            tempfile.TemporaryDirectory(prefix=".imported_campaign.", dir=keep_in) as tmp:
+        new = imported.write(Path(tmp) / "campaign")
+        if target.exists():
+            os.replace(target, Path(tmp) / "previous")
+        os.replace(new, target)
     _tell(imported, sys.stderr)
     yield target
 

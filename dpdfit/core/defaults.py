@@ -21,7 +21,7 @@ __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_OR
            "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
            "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
-           "PYON_MAX_DEPTH"]
+           "PYON_MAX_DEPTH", "MAX_FILES_PER_SOURCE"]
 
 #: sideband detuning nu of the gate tones from the carrier, Hz (S4)
 NU_HZ = 1.84e6
@@ -242,3 +242,9 @@ PYON_MAX_CHARS = 1_000_000
 #: deepest nesting of PYON (an expid nests dictionaries a few levels deep); the decoder
 #: recurses once per level
 PYON_MAX_DEPTH = 100
+
+#: the most results files one source of an import mapping reads (its globs together): a
+#: year of a busy lab's runs is tens of thousands; a glob that matches more has most
+#: likely met the wrong tree (``**`` under a file server's root), and is refused before
+#: the walk goes on
+MAX_FILES_PER_SOURCE = 100_000

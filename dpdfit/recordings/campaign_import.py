@@ -19,23 +19,23 @@ to the earliest start time of the spectra's and of the gates' files.
 
 from __future__ import annotations
 
-import glob
 import hashlib
 import json
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.defaults import MAX_FILES_PER_SOURCE
 from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 
 from .artiq import ResultsFile, read_results_file
-from .campaign_folder import CampaignFolder
+from .imported_check import check_imported
+from .file_globs import source_files
 from .mapped_columns import column_values, fail
 from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
 from .name_patterns import matching_keys
@@ -79,8 +79,9 @@ class ImportedCampaign:
         """Write the campaign folder (atomically: it appears complete or not at all).
 
         Refuses a folder that exists and is not empty (never overwrites).  The
-        written tables are read back with :class:`CampaignFolder` first; a row the
-        readers refuse is reported with the results file it came from.
+        written tables and ``campaign.json`` are read back with the campaign folder's own
+        readers first (:func:`~.imported_check.check_imported`); a value they refuse is
+        reported with the results file it came from.
         """
         folder = Path(folder)
         if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
@@ -95,26 +96,7 @@ class ImportedCampaign:
         return folder
 
     def _check(self, tmp: Path) -> None:
-        camp = CampaignFolder(tmp)
-        readers = {"calibration_amplitude": "amplitude_runs", "calibration_phase": "phase_runs",
-                   "spectra": "spectra", "populations": "populations", "parity": "parity",
-                   "time_scans": "time_scans", "gate_rates": "gate_rates"}
-        for name in self.tables:
-            try:
-                getattr(camp, readers[name])
-            except InputError as exc:
-                raise _traced(exc, name, self.tables[name]) from None
-        camp.recording_times
-
-
-def _traced(exc: InputError, table: str, df: pd.DataFrame) -> InputError:
-    # the row's line in the staged CSV means nothing to the user: the results file does
-    msg = re.sub(r" \(line \d+\)$", "", str(exc).split(": ", 1)[-1])
-    if exc.row is not None and 1 <= exc.row <= len(df):
-        r = df.iloc[exc.row - 1]
-        return InputError(f"imported {table} (row {exc.row}, column '{exc.column}'): {msg}",
-                          file=f"{r['source_file']} (rid {r['source_rid']})")
-    return InputError(f"imported {table}: {msg}")
+        check_imported(tmp, self.tables, self.meta, self.mapping)
 
 
 def import_campaign(mapping, *, complete_only: bool | None = None,
@@ -146,8 +128,9 @@ def import_campaign(mapping, *, complete_only: bool | None = None,
     complete_only = m.complete_only if complete_only is None else complete_only
     skip = m.skip_bad_files if skip_bad_files is None else skip_bad_files
     plan = {}                                    # results file -> the sources naming it
+    named = {}                                   # (device, inode) -> the path read
     for src in m.sources:
-        for path in _expand(m, src):
+        for path in _expand(m, src, named):
             plan.setdefault(path, []).append(src)
     # per file only its provenance, and per source its rows as plain arrays: a pandas
     # frame per file costs ~8 kB of overhead, which at 10,000 files was 6x the tables
@@ -217,16 +200,9 @@ def _provenance(run, rel: str) -> dict:
             "tables": []}
 
 
-def _expand(m: Mapping, src: SourceSpec) -> list[str]:
-    out = {}                                       # a dict: 10,000 hits stay linear
-    for pattern in src.files:
-        full = pattern if os.path.isabs(pattern) else str(m.folder / pattern)
-        hits = sorted(p for p in glob.glob(full, recursive=True) if os.path.isfile(p))
-        if not hits:
-            raise InputError(f"mapping key '{src.key}.files' (line {src.files_line}): no file "
-                             f"matches '{pattern}'", file=str(m.path))
-        out.update(dict.fromkeys(hits))
-    return list(out)
+def _expand(m: Mapping, src: SourceSpec, named: dict) -> list[str]:
+    where = f"mapping key '{src.key}.files' (line {src.files_line})"
+    return source_files(src.files, m.folder, named, MAX_FILES_PER_SOURCE, where, str(m.path))
 
 
 def _relative(path: str, folder: Path) -> str:

@@ -18,6 +18,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import tempfile
 import threading
 from pathlib import Path
@@ -28,8 +29,8 @@ from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 
 __all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "file_sha256",
-           "remember_sha256", "staged_folder", "refuse_overwriting_inputs", "staged_outputs", "Stage",
-           "check_output_folder", "check_output_file",
+           "remember_sha256", "staged_folder", "folder_made", "refuse_overwriting_inputs",
+           "staged_outputs", "Stage", "check_output_folder", "check_output_file",
            "atomic_write_text", "atomic_write_json"]
 
 
@@ -150,22 +151,14 @@ class Stage:
         return [final for _, final in self.staged]
 
     def _makedirs(self, folder: Path) -> None:
-        missing = []
-        while not folder.exists():
-            missing.append(folder)
-            folder = folder.parent
-        for d in reversed(missing):
-            d.mkdir(exist_ok=True)
-            self.made_dirs.append(d)
+        self.made_dirs += _make_folders(folder)
 
     def discard(self) -> None:
         """Remove every temporary file and every folder made for them (now empty)."""
         for tmp, _ in self.staged:
             with contextlib.suppress(FileNotFoundError):
                 tmp.unlink()
-        for d in reversed(self.made_dirs):
-            with contextlib.suppress(OSError):
-                d.rmdir()
+        _remove_empty(self.made_dirs)
 
     def publish(self) -> None:
         """Move every staged file into place, then delete the scheduled removals.
@@ -218,9 +211,7 @@ def staged_outputs() -> Iterator[Stage]:
 
 def _new_file_mode() -> int:
     """The mode a new file gets under the current umask (``0o666 & ~umask``)."""
-    mask = os.umask(0)  # there is no way to read the umask without setting it
-    os.umask(mask)
-    return 0o666 & ~mask
+    return 0o666 & ~_umask()
 
 
 @contextlib.contextmanager
@@ -254,24 +245,91 @@ def staged_folder(out: str | os.PathLike) -> Iterator[Path]:
     """A new folder ``out`` that appears whole or not at all.
 
     Yields a temporary folder beside ``out`` to write into; when the block ends
-    without error it gets the permissions the umask gives a new folder (``mkdtemp``
-    makes it private) and replaces ``out``, which must not exist or be empty.  On
-    any error or interrupt the temporary folder is removed and ``out`` is untouched.
+    without error it replaces ``out``, which must not exist or be empty, and has its
+    mode: the mode (and group, where allowed) of the empty folder it replaces, else
+    what the umask gives a new folder (``mkdtemp`` makes it private).  On any error
+    or interrupt the temporary folder is removed, ``out`` is untouched, and the
+    parents of ``out`` made for it are removed again.  A symbolic link ``out`` is
+    refused (:class:`InputError`).
     """
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    if out.is_symlink():
+        # replacing it would cut the link; writing through it would replace its target
+        raise InputError("is a symbolic link: give the folder itself (a new folder is "
+                         "written in its place)", file=str(out))
+    with folder_made(out.parent) as made:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+        try:
+            yield tmp
+            _mode_of(out, tmp)
+            if out.exists():
+                out.rmdir()
+            os.replace(tmp, out)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+    # a folder made only to be passed through (``new/../out``) is empty: not kept
+    _remove_empty(made)
+
+
+@contextlib.contextmanager
+def folder_made(folder: str | os.PathLike) -> Iterator[list[Path]]:
+    """Make the folder ``folder`` and its missing parents, if need be; yields the folders
+    made, outermost first.
+
+    If the block raises, the folders made here are removed again, deepest first, as
+    far as they are empty: a failed command leaves no empty folders behind, and never
+    removes a folder that was there before.
+    """
+    made = _make_folders(Path(folder))
     try:
-        yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)
-        if out.exists():
-            out.rmdir()
-        os.replace(tmp, out)
+        yield made
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        _remove_empty(made)
         raise
+
+
+def _make_folders(folder: Path) -> list[Path]:
+    """Make ``folder`` and its missing parents; the folders made, outermost first (one
+    another process makes meanwhile is not counted as ours)."""
+    missing = []
+    while not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    made = []
+    for d in reversed(missing):
+        try:
+            d.mkdir()
+        except FileExistsError:
+            continue
+        made.append(d)
+    return made
+
+
+def _remove_empty(made: list[Path]) -> None:
+    for d in reversed(made):
+        with contextlib.suppress(OSError):        # not empty (someone else's file): kept
+            d.rmdir()
+
+
+def _mode_of(out: Path, tmp: Path) -> None:
+    """Give the staged folder ``tmp`` the mode ``out`` has or would get (staged_folder)."""
+    if out.is_dir():
+        st = out.stat()
+        if st.st_gid != tmp.stat().st_gid:
+            with contextlib.suppress(OSError):    # a group we are not in: the new folder's
+                os.chown(tmp, -1, st.st_gid)
+        os.chmod(tmp, stat.S_IMODE(st.st_mode))
+        return
+    # as mkdir would: the umask's mode, and the set-group-ID bit a parent passes down
+    inherited = tmp.stat().st_mode & stat.S_ISGID
+    os.chmod(tmp, (0o777 & ~_umask()) | inherited)
+
+
+def _umask() -> int:
+    mask = os.umask(0)  # there is no way to read the umask without setting it
+    os.umask(mask)
+    return mask
 
 
 def atomic_write_json(path: str | os.PathLike, obj) -> None:
