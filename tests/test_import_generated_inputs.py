@@ -175,9 +175,6 @@ def test_generated_results_files_are_imported_or_refused_in_one_line(pristine, e
         run_import(Path(d), "lab/map.toml", "new/campaign", options)
 
 
-@pytest.mark.xfail(strict=False, reason="hdf5_contents._plain: a variable-length dataset whose "
-                   "elements are all empty is turned into an array of shape (n, 0) and "
-                   "reshaped to (n,): ValueError, the last line of defence's internal error")
 @pytest.mark.parametrize("key", ["ndscan.rid_1.completed",
                                  "ndscan.rid_1.points.channel_pd_power"])
 def test_a_ragged_dataset_of_empty_arrays_is_imported_or_refused_in_one_line(pristine, key):

@@ -358,6 +358,10 @@ def _plain(v):
     if isinstance(v, bytes):
         return v.decode("utf-8", errors="replace")
     if isinstance(v, np.ndarray) and v.dtype.kind == "O":
-        return np.array([x.decode("utf-8", "replace") if isinstance(x, bytes) else x
-                         for x in v.ravel()], dtype=object).reshape(v.shape)
+        # filled element by element: np.array() of equal-length arrays (a per-shot
+        # channel whose points all have no shot) would stack them into one 2-D array
+        out = np.empty(v.size, dtype=object)
+        out[:] = [x.decode("utf-8", "replace") if isinstance(x, bytes) else x
+                  for x in v.ravel()]
+        return out.reshape(v.shape)
     return v
