@@ -362,9 +362,11 @@ def test_summary_counts_ambiguity_confident_errors_and_the_closed_loop():
 
 
 def test_separation_ratios_are_also_given_over_the_steps_whose_premise_held():
-    steps = [{"separation_predicted": 20.0, "separation_achieved": 18.0, "premise_held": True},
+    steps = [{"separation_predicted": 20.0, "separation_achieved": 18.0, "premise_held": True,
+              "separation_predicted_for_truth": 20.0},
              {"separation_predicted": 10.0, "separation_achieved": 0.0, "premise_held": False},
-             {"separation_predicted": 10.0, "separation_achieved": 13.0, "premise_held": True}]
+             {"separation_predicted": 10.0, "separation_achieved": 13.0, "premise_held": True,
+              "separation_predicted_for_truth": 10.0}]
     loop = {"recommended": {"resolved": False, "steps": steps},
             "random": {"resolved": False}}
     alt = [{"effect": "spam_offset", "named": ["spam_offset"]}]
@@ -416,8 +418,10 @@ def test_loop_steps_record_the_separation_achieved_and_a_verdict_turned_wrong(mo
     """A proposal's binding pair is refitted after its recording: the separation achieved
     is how far the recording moved the pair apart; a recording that turns a verdict with
     the truth among its alternatives into a confidently wrong one is counted."""
-    binding = {"truth": {"effects": ["spam_offset"], "forms": ["total"], "chi2": 100.0},
-               "rival": {"effects": ["dephasing"], "forms": ["independent"], "chi2": 110.0}}
+    binding = {"truth": {"effects": ["spam_offset"], "forms": ["total"], "chi2": 100.0,
+                         "expected_delta_bic": 27.0},
+               "rival": {"effects": ["dephasing"], "forms": ["independent"], "chi2": 110.0,
+                         "expected_delta_bic": 45.0}}
     proposal = {**PROPOSAL, "expected_delta_bic": 27.0, "binding": binding}
     seen = []
 
@@ -446,8 +450,11 @@ def test_loop_steps_record_the_separation_achieved_and_a_verdict_turned_wrong(mo
                       "closed_loop": out}])
     assert s["closed_loop"]["turned_wrong_recommended"] == 1
     assert s["closed_loop"]["separation_ratios"] == [pytest.approx(30.0 / 27.0)]
-    # the prediction assumed spam_offset, and dephasing was concealed: its premise failed,
-    # so the ratio is not counted among the tests of the prediction proper
-    assert rec["premise_held"] is False
-    assert s["closed_loop"]["separation_ratios_premise_held"] == []
-    assert s["closed_loop"]["separation_ratio_median_premise_held"] is None
+    # the binding direction assumed spam_offset; dephasing, the rival, was concealed: the
+    # achieved separation is judged against the one expected if dephasing is true
+    assert rec["premise_held"] is True and rec["separation_predicted_for_truth"] == 45.0
+    assert s["closed_loop"]["separation_ratios_premise_held"] == [pytest.approx(30.0 / 45.0)]
+    # a pair neither of which was concealed tests nothing
+    job = {**JOB, "effects": {"motional_heating": {"ndot": 100.0}}}
+    rec2 = close_loop(job, first)["recommended"]
+    assert rec2["premise_held"] is False and "separation_predicted_for_truth" not in rec2

@@ -140,6 +140,13 @@ def test_to_dict_has_the_contract_keys_and_only_the_added_ones(tone_prob):
     assert all(CONTRACT_KEYS - {"menu"} <= set(m) <= CONTRACT_KEYS | ADDED_ITEM_KEYS
                | {"reason"} for m in d["menu"])
     assert all(m["what"] in KINDS for m in d["menu"])
+    # each of the binding pair with the separation expected if it is the true one: the
+    # binding direction's is the proposal's (the smaller), the reverse one at least 0
+    b = d["binding"]
+    assert set(b) == {"truth", "rival"}
+    assert b["truth"]["expected_delta_bic"] == pytest.approx(nm.expected_delta_bic)
+    assert b["rival"]["expected_delta_bic"] >= b["truth"]["expected_delta_bic"] - 1e-9
+    assert {"effects", "forms"} <= set(b["truth"]) and {"effects", "forms"} <= set(b["rival"])
     s = nm.sentence()
     assert s.startswith("Next: spectra at A = ") and s.endswith(".") and s.count(". ") == 0
     assert "separate baseline from detector_nonlinearity" in s

@@ -124,9 +124,15 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
     b = (m or {}).get("binding") or {}
     if refit and refits and len(refits) == 2 and "chi2" in b.get("truth", {}):
         rec["separation_predicted"] = float(m.get("expected_delta_bic", float("nan")))
-        # the prediction assumed its binding 'truth' hypothesis; the ratio is a test of
-        # the prediction only where that premise held (it was the concealed set)
-        rec["premise_held"] = sorted(b["truth"].get("effects") or []) == concealed
+        # a prediction is tested only where one of its pair is the concealed set: then
+        # against the separation expected if that one is true (the binding direction's,
+        # or the reverse one's)
+        held = [r for r in ("truth", "rival")
+                if sorted(b[r].get("effects") or []) == concealed
+                and b[r].get("expected_delta_bic") is not None]
+        rec["premise_held"] = bool(held)
+        if held:
+            rec["separation_predicted_for_truth"] = float(b[held[0]]["expected_delta_bic"])
         rec["separation_achieved"] = achieved_separation(
             {"truth": b["truth"]["chi2"], "rival": b["rival"]["chi2"]},
             {"truth": refits[0]["chi2"], "rival": refits[1]["chi2"]})
@@ -249,9 +255,10 @@ def loop_summary(results: list) -> dict:
         turned an exact verdict, or one with the truth among its alternatives, into a
         confidently wrong one), ``separation_ratios`` (achieved / predicted separation of
         every recommended step with a prediction) and their median
-        ``separation_ratio_median``, the same of the steps whose prediction's premise
-        held (its binding hypothesis was the concealed set; ``premise_held`` on the
-        step) ``separation_ratios_premise_held`` and
+        ``separation_ratio_median``, the same of the steps one of whose pair was the
+        concealed set (``premise_held`` on the step), against the separation expected if
+        that one is true (``separation_predicted_for_truth``),
+        ``separation_ratios_premise_held`` and
         ``separation_ratio_median_premise_held``, ``no_proposal`` (loops whose diagnosis proposed
         nothing), ``n_failed`` (re-simulations or re-diagnoses that failed).
     """
@@ -269,8 +276,9 @@ def loop_summary(results: list) -> dict:
                  if st.get("separation_achieved") is not None
                  and (st.get("separation_predicted") or 0) > 0]
     ratios = [st["separation_achieved"] / st["separation_predicted"] for st in predicted]
-    held = [st["separation_achieved"] / st["separation_predicted"] for st in predicted
-            if st.get("premise_held")]
+    held = [st["separation_achieved"] / st["separation_predicted_for_truth"]
+            for st in predicted if st.get("premise_held")
+            and (st.get("separation_predicted_for_truth") or 0) > 0]
     steps = [st for x in loops for a in ("recommended", "random")
              for st in (x[a].get("steps") or [x[a]])]
     return {"ambiguous_rate": (sum(bool(r.get("alternatives")) for r in results) / n)

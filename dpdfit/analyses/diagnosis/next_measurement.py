@@ -111,7 +111,8 @@ class NextMeasurement:
         what a later diagnosis refits to measure the separation achieved.
     binding : dict
         The pair and direction that set the separation: ``truth`` and ``rival`` (as
-        in ``hypotheses``).
+        in ``hypotheses``), each with ``expected_delta_bic``, the separation expected if
+        it is the true one (the truth's is the binding, smaller one).
     """
 
     what: str | None
@@ -235,8 +236,7 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     m = best["entry"]
     sep = {"fixed": best["fixed"], "linearised": best["linearised"],
            "refit": best.get("refit")}
-    d = best["binding"]
-    binding = ({} if d is None else {"truth": d.truth.label, "rival": d.rival.label})
+    binding = _binding(best)
     common = dict(menu=menu, separation=sep, hypotheses=labels, binding=binding)
     fields = {k: m[k] for k in _KEYS}
     if m["expected_delta_bic"] < target:
@@ -247,6 +247,25 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
             f"{_number(m['expected_delta_bic'])}, short of the {_number(target)} that "
             f"decides at this fit's misfit"), **fields, **common)
     return NextMeasurement(**fields, **common)
+
+
+def _binding(c: dict) -> dict:
+    """The binding pair of candidate ``c``, each hypothesis with the separation expected
+    if it is the true one (``expected_delta_bic``: the binding direction's, and the
+    reverse direction's at the same repeats, refitted where the candidate was): a
+    recording is judged against the prediction for the hypothesis that turns out true."""
+    d = c["binding"]
+    if d is None:
+        return {}
+    rev = next((r for g in c["dirs"] for r in g
+                if r.item is d.item and r.truth is d.rival and r.rival is d.truth), None)
+    k = c["k"]
+
+    def value(x):
+        return float(x.refit(k)) if c.get("refit") is not None else float(x.linearised(k)[0])
+    return {"truth": {**d.truth.label, "expected_delta_bic": value(d)},
+            "rival": {**d.rival.label,
+                      "expected_delta_bic": None if rev is None else value(rev)}}
 
 
 def _rank_key(c: dict) -> tuple:
