@@ -263,6 +263,22 @@ def test_scans_of_a_setting_pool_and_their_shared_rate_error_does_not_average():
     assert nm.reason and "short of" in nm.reason
 
 
+def test_a_time_scan_is_proposed_with_one_scans_shots_when_points_are_pooled():
+    """A time-scan point recorded by 40 scans of 625 shots is one pooled row of 25,000
+    shots: a further scan has 625 per point, not 25,000."""
+    from dpdfit.analyses.diagnosis.measurement_menu import BUILDERS
+    ts = pd.DataFrame({"A": 0.6, "dpd": 1, "t_s": [1e-4, 2e-4], "n00": 12000, "n11": 12000,
+                       "shots": 25000, "n_repeats": 40})
+    gate = SimpleNamespace(ts_keys=[(0.6, 1)])
+    prob = SimpleNamespace(gate=gate, ts=ts)
+    hyp = SimpleNamespace(raw=lambda source: {"P00_t": np.array([0.5, 0.4]),
+                                              "P11_t": np.array([0.5, 0.4])})
+    build = next(b for b in BUILDERS if b.__name__ == "_time_scans")
+    (item,) = build(prob, [hyp, hyp], LAB_TIMES)
+    assert item.settings == {"A": 0.6, "dpd": 1, "shots": 625, "points": 2}
+    assert item.seconds == pytest.approx(2 * 625 * LAB_TIMES.shot_s)
+
+
 @pytest.mark.slow
 def test_bundled_campaign_with_gates_sends_extra_dephasing_to_a_gate_scan():
     """On the bundled campaign with its gates: an extra dephasing of 50 /s against the

@@ -362,7 +362,9 @@ def _time_scans(prob, hyps, lab):
     if any("P00_t" not in h.raw("gates") for h in hyps):
         return []
     ts = prob.ts
-    N = int(np.round(np.median(ts["shots"].to_numpy(float))))
+    # one time scan's shots per point: a point pooled from repeated scans sums theirs
+    reps = ts["n_repeats"].to_numpy(float) if "n_repeats" in ts.columns else 1.0
+    N = int(np.round(np.median(ts["shots"].to_numpy(float) / reps)))
     items = []
     for A, d in prob.gate.ts_keys:
         sel = (np.isclose(ts["A"].to_numpy(float), A) & (ts["dpd"].to_numpy() == d))

@@ -326,7 +326,10 @@ def _time_scans(cf: CampaignFolder):
     ts = cf.time_scans
     if ts is None:
         return None
-    return ts[["A", "dpd", "t_s", "n00", "n11", "shots"]].reset_index(drop=True)
+    # n_repeats: the time scans pooled into each point (their shots summed)
+    keep = ["A", "dpd", "t_s", "n00", "n11", "shots"] + (
+        ["n_repeats"] if "n_repeats" in ts.columns else [])
+    return ts[keep].reset_index(drop=True)
 
 
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
