@@ -83,5 +83,9 @@ def scan_whitener(qs: tuple, i: int, N: float, v_lin: float, v_quad: float):
                + v_lin * np.outer(g, g) + v_quad * np.outer(h, h))
         if not np.all(np.isfinite(cov)):
             return np.zeros(len(qs))
-        return np.linalg.inv(np.linalg.cholesky(cov))
+        # W with W cov W^T = I from the eigenvalues (a pair predicting P00 or P11 at zero
+        # makes the population covariance singular); a null direction carries nothing
+        lam, V = np.linalg.eigh(0.5 * (cov + cov.T))
+        keep = lam > 1e-12 * max(float(lam.max()), 0.0)
+        return (V[:, keep] / np.sqrt(lam[keep])).T
     return noise

@@ -64,7 +64,10 @@ class Direction:
             return
         self.keys = [k for (k, _), y in zip(absorbing, keep) if y]
         self.J, self.J_raw = J[:, keep], J_raw[:, keep]
-        self.Cinv = np.linalg.pinv(C[np.ix_(keep, keep)])
+        # the information, semi-definite: a many-parameter rival's covariance can have a
+        # rounding-negative eigenvalue, whose inverse is no information at all
+        lam, V = np.linalg.eigh(np.linalg.pinv(C[np.ix_(keep, keep)]))
+        self.Cinv = (V * np.clip(lam, 0.0, None)) @ V.T
         self.g = self.J.T @ self.d
         self.H = self.J.T @ self.J
 
@@ -108,8 +111,10 @@ class Direction:
         predicted recording, the recordings so far entering through its information."""
         if self.J is None:
             return self.fixed(k)
-        L = np.linalg.cholesky(self.Cinv + 1e-12 * np.eye(len(self.keys)) * np.trace(
-            self.Cinv) / len(self.keys))
+        # L L^T = F from the eigenvalues: F is only semi-definite, where a Cholesky
+        # factorisation fails (it took the whole proposal with it)
+        lam, V = np.linalg.eigh(self.Cinv)
+        L = V * np.sqrt(np.clip(lam, 0.0, None))
         vt, p0, item, rival = self.item.vector(self.truth), self.rival.p, self.item, self.rival
         d_k, J_k = self._whitened(k)
         # the whitening of k repeats: sqrt(k) W, or the pooled one
