@@ -45,6 +45,8 @@ NOT_RUN = {
     ("docs/diagnosis/evidence.md", "# not run by the docs tests: hours (every form of every effect, two campaigns each)"),
     ("docs/diagnosis/evidence.md", "# not run by the docs tests: hours (campaigns with three effects concealed)"),
     ("docs/diagnosis/evidence.md", "# not run by the docs tests: hours (the committed reports harness_report_2811, harness_report_lofo_2812, harness_report_loop_2814)"),
+    ("docs/diagnosis/evidence.md", "# not run by the docs tests: a harness run with the closed loop (the committed report harness_report_loop_2815)"),
+    ("docs/diagnosis/evidence.md", "# not run by the docs tests: a harness run with the closed loop (the committed report harness_report_loop_2816)"),
 }
 # Text blocks after a snippet that are examples of messages, not what the snippets print.
 NOT_OUTPUT = {
