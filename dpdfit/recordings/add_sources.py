@@ -119,23 +119,26 @@ def text_column(values) -> list:
             for v in arr.tolist()]
 
 
-def read_new_recordings(new, *, complete_only=None, progress=None,
-                        skip_bad_files=None) -> NewRecordings:
+def read_new_recordings(new, *, complete_only=None, progress=None, skip_bad_files=None,
+                        check=None) -> NewRecordings:
     """NEW read as text tables with provenance (module doc); the options go to the import
-    when NEW is a mapping."""
+    when NEW is a mapping.  ``check(recordings)`` is called with NEW's constants (and no
+    tables yet) before any table is read: a mapping of another campaign is refused before
+    its results files are."""
     path = Path(new)
+    check = check or (lambda rec: None)
     if path.is_dir():
-        return _csv_folder(path)
+        return _csv_folder(path, check)
     if not path.exists():
         raise InputError("not found (give a folder of CSV files or an import mapping)",
                          file=str(path))
     if path.suffix.lower() != ".toml":
         raise InputError("is neither a folder of CSV files nor an import mapping (.toml)",
                          file=str(path))
-    return _mapping(path, complete_only, progress, skip_bad_files)
+    return _mapping(path, complete_only, progress, skip_bad_files, check)
 
 
-def _csv_folder(path: Path) -> NewRecordings:
+def _csv_folder(path: Path, check) -> NewRecordings:
     for name in ("traces.csv", "traces"):
         if (path / name).exists():
             raise InputError(f"{name}: dpdfit add merges the tables, not raw traces; move "
@@ -151,6 +154,8 @@ def _csv_folder(path: Path) -> NewRecordings:
                 from None
         if not isinstance(constants, dict):
             raise InputError("campaign.json must hold a JSON object", file=constants_file)
+    check(NewRecordings(path=path, kind="csv", tables={}, constants=constants,
+                        constants_file=constants_file, sources=()))
     tables, sources = {}, []
     for table in CAMPAIGN_TABLES:
         f = path / f"{table}.csv"
@@ -172,10 +177,12 @@ def _csv_folder(path: Path) -> NewRecordings:
                          ignored=ignored)
 
 
-def _mapping(path: Path, complete_only, progress, skip_bad_files) -> NewRecordings:
+def _mapping(path: Path, complete_only, progress, skip_bad_files, check) -> NewRecordings:
     from .campaign_import import import_campaign
     from .mapping import read_mapping
     m = read_mapping(path, partial=True)
+    check(NewRecordings(path=path, kind="mapping", tables={}, constants=dict(m.campaign),
+                        constants_file=str(path), sources=(), mapping_text=m.text))
     imported = import_campaign(m, complete_only=complete_only, progress=progress,
                                skip_bad_files=skip_bad_files)
     tables = {}

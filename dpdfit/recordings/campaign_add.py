@@ -212,8 +212,8 @@ def add_recordings(campaign, new, *, added_at=None, complete_only=None, progress
         raise InputError("key 'added' must be a list (the recordings added before)",
                          file=str(camp.file("campaign.json")))
     rec = read_new_recordings(new, complete_only=complete_only, progress=progress,
-                              skip_bad_files=skip_bad_files)
-    check_same_campaign(camp.raw_meta, str(camp.file("campaign.json")), rec)
+                              skip_bad_files=skip_bad_files, check=lambda r: check_same_campaign(
+                                  camp.raw_meta, str(camp.file("campaign.json")), r))
     check_settings(rec)
     mine = {t: _campaign_table(camp, t) for t in {*rec.tables, "populations", "parity"}}
     merged, origin, skipped, notes, kept = {}, {}, [], [], {}
