@@ -147,7 +147,7 @@ def test_a_run_already_there_is_skipped_and_said(pair, tmp_path, capsys):
     entry = json.loads((out / "campaign.json").read_text())["added"][0]
     assert entry["skipped"] and entry["rows"]["calibration_amplitude"] == [len(old) + 1,
                                                                            len(got)]
-    # the run's rows start at row 42 of NEW's file
+    # the new run gave the rows after the campaign's; the skipped run none
     assert entry["sources"][0]["rows"] == {"calibration_amplitude": [[len(old) + 1,
                                                                       len(got)]]}
 
