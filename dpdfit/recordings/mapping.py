@@ -150,8 +150,11 @@ class Mapping:
         return self.path.parent
 
 
-def read_mapping(path) -> Mapping:
-    """Read and check a mapping file (module doc); InputError naming key and line."""
+def read_mapping(path, *, partial: bool = False) -> Mapping:
+    """Read and check a mapping file (module doc); InputError naming key and line.
+
+    ``partial``: the mapping of further recordings (``dpdfit add``), which may map any
+    subset of the tables (a campaign's mapping needs ``[[calibration_amplitude]]``)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -195,7 +198,7 @@ def read_mapping(path) -> Mapping:
             sources.append(_source(table, i, entry, err))
     if not sources:
         err.bad("", "maps no campaign table (expected [[calibration_amplitude]], ...)")
-    if not any(s.table == "calibration_amplitude" for s in sources):
+    if not partial and not any(s.table == "calibration_amplitude" for s in sources):
         err.bad("", "has no [[calibration_amplitude]]: every analysis needs the amplitude "
                 "calibration")
     return Mapping(path=path, campaign=campaign, sources=tuple(sources),
