@@ -7,9 +7,12 @@ import dataclasses
 import json
 import sys
 
+from dpdfit.analyses.diagnosis.comparison import compare_diagnoses
+from dpdfit.analyses.diagnosis.comparison_parts import read_diagnosis, refit_request
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.jsonable import to_jsonable
+from dpdfit.report.comparison_plots import comparison_figure
 from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 
@@ -17,26 +20,39 @@ __all__ = ["add_diagnose_command", "cmd_diagnose"]
 
 
 def cmd_diagnose(args) -> int:
-    """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr."""
+    """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr; with
+    ``--compare``, what the recordings changed against an earlier diagnosis."""
     from dpdfit.cli.import_campaign import campaign_argument, is_mapping
+    # the earlier diagnosis is read and checked first: bad input fails before the fits
+    previous = read_diagnosis(args.compare) if args.compare else None
+    refit = None if previous is None else refit_request(previous)
     with campaign_argument(args.campaign, args.complete_only) as folder:
-        res = diagnose(folder, pairs=args.pairs, progress=args.progress)
+        res = diagnose(folder, pairs=args.pairs, progress=args.progress,
+                       **({"refit": refit} if refit else {}))
     if is_mapping(args.campaign):         # the temporary folder is gone: name the mapping
         res = dataclasses.replace(res, campaign=f"{args.campaign} (imported)")
+    comparison = None if previous is None else compare_diagnoses(previous, res)
     for w in res.extra.get("warnings", []):
         print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:
         use_noninteractive_backend()
-        save_figures(diagnosis_figures(res), args.plot, dpi=DIAGNOSIS_DPI)
+        figures = diagnosis_figures(res)
+        if comparison is not None:
+            figures["diagnosis_comparison"] = comparison_figure(comparison)
+        save_figures(figures, args.plot, dpi=DIAGNOSIS_DPI)
     if args.json:
-        print(json.dumps(to_jsonable(res.to_dict()), indent=2))
+        out = res.to_dict()
+        if comparison is not None:
+            out["comparison"] = comparison.to_dict()
+        print(json.dumps(to_jsonable(out), indent=2))
     else:
-        print(res.report())
+        print(res.report() + ("" if comparison is None else "\n\n" + comparison.report()))
     return 0
 
 
 def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
-    """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR] [--pairs 3]``."""
+    """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR] [--pairs 3]
+    [--compare PREVIOUS_JSON]``."""
     s = subparsers.add_parser(
         "diagnose", help="locate simulation/recording mismatches and name the missing physics",
         description="Standardised residuals of every observable against the simulation built "
@@ -51,6 +67,13 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
                    help="with a mapping: skip ndscan scans that did not complete")
     s.add_argument("--json", action="store_true", help="print JSON instead of a report")
     s.add_argument("--plot", metavar="DIR", help="write before/after residual plots into DIR")
+    s.add_argument("--compare", metavar="PREVIOUS_JSON",
+                   help="an earlier diagnosis of this campaign ('dpdfit diagnose --json' "
+                        "output) before further recordings were added: refit the pair its "
+                        "proposal was to separate and report what the recordings changed "
+                        "(verdict, alternatives settled, separation achieved against "
+                        "predicted, another recording); --json gains the key 'comparison', "
+                        "--plot the figure diagnosis_comparison.png")
     s.add_argument("--pairs", type=nonneg_int, default=DEFAULT_PAIRS,
                    help="after the first effect, try at most this many other effects (the "
                         "best single ones) as an addition at each step; 0: name one effect "
