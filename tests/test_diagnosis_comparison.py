@@ -330,3 +330,41 @@ def test_comparison_figure_draws_paired_bars():
     assert "stale_calibration (named)" in labels
     empty = compare_diagnoses(_diag("none", []), _diag("none", []))
     assert comparison_figure(empty).axes[0].texts
+
+
+#: a harness job whose diagnosis is ambiguous (stale_calibration, or
+#: detector_nonlinearity) and proposes spectra (benchmarks/harness_runs_loop_2816.jsonl)
+AMBIGUOUS_JOB = (2007339889, {"dephasing": {"f_cm": 0.9170468291872721,
+                                            "rate": 143.70014407386918},
+                              "stale_calibration": {"drift": 0.02014870469894613}})
+
+
+@pytest.mark.slow
+def test_cli_compare_on_a_real_ambiguous_campaign_against_itself(tmp_path, capsys):
+    """No recording added: the refitted pair is where it was (separation achieved 0),
+    the verdict unchanged and every alternative still open."""
+    from dpdfit.simulation.campaign import simulate_campaign
+    from dpdfit.simulation.harness import harness_config
+    seed, effects = AMBIGUOUS_JOB
+    camp = tmp_path / "campaign"
+    simulate_campaign(camp, seed=seed, config=harness_config(seed).inject(effects),
+                      progress=False)
+    code, out, err = run(["diagnose", camp, "--json", "--no-progress"], capsys)
+    assert code == 0, err
+    prev = json.loads(out)
+    assert prev["alternatives"] and binding_chi2(prev["next_measurement"]) is not None
+    (tmp_path / "before.json").write_text(out)
+    code, out, err = run(["diagnose", camp, "--compare", tmp_path / "before.json", "--json",
+                          "--no-progress", "--plot", tmp_path / "fig"], capsys)
+    assert code == 0, err
+    d = json.loads(out)
+    assert {k: d[k] for k in ("verdict", "alternatives", "ranking")} == {
+        k: prev[k] for k in ("verdict", "alternatives", "ranking")}
+    c = d["comparison"]
+    assert c["verdict_before"] == c["verdict_after"] == prev["verdict"] and not c["changed"]
+    assert c["settled"] == [] and len(c["still_open"]) == len(prev["alternatives"])
+    s = c["separation"]
+    assert s["chi2_before"] == pytest.approx(s["chi2_after"], rel=1e-9)
+    assert s["achieved"] == pytest.approx(0.0, abs=1e-6 * s["chi2_before"]["truth"])
+    assert s["predicted"] == prev["next_measurement"]["expected_delta_bic"]
+    assert (tmp_path / "fig" / "diagnosis_comparison.png").exists()
