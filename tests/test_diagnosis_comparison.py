@@ -49,8 +49,8 @@ def _diag(verdict, named, alternatives=(), ranking=(), nxt=None, refits=None,
           campaign="camp"):
     d = {"campaign": campaign, "verdict": verdict,
          "effects": [{"effect": e, "form": "catalog", "fidelity_cost": 1e-3,
-                      "fidelity_cost_err": 1e-4, "sizes": {}} for e in named], "ranking": list(ranking),
-         "alternatives": list(alternatives), "next_measurement": nxt}
+                      "fidelity_cost_err": 1e-4, "sizes": {}} for e in named],
+         "ranking": list(ranking), "alternatives": list(alternatives), "next_measurement": nxt}
     if refits is not None:
         d["refits"] = refits
     return d
@@ -219,6 +219,16 @@ def test_evidence_of_each_effect_before_and_after():
     assert rows["dephasing"]["role_after"] == "named"
     assert rows["motional_heating"]["gap_before"] is None
     assert set(c.to_frame().columns) >= {"effect", "gap_before", "gap_after"}
+
+
+def test_evidence_is_the_family_tempered_delta_bic_where_the_ranking_has_it():
+    """Each effect's own tempering differs, so the ranking orders by its family's tempered
+    evidence: that one is compared where given."""
+    ranking = [{**_rank("a", -100.0, -40.0), "family_delta_bic_tempered": -95.0},
+               {**_rank("b", -90.0, -85.0), "family_delta_bic_tempered": -88.0}]
+    d = _diag("a", ["a"], ranking=ranking)
+    rows = {r["effect"]: r for r in compare_diagnoses(d, d).evidence}
+    assert (rows["a"]["gap_before"], rows["b"]["gap_before"]) == (0.0, 7.0)
 
 
 def _minimal_diagnosis(**extra) -> Diagnosis:

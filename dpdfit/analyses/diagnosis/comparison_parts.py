@@ -4,6 +4,8 @@ diagnoses' JSON dicts (:meth:`~dpdfit.analyses.diagnosis.result.Diagnosis.to_dic
 
 * :func:`read_diagnosis`: a diagnosis JSON file (``dpdfit diagnose --json``), checked;
 * :func:`as_diagnosis_dict`: a Diagnosis, its dict or a file, as that dict;
+* :func:`refit_request`: the earlier proposal's binding pair, as the later diagnosis is
+  asked to refit it (none when the catalog cannot, :func:`unknown_in_binding`);
 * :func:`alternatives_standing`: where each earlier alternative stands now (``named``,
   ``open`` or ``rejected``) and which alternatives are new;
 * :func:`evidence_rows`: every single effect's evidence (its family's delta BIC against
@@ -27,8 +29,8 @@ from dpdfit.analyses.diagnosis.refits import (achieved_separation, binding_chi2,
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 
-__all__ = ["DIAGNOSIS_KEYS", "EVIDENCE_KEYS", "read_diagnosis", "as_diagnosis_dict", "hypothesis_label",
-           "refit_request", "unknown_in_binding",
+__all__ = ["DIAGNOSIS_KEYS", "EVIDENCE_KEYS", "read_diagnosis", "as_diagnosis_dict",
+           "hypothesis_label", "refit_request", "unknown_in_binding",
            "alternatives_standing", "evidence_rows", "separation", "proposal_after"]
 
 #: the keys every diagnosis JSON has (``dpdfit diagnose --json``): what marks a file as one
