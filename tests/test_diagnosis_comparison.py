@@ -378,3 +378,23 @@ def test_cli_compare_on_a_real_ambiguous_campaign_against_itself(tmp_path, capsy
     assert s["achieved"] == pytest.approx(0.0, abs=1e-6 * s["chi2_before"]["truth"])
     assert s["predicted"] == prev["next_measurement"]["expected_delta_bic"]
     assert (tmp_path / "fig" / "diagnosis_comparison.png").exists()
+
+
+def test_a_pair_the_new_campaign_cannot_fit_is_reported_not_raised(monkeypatch):
+    """A form of the earlier pair that the new recordings no longer support: its refit
+    gives no chi2 and a reason, the other side is still refitted."""
+    from dpdfit.analyses.diagnosis import refits
+
+    def refit_label(prob, base, label):
+        if label["forms"] == ["aom_all"]:
+            raise KeyError("aom_all")
+        return 12.5
+
+    monkeypatch.setattr(refits, "refit_label", refit_label)
+    out = refits.refit_labels(None, None, [
+        {"effects": ["stale_calibration"], "forms": ["aom_all"]},
+        {"effects": ["dephasing"], "forms": ["coherence"]}])
+    assert out[0]["chi2"] is None and "aom_all" in out[0]["reason"]
+    assert out[1] == {"effects": ["dephasing"], "forms": ["coherence"], "chi2": 12.5}
+    assert refits.refitted_chi2(
+        {"binding": {"truth": out[0], "rival": out[1]}}, out) is None

@@ -21,7 +21,7 @@ from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting import FitResult, fit_hypothesis
 from dpdfit.analyses.diagnosis.phase_sign import repredict_gates
 
-__all__ = ["refit_label", "achieved_separation", "binding_refits", "binding_chi2",
+__all__ = ["refit_label", "refit_labels", "achieved_separation", "binding_refits", "binding_chi2",
            "refitted_chi2"]
 
 #: the two sides of a binding pair
@@ -58,6 +58,21 @@ def refit_label(prob, base: FitResult, label: dict) -> float:
         prob.use_tone(saved[0])
         prob.gate = saved[1]
     return float(f.chi2)
+
+
+def refit_labels(prob, base: FitResult, labels: list) -> list:
+    """Each hypothesis of ``labels`` refitted (:func:`refit_label`): ``{**label, "chi2"}``.
+    A hypothesis this campaign cannot fit (a form its recordings no longer support, an
+    effect not in the catalog) gets ``chi2`` None and the ``reason``: the caller compares
+    nothing for it, and the diagnosis itself stands."""
+    out = []
+    for lab in labels:
+        try:
+            out.append({**lab, "chi2": refit_label(prob, base, lab)})
+        except (KeyError, ValueError) as exc:
+            out.append({**lab, "chi2": None,
+                        "reason": f"not fitted on this campaign ({type(exc).__name__}: {exc})"})
+    return out
 
 
 def achieved_separation(before: dict, after: dict) -> float | None:
