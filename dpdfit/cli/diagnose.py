@@ -10,6 +10,8 @@ import sys
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.jsonable import to_jsonable
+from dpdfit.recordings.outputs import check_output_file, refuse_overwriting_inputs
+from dpdfit.recordings.schedule import write_schedule
 from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 
@@ -19,8 +21,13 @@ __all__ = ["add_diagnose_command", "cmd_diagnose"]
 def cmd_diagnose(args) -> int:
     """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr."""
     from dpdfit.cli.import_campaign import campaign_argument, is_mapping
+    if args.schedule:                     # refused before the diagnosis, not after it
+        check_output_file(args.schedule, "schedule file")
+        refuse_overwriting_inputs([args.schedule], [args.campaign])
     with campaign_argument(args.campaign, args.complete_only) as folder:
         res = diagnose(folder, pairs=args.pairs, progress=args.progress)
+        if args.schedule:                 # the grids, phases and times of the campaign
+            _write_schedule(res, folder, args.schedule)
     if is_mapping(args.campaign):         # the temporary folder is gone: name the mapping
         res = dataclasses.replace(res, campaign=f"{args.campaign} (imported)")
     for w in res.extra.get("warnings", []):
@@ -33,6 +40,16 @@ def cmd_diagnose(args) -> int:
     else:
         print(res.report())
     return 0
+
+
+def _write_schedule(res, folder, path) -> None:
+    """The proposal as a schedule file, or one line on stderr saying why there is none."""
+    if ((res.extra or {}).get("next_measurement") or {}).get("what") is None:
+        why = ((res.extra or {}).get("next_measurement") or {}).get("reason") or \
+            "the diagnosis is not ambiguous"
+        print(f"dpdfit: no recording proposed ({why}): no schedule written", file=sys.stderr)
+        return
+    write_schedule(res.schedule(folder), path)
 
 
 def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
@@ -51,6 +68,10 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
                    help="with a mapping: skip ndscan scans that did not complete")
     s.add_argument("--json", action="store_true", help="print JSON instead of a report")
     s.add_argument("--plot", metavar="DIR", help="write before/after residual plots into DIR")
+    s.add_argument("--schedule", metavar="FILE.csv",
+                   help="write the proposed next recording as a schedule: one row per point "
+                        "and repeat (kind, repeat, point, A, dpd, shots, phase_rad, t_us, "
+                        "lab_s), for an experiment to loop over")
     s.add_argument("--pairs", type=nonneg_int, default=DEFAULT_PAIRS,
                    help="after the first effect, try at most this many other effects (the "
                         "best single ones) as an addition at each step; 0: name one effect "

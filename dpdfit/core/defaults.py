@@ -18,7 +18,7 @@ from dpdfit.errors import InputError
 
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
-           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "INTEGER_MAX",
+           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
            "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
            "PYON_MAX_DEPTH", "MAX_FILES_PER_SOURCE"]
@@ -248,3 +248,9 @@ PYON_MAX_DEPTH = 100
 #: likely met the wrong tree (``**`` under a file server's root), and is refused before
 #: the walk goes on
 MAX_FILES_PER_SOURCE = 100_000
+
+#: the most rows a schedule file (:mod:`dpdfit.recordings.schedule`) may hold: a working
+#: day of the shortest recording the diagnosis proposes (population scans of a few
+#: hundred shots) is a few thousand rows, a lab's own plan of calibration runs a few
+#: tens of thousands; a file far beyond that is not a schedule
+MAX_SCHEDULE_ROWS = 1_000_000

@@ -13,13 +13,15 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.errors import InputError
+from dpdfit.recordings.schedule import check_schedule
 from dpdfit.simulation.campaign import CampaignConfig
 
 __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
-           "random_menu_choice"]
+           "random_menu_choice", "schedule_measurements"]
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
@@ -133,6 +135,52 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")
+
+
+def schedule_measurements(schedule) -> list:
+    """The measurements (``{"what", "settings"}``, as :func:`extend_config` takes them) a
+    schedule lists, in the order of its rows' first appearance.
+
+    Parameters
+    ----------
+    schedule : pandas.DataFrame
+        A schedule (:func:`~dpdfit.recordings.schedule.read_schedule`): its repeats of a
+        kind at one setting become ``runs`` / ``scans``; spectra list every trace
+        amplitude of every repeat (both flags needed); a parity scan's shots are counted
+        over its phases, as the proposal counts them; a time scan's ``points`` are its
+        times after the first.
+
+    Returns
+    -------
+    list of dict
+        One measurement per kind and setting.  The simulator records calibration runs on
+        its own amplitude grid and a time scan on its own times (as many as scheduled):
+        those the schedule took from the campaign.
+    """
+    df = check_schedule(schedule)
+    out = []
+    for kind in dict.fromkeys(df["kind"]):
+        rows = df[df["kind"] == kind]
+        if kind in ("amplitude_run", "phase_run"):
+            out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
+            continue
+        if kind == "spectra":
+            amps = rows.drop_duplicates(["repeat", "A"])["A"].tolist()
+            flags = sorted({int(d) for d in rows["dpd"]})
+            out.append({"what": kind, "settings": {"amplitudes": sorted(amps), "dpd": flags}})
+            continue
+        first = rows.groupby("repeat", sort=False).first()
+        per = rows.groupby("repeat", sort=False).size()
+        keys = pd.DataFrame({"A": first["A"], "dpd": first["dpd"], "shots": first["shots"],
+                             "n": per})
+        for (A, d, shots, n), reps in keys.groupby(["A", "dpd", "shots", "n"], sort=False):
+            st = {"A": float(A), "dpd": int(d), "shots": int(shots) * (int(n) if kind ==
+                                                                        "parity" else 1),
+                  "scans": int(len(reps))}
+            if kind == "time_scan":
+                st["points"] = int(n) - 1
+            out.append({"what": kind, "settings": st})
+    return out
 
 
 def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:

@@ -11,6 +11,7 @@ import pandas as pd
 from dpdfit.analyses.diagnosis.alternatives import alternatives_sentence
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting import FitResult
+from dpdfit.analyses.diagnosis.proposal_schedule import proposal_schedule
 from dpdfit.analyses.diagnosis.verdict import ALPHA
 from dpdfit.core.display import Displayable
 
@@ -108,6 +109,15 @@ class Diagnosis(Displayable):
                           for p in e.parameters()},
                 "conventions": dict(CONVENTIONS),
                 "alpha": ALPHA, "seconds": self.seconds, **self.extra}
+
+    def schedule(self, campaign=None) -> pd.DataFrame:
+        """The proposed recording (``next_measurement``) as a schedule: one row per point
+        and repeat, the table ``dpdfit diagnose --schedule`` writes
+        (:func:`~dpdfit.analyses.diagnosis.proposal_schedule.proposal_schedule`).
+        ``campaign``: the campaign folder the diagnosis read (default: :attr:`campaign`),
+        whose grids, phases and times the recording repeats."""
+        return proposal_schedule((self.extra or {}).get("next_measurement"),
+                                 self.campaign if campaign is None else campaign)
 
     def to_frame(self) -> pd.DataFrame:
         """The ranking of the hypotheses, one row per effect (best first)."""

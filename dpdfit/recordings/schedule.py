@@ -1,0 +1,196 @@
+"""The schedule file: a proposed recording as the list of points a lab records.
+
+One row per point and repeat, plain enough that an ARTIQ experiment loops over it
+(the documentation's page "Deciding with one more recording" shows one).  Columns:
+
+``kind``
+    What is recorded: ``amplitude_run``, ``phase_run``, ``spectra``, ``populations``,
+    ``parity`` or ``time_scan`` (the diagnosis's ``next_measurement.what``).
+``repeat``
+    Which repeat (run, scan, trace) the row belongs to: 1, 2, ...
+``point``
+    The point within its repeat: 0, 1, ... (the order to record them in).
+``A``
+    The amplitude of the point: a grid point of a calibration run, the amplitude of a
+    trace, the gate setting of a scan (normalised RF amplitude, 0..1).
+``dpd``
+    0 or 1 (with or without predistortion); empty for calibration runs.
+``shots``
+    Shots of the point: of the population scan, of one phase of a parity scan, of one
+    time of a time scan; empty for calibration runs and spectra.
+``phase_rad``
+    The analysis phase of a parity point (rad); empty otherwise.
+``t_us``
+    The gate time of a time-scan point (microseconds); empty otherwise.
+``lab_s``
+    The lab time the diagnosis assumed for the row (seconds): the proposal's
+    ``lab_seconds`` spread evenly over its rows, so that the column sums to it.
+
+:func:`read_schedule` checks a schedule file (one :class:`~dpdfit.errors.InputError`
+line naming the file, column and row for anything that cannot be recorded);
+:func:`write_schedule` writes one atomically.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.core.defaults import MAX_SCHEDULE_ROWS
+from dpdfit.errors import InputError
+from dpdfit.recordings.outputs import atomic_write_text
+from dpdfit.recordings.tables import read_table
+
+__all__ = ["SCHEDULE_COLUMNS", "SCHEDULE_KINDS", "RUN_KINDS", "SCAN_KINDS", "read_schedule",
+           "write_schedule", "check_schedule"]
+
+#: the schedule's columns, in order (a contract: labs' experiments read them by name)
+SCHEDULE_COLUMNS = ("kind", "repeat", "point", "A", "dpd", "shots", "phase_rad", "t_us",
+                    "lab_s")
+#: calibration runs: a grid of amplitudes, no flag, no shots
+RUN_KINDS = ("amplitude_run", "phase_run")
+#: gate recordings: a setting (A, dpd) and shots per point
+SCAN_KINDS = ("populations", "parity", "time_scan")
+#: every kind of recording a schedule may hold (the diagnosis's menu)
+SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS
+#: per kind, the columns its rows must fill (besides kind, repeat, point, A)
+_NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
+          "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
+          "time_scan": ("dpd", "shots", "t_us")}
+#: per kind, the columns that must not change within one repeat
+_CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
+             "time_scan": ("A", "dpd", "shots")}
+
+
+def _fail(msg: str, name: str, col: str | None = None, i: int | None = None):
+    raise InputError(msg, file=name, column=col, row=None if i is None else int(i) + 1)
+
+
+def _integers(df: pd.DataFrame, col: str, rows: np.ndarray, least: int, name: str) -> None:
+    v = df[col].to_numpy(float)
+    bad = np.flatnonzero(rows & ~((v == np.round(v)) & (v >= least)))
+    if bad.size:
+        _fail(f"{df[col].iloc[bad[0]]!r} must be an integer >= {least}", name, col, bad[0])
+
+
+def _filled(df: pd.DataFrame, col: str, rows: np.ndarray, kind: str, name: str) -> None:
+    """``col`` of the ``kind`` rows: present and a finite number."""
+    if col not in df.columns:
+        if rows.any():
+            _fail(f"column '{col}' is missing (the '{kind}' rows need it)", name)
+        return
+    v = pd.to_numeric(df[col], errors="coerce").to_numpy(float)
+    bad = np.flatnonzero(rows & ~np.isfinite(v))
+    if bad.size:
+        _fail(f"{df[col].iloc[bad[0]]!r}: a '{kind}' row needs a number here", name, col,
+              bad[0])
+    df[col] = v
+
+
+def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
+    """A schedule table checked (module doc) and typed: the numeric columns as float64,
+    ``kind`` as text.  ``name`` is the file named in an error line."""
+    df = df.copy()
+    if len(df) > MAX_SCHEDULE_ROWS:
+        _fail(f"{len(df)} rows: more than a schedule can hold ({MAX_SCHEDULE_ROWS})", name)
+    kind = df["kind"].astype(str).str.strip()
+    unknown = np.flatnonzero(~kind.isin(SCHEDULE_KINDS).to_numpy())
+    if unknown.size:
+        _fail(f"unknown kind {kind.iloc[unknown[0]]!r} (known: {', '.join(SCHEDULE_KINDS)})",
+              name, "kind", unknown[0])
+    df["kind"] = kind
+    every = np.ones(len(df), bool)
+    _integers(df, "repeat", every, 1, name)
+    _integers(df, "point", every, 0, name)
+    for k, cols in _NEEDS.items():
+        rows = (kind == k).to_numpy()
+        for col in cols:
+            _filled(df, col, rows, k, name)
+    for col in ("dpd", "shots", "phase_rad", "t_us", "lab_s"):
+        if col not in df.columns:
+            df[col] = np.nan
+        df[col] = pd.to_numeric(df[col], errors="coerce")
+    _check_values(df, kind.to_numpy(), name)
+    _check_repeats(df, name)
+    return df[list(SCHEDULE_COLUMNS)]
+
+
+def _check_values(df: pd.DataFrame, kind: np.ndarray, name: str) -> None:
+    runs = np.isin(kind, RUN_KINDS)
+    A = df["A"].to_numpy(float)
+    bad = np.flatnonzero(~((A >= 0) & (A <= 1)) | (~runs & (A == 0)))
+    if bad.size:
+        where = "[0, 1]" if runs[bad[0]] else "(0, 1]"
+        _fail(f"amplitude {A[bad[0]]:g} is outside {where}", name, "A", bad[0])
+    flagged = ~runs
+    d = df["dpd"].to_numpy(float)
+    bad = np.flatnonzero(flagged & ~np.isin(d, (0.0, 1.0)))
+    if bad.size:
+        _fail(f"dpd {d[bad[0]]:g} is not a flag (0 or 1)", name, "dpd", bad[0])
+    _integers(df, "shots", np.isin(kind, SCAN_KINDS), 1, name)
+    for col in ("t_us", "lab_s"):
+        v = df[col].to_numpy(float)
+        bad = np.flatnonzero(np.isfinite(v) & (v < 0) | np.isinf(v))
+        if bad.size:
+            _fail(f"{v[bad[0]]:g} must be >= 0 and finite", name, col, bad[0])
+
+
+def _check_repeats(df: pd.DataFrame, name: str) -> None:
+    """Points unique within a repeat; a scan's setting and shots constant within it."""
+    dup = np.flatnonzero(df.duplicated(["kind", "repeat", "point"]).to_numpy())
+    if dup.size:
+        r = df.iloc[dup[0]]
+        _fail(f"point {int(r['point'])} of {r['kind']} repeat {int(r['repeat'])} appears twice",
+              name, "point", dup[0])
+    if (df["kind"] == "spectra").any():
+        sp = df[df["kind"] == "spectra"]
+        twice = np.flatnonzero(sp.duplicated(["repeat", "A", "dpd"]).to_numpy())
+        if twice.size:
+            _fail("a trace (A, dpd) appears twice in one repeat", name, "A",
+                  sp.index[twice[0]])
+    for k, cols in _CONSTANT.items():
+        sub = df[df["kind"] == k]
+        for col in cols:
+            first = sub.groupby("repeat")[col].transform("first").to_numpy(float)
+            bad = np.flatnonzero(sub[col].to_numpy(float) != first)
+            if bad.size:
+                _fail(f"{col} changes within {k} repeat {int(sub['repeat'].iloc[bad[0]])}",
+                      name, col, sub.index[bad[0]])
+
+
+def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
+    """Read and check a schedule file (module doc).
+
+    Parameters
+    ----------
+    path : path-like
+        The schedule CSV (``#`` lines are comments).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The columns of :data:`SCHEDULE_COLUMNS` (an absent optional column as NaN).
+
+    Raises
+    ------
+    InputError
+        One line naming the file, the column and the row: an unknown kind, a negative
+        or fractional number of shots, an amplitude outside [0, 1], a flag that is not
+        0 or 1, a point listed twice, a setting that changes within one scan.
+    """
+    name = str(path)
+    df = read_table(path, ["kind", "repeat", "point", "A"],
+                    ["dpd", "shots", "phase_rad", "t_us", "lab_s"],
+                    numeric=["repeat", "point", "A"])
+    return check_schedule(df, name)
+
+
+def write_schedule(schedule: pd.DataFrame, path: str | os.PathLike) -> None:
+    """Write a schedule (checked first) to ``path`` atomically; empty cells stay empty."""
+    df = check_schedule(schedule, str(path))
+    out = df.astype(object).where(df.notna(), "")
+    for col in ("repeat", "point", "dpd", "shots"):
+        out[col] = [v if v == "" else int(v) for v in out[col]]
+    atomic_write_text(path, out.to_csv(index=False, float_format="%.10g"))
