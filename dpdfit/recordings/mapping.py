@@ -8,7 +8,9 @@ Its top-level keys:
   that did not complete; the command's ``--complete-only``),
   ``skip_bad_files`` (skip, with a warning each, the results files a source
   cannot read; ``--skip-bad-files``) and ``max_dataset_bytes`` (the largest
-  HDF5 dataset read, default :data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`).
+  HDF5 dataset read, default :data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`);
+  ``added_recordings`` (true: the files are further recordings to add to a campaign,
+  ``dpdfit add``, not a campaign: they need no ``[[calibration_amplitude]]``).
 * ``[campaign]`` -- keys of ``campaign.json`` (:data:`CAMPAIGN_KEYS`), copied.
 * ``[[calibration_amplitude]]``, ``[[calibration_phase]]``, ``[[spectra]]``,
   ``[[populations]]``, ``[[parity]]``, ``[[time_scans]]``, ``[[gate_rates]]``
@@ -81,7 +83,7 @@ SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run"
 MODIFIERS = ("unit", "full_scale_dbm", "format", "labels", "count")
 _RUN_FIELDS = ("rid", "start_time", "file")
 _SOURCE_KEYS = ("files", "root", "subscan", "columns")
-_IMPORT_OPTIONS = ("complete_only", "skip_bad_files", "max_dataset_bytes")
+_IMPORT_OPTIONS = ("complete_only", "skip_bad_files", "max_dataset_bytes", "added_recordings")
 
 
 @dataclass(frozen=True)
@@ -169,7 +171,7 @@ def read_mapping(path) -> Mapping:
     for k in opts:
         if k not in _IMPORT_OPTIONS:
             err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]", "import")
-    for k in ("complete_only", "skip_bad_files"):
+    for k in ("complete_only", "skip_bad_files", "added_recordings"):
         if not isinstance(opts.get(k, False), bool):
             err.bad(f"import.{k}", f"must be true or false, got {shown(opts[k])}", "import", k)
     limit = opts.get("max_dataset_bytes")
@@ -195,7 +197,8 @@ def read_mapping(path) -> Mapping:
             sources.append(_source(table, i, entry, err))
     if not sources:
         err.bad("", "maps no campaign table (expected [[calibration_amplitude]], ...)")
-    if not any(s.table == "calibration_amplitude" for s in sources):
+    if not opts.get("added_recordings") and not any(s.table == "calibration_amplitude"
+                                                    for s in sources):
         err.bad("", "has no [[calibration_amplitude]]: every analysis needs the amplitude "
                 "calibration")
     return Mapping(path=path, campaign=campaign, sources=tuple(sources),

@@ -181,14 +181,16 @@ def simulated_tables(cfg: CampaignConfig, *, include_spectra: bool = True,
     return out
 
 
-def difference_rows(cfg: CampaignConfig, measurements, **kw) -> dict:
+def difference_rows(cfg: CampaignConfig, measurements, before: dict | None = None,
+                    **kw) -> dict:
     """The new rows the long way: the extended campaign's tables beyond the campaign's.
 
-    Both campaigns are simulated whole (``kw``: :func:`simulated_tables`'s); in every
-    table the extended one must begin with exactly the campaign's rows (AssertionError
-    otherwise), and the rows after them are returned (tables with new rows only).
+    Both campaigns are simulated whole (``kw``: :func:`simulated_tables`'s; ``before``:
+    the campaign's tables if already simulated so); in every table the extended one must
+    begin with exactly the campaign's rows (AssertionError otherwise), and the rows after
+    them are returned (tables with new rows only).
     """
-    before = simulated_tables(cfg, **kw)
+    before = simulated_tables(cfg, **kw) if before is None else before
     after = simulated_tables(extended_config(cfg, measurements), **kw)
     out = {}
     for t, old in before.items():
