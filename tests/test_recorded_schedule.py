@@ -211,7 +211,7 @@ def test_campaign_files_end_counts_the_ndscan_set(tmp_path):
 def test_edited_campaign_refused(calibrations):
     _, tables, _ = calibrations
     edited = {t: df.copy() for t, df in tables.items()}
-    edited["calibration_amplitude"].loc[7, "power"] *= 1 + 1e-6
+    edited["calibration_amplitude"].loc[7, "power"] *= 1 + 1e-4
     with pytest.raises(InputError, match=r"calibration_amplitude.csv row 8, column power"):
         record_further(SMALL, [PER_WHAT["amplitude_run"]], original=edited)
     short = {**tables, "calibration_phase": tables["calibration_phase"].iloc[:-51]}

@@ -44,9 +44,13 @@ __all__ = ["TABLES", "StandInRecording", "extended_config", "record_further",
 #: The campaign tables a further recording can add rows to, in the campaign's order.
 TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
           "gate_rates", "time_scans")
-#: relative agreement of a replayed value with the campaign's table: truth.json and the
-#: CSVs keep 10 significant digits, so a value drawn again agrees to about 1e-10
-_REPLAY_RTOL = 1e-8
+#: agreement of a replayed value with the campaign's table: truth.json and the CSVs keep
+#: 10 significant digits, and the processor's BLAS kernel rounds differently in the last
+#: bits, which moves a float by ~1e-8 relative through the calibration fit and the
+#: gate-time root-find (the bundled campaign's gate rates here), a tone power in dB by
+#: < 0.001 dB: the tolerances tests/helpers/same_campaign.py allows; counts exactly
+_REPLAY_RTOL = 1e-6
+_DB_ATOL = 1e-3
 
 
 class _Quiet:
@@ -202,8 +206,9 @@ def difference_rows(cfg: CampaignConfig, measurements, before: dict | None = Non
 
 
 def check_replayed(replayed: dict, original: dict, new: dict | None = None) -> None:
-    """The replayed rows must be the first rows of the campaign's tables (to the 10
-    significant digits truth.json and the CSVs keep; counts and labels exactly).
+    """The replayed rows must be the first rows of the campaign's tables (floats up to the
+    rounding of truth.json, the CSVs and the processor's BLAS kernel: relative 1e-6, 1e-3
+    dB; counts and labels exactly).
 
     ``replayed``: table -> rows drawn again; ``original``: the campaign's tables;
     ``new``: the new rows (a calibration table's replay includes them at its end).
@@ -233,7 +238,8 @@ def _first_difference(drawn: pd.DataFrame, have: pd.DataFrame):
             return 0, c
         a, b = drawn[c].to_numpy(), have[c].to_numpy()
         if a.dtype.kind in "fc" or b.dtype.kind == "f":
-            same = np.isclose(a.astype(float), b.astype(float), rtol=_REPLAY_RTOL, atol=0.0)
+            atol = _DB_ATOL if c.lower().endswith("_db") else 0.0
+            same = np.isclose(a.astype(float), b.astype(float), rtol=_REPLAY_RTOL, atol=atol)
             same |= np.isnan(a.astype(float)) & np.isnan(b.astype(float))
         else:
             same = np.asarray([str(x) == str(y) for x, y in zip(a, b)])
