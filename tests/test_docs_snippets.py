@@ -47,6 +47,7 @@ NOT_RUN = {
     ("docs/diagnosis/evidence.md", "# not run by the docs tests: hours (the committed reports harness_report_2811, harness_report_lofo_2812, harness_report_loop_2814)"),
     ("docs/diagnosis/evidence.md", "# not run by the docs tests: a harness run with the closed loop (the committed report harness_report_loop_2815)"),
     ("docs/diagnosis/evidence.md", "# not run by the docs tests: a harness run with the closed loop (the committed report harness_report_loop_2816)"),
+    ("docs/guide/schedule.md", "# not run by the docs tests: a diagnosis (tens of seconds); the round trip page runs one"),
 }
 # Text blocks after a snippet that are examples of messages, not what the snippets print.
 NOT_OUTPUT = {

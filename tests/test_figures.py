@@ -61,7 +61,7 @@ def inp():
         stab=stability(CAMP / "calibration_phase.csv", kind="phase"),
         post=sample_amplitude_posterior(amp_data.A, amp_data.value, amp_data.error, 4,
                                         n_walkers=24, n_steps=300, seed=3),
-        diag=_diagnosis())
+        diag=_diagnosis(), comparison=_comparison())
 
 
 def _diagnosis():
@@ -74,6 +74,19 @@ def _diagnosis():
                            chosen=SimpleNamespace(effect="tau"),
                            mismatches=[{"observable": "R10", "sideband": "mean", "dpd": 1,
                                         "range": (0.4, 0.6)}])
+
+
+def _comparison():
+    """A comparison of two small diagnosis dicts (its figure's evidence rows)."""
+    from dpdfit.analyses.diagnosis.comparison import compare_diagnoses
+
+    def diag(verdict, ranking, alternatives=()):
+        return {"campaign": "c", "verdict": verdict, "effects": [{"effect": verdict}],
+                "ranking": [{"effect": e, "delta_bic": v} for e, v in ranking],
+                "alternatives": list(alternatives)}
+    alt = {"effect": "spam_offset", "named": ["spam_offset"], "replaces": "tau"}
+    return compare_diagnoses(diag("tau", [("tau", -40.0), ("spam_offset", -36.0)], [alt]),
+                             diag("tau", [("tau", -90.0), ("spam_offset", -50.0)]))
 
 
 #: every public Figure-returning function: name -> (call with the inputs, keyword: ax or fig)
@@ -105,6 +118,7 @@ CASES = {
     "envelope_figure": (lambda i, **k: report.envelope_figure(i.stab, **k), "ax"),
     "diagnosis_figure": (lambda i, **k: report.diagnosis_figure(i.diag, "tones", **k), "fig"),
     "corner_figure": (lambda i, **k: report.corner_figure(i.post, **k), "fig"),
+    "comparison_figure": (lambda i, **k: report.comparison_figure(i.comparison, **k), "ax"),
 }
 
 #: the functions returning a set ``{file stem: Figure}`` and the stems they give here

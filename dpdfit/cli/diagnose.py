@@ -7,11 +7,14 @@ import dataclasses
 import json
 import sys
 
+from dpdfit.analyses.diagnosis.comparison import compare_diagnoses
+from dpdfit.analyses.diagnosis.comparison_parts import read_diagnosis, refit_request
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.recordings.outputs import check_output_file, refuse_overwriting_inputs
 from dpdfit.recordings.schedule import write_schedule
+from dpdfit.report.comparison_plots import comparison_figure
 from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 
@@ -19,26 +22,39 @@ __all__ = ["add_diagnose_command", "cmd_diagnose"]
 
 
 def cmd_diagnose(args) -> int:
-    """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr."""
+    """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr; with
+    ``--compare``, what the recordings changed against an earlier diagnosis."""
     from dpdfit.cli.import_campaign import campaign_argument, is_mapping
-    if args.schedule:                     # refused before the diagnosis, not after it
+    # the earlier diagnosis is read and checked first, and the schedule's path: bad input
+    # fails before the fits
+    previous = read_diagnosis(args.compare) if args.compare else None
+    refit = None if previous is None else refit_request(previous)
+    if args.schedule:
         check_output_file(args.schedule, "schedule file")
         refuse_overwriting_inputs([args.schedule], [args.campaign])
     with campaign_argument(args.campaign, args.complete_only) as folder:
-        res = diagnose(folder, pairs=args.pairs, progress=args.progress)
+        res = diagnose(folder, pairs=args.pairs, progress=args.progress,
+                       **({"refit": refit} if refit else {}))
         if args.schedule:                 # the grids, phases and times of the campaign
             _write_schedule(res, folder, args.schedule)
     if is_mapping(args.campaign):         # the temporary folder is gone: name the mapping
         res = dataclasses.replace(res, campaign=f"{args.campaign} (imported)")
+    comparison = None if previous is None else compare_diagnoses(previous, res)
     for w in res.extra.get("warnings", []):
         print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:
         use_noninteractive_backend()
-        save_figures(diagnosis_figures(res), args.plot, dpi=DIAGNOSIS_DPI)
+        figures = diagnosis_figures(res)
+        if comparison is not None:
+            figures["diagnosis_comparison"] = comparison_figure(comparison)
+        save_figures(figures, args.plot, dpi=DIAGNOSIS_DPI)
     if args.json:
-        print(json.dumps(to_jsonable(res.to_dict()), indent=2))
+        out = res.to_dict()
+        if comparison is not None:
+            out["comparison"] = comparison.to_dict()
+        print(json.dumps(to_jsonable(out), indent=2))
     else:
-        print(res.report())
+        print(res.report() + ("" if comparison is None else "\n\n" + comparison.report()))
     return 0
 
 
@@ -53,7 +69,8 @@ def _write_schedule(res, folder, path) -> None:
 
 
 def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
-    """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR] [--pairs 3]``."""
+    """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR] [--pairs 3]
+    [--compare PREVIOUS_JSON]``."""
     s = subparsers.add_parser(
         "diagnose", help="locate simulation/recording mismatches and name the missing physics",
         description="Standardised residuals of every observable against the simulation built "
@@ -72,6 +89,13 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
                    help="write the proposed next recording as a schedule: one row per point "
                         "and repeat (kind, repeat, point, A, dpd, shots, phase_rad, t_us, "
                         "lab_s), for an experiment to loop over")
+    s.add_argument("--compare", metavar="PREVIOUS_JSON",
+                   help="an earlier diagnosis of this campaign ('dpdfit diagnose --json' "
+                        "output) before further recordings were added: refit the pair its "
+                        "proposal was to separate and report what the recordings changed "
+                        "(verdict, alternatives settled, separation achieved against "
+                        "predicted, another recording); --json gains the key 'comparison', "
+                        "--plot the figure diagnosis_comparison.png")
     s.add_argument("--pairs", type=nonneg_int, default=DEFAULT_PAIRS,
                    help="after the first effect, try at most this many other effects (the "
                         "best single ones) as an addition at each step; 0: name one effect "

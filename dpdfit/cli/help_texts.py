@@ -91,6 +91,8 @@ EXAMPLES = {
               "dpdfit import out/lab/mapping.toml -o out/imported_campaign",
     "write-artiq-results": "dpdfit write-artiq-results out/campaign out/lab --shape "
                            "per-shot",
+    "add": "dpdfit add datasets/synthetic_campaign out/further_lab/mapping.toml "
+           "-o out/campaign_plus",
 }
 
 

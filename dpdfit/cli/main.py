@@ -102,6 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
     from dpdfit.cli.import_campaign import add_import_command, add_write_artiq_results_command
     add_import_command(sub)
     add_write_artiq_results_command(sub)
+    from dpdfit.cli.add import add_add_command
+    add_add_command(sub)
     add_analyze_command(sub)
     describe(sub)
     return p
@@ -118,7 +120,7 @@ def check_outputs(args) -> None:
         folders["output"] = "results folder (-o)"
     if args.command == "simulate-campaign":
         folders["outdir"] = "campaign folder"
-    if args.command == "import":
+    if args.command in ("import", "add"):
         folders["output"] = "campaign folder (-o)"
     for attr, what in folders.items():
         if getattr(args, attr, None):

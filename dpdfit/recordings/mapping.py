@@ -8,9 +8,7 @@ Its top-level keys:
   that did not complete; the command's ``--complete-only``),
   ``skip_bad_files`` (skip, with a warning each, the results files a source
   cannot read; ``--skip-bad-files``) and ``max_dataset_bytes`` (the largest
-  HDF5 dataset read, default :data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`);
-  ``added_recordings`` (true: the files are further recordings to add to a campaign,
-  ``dpdfit add``, not a campaign: they need no ``[[calibration_amplitude]]``).
+  HDF5 dataset read, default :data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`).
 * ``[campaign]`` -- keys of ``campaign.json`` (:data:`CAMPAIGN_KEYS`), copied.
 * ``[[calibration_amplitude]]``, ``[[calibration_phase]]``, ``[[spectra]]``,
   ``[[populations]]``, ``[[parity]]``, ``[[time_scans]]``, ``[[gate_rates]]``
@@ -83,7 +81,7 @@ SOURCES = ("value", "axis", "channel", "argument", "parameter", "dataset", "run"
 MODIFIERS = ("unit", "full_scale_dbm", "format", "labels", "count")
 _RUN_FIELDS = ("rid", "start_time", "file")
 _SOURCE_KEYS = ("files", "root", "subscan", "columns")
-_IMPORT_OPTIONS = ("complete_only", "skip_bad_files", "max_dataset_bytes", "added_recordings")
+_IMPORT_OPTIONS = ("complete_only", "skip_bad_files", "max_dataset_bytes")
 
 
 @dataclass(frozen=True)
@@ -152,8 +150,11 @@ class Mapping:
         return self.path.parent
 
 
-def read_mapping(path) -> Mapping:
-    """Read and check a mapping file (module doc); InputError naming key and line."""
+def read_mapping(path, *, partial: bool = False) -> Mapping:
+    """Read and check a mapping file (module doc); InputError naming key and line.
+
+    ``partial``: the mapping of further recordings (``dpdfit add``), which may map any
+    subset of the tables (a campaign's mapping needs ``[[calibration_amplitude]]``)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -171,7 +172,7 @@ def read_mapping(path) -> Mapping:
     for k in opts:
         if k not in _IMPORT_OPTIONS:
             err.unknown(f"import.{k}", k, _IMPORT_OPTIONS, "key of [import]", "import")
-    for k in ("complete_only", "skip_bad_files", "added_recordings"):
+    for k in ("complete_only", "skip_bad_files"):
         if not isinstance(opts.get(k, False), bool):
             err.bad(f"import.{k}", f"must be true or false, got {shown(opts[k])}", "import", k)
     limit = opts.get("max_dataset_bytes")
@@ -197,8 +198,7 @@ def read_mapping(path) -> Mapping:
             sources.append(_source(table, i, entry, err))
     if not sources:
         err.bad("", "maps no campaign table (expected [[calibration_amplitude]], ...)")
-    if not opts.get("added_recordings") and not any(s.table == "calibration_amplitude"
-                                                    for s in sources):
+    if not partial and not any(s.table == "calibration_amplitude" for s in sources):
         err.bad("", "has no [[calibration_amplitude]]: every analysis needs the amplitude "
                 "calibration")
     return Mapping(path=path, campaign=campaign, sources=tuple(sources),

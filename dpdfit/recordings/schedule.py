@@ -114,6 +114,11 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
         df[col] = pd.to_numeric(df[col], errors="coerce")
     _check_values(df, kind.to_numpy(), name)
     _check_repeats(df, name)
+    # counts as integers (empty where a kind has none), so that the table reads as written
+    for col in ("repeat", "point"):
+        df[col] = df[col].astype("int64")
+    for col in ("dpd", "shots"):
+        df[col] = df[col].round().astype("Int64")
     return df[list(SCHEDULE_COLUMNS)]
 
 
@@ -190,7 +195,4 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
 def write_schedule(schedule: pd.DataFrame, path: str | os.PathLike) -> None:
     """Write a schedule (checked first) to ``path`` atomically; empty cells stay empty."""
     df = check_schedule(schedule, str(path))
-    out = df.astype(object).where(df.notna(), "")
-    for col in ("repeat", "point", "dpd", "shots"):
-        out[col] = [v if v == "" else int(v) for v in out[col]]
-    atomic_write_text(path, out.to_csv(index=False, float_format="%.10g"))
+    atomic_write_text(path, df.to_csv(index=False))     # floats as shortest round trip

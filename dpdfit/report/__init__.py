@@ -20,6 +20,7 @@ figure); ``plt.show()`` does not know them -- draw into your own
 from dpdfit.report.calibration_plots import (amplitude_calibration_figure, calibration_figure,
                                              calibration_figures, phase_calibration_figure,
                                              predistortion_figure)
+from dpdfit.report.comparison_plots import comparison_figure
 from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figure, diagnosis_figures
 from dpdfit.report.figure_io import DPI, save_figures
 from dpdfit.report.gate_plots import (fidelity_vs_efficiency_figure, fidelity_vs_rate_figure,
@@ -38,7 +39,7 @@ __all__ = [
     "fidelity_vs_rate_figure", "fidelity_vs_efficiency_figure", "parity_fringes_figure",
     "time_scans_figure", "gate_figures", "merged_parity_figure",
     "stability_figure", "envelope_figure", "stability_figures",
-    "diagnosis_figure", "diagnosis_figures",
+    "diagnosis_figure", "diagnosis_figures", "comparison_figure",
     "corner_figure",
     "save_figures", "DPI", "DIAGNOSIS_DPI", "CORNER_DPI",
 ]

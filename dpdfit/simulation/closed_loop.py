@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.refits import achieved_separation
+from dpdfit.analyses.diagnosis.refits import (achieved_separation, binding_chi2,
+                                              binding_refits, refitted_chi2)
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import extend_config, random_menu_choice
 from dpdfit.simulation.harness_external import truth_in_reach
@@ -83,15 +84,6 @@ def _status(d, concealed: list) -> str:
     return "in_reach" if truth_in_reach(rec, concealed) else "wrong"
 
 
-def _binding_refits(proposal: dict | None) -> list | None:
-    """The binding pair of a proposal (the hypotheses whose separation it predicts), as
-    the refits a later diagnosis makes."""
-    b = (proposal or {}).get("binding") or {}
-    if not b.get("truth") or not b.get("rival"):
-        return None
-    return [{k: b[r][k] for k in ("effects", "forms")} for r in ("truth", "rival")]
-
-
 def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
     """One recording: the campaign config with ``m`` added, simulated, diagnosed (the
     proposal's binding pair refitted); ``(config, record, diagnosis or None)``."""
@@ -99,7 +91,7 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
     out = {"what": m.get("what"), "settings": m.get("settings")}
     t0 = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix="dpdfit-loop-", dir=workdir))
-    refit = _binding_refits(m)
+    refit = binding_refits(m)
     try:
         cfg = extend_config(cfg, m)
         folder = tmp / "campaign"
@@ -120,9 +112,10 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
            "ambiguous_after": amb["ambiguous"],
            "turned_wrong": status == "wrong" and _status(before, concealed) != "wrong",
            "seconds": time.perf_counter() - t0}
-    refits = (getattr(d, "extra", None) or {}).get("refits")
     b = (m or {}).get("binding") or {}
-    if refit and refits and len(refits) == 2 and "chi2" in b.get("truth", {}):
+    chi2_before = binding_chi2(m)
+    chi2_after = refitted_chi2(m, (getattr(d, "extra", None) or {}).get("refits"))
+    if chi2_before is not None and chi2_after is not None:
         rec["separation_predicted"] = float(m.get("expected_delta_bic", float("nan")))
         # a prediction is tested only where one of its pair is the concealed set: then
         # against the separation expected if that one is true (the binding direction's,
@@ -133,9 +126,7 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
         rec["premise_held"] = bool(held)
         if held:
             rec["separation_predicted_for_truth"] = float(b[held[0]]["expected_delta_bic"])
-        rec["separation_achieved"] = achieved_separation(
-            {"truth": b["truth"]["chi2"], "rival": b["rival"]["chi2"]},
-            {"truth": refits[0]["chi2"], "rival": refits[1]["chi2"]})
+        rec["separation_achieved"] = achieved_separation(chi2_before, chi2_after)
     return cfg, rec, d
 
 

@@ -9,7 +9,9 @@ have, and the spectra and gate files start after the campaign's last file (calib
 runs start at their recorded time, which the mapping reads as their timestamp).  The
 mapping's ``[campaign]`` table is the campaign's ``campaign.json`` (without its recording
 times), so that the new files are seen as the same campaign's; tables without new rows
-are left out of it (a glob that matches nothing is an import error).
+are left out of it (a glob that matches nothing is an import error), so it is read as
+the mapping of further recordings (``read_mapping(path, partial=True)``, as ``dpdfit add``
+reads it).
 """
 
 from __future__ import annotations
@@ -40,9 +42,8 @@ __all__ = ["campaign_files_end", "write_recorded_results", "read_campaign_tables
 _AFTER = 300.0
 #: the new files' mapping: a line on what it imports, above the shipped one's comments
 _HEADER = ("# The new recordings of '{name}' only (dpdfit write-artiq-results --schedule):\n"
-           "# add them to a copy of the campaign (dpdfit add); [import] added_recordings\n"
-           "# says they are recordings to add, which need no amplitude calibration.\n"
-           "[import]\nadded_recordings = true\n\n")
+           "# add them to a copy of the campaign: dpdfit add CAMPAIGN mapping.toml -o OUT\n"
+           "# (a mapping of some tables only: read_mapping(path, partial=True)).\n")
 
 
 class _Counted(_Lab):
@@ -169,8 +170,8 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
     Returns
     -------
     pathlib.Path
-        ``out_dir/mapping.toml``; ``dpdfit import`` of it gives the new rows back bit for
-        bit (``scan`` numbered 1, 2, ... per setting, as the schedule's repeats; adding
+        ``out_dir/mapping.toml``; its import (``read_mapping(path, partial=True)``, as
+        ``dpdfit add`` reads it) gives the new rows back bit for bit (``scan`` numbered 1, 2, ... per setting, as the schedule's repeats; adding
         them to the campaign continues the campaign's numbers).
     """
     if not new:

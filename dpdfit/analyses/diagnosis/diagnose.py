@@ -52,7 +52,7 @@ from dpdfit.analyses.diagnosis.observables import Campaign, load_campaign
 from dpdfit.analyses.diagnosis.explanations import open_sides, select, start_alternatives
 from dpdfit.analyses.diagnosis.phase_sign import carry
 from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem, check_forms_left_out
-from dpdfit.analyses.diagnosis.refits import refit_label
+from dpdfit.analyses.diagnosis.refits import refit_label, refit_labels
 from dpdfit.analyses.diagnosis.named_effects import named_effects
 from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
@@ -195,8 +195,7 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
         generic = generic_discrepancy(prob, (chosen or unnamed or base).all_params)
     one = fits[named[0]] if named else None
     nxt = _proposal(prob, base, chosen, alts, effects_out, form_fits)
-    refits = ([{**lab, "chi2": refit_label(prob, base, lab)} for lab in refit]
-              if refit else None)
+    refits = refit_labels(prob, base, refit) if refit else None
     lap("report")
     extra = {"mismatch_evidence": evidence, "verdict_fit": verdict_fit,
              "alternatives": [a for a, _ in alts], "next_measurement": nxt,
