@@ -14,7 +14,7 @@ import pytest
 from dpdfit.errors import InputError
 from dpdfit.recordings.campaign_import import import_campaign
 from dpdfit.recordings.mapping import read_mapping
-from dpdfit.simulation.campaign import CampaignConfig, parse_effects, simulate_campaign
+from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.campaign.simulate import _jsonable_config, _rounded
 from dpdfit.simulation.further_recordings import MEASUREMENTS
 from dpdfit.simulation.recorded_artiq import (campaign_files_end, read_campaign_tables,
@@ -22,17 +22,9 @@ from dpdfit.simulation.recorded_artiq import (campaign_files_end, read_campaign_
 from dpdfit.simulation.recorded_schedule import (TABLES, check_replayed, difference_rows,
                                                  record_further, simulated_tables)
 from tests.helpers.bundled_data import CAMPAIGN
+from tests.helpers.standin import SMALL
 
 pytest.importorskip("h5py")
-
-#: a harness-like campaign, smaller: direct spectra, two gate amplitudes, two scans, an
-#: injected effect, a calibration run after the recordings and a further item already
-SMALL = CampaignConfig(seed=11, spectra_mode="direct", n_amp_runs=5, amp_span_days=6.0,
-                       runs_after_recordings=1, n_phase_runs=2, phase_span_hours=1.0,
-                       cal_points=51, trace_amplitudes=(0.2, 0.4, 0.6, 0.8), bundled_traces=(),
-                       gate_amplitudes=(0.4, 0.6), scan_shots=((300, 300), (300, 200)),
-                       time_scan_A=0.6, time_scan_points=7,
-                       further=(("phase_run",),)).with_effects(parse_effects("spam_offset=0.002"))
 
 #: one measurement of every ``what``: a repeated run, spectra at a new amplitude and at a
 #: recorded one, populations at the first setting (no later setting replayed), parity at
@@ -219,3 +211,21 @@ def test_edited_campaign_refused(calibrations):
     with pytest.raises(InputError, match="only an unedited simulated campaign"):
         record_further(SMALL, [PER_WHAT["phase_run"]], original=short)
     check_replayed({"spectra": tables["spectra"]}, tables)           # its own rows pass
+
+
+@pytest.mark.slow
+def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
+    """Through ``dpdfit add``: the merged campaign's new rows are the simulator's new rows
+    exactly, scan labels continued by the merge as the simulator continues them."""
+    from dpdfit.recordings.campaign_add import add_recordings
+    folder, tables, meta, _ = campaign
+    rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
+    mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
+    out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
+    for t in TABLES:
+        merged = pd.read_csv(out / f"{t}.csv")
+        old = pd.read_csv(folder / f"{t}.csv")
+        pd.testing.assert_frame_equal(merged[list(old.columns)].iloc[:len(old)], old,
+                                      check_exact=True)
+        new = merged.iloc[len(old):].drop(columns=["source_file", "source_rid"])
+        same_rows(new, rec.tables[t], t)

@@ -18,7 +18,7 @@ from dpdfit.recordings.schedule import read_schedule, write_schedule
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.recorded_schedule import record_further
-from tests.test_recorded_schedule import SMALL
+from tests.helpers.standin import SMALL
 
 pytest.importorskip("h5py")
 
