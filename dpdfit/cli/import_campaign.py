@@ -119,6 +119,8 @@ def cmd_write_artiq_results(args) -> int:
     """``dpdfit write-artiq-results``: a campaign folder as ARTIQ results files plus
     the mapping that imports them back."""
     from dpdfit.simulation.artiq_results import write_ndscan_campaign, write_per_shot_campaign
+    if args.schedule is not None:
+        return _write_schedule_results(args)
     if args.out_dir.exists() and any(args.out_dir.iterdir()):
         raise InputError("exists and is not empty (the mapping's globs would pick up its "
                          "old files); choose a new folder", file=str(args.out_dir))
@@ -128,6 +130,20 @@ def cmd_write_artiq_results(args) -> int:
         mapping = write_per_shot_campaign(args.campaign_dir, args.out_dir, seed=args.seed)
     files = sorted(args.out_dir.glob("results/*/*/*.h5"))
     print(f"wrote {len(files)} results files and {mapping}")
+    return 0
+
+
+def _write_schedule_results(args) -> int:
+    """``--schedule``: the simulator records the schedule; only the new files are written."""
+    from dpdfit.simulation.recorded_artiq import record_schedule
+    if args.shape != "ndscan":
+        raise InputError("--schedule writes the ndscan layout only (leave out --shape "
+                         f"{args.shape})")
+    rec = record_schedule(args.campaign_dir, args.schedule, args.out_dir)
+    files = sorted(args.out_dir.glob("results/*/*/*.h5"))
+    rows = ", ".join(f"{n} {t}" for t, n in rec.rows().items())
+    print(f"recorded {rows} rows; wrote {len(files)} results files and "
+          f"{args.out_dir / 'mapping.toml'}")
     return 0
 
 
@@ -141,12 +157,19 @@ def add_write_artiq_results_command(subparsers) -> argparse.ArgumentParser:
                     "together with OUT_DIR/mapping.toml, which imports them back.  "
                     "--shape ndscan: every table as ndscan scans (imported back bit for "
                     "bit); per-shot: per-shot outcome arrays, phases in turns, plain "
-                    "datasets, an old-ndscan file and an interrupted scan.  Needs h5py.")
+                    "datasets, an old-ndscan file and an interrupted scan.  With --schedule "
+                    "the simulator stands in for the lab: a simulated campaign (with its "
+                    "truth.json) records the schedule's points, and only those new "
+                    "recordings are written, numbered after the campaign's, with a mapping "
+                    "that imports them for adding to a copy of the campaign.  Needs h5py.")
     c.add_argument("campaign_dir", type=Path, metavar="CAMPAIGN_DIR")
     c.add_argument("out_dir", type=Path, metavar="OUT_DIR",
                    help="new folder for results/ and mapping.toml")
     c.add_argument("--shape", choices=("ndscan", "per-shot"), default="ndscan",
                    help="layout of the files (default: ndscan)")
     c.add_argument("--seed", type=int, default=0, help="seed of the per-shot outcomes (0)")
+    c.add_argument("--schedule", type=Path, metavar="SCHEDULE.csv", default=None,
+                   help="record this schedule (dpdfit diagnose --schedule) under the "
+                        "campaign's truth.json and write only the new recordings")
     c.set_defaults(func=cmd_write_artiq_results)
     return c

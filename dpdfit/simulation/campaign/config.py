@@ -29,6 +29,12 @@ __all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "parse_effects", "CampaignConfig
 #: Seed of the bundled campaign (``datasets/synthetic_campaign``): ``ERROR_MODEL.seed``.
 DEFAULT_SEED = ERROR_MODEL.seed
 
+#: keys of truth.json's ``config`` whose parameters the simulator no longer has (effects
+#: are injected through the registry only, ``injected``): written as 0, so that the
+#: truth.json of a campaign keeps its keys (the bundled campaigns byte for byte)
+_RETIRED_TRUTH_KEYS = ("memory_tau", "memory_offset_hz", "detector_nonlinearity",
+                      "post_pm_rad", "post_k5", "extra_dephasing", "gate_power_offset_db")
+
 
 class _SimulatorEffects(Mapping):
     """The registered effects as ``name -> (unit, meaning)`` of their strength (read
@@ -177,6 +183,34 @@ class CampaignConfig:
     #: stream (purpose 8, ``j``), so every other recording is drawn as without it.
     further: tuple = ()
 
+    @classmethod
+    def from_truth(cls, truth: dict) -> "CampaignConfig":
+        """The config a campaign's ``truth.json`` records (its ``config``, or that dict itself).
+
+        The inverse of what the simulator writes: nested noise models, tuples (nested
+        ones too: ``injected``, ``further``, ``scan_shots``), ``effects`` as recorded (their
+        injection is ``injected``: nothing is injected twice).  truth.json keeps 10
+        significant digits and of a complex parameter (the heterodyne ``leak``) only its
+        modulus, so the config is the recorded one to that precision (a leak of the
+        default modulus is the default leak; another keeps the default's phase):
+        written again, it gives the same ``config`` of truth.json.  A key the simulator
+        does not know, or a retired one that is not 0, is refused (InputError).
+        """
+        d = dict(truth.get("config", truth)) if isinstance(truth, dict) else None
+        if d is None:
+            raise InputError("truth.json: its config is not a JSON object")
+        for k in _RETIRED_TRUTH_KEYS:
+            if d.pop(k, 0.0) not in (0, 0.0):
+                raise InputError(f"truth.json: config key '{k}' is not 0: this simulator "
+                                 "injects effects only through 'injected'")
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = sorted(set(d) - set(fields))
+        if unknown:
+            raise InputError(f"truth.json: unknown config key '{unknown[0]}'")
+        default = cls()
+        kw = {k: _from_json(getattr(default, k), v, k) for k, v in d.items()}
+        return cls(**kw)
+
     def inject(self, effects: dict) -> "CampaignConfig":
         """Config with catalog effects injected: ``{name: {param: value}}`` (values in
         the effect's own injection terms, :meth:`~dpdfit.analyses.diagnosis.effects.Effect.draw`)."""
@@ -199,6 +233,31 @@ class CampaignConfig:
             values.setdefault(eff, {})[par] = float(s)
         cfg = self.inject(values) if values else self
         return dataclasses.replace(cfg, effects=dict(effects))
+
+
+def _tuples(v):
+    return tuple(_tuples(x) for x in v) if isinstance(v, list) else v
+
+
+def _from_json(default, v, key: str):
+    """A config value from its truth.json form, shaped as the field's ``default``."""
+    if dataclasses.is_dataclass(default):
+        if not isinstance(v, dict) or set(v) - {f.name for f in dataclasses.fields(default)}:
+            raise InputError(f"truth.json: config key '{key}' is not a {type(default).__name__}")
+        return dataclasses.replace(default, **{k: _from_json(getattr(default, k), x, f"{key}.{k}")
+                                               for k, x in v.items()})
+    if isinstance(default, complex):
+        # truth.json keeps the modulus only (10 digits): the default's phase
+        if float(f"{abs(default):.10g}") == v:
+            return default
+        return complex(v * np.exp(1j * np.angle(default)))
+    if isinstance(default, tuple):
+        if not isinstance(v, list):
+            raise InputError(f"truth.json: config key '{key}' is not a list")
+        return _tuples(v)
+    if isinstance(default, dict) and not isinstance(v, dict):
+        raise InputError(f"truth.json: config key '{key}' is not an object")
+    return v
 
 
 def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:

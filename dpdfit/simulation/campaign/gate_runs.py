@@ -25,7 +25,7 @@ from .config import CampaignConfig, rng_for
 from .further_engine import FurtherEngine, jittered_scan_counts
 from .optics import gate_spectrum
 
-__all__ = ["gate_tables"]
+__all__ = ["gate_tables", "further_gate_rows"]
 
 _PHASES = ERROR_MODEL.analysis_phases()           # analysis phases of the parity scans
 _SCAN_SHOTS = 625                                  # shots per time-scan point
@@ -153,9 +153,10 @@ def _further_scan(rng, engine, A, d, shots_pop, shots_par, out, sigma_db) -> Non
                                "n_even": int(k), "shots": shots_par})
 
 
-def _further_gates(cfg, aom, lut, eta_Omega0, out, refs) -> None:
+def _further_gates(cfg, aom, lut, eta_Omega0, out, refs, first: int = 0) -> dict:
     """The ``further`` scans and time scans, each from its own stream, appended to ``out``
-    (the engine's outcomes shared between the scans of a setting: :mod:`.further_engine`)."""
+    (the engine's outcomes shared between the scans of a setting: :mod:`.further_engine`).
+    Returns the lengths of ``out``'s lists before item ``first`` (where its rows begin)."""
     spectra = {}
 
     def run(A, d, eps_db, scan_times=None):
@@ -170,7 +171,10 @@ def _further_gates(cfg, aom, lut, eta_Omega0, out, refs) -> None:
                                          **_after_gate(cfg, 1.0 / xi_cal, refs))
 
     engine = FurtherEngine(jittered_scan_counts(cfg.further), cfg.power_jitter_db, run)
+    start = None
     for j, item in enumerate(cfg.further):
+        if j == first:
+            start = {k: len(v) for k, v in out.items()}
         if item[0] not in ("scan", "time_scan"):
             continue
         rng = rng_for(cfg, 8, j)
@@ -185,19 +189,30 @@ def _further_gates(cfg, aom, lut, eta_Omega0, out, refs) -> None:
         else:
             _time_scan(cfg, rng, eta_Omega0, d, n, b, c, out, refs, A=A, shots=int(item[3]),
                        points=int(item[4]), engine=engine)
+    return start if start is not None else {k: len(v) for k, v in out.items()}
 
 
-def gate_tables(cfg: CampaignConfig, aom, lut, progress):
-    """``populations.csv``, ``parity.csv``, ``gate_rates.csv``, ``time_scans.csv`` tables
-    and the gates' truth (``eta_Omega0`` and per-setting true/calibrated ``xi0``, fidelities)."""
-    rng = rng_for(cfg, 5)
+def _gate_setup(cfg: CampaignConfig, aom, lut):
+    """The gate settings, their optical spectra, ``eta_Omega0`` and the references."""
     settings = [(A, d) for A in cfg.gate_amplitudes for d in (0, 1)]
     spectra = {s: gate_spectrum(cfg, aom, lut, *s) for s in settings}
     # eta*Omega0 such that the anchor (A=0.4, no DPD) calibrates to alpha
     n0, b0, c0 = gate_spectrum(cfg, aom, lut, 0.4, 0)
     xi_unit = gate_sim.calibrate_xi0(b0, c0, n0, 1.0)
     eta_Omega0 = cfg.alpha_khz * 1e3 / xi_unit
-    refs = _references(cfg, spectra, eta_Omega0)
+    return settings, spectra, eta_Omega0, _references(cfg, spectra, eta_Omega0)
+
+
+def _frames(out: dict, start: dict | None = None) -> tuple:
+    start = start or {}
+    return tuple(pd.DataFrame(out[k][start.get(k, 0):]) for k in ("pop", "par", "rates", "time"))
+
+
+def gate_tables(cfg: CampaignConfig, aom, lut, progress):
+    """``populations.csv``, ``parity.csv``, ``gate_rates.csv``, ``time_scans.csv`` tables
+    and the gates' truth (``eta_Omega0`` and per-setting true/calibrated ``xi0``, fidelities)."""
+    rng = rng_for(cfg, 5)
+    settings, spectra, eta_Omega0, refs = _gate_setup(cfg, aom, lut)
     out = {"pop": [], "par": [], "rates": [], "time": [], "truth": []}
     with progress("gate experiments", len(settings) * len(cfg.scan_shots) + 2) as p:
         for (A, d) in settings:
@@ -206,5 +221,28 @@ def gate_tables(cfg: CampaignConfig, aom, lut, progress):
             _time_scan(cfg, rng, eta_Omega0, d, *spectra[(cfg.time_scan_A, d)], out, refs)
             p.update()
     _further_gates(cfg, aom, lut, eta_Omega0, out, refs)
-    return (pd.DataFrame(out["pop"]), pd.DataFrame(out["par"]), pd.DataFrame(out["rates"]),
-            pd.DataFrame(out["time"]), {"eta_Omega0": eta_Omega0, "settings": out["truth"]})
+    return (*_frames(out), {"eta_Omega0": eta_Omega0, "settings": out["truth"]})
+
+
+def further_gate_rows(cfg: CampaignConfig, aom, lut, first: int, progress) -> tuple:
+    """The rows of ``populations``, ``parity``, ``gate_rates`` and ``time_scans`` that the
+    ``further`` items from index ``first`` on add: exactly those rows of
+    :func:`gate_tables`, without the engine runs no further item needs.
+
+    The settings' gate-rate draws share one stream (purpose 5) with their scans, so the
+    settings are replayed in order up to the last one a further item records at (its
+    calibrated ``xi0`` and scan labels); the later settings and the campaign's own time
+    scans are skipped.  Returns the four frames and the replayed rows of the settings
+    (``{"pop", "par", "rates"}``: the first rows of the campaign's tables).
+    """
+    rng = rng_for(cfg, 5)
+    settings, spectra, eta_Omega0, refs = _gate_setup(cfg, aom, lut)
+    gates = [(float(it[1]), int(it[2])) for it in cfg.further if it[0] in ("scan", "time_scan")]
+    last = max((settings.index(s) for s in gates if s in settings), default=-1)
+    out = {"pop": [], "par": [], "rates": [], "time": [], "truth": []}
+    with progress("gate experiments", (last + 1) * len(cfg.scan_shots)) as p:
+        for (A, d) in settings[:last + 1]:
+            _setting_scans(cfg, rng, eta_Omega0, A, d, *spectra[(A, d)], out, p, refs)
+    replayed = {k: pd.DataFrame(out[k]) for k in ("pop", "par", "rates")}
+    start = _further_gates(cfg, aom, lut, eta_Omega0, out, refs, first)
+    return (*_frames(out, start), replayed)

@@ -17,7 +17,7 @@ from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 
 from .calibration_runs import calibration_runs, table_index
-from .config import DEFAULT_SEED, CampaignConfig
+from .config import _RETIRED_TRUTH_KEYS, DEFAULT_SEED, CampaignConfig
 from .folder import check_new_folder, csv_text, write_folder
 from .gate_runs import gate_tables
 from .optics import dpd_lut
@@ -67,13 +67,6 @@ def _rounded(obj, digits: int = 10):
     if isinstance(obj, float) and np.isfinite(obj):
         return float(f"{obj:.{digits}g}")
     return obj
-
-
-#: keys of truth.json's ``config`` whose parameters the simulator no longer has (effects
-#: are injected through the registry only, ``injected``): written as 0, so that the
-#: truth.json of a campaign keeps its keys (the bundled campaigns byte for byte)
-_RETIRED_TRUTH_KEYS = ("memory_tau", "memory_offset_hz", "detector_nonlinearity",
-                      "post_pm_rad", "post_k5", "extra_dephasing", "gate_power_offset_db")
 
 
 def _jsonable_config(cfg: CampaignConfig) -> dict:

@@ -164,7 +164,7 @@ def _trace_rows(cfg, aom, lut, A, d, key):
     return rows, q, scale
 
 
-def spectra_tables(cfg: CampaignConfig, aom: BraggAOM, lut, progress):
+def spectra_tables(cfg: CampaignConfig, aom: BraggAOM, lut, progress, first: int = 0):
     """All traces of the grid: ``spectra.csv`` and ``traces.csv`` tables, bundled raw traces
     (file name -> ``.npz`` bytes).
 
@@ -172,10 +172,13 @@ def spectra_tables(cfg: CampaignConfig, aom: BraggAOM, lut, progress):
     repeats a recording: further traces of that amplitude, each from the stream of its
     own index, their rows appended in the order of the list (``spectra.csv`` then has
     repeated rows of those tones, :mod:`dpdfit.recordings.spectra`).  Only the first
-    recording of a bundled amplitude is bundled.
+    recording of a bundled amplitude is bundled.  ``first``: record only the amplitudes
+    from that index of ``cfg.trace_amplitudes`` on (exactly their rows of the whole list:
+    each trace has its own stream).
     """
     rows, index, bundled = [], [], {}
-    items = [(i, A, d) for i, A in enumerate(cfg.trace_amplitudes) for d in (0, 1)]
+    items = [(i, A, d) for i, A in enumerate(cfg.trace_amplitudes) for d in (0, 1)
+             if i >= first]
     with progress("heterodyne traces", len(items)) as p:
         for i, A, d in items:
             key = (4, i, d)
