@@ -333,13 +333,30 @@ def test_comparison_figure_draws_paired_bars():
     assert matplotlib
     fig = comparison_figure(compare_diagnoses(_before(), _after()))
     assert isinstance(fig, Figure)
-    ax = fig.axes[0]
+    pair, ax = fig.axes                                 # (a) the pair, (b) the effects
     assert len(ax.patches) == 9                         # 4 effects before, 5 after
     labels = [t.get_text() for t in ax.get_yticklabels()]
     assert "detector_nonlinearity (alt. -> -)" in labels
     assert "stale_calibration (named)" in labels
     empty = compare_diagnoses(_diag("none", []), _diag("none", []))
-    assert comparison_figure(empty).axes[0].texts
+    assert comparison_figure(empty).axes[1].texts
+    assert "no pair to compare" in comparison_figure(empty).axes[0].texts[0].get_text()
+
+
+def test_pair_panel_draws_the_gap_before_and_after_and_what_was_expected():
+    import dataclasses
+    pytest.importorskip("matplotlib")
+    from dpdfit.report import comparison_figure
+    c = compare_diagnoses(_before(), _after())
+    sep = {"what": "time_scan", "truth": "a + b", "rival": "a + c",
+           "chi2_before": {"truth": 100.0, "rival": 95.0},
+           "chi2_after": {"truth": 180.0, "rival": 110.0},
+           "predicted_if_truth": 40.0, "predicted_if_rival": 60.0, "reason": None}
+    pair = comparison_figure(dataclasses.replace(c, separation=sep)).axes[0]
+    assert [round(p.get_width(), 9) for p in pair.patches] == [-5.0, -70.0]
+    marks = sorted(float(line.get_xdata()[0]) for line in pair.lines
+                   if line.get_marker() in ("v", "^"))
+    assert marks == [-65.0, 35.0]          # -5 - 60 were c true, -5 + 40 were b true
 
 
 #: a harness job whose diagnosis is ambiguous (stale_calibration, or
