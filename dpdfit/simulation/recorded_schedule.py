@@ -22,6 +22,7 @@ than continued with numbers that are not its own.
 
 from __future__ import annotations
 
+import io
 import time
 from dataclasses import dataclass, field
 
@@ -33,12 +34,13 @@ from dpdfit.core.display import Displayable
 from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import CampaignConfig
 from dpdfit.simulation.campaign.calibration_runs import calibration_runs
+from dpdfit.simulation.campaign.folder import csv_text
 from dpdfit.simulation.campaign.gate_runs import further_gate_rows, gate_tables
 from dpdfit.simulation.campaign.optics import dpd_lut
 from dpdfit.simulation.campaign.spectra import spectra_tables
 from dpdfit.simulation.further_recordings import extend_config
 
-__all__ = ["TABLES", "StandInRecording", "extended_config", "record_further",
+__all__ = ["TABLES", "StandInRecording", "extended_config", "record_further", "as_written",
            "simulated_tables", "difference_rows", "check_replayed"]
 
 #: The campaign tables a further recording can add rows to, in the campaign's order.
@@ -108,6 +110,13 @@ def _frame(rows: pd.DataFrame) -> pd.DataFrame:
     return rows.reset_index(drop=True)
 
 
+def as_written(rows: pd.DataFrame) -> pd.DataFrame:
+    """The rows as the simulator writes them into a campaign folder (its CSV text, 10
+    significant digits: :func:`~dpdfit.simulation.campaign.folder.csv_text`) and reads
+    them back: what a recording of the simulator holds, to the last digit."""
+    return pd.read_csv(io.StringIO(csv_text(rows)))
+
+
 def _new_runs(table: pd.DataFrame, old_runs: int) -> pd.DataFrame:
     """The rows of the runs after the first ``old_runs`` (runs come in their order)."""
     labels = list(dict.fromkeys(table["run"]))
@@ -139,7 +148,8 @@ def record_further(cfg: CampaignConfig, measurements, *, original: dict | None =
     Returns
     -------
     StandInRecording
-        The new rows per table: exactly those of :func:`difference_rows`.
+        The new rows per table, as the simulator writes them (:func:`as_written`):
+        exactly those of :func:`difference_rows`.
     """
     t0 = time.perf_counter()
     measurements = tuple(measurements)
@@ -165,7 +175,7 @@ def record_further(cfg: CampaignConfig, measurements, *, original: dict | None =
                             gate_rates=done["rates"])
     if original is not None:
         check_replayed(replayed, original, new)
-    tables = {t: _frame(new[t]) for t in TABLES if t in new and len(new[t])}
+    tables = {t: as_written(new[t]) for t in TABLES if t in new and len(new[t])}
     return StandInRecording(tables=tables, measurements=measurements, config=ext,
                             seconds=time.perf_counter() - t0)
 
@@ -201,7 +211,7 @@ def difference_rows(cfg: CampaignConfig, measurements, before: dict | None = Non
         head = after[t].iloc[:len(old)].reset_index(drop=True)
         pd.testing.assert_frame_equal(head, old.reset_index(drop=True), check_exact=True)
         if len(after[t]) > len(old):
-            out[t] = _frame(after[t].iloc[len(old):])
+            out[t] = as_written(after[t].iloc[len(old):])
     return out
 
 
