@@ -154,3 +154,23 @@ def test_any_proposal_round_trips(tmp_path_factory, what, scans, shots, A, dpd, 
     write_schedule(df, path)
     [m] = schedule_measurements(read_schedule(path))
     assert m == {"what": what, "settings": prop["settings"]}
+
+
+@pytest.mark.parametrize("where", ["a folder", "inside the campaign", "an input"])
+def test_diagnose_schedule_path_refused_before_the_diagnosis(where, tmp_path, capsys,
+                                                             monkeypatch):
+    """One line, exit 2, before any fit (the diagnosis is never called), nothing written."""
+    import shutil
+
+    from dpdfit.cli import diagnose as cli_diagnose
+    from dpdfit.cli.main import main
+    camp = tmp_path / "campaign"
+    shutil.copytree(CAMPAIGN, camp)
+    path = {"a folder": tmp_path, "inside the campaign": camp / "schedule.csv",
+            "an input": camp}[where]
+    monkeypatch.setattr(cli_diagnose, "diagnose", lambda *a, **k: pytest.fail("diagnosed"))
+    before = sorted(p.name for p in camp.iterdir())
+    assert main(["diagnose", str(camp), "--schedule", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("dpdfit: error:"), err
+    assert sorted(p.name for p in camp.iterdir()) == before

@@ -6,12 +6,14 @@ import argparse
 import dataclasses
 import json
 import sys
+from pathlib import Path
 
 from dpdfit.analyses.diagnosis.comparison import compare_diagnoses
 from dpdfit.analyses.diagnosis.comparison_parts import read_diagnosis, refit_request
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.jsonable import to_jsonable
+from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import check_output_file, refuse_overwriting_inputs
 from dpdfit.recordings.schedule import write_schedule
 from dpdfit.report.comparison_plots import comparison_figure
@@ -30,8 +32,7 @@ def cmd_diagnose(args) -> int:
     previous = read_diagnosis(args.compare) if args.compare else None
     refit = None if previous is None else refit_request(previous)
     if args.schedule:
-        check_output_file(args.schedule, "schedule file")
-        refuse_overwriting_inputs([args.schedule], [args.campaign])
+        _check_schedule_path(args.schedule, args.campaign)
     with campaign_argument(args.campaign, args.complete_only) as folder:
         res = diagnose(folder, pairs=args.pairs, progress=args.progress,
                        **({"refit": refit} if refit else {}))
@@ -56,6 +57,15 @@ def cmd_diagnose(args) -> int:
     else:
         print(res.report() + ("" if comparison is None else "\n\n" + comparison.report()))
     return 0
+
+
+def _check_schedule_path(path, campaign) -> None:
+    """The schedule file can be written, and not into the campaign (never touched)."""
+    check_output_file(path, "schedule file")
+    refuse_overwriting_inputs([path], [campaign])
+    if Path(campaign).is_dir() and Path(campaign).resolve() in Path(path).resolve().parents:
+        raise InputError("the schedule file would be written inside the campaign folder, "
+                         "which dpdfit never changes; write it elsewhere", file=str(path))
 
 
 def _write_schedule(res, folder, path) -> None:
