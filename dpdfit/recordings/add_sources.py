@@ -28,6 +28,7 @@ from dpdfit.errors import InputError
 
 from .columns import CAMPAIGN_TABLES
 from .outputs import sha256_file
+from .tables import read_csv_strings
 
 __all__ = ["NewRecordings", "read_new_recordings", "read_text_table", "text_column",
            "leading_comments", "SOURCE_COLUMNS"]
@@ -77,17 +78,7 @@ def read_text_table(path: str | os.PathLike) -> pd.DataFrame:
     """A CSV table with every value as its text (module doc); InputError naming the
     file when it cannot be read.  A file with a header and no rows is an empty table."""
     name = str(path)
-    try:
-        df = pd.read_csv(path, comment="#", skipinitialspace=True, dtype=str,
-                         keep_default_na=False)
-    except pd.errors.EmptyDataError:
-        raise InputError("file is empty (no header, no data)", file=name) from None
-    except OSError as exc:
-        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"not a readable CSV file ({msg})", file=name) from None
-    df.columns = [str(c).strip() for c in df.columns]
+    df = read_csv_strings(path, name)
     dupes = sorted({c for c in df.columns if list(df.columns).count(c) > 1})
     if dupes:
         raise InputError(f"column name(s) appear more than once: {dupes}", file=name)

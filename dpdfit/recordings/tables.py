@@ -40,7 +40,7 @@ from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
 
 __all__ = ["read_table", "read_calibration", "read_calibration_runs",
-           "read_calibration_table", "check_repeated_rows", "require_file", "check_calibration_phases", "RANGE_CAUSES"]
+           "read_calibration_table", "check_repeated_rows", "read_csv_strings", "require_file", "check_calibration_phases", "RANGE_CAUSES"]
 
 
 def _row(index: int) -> int:
@@ -87,7 +87,7 @@ def read_table(path: str | os.PathLike, required: list[str],
     if os.path.isfile(path):
         check_memory(os.path.getsize(path) * TABLE_BYTES_PER_FILE_BYTE, "reading this table",
                      file=name, hint="split the file or set DPDFIT_MAX_MEMORY_GB")
-    df = _read_csv(path, name)
+    df = read_csv_strings(path, name)
     _check_columns(df, required, name)
     present_opt = [c for c in optional if c in df.columns]
     if numeric is None:
@@ -129,8 +129,10 @@ def require_file(path: str | os.PathLike) -> str:
     return name
 
 
-def _read_csv(path, name: str) -> pd.DataFrame:
-    """The file as a table of strings (InputError when absent, empty or not a CSV)."""
+def read_csv_strings(path, name: str | None = None) -> pd.DataFrame:
+    """The file as a table of strings (InputError naming ``name``, default the path, when
+    absent, empty or not a CSV); the one place a CSV of recordings is parsed."""
+    name = str(path) if name is None else name
     require_file(path)
     try:
         # read once: the bytes are parsed and hashed (provenance) without a second open
