@@ -34,6 +34,7 @@ from dpdfit.simulation.artiq_results import (_TABLES, _Lab, _calibrations, _copy
                                              _spectra, _time_scan_runs, axis, channel)
 from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
+from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
 __all__ = ["campaign_files_end", "write_recorded_results", "read_campaign_tables",
            "record_schedule"]
@@ -236,7 +237,9 @@ def record_schedule(campaign_dir, schedule, out_dir, progress=None) -> StandInRe
     Raises
     ------
     InputError
-        One line: no truth.json, a schedule or setting the campaign cannot record, a
+        One line: no truth.json, a schedule or setting the campaign cannot record (a
+        point the simulator does not record as scheduled:
+        :func:`~dpdfit.simulation.scheduled_points.check_recorded_as_scheduled`), a
         campaign whose truth.json does not generate its recordings, an output folder
         that exists or lies inside the campaign.  Nothing is written then.
     """
@@ -256,5 +259,7 @@ def record_schedule(campaign_dir, schedule, out_dir, progress=None) -> StandInRe
         raise InputError(f"not JSON: {e}", file=str(truth)) from None
     tables, campaign = read_campaign_tables(folder)
     rec = record_further(cfg, measurements, original=tables, progress=progress)
+    check_recorded_as_scheduled(df, rec.tables, str(schedule) if not isinstance(
+        schedule, pd.DataFrame) else "schedule")
     write_recorded_results(rec.tables, tables, campaign, out)
     return rec
