@@ -137,6 +137,21 @@ def test_separation_achieved_against_predicted_from_the_refitted_pair():
     assert "achieved 30 against 27 predicted (ratio 1.11)" in c.report()
 
 
+def test_the_separation_names_the_recording_it_was_predicted_for():
+    """A lab may take another recording than the proposed one: the line says which one
+    the prediction holds for (validation p04 was given 92 scans at A = 0.8 where the
+    proposal was 220 at A = 0.4, and its ratio of 45 was about neither)."""
+    before = _before()
+    before["next_measurement"]["settings"] = {"A": 0.4, "dpd": 1, "shots": 612,
+                                              "scans": 220}
+    before["next_measurement"]["what"] = "populations"
+    c = compare_diagnoses(before, _after())
+    assert c.separation["settings"] == before["next_measurement"]["settings"]
+    line = next(x for x in c.report().splitlines() if "separation of" in x)
+    assert line.endswith("predicted (ratio 1.11) for a population scan at A = 0.4 with "
+                         "DPD, 220 scans (612 shots)"), line
+
+
 def test_the_refit_helpers_shared_with_the_closed_loop():
     assert binding_refits(PROPOSAL) == [{"effects": ["stale_calibration"], "forms": ["aom"]},
                                         {"effects": ["detector_nonlinearity"],

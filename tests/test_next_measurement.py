@@ -392,7 +392,7 @@ def test_the_expected_separation_is_what_a_refit_to_recorded_data_achieves():
 
 
 def test_repeated_spectra_are_described_once_per_amplitude_with_their_count():
-    from dpdfit.analyses.diagnosis.next_measurement import _describe
+    from dpdfit.analyses.diagnosis.next_measurement import describe_recording as _describe
     even = _describe("spectra", {"amplitudes": [0.8, 0.8, 0.85, 0.85], "dpd": [0, 1]})
     assert even == "spectra at A = 0.8, 0.85 (2 traces each) with and without DPD"
     uneven = _describe("spectra", {"amplitudes": [0.8, 0.8, 0.8, 0.85], "dpd": [0, 1]})

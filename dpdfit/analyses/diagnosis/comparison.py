@@ -31,6 +31,7 @@ from dpdfit.analyses.diagnosis.comparison_parts import (alternatives_standing,
                                                         as_diagnosis_dict, evidence_rows,
                                                         hypothesis_label, proposal_after,
                                                         separation)
+from dpdfit.analyses.diagnosis.next_measurement import describe_recording
 from dpdfit.core.display import Displayable
 
 __all__ = ["Comparison", "compare_diagnoses"]
@@ -155,9 +156,16 @@ class Comparison(Displayable):
         if s.get("ratio") is None:
             return (f"separation of {pair}: achieved {s['achieved']:.3g} (delta chi2); "
                     f"{s.get('reason')}")
-        return (f"separation of {pair} ({str(s['what']).replace('_', ' ')}): achieved "
+        line = (f"separation of {pair} ({str(s['what']).replace('_', ' ')}): achieved "
                 f"{s['achieved']:.3g} against {s['predicted']:.3g} predicted (ratio "
                 f"{s['ratio']:.2f})")
+        # the prediction holds for the recording proposed, not for another one taken instead
+        if isinstance(s.get("settings"), dict):
+            try:
+                line += f" for {describe_recording(s['what'], s['settings'])}"
+            except (KeyError, TypeError, ValueError):
+                pass                      # a hand-edited proposal: the line stands without
+        return line
 
     def _proposal_line(self) -> str:
         n = self.next_measurement

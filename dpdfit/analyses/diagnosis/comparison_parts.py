@@ -260,7 +260,7 @@ def separation(before: dict, after: dict) -> dict:
     (``{"truth", "rival"}``), ``achieved``, ``ratio`` (achieved / predicted) and
     ``reason`` (why a value is None; None when all are there)."""
     nxt = before.get("next_measurement")
-    out = {"what": None, "truth": None, "rival": None, "predicted": None,
+    out = {"what": None, "settings": None, "truth": None, "rival": None, "predicted": None,
            "predicted_if_truth": None, "predicted_if_rival": None, "chi2_before": None,
            "chi2_after": None, "achieved": None, "ratio": None}
     why = _no_separation(before, nxt)
@@ -268,7 +268,8 @@ def separation(before: dict, after: dict) -> dict:
         return {**out, "what": (nxt or {}).get("what") if isinstance(nxt, dict) else None,
                 "reason": why}
     b = nxt["binding"]
-    out.update(what=nxt["what"], predicted=_float(nxt.get("expected_delta_bic")),
+    out.update(what=nxt["what"], settings=nxt.get("settings"),
+               predicted=_float(nxt.get("expected_delta_bic")),
                truth=hypothesis_label(b["truth"].get("effects")),
                rival=hypothesis_label(b["rival"].get("effects")),
                predicted_if_truth=_float(b["truth"].get("expected_delta_bic")),

@@ -69,7 +69,8 @@ from dpdfit.core.defaults import LAB_TIMES
 
 __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
            "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID", "SPECTRA_COUNTS",
-           "RUN_AMPLITUDES", "CONFIRMED", "REFIT_NFEV", "SATURATION_SHARE"]
+           "RUN_AMPLITUDES", "CONFIRMED", "REFIT_NFEV", "SATURATION_SHARE",
+           "describe_recording"]
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan")
@@ -156,7 +157,7 @@ class NextMeasurement:
             goal = f"constrain the size of {names[0]}"
         else:
             goal = f"separate {names[0]} from {' and '.join(names[1:])}"
-        return (f"Next: {_describe(self.what, self.settings)} (about "
+        return (f"Next: {describe_recording(self.what, self.settings)} (about "
                 f"{_duration(self.lab_seconds)}) would {goal} by an expected delta BIC of "
                 f"{_number(self.expected_delta_bic)}.")
 
@@ -243,8 +244,8 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
         return NextMeasurement(reason=(
             f"no recording of the menu separates them within "
             f"{_duration(lab.max_seconds)} of lab time: the best, "
-            f"{_describe(m['what'], m['settings'])}, would give an expected delta BIC of "
-            f"{_number(m['expected_delta_bic'])}, short of the {_number(target)} that "
+            f"{describe_recording(m['what'], m['settings'])}, would give an expected "
+            f"delta BIC of {_number(m['expected_delta_bic'])}, short of the {_number(target)} that "
             f"decides at this fit's misfit"), **fields, **common)
     return NextMeasurement(**fields, **common)
 
@@ -364,7 +365,7 @@ def _why_none(prob) -> str:
             + ("; ".join(filter(None, parts)) or "no recordings to extend"))
 
 
-def _describe(what: str, s: dict) -> str:
+def describe_recording(what: str, s: dict) -> str:
     """The recording in words, e.g. ``"spectra at A = 0.85, 0.95 with and without DPD"``."""
     if what in ("amplitude_run", "phase_run"):
         n = int(s.get("runs", 1))
