@@ -18,7 +18,7 @@ import tracemalloc
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.scan import scan_intervals
+from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
 from dpdfit.models import gate_sim
 
 

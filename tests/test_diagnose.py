@@ -10,7 +10,7 @@ from dpdfit.cli.main import main
 from dpdfit.analyses.diagnosis.diagnose import ALPHA, diagnose, mismatch_evidence
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects
 from dpdfit.simulation.harness import concealed_effects, plan, run_harness, summarise
-from dpdfit.analyses.diagnosis.scan import scan_intervals
+from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
 
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ROOT / "datasets" / "synthetic_campaign"
@@ -282,7 +282,7 @@ def test_bad_input_one_line_nonzero_exit_input_untouched(tmp_path, capsys, case,
 
 def test_non_monotone_model_calibration_is_named_in_a_warning(tmp_path):
     import pandas as pd
-    from dpdfit.analyses.diagnosis.observables import load_campaign
+    from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
     camp = _copy_campaign(tmp_path, "nonmono")
     p = camp / "calibration_amplitude.csv"
     d = pd.read_csv(p)
@@ -325,10 +325,11 @@ def test_strong_tone_effect_fit_escapes_a_baseline_pushed_to_its_bounds(tmp_path
     of a strong detector nonlinearity up to their +/-50 sigma bounds; started there, the
     effect fit could not move and the campaign was called unexplained."""
     from dpdfit.simulation.campaign import simulate_campaign
-    from dpdfit.analyses.diagnosis.fitting import FAR_NUISANCE, fit_hypothesis as _fit
-    from dpdfit.analyses.diagnosis.problem import Problem
+    from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis as _fit
+    from dpdfit.analyses.diagnosis.fitting.least_squares import FAR_NUISANCE
+    from dpdfit.analyses.diagnosis.model.residuals import Problem
     from dpdfit.simulation.harness import _silent, harness_config
-    from dpdfit.analyses.diagnosis.observables import load_campaign
+    from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
     seed = 122199430
     truth = simulate_campaign(tmp_path / "c", seed=seed,
                               effects={"detector_nonlinearity": 0.0992},
@@ -351,7 +352,7 @@ def test_linear_profile_of_the_calibration_modes_is_the_exact_marginal_fit():
     r0^T (I + J J^T)^-1 r0, and a fit through it gives the joint fit's parameters and
     the marginal (Schur-complement) errors of the effect parameters."""
     from scipy.optimize import least_squares
-    from dpdfit.analyses.diagnosis.mode_profile import ModeProfile as _Profile
+    from dpdfit.analyses.diagnosis.fitting.variable_projection import (ModeProfile as _Profile)
     rng = np.random.default_rng(3)
     n, kx, kd = 60, 2, 5
     X, D = rng.normal(size=(n, kx)), rng.normal(size=(n, kd))
@@ -387,7 +388,7 @@ def test_whitened_gate_residuals_are_standard_normal_and_give_the_mahalanobis_ch
     """One setting's F_pop, imb, C share its random power error: the whitened
     residuals of draws from the stated covariance are N(0, I) (checked on
     20,000 draws), and their sum of squares is r^T Sigma^-1 r."""
-    from dpdfit.analyses.diagnosis.problem import _whiten_settings
+    from dpdfit.analyses.diagnosis.model.residuals import _whiten_settings
     rng = np.random.default_rng(11)
     shot = np.array([0.002, 0.023, 0.003])
     g = np.array([-0.0008, -0.35, 0.011])           # per dB, as the engine gives
@@ -418,9 +419,9 @@ def test_effect_scales_follow_the_calibration_modes():
     """At full drive (|x| = 1) the extra AM-to-PM phase is dphi, the fifth-order factor
     1 + k5 and the detector correction that of u = P/P_max = 1, whatever the
     calibration modes do to y(1): the scales belong to the forward curve in use."""
-    from dpdfit.analyses.diagnosis.effects.active import ActiveEffects
-    from dpdfit.analyses.diagnosis.tone_model import ToneModel
-    from dpdfit.analyses.diagnosis.observables import load_campaign
+    from dpdfit.analyses.diagnosis.model.tones.active_effects import ActiveEffects
+    from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
+    from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
     tone = ToneModel(load_campaign(BUNDLED))
     x = np.ones(8)                                       # drive magnitude at full drive
 

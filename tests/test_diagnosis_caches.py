@@ -11,13 +11,14 @@ whatever was evaluated before.
 import numpy as np
 import pytest
 
-from dpdfit.analyses.diagnosis import engine_runs
+from dpdfit.analyses.diagnosis.model.gates import engine_runs
 from dpdfit.analyses.diagnosis.effects import Prep
-from dpdfit.analyses.diagnosis.gate_observe import BranchMixer, confusion_t
-from dpdfit.analyses.diagnosis.interpolation import (cubic_apply, cubic_weights, uniform_at,
-                                                     uniform_interp, uniform_place)
-from dpdfit.analyses.diagnosis.observables import load_campaign
-from dpdfit.analyses.diagnosis.tone_model import ToneModel
+from dpdfit.analyses.diagnosis.model.gates.observe import BranchMixer, confusion_t
+from dpdfit.analyses.diagnosis.model.tones.interpolation import (cubic_apply, cubic_weights,
+                                                                 uniform_at, uniform_interp,
+                                                                 uniform_place)
+from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
+from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
 from dpdfit.models import gate_sim
 from dpdfit.models.gate_sim.drive import Drive
 from tests.helpers.bundled_data import CAMPAIGN
@@ -155,7 +156,7 @@ def test_engine_runs_are_kept_branch_by_branch(monkeypatch):
 
 
 def test_gate_predictions_with_kept_parts_match_a_prediction_from_nothing(campaign):
-    from dpdfit.analyses.diagnosis.gate_model import GateModel
+    from dpdfit.analyses.diagnosis.model.gates.gate_model import GateModel
     effects = ("dephasing", "motional_heating", "spam_offset", "gate_rate_miscalibration")
     gm = GateModel(campaign, ToneModel(campaign), 0.05, effects=effects)
     nuis = {"prep_split": 0.3, "e01": 6e-5, "e10": 4e-5, "eps_ts0": 0.02}

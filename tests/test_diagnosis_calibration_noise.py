@@ -15,7 +15,7 @@ import pytest
 
 import dpdfit.fits.photodiode as photodiode
 from dpdfit.analyses.diagnosis.diagnose import diagnose
-from dpdfit.analyses.diagnosis.observables import load_campaign
+from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
 from dpdfit.pipeline.context import Context, Results
 from dpdfit.pipeline.steps import calibration_step
 from dpdfit.recordings.campaign_folder import CampaignFolder

@@ -16,10 +16,11 @@ from types import SimpleNamespace
 import pytest
 
 import dpdfit.cli.diagnose as cli_diagnose
-from dpdfit.analyses.diagnosis.comparison import Comparison, compare_diagnoses
-from dpdfit.analyses.diagnosis.comparison_parts import (read_diagnosis, refit_request,
-                                                        unknown_in_binding)
-from dpdfit.analyses.diagnosis.refits import binding_chi2, binding_refits, refitted_chi2
+from dpdfit.analyses.diagnosis.comparison.compare import Comparison, compare_diagnoses
+from dpdfit.analyses.diagnosis.comparison.previous import (read_diagnosis, refit_request,
+                                                           unknown_in_binding)
+from dpdfit.analyses.diagnosis.comparison.refits import (binding_chi2, binding_refits,
+                                                         refitted_chi2)
 from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.errors import InputError
 from tests.helpers.cli_refusal import assert_refused
@@ -415,7 +416,7 @@ def test_cli_compare_on_a_real_ambiguous_campaign_against_itself(tmp_path, capsy
 def test_a_pair_the_new_campaign_cannot_fit_is_reported_not_raised(monkeypatch):
     """A form of the earlier pair that the new recordings no longer support: its refit
     gives no chi2 and a reason, the other side is still refitted."""
-    from dpdfit.analyses.diagnosis import refits
+    from dpdfit.analyses.diagnosis.comparison import refits
 
     def refit_label(prob, base, label):
         if label["forms"] == ["aom_all"]:

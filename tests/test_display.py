@@ -26,7 +26,7 @@ import pytest
 import dpdfit
 from dpdfit.analyses.budget.result import BudgetResult
 from dpdfit.analyses.diagnosis.result import Diagnosis
-from dpdfit.analyses.diagnosis.scan import Deviation
+from dpdfit.analyses.diagnosis.evidence.deviations import Deviation
 from dpdfit.analyses.propagation.result import PropagationResult
 from dpdfit.analyses.stability.result import StabilityResult
 from dpdfit.core.display import Displayable, format_value_error

@@ -16,8 +16,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.analyses.diagnosis.engine_runs import check_runs_fit
-from dpdfit.analyses.diagnosis.scan import scan_intervals
+from dpdfit.analyses.diagnosis.model.gates.engine_runs import check_runs_fit
+from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
 from dpdfit.core import memory
 from dpdfit.errors import InputError
 from dpdfit.models import gate_sim
@@ -80,7 +80,7 @@ def test_the_diagnosis_names_the_setting_and_the_runs_at_once(monkeypatch, tmp_p
                                              scan_times=[1.2 / XI0]))] * 3
     check_runs_fit(calls, [(0.5, 0)] * 3, tmp_path)
     monkeypatch.setenv(memory.MEMORY_ENV, "1e-6")
-    monkeypatch.setattr("dpdfit.analyses.diagnosis.engine_runs.n_workers", lambda: 2)
+    monkeypatch.setattr("dpdfit.analyses.diagnosis.model.gates.engine_runs.n_workers", lambda: 2)
     with pytest.raises(InputError) as exc:
         check_runs_fit(calls, [(0.5, 0), (0.6, 1), (0.7, 0)], tmp_path)
     msg = str(exc.value)

@@ -112,7 +112,8 @@ def test_gate_engine_defaults_are_the_error_model():
 
 
 def test_diagnosis_defaults_are_the_error_model():
-    from dpdfit.analyses.diagnosis import fringes, observables
+    from dpdfit.analyses.diagnosis.model.gates import fringes
+    from dpdfit.analyses.diagnosis.observables import campaign as observables
     assert observables.DEFAULT_ERROR_MODEL == ERROR_MODEL.campaign_dict()
     assert ErrorModel.from_dict(observables.DEFAULT_ERROR_MODEL) == ERROR_MODEL
     assert np.array_equal(fringes.PHASES, ERROR_MODEL.analysis_phases())

@@ -14,12 +14,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from dpdfit.analyses.diagnosis.alternatives import (addition_alternatives,
-                                                    alternatives_sentence, swap_alternatives)
+from dpdfit.analyses.diagnosis.decisions.alternatives import (addition_alternatives,
+                                                              alternatives_sentence,
+                                                              swap_alternatives)
 from dpdfit.analyses.diagnosis.effects import Size
-from dpdfit.analyses.diagnosis.form_errors import form_weights, honest_cost, honest_sizes
-from dpdfit.analyses.diagnosis.tempering import (evidence_dispersion, hac_quadratic,
-                                                 series_pairs, tempered_gap)
+from dpdfit.analyses.diagnosis.evidence.form_errors import (form_weights, honest_cost,
+                                                            honest_sizes)
+from dpdfit.analyses.diagnosis.evidence.tempering import (evidence_dispersion,
+                                                          hac_quadratic, series_pairs,
+                                                          tempered_gap)
 
 
 def _ar1(rng, n, rho):

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.families import (NOISE_Z, family_evidence, maximal_forms,
-                                                nested, separation_z)
+from dpdfit.analyses.diagnosis.evidence.families import (chi2_gap_z, family_evidence,
+                                                         maximal_forms, nested)
+from dpdfit.analyses.diagnosis.evidence.thresholds import NOISE_Z
 
 
 def _fit(z: np.ndarray, n_par: int, key: str = "tones:R10") -> SimpleNamespace:
@@ -42,13 +43,13 @@ def test_equal_forms_give_the_form_gain_and_one_form_pays_for_the_choice():
 
 
 def test_decisive_family_needs_the_gain_and_the_corrected_p_value():
-    from dpdfit.analyses.diagnosis.families import FamilyEvidence
+    from dpdfit.analyses.diagnosis.evidence.families import FamilyEvidence
     fe = FamilyEvidence("x", gain=12.0, gain_raw=12.0, p_value=1e-4, best="a")
     assert fe.decisive(1, 10.0, 0.0027) and not fe.decisive(30, 10.0, 0.0027)
     assert not FamilyEvidence("x", 8.0, 8.0, 1e-9, "a").decisive(1, 10.0, 0.0027)
 
 
-def test_separation_z_has_unit_scatter_when_two_forms_are_equally_far_from_the_truth():
+def test_chi2_gap_z_has_unit_scatter_when_two_forms_are_equally_far_from_the_truth():
     """Truth half-way between two fixed models: D = chi2_b - chi2_a scatters about 0 with
     variance 4 d.d, so |z| exceeds NOISE_Z about as often as a Gaussian does (the
     estimate counts the better fit's offset as misfit, so it can only be wider)."""
@@ -60,27 +61,27 @@ def test_separation_z_has_unit_scatter_when_two_forms_are_equally_far_from_the_t
     for _ in range(reps):
         noise = rng.normal(size=n)
         a, b = _fit(noise - delta / 2, 1), _fit(noise + delta / 2, 1)
-        zs.append(np.sign(b.chi2 - a.chi2) * separation_z(a, b))
+        zs.append(np.sign(b.chi2 - a.chi2) * chi2_gap_z(a, b))
     zs = np.array(zs)
     assert abs(np.mean(zs)) < 0.1
     assert 0.8 < np.std(zs) < 1.1
     assert np.mean(np.abs(zs) > NOISE_Z) < 0.006
 
 
-def test_separation_z_is_large_when_the_recordings_reject_a_form():
+def test_chi2_gap_z_is_large_when_the_recordings_reject_a_form():
     rng = np.random.default_rng(8)
     n = 300
     noise = rng.normal(size=n)
     delta = 0.8 * np.cos(np.linspace(0, 4, n))
-    assert separation_z(_fit(noise, 1), _fit(noise + delta, 1)) > 5
+    assert chi2_gap_z(_fit(noise, 1), _fit(noise + delta, 1)) > 5
     same = _fit(noise, 1)
-    assert separation_z(same, same) == 0.0
+    assert chi2_gap_z(same, same) == 0.0
 
 
 def test_a_misfit_along_the_difference_widens_the_noise_by_the_tempering():
     """The scatter of the gap is the tempered one: z = D / (2 sqrt(tau d.d)), tau the
     dispersion of the evidence (> 1 when the misfit follows the difference)."""
-    from dpdfit.analyses.diagnosis.tempering import evidence_dispersion
+    from dpdfit.analyses.diagnosis.evidence.tempering import evidence_dispersion
     rng = np.random.default_rng(9)
     n = 400
     x = np.linspace(0, 1, n)
@@ -90,11 +91,11 @@ def test_a_misfit_along_the_difference_widens_the_noise_by_the_tempering():
     tau = evidence_dispersion(better, worse)
     D = worse.chi2 - better.chi2
     assert tau > 3
-    assert separation_z(better, worse) == pytest.approx(D / (2 * np.sqrt(tau * d @ d)),
+    assert chi2_gap_z(better, worse) == pytest.approx(D / (2 * np.sqrt(tau * d @ d)),
                                                         rel=1e-9)
 
 
-def test_separation_z_can_be_restricted_to_one_side():
+def test_chi2_gap_z_can_be_restricted_to_one_side():
     rng = np.random.default_rng(3)
     t = rng.normal(size=100)
     g = rng.normal(size=20)
@@ -105,8 +106,8 @@ def test_separation_z_can_be_restricted_to_one_side():
     b = SimpleNamespace(chi2=float(t @ t + g2 @ g2), blocks=(("tones:R10", t), ("gates:C", g2)),
                         chi2_by_observable={"tones:R10": float(t @ t),
                                             "gates:C": float(g2 @ g2)})
-    assert separation_z(a, b) > 3
-    assert separation_z(a, b, ("tones:", "runs:")) == 0.0
+    assert chi2_gap_z(a, b) > 3
+    assert chi2_gap_z(a, b, ("tones:", "runs:")) == 0.0
 
 
 @pytest.mark.parametrize("name, maximal", [

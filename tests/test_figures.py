@@ -78,7 +78,7 @@ def _diagnosis():
 
 def _comparison():
     """A comparison of two small diagnosis dicts (its figure's evidence rows)."""
-    from dpdfit.analyses.diagnosis.comparison import compare_diagnoses
+    from dpdfit.analyses.diagnosis.comparison.compare import compare_diagnoses
 
     def diag(verdict, ranking, alternatives=()):
         return {"campaign": "c", "verdict": verdict, "effects": [{"effect": verdict}],

@@ -16,8 +16,8 @@ import pytest
 
 import dpdfit.simulation.campaign.gate_runs as G
 from dpdfit.analyses.diagnosis.effects import get
-from dpdfit.analyses.diagnosis.observables import load_campaign
-from dpdfit.analyses.diagnosis.tone_model import TONE_HARMONICS, ToneModel
+from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
+from dpdfit.analyses.diagnosis.model.tones.tone_model import TONE_HARMONICS, ToneModel
 from dpdfit.models import gate_sim
 from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.campaign.calibration_runs import calibration_runs
@@ -98,7 +98,7 @@ GATE_EFFECTS = ("motional_heating", "dephasing", "spam_offset", "gate_rate_misca
 def gate_campaign(tmp_path_factory):
     """A tiny campaign (two gate amplitudes, one scan), its gate model, and the simulator's
     gate tones of every setting."""
-    from dpdfit.analyses.diagnosis.problem import Problem
+    from dpdfit.analyses.diagnosis.model.residuals import Problem
     cfg = dataclasses.replace(harness_config(SEED), gate_amplitudes=(0.4, 0.8),
                               time_scan_A=0.4, scan_shots=((300, 300),), time_scan_points=5,
                               trace_amplitudes=(0.2, 0.4, 0.6, 0.8), n_amp_runs=5,

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import pytest
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.problem import Problem, check_forms_left_out
+from dpdfit.analyses.diagnosis.model.residuals import Problem, check_forms_left_out
 
 
 def _forms(left_out):

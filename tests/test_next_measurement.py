@@ -15,10 +15,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.analyses.diagnosis.fitting import FitResult
-from dpdfit.analyses.diagnosis.next_measurement import (KINDS, NextMeasurement,
-                                                        decisive_target,
-                                                        propose_next_measurement)
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.proposal.next_measurement import (KINDS, NextMeasurement,
+                                                                 decisive_target,
+                                                                 propose_next_measurement)
 from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES, LabTimes
 
 BUNDLED_CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
@@ -37,8 +37,8 @@ def _fit(effect: str, params: dict | None = None, nuisances: dict | None = None)
 @pytest.fixture(scope="module")
 def tone_prob():
     """The bundled campaign's problem, tone side only (no gate model)."""
-    from dpdfit.analyses.diagnosis.observables import load_campaign
-    from dpdfit.analyses.diagnosis.problem import Problem
+    from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
+    from dpdfit.analyses.diagnosis.model.residuals import Problem
     return Problem(load_campaign(BUNDLED_CAMPAIGN), with_gates=False)
 
 
@@ -266,7 +266,7 @@ def test_scans_of_a_setting_pool_and_their_shared_rate_error_does_not_average():
 def test_a_time_scan_is_proposed_with_one_scans_shots_when_points_are_pooled():
     """A time-scan point recorded by 40 scans of 625 shots is one pooled row of 25,000
     shots: a further scan has 625 per point, not 25,000."""
-    from dpdfit.analyses.diagnosis.measurement_menu import BUILDERS
+    from dpdfit.analyses.diagnosis.proposal.menu import BUILDERS
     ts = pd.DataFrame({"A": 0.6, "dpd": 1, "t_s": [1e-4, 2e-4], "n00": 12000, "n11": 12000,
                        "shots": 25000, "n_repeats": 40})
     gate = SimpleNamespace(ts_keys=[(0.6, 1)])
@@ -285,9 +285,9 @@ def test_bundled_campaign_with_gates_sends_extra_dephasing_to_a_gate_scan():
     baseline fit is told apart by a gate recording, not by the tone side."""
     import dataclasses
 
-    from dpdfit.analyses.diagnosis.fitting import fit_hypothesis
-    from dpdfit.analyses.diagnosis.observables import load_campaign
-    from dpdfit.analyses.diagnosis.problem import Problem
+    from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis
+    from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
+    from dpdfit.analyses.diagnosis.model.residuals import Problem
     prob = Problem(load_campaign(BUNDLED_CAMPAIGN))
     base = fit_hypothesis(prob, ())
     deph = dataclasses.replace(base, effect="dephasing", params={
@@ -339,7 +339,7 @@ def test_profiled_separation_is_the_rival_refitted_to_the_truths_recording():
     recording, the rival refitted to them with its information from the recordings so
     far, leave min_theta k |W (m_a - m_b(theta))|^2 + theta^T C^-1 theta; the exact
     refit finds the same, and holding the parameters gives the larger k d.d."""
-    from dpdfit.analyses.diagnosis.separation import Direction as _Direction
+    from dpdfit.analyses.diagnosis.proposal.expected_separation import (Direction as _Direction)
     rng = np.random.default_rng(11)
     n, q = 12, 3
     sd = rng.uniform(0.5, 2.0, n)
@@ -367,7 +367,7 @@ def test_the_expected_separation_is_what_a_refit_to_recorded_data_achieves():
     """Recordings drawn under the truth (noise included), the rival refitted to them and
     to its prior information: the achieved chi2 difference averages the predicted
     separation less the noise the rival's parameters absorb (their number, here 3)."""
-    from dpdfit.analyses.diagnosis.separation import Direction as _Direction
+    from dpdfit.analyses.diagnosis.proposal.expected_separation import (Direction as _Direction)
     rng = np.random.default_rng(12)
     n, q, k = 40, 3, 2
     sd = np.full(n, 1.0)
@@ -392,7 +392,7 @@ def test_the_expected_separation_is_what_a_refit_to_recorded_data_achieves():
 
 
 def test_repeated_spectra_are_described_once_per_amplitude_with_their_count():
-    from dpdfit.analyses.diagnosis.next_measurement import describe_recording as _describe
+    from dpdfit.analyses.diagnosis.proposal.next_measurement import (describe_recording as _describe)
     even = _describe("spectra", {"amplitudes": [0.8, 0.8, 0.85, 0.85], "dpd": [0, 1]})
     assert even == "spectra at A = 0.8, 0.85 (2 traces each) with and without DPD"
     uneven = _describe("spectra", {"amplitudes": [0.8, 0.8, 0.8, 0.85], "dpd": [0, 1]})

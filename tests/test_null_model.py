@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dpdfit.models import gate_sim
-from dpdfit.analyses.diagnosis.observables import debias_tones
+from dpdfit.analyses.diagnosis.observables.tone_features import debias_tones
 from dpdfit.fits.photodiode import fit_phase_noise, fit_power_noise
 from dpdfit.fits.tone_noise import MEDIAN_CHI2_1, estimate_noise_floor, robust_scale
 

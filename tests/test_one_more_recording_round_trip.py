@@ -17,7 +17,7 @@ import json
 import pandas as pd
 import pytest
 
-from dpdfit.analyses.diagnosis.proposal_schedule import proposal_schedule
+from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
 from dpdfit.cli.main import main
 from dpdfit.recordings.schedule import read_schedule, write_schedule
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign

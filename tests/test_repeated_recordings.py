@@ -12,8 +12,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.analyses.diagnosis.null_model import learn_tone_noise
-from dpdfit.analyses.diagnosis.observables import TONE_HARMONICS, debias_tones, tone_features
+from dpdfit.analyses.diagnosis.model.tones.tone_noise import learn_tone_noise
+from dpdfit.analyses.diagnosis.observables.tone_features import (TONE_HARMONICS,
+                                                                 debias_tones,
+                                                                 tone_features)
 from dpdfit.errors import InputError
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.counts import read_time_scans
@@ -226,7 +228,7 @@ def test_every_consumer_sees_one_pooled_rate_per_setting(tmp_path, capsys):
     from dpdfit.analyses.budget.config import gate_rates_khz
     assert gate_rates_khz(folder / "gate_rates.csv") == pytest.approx(
         rates["xi0_khz"].tolist())
-    from dpdfit.analyses.diagnosis.observables import _gates
+    from dpdfit.analyses.diagnosis.observables.campaign import _gates
     g = _gates(cf)
     assert len(g) == len(rates) and g["n_rates"].max() == 2
     # one calibration's relative error, the pooled rate's times sqrt(2)

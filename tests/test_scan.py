@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from dpdfit.errors import InputError
-from dpdfit.analyses.diagnosis.scan import scan_intervals
+from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
 
 
 @pytest.mark.slow

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from dpdfit.analyses.diagnosis.proposal_schedule import proposal_schedule
+from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.errors import InputError
 from dpdfit.recordings.campaign_folder import CampaignFolder

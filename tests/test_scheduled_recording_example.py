@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.analyses.diagnosis.proposal_schedule import proposal_schedule
+from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
 from dpdfit.recordings.campaign_import import import_campaign
 from dpdfit.recordings.schedule import write_schedule
 from tests.helpers.bundled_data import CAMPAIGN

@@ -8,8 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from dpdfit.analyses.diagnosis.pooled_scans import scan_whitener
-from dpdfit.analyses.diagnosis.separation import Direction
+from dpdfit.analyses.diagnosis.proposal.pooled_scans import scan_whitener
+from dpdfit.analyses.diagnosis.proposal.expected_separation import Direction
 
 
 def test_a_singular_population_covariance_is_whitened_on_what_it_measures():

@@ -115,8 +115,8 @@ def main_size(effect):
 def observables_of(effect) -> list:
     """The cell "acts through": each overridden hook and what it changes, then the
     observables of its side."""
-    from dpdfit.analyses.diagnosis.observables import TONE_FEATURES
-    from dpdfit.analyses.diagnosis.verdict import GATE_OBSERVABLES
+    from dpdfit.analyses.diagnosis.observables.tone_features import TONE_FEATURES
+    from dpdfit.analyses.diagnosis.evidence.mismatches import GATE_OBSERVABLES
     hooks = TONE_HOOKS if effect.side == "tones" else GATE_HOOKS
     paras = []
     for hook, what in hooks.items():

@@ -8,8 +8,8 @@ import json
 import sys
 from pathlib import Path
 
-from dpdfit.analyses.diagnosis.comparison import compare_diagnoses
-from dpdfit.analyses.diagnosis.comparison_parts import read_diagnosis, refit_request
+from dpdfit.analyses.diagnosis.comparison.compare import compare_diagnoses
+from dpdfit.analyses.diagnosis.comparison.previous import read_diagnosis, refit_request
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.jsonable import to_jsonable

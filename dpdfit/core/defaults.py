@@ -173,7 +173,7 @@ ERROR_MODEL = ErrorModel()
 class LabTimes:
     """Lab time of each recording a diagnosis may propose next (seconds).
 
-    Used by :func:`dpdfit.analyses.diagnosis.next_measurement.propose_next_measurement`
+    Used by :func:`dpdfit.analyses.diagnosis.proposal.next_measurement.propose_next_measurement`
     to rank the menu by expected separation per lab hour; a lab passes its own
     ``LabTimes(...)`` to change them.  The paper states shot counts but no
     durations, so the values are typical trapped-ion lab figures, each argued below.

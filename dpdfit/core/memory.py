@@ -50,7 +50,7 @@ TABLE_BYTES_PER_FILE_BYTE = 12
 ENGINE_BYTES_PER_AMPLITUDE = 640
 
 #: Peak bytes per interval of the diagnosis's interval scan
-#: (:func:`dpdfit.analyses.diagnosis.scan.scan_intervals`, ``n (n + 1) / 2``
+#: (:func:`dpdfit.analyses.diagnosis.evidence.deviations.scan_intervals`, ``n (n + 1) / 2``
 #: intervals of a series of ``n`` points: their ends, lengths, statistics and
 #: p-values); measured 81 B at n = 500 to 2000 (``benchmarks/engine_memory.py``).
 SCAN_BYTES_PER_INTERVAL = 96

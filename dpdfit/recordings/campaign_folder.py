@@ -18,7 +18,7 @@ Required and optional (everything else in the layout is optional):
   8, the latest amplitude run for the table, the latest phase run for the
   model); :attr:`CampaignFolder.defaults_used` lists which.  ``error_model``
   is optional: without it the diagnosis uses the paper's values with priors
-  wide enough for real labs (:mod:`dpdfit.analyses.diagnosis.observables`).
+  wide enough for real labs (:mod:`dpdfit.analyses.diagnosis.observables.campaign`).
 * ``calibration_amplitude.csv`` -- required by every model-based analysis.
 * ``calibration_phase.csv`` -- optional; without it the model has no AM-to-PM.
 * ``spectra.csv`` -- ``A, dpd, sideband, n, P_dB``; optional columns

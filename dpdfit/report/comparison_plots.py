@@ -1,12 +1,12 @@
 """The evidence of each hypothesis before and after further recordings
 (``dpdfit diagnose --compare --plot``): :func:`comparison_figure` draws a
-:class:`~dpdfit.analyses.diagnosis.comparison.Comparison` and returns the Figure.
+:class:`~dpdfit.analyses.diagnosis.comparison.compare.Comparison` and returns the Figure.
 """
 
 from __future__ import annotations
 
-from dpdfit.analyses.diagnosis.comparison import Comparison
-from dpdfit.analyses.diagnosis.verdict import BIC_DECISIVE
+from dpdfit.analyses.diagnosis.comparison.compare import Comparison
+from dpdfit.analyses.diagnosis.evidence.thresholds import BIC_DECISIVE
 from dpdfit.report.figure_io import new_figure, root_figure
 
 __all__ = ["comparison_figure", "pair_panel", "COMPARISON_ROWS"]

@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.refits import (achieved_separation, binding_chi2,
-                                              binding_refits, refitted_chi2)
+from dpdfit.analyses.diagnosis.comparison.refits import (achieved_separation, binding_chi2,
+                                                         binding_refits, refitted_chi2)
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import extend_config, random_menu_choice
 from dpdfit.simulation.harness_external import truth_in_reach

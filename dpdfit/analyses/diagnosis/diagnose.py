@@ -3,32 +3,32 @@
 Steps (:func:`diagnose`):
 
 1. **Baseline.**  The simulation built from the campaign's own calibration
-   (:mod:`~dpdfit.analyses.diagnosis.tone_model`,
-   :mod:`~dpdfit.analyses.diagnosis.gate_model`) predicts every observable of
-   :mod:`~dpdfit.analyses.diagnosis.observables`
-   (:class:`~dpdfit.analyses.diagnosis.problem.Problem`).  Its nuisances (what
+   (:mod:`~dpdfit.analyses.diagnosis.model.tones.tone_model`,
+   :mod:`~dpdfit.analyses.diagnosis.model.gates.gate_model`) predicts every observable of
+   :mod:`~dpdfit.analyses.diagnosis.observables.campaign`
+   (:class:`~dpdfit.analyses.diagnosis.model.residuals.Problem`).  Its nuisances (what
    the lab does not know, learnt first) are refitted: if that absorbs the
    mismatch there is nothing to explain.
 2. **Locate.**  Standardised residuals of each series are scanned for
    intervals of significant deviation, Bonferroni-corrected over all intervals
-   and series (:func:`~dpdfit.analyses.diagnosis.verdict.locate_mismatches`).
+   and series (:func:`~dpdfit.analyses.diagnosis.evidence.mismatches.locate_mismatches`).
 3. **Name.**  Every form of each catalog effect
    (:mod:`~dpdfit.analyses.diagnosis.effects`) is fitted with the nuisances
-   (:func:`~dpdfit.analyses.diagnosis.fitting.fit_effect`; the better form by
+   (:func:`~dpdfit.analyses.diagnosis.fitting.hypothesis_fit.fit_effect`; the better form by
    BIC is the effect's fit), ranked by ``delta_bic = BIC(effect) -
    BIC(baseline)`` and a likelihood-ratio test.  The tone-side effects' field
    also re-predicts the gates, under both phase-sign conventions
-   (:mod:`~dpdfit.analyses.diagnosis.phase_sign`).
+   (:mod:`~dpdfit.analyses.diagnosis.fitting.phase_sign`).
 4. **More than one.**  After the best single effect, every other effect is
    tested as an addition to the named ones (fitted jointly, started from the
    two fits) with the same criteria -- decisive BIC, likelihood-ratio test
    Bonferroni-corrected over the candidates -- until none is decisive.
-5. **Verdict** (:mod:`~dpdfit.analyses.diagnosis.verdict`): ``"none"`` when
+5. **Verdict** (:mod:`~dpdfit.analyses.diagnosis.evidence.mismatches`): ``"none"`` when
    no test finds a mismatch; else the first named effect (``effects`` lists
    all, best first) when the named effects leave an acceptable fit or the
    first explains nearly all of the mismatch; else ``"unexplained"``, with the
    located mismatches and a smooth generic discrepancy fitted in their place
-   (:mod:`~dpdfit.analyses.diagnosis.generic`).
+   (:mod:`~dpdfit.analyses.diagnosis.evidence.generic_discrepancy`).
 6. **How big.**  Each named effect's size in a laboratory's terms with 1-sigma
    errors (Gauss-Newton, the calibration's error modes profiled out; profile
    likelihood where the curvature is poor, e.g. at a bound) and its cost in
@@ -41,26 +41,32 @@ import time
 
 from threadpoolctl import threadpool_limits
 
-from dpdfit.analyses.diagnosis.alternatives import (addition_alternatives, propose,
-                                                    swap_alternatives)
+from dpdfit.analyses.diagnosis.decisions.alternatives import (addition_alternatives,
+                                                              swap_alternatives)
+from dpdfit.analyses.diagnosis.proposal.propose import propose
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
-from dpdfit.analyses.diagnosis.families import family_evidence
-from dpdfit.analyses.diagnosis.fitting import FitResult, fit_effects, fit_hypothesis
-from dpdfit.analyses.diagnosis.gate_model import GATE_NUISANCES
-from dpdfit.analyses.diagnosis.generic import generic_discrepancy
-from dpdfit.analyses.diagnosis.observables import Campaign, load_campaign
-from dpdfit.analyses.diagnosis.explanations import open_sides, select, start_alternatives
-from dpdfit.analyses.diagnosis.phase_sign import carry
-from dpdfit.analyses.diagnosis.problem import NUISANCES, Problem, check_forms_left_out
-from dpdfit.analyses.diagnosis.refits import refit_label, refit_labels
-from dpdfit.analyses.diagnosis.named_effects import named_effects
+from dpdfit.analyses.diagnosis.evidence.families import family_evidence
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_effects, fit_hypothesis
+from dpdfit.analyses.diagnosis.model.gates.gate_model import GATE_NUISANCES
+from dpdfit.analyses.diagnosis.evidence.generic_discrepancy import generic_discrepancy
+from dpdfit.analyses.diagnosis.observables.campaign import Campaign, load_campaign
+from dpdfit.analyses.diagnosis.decisions.explanations import (open_sides, select,
+                                                              start_alternatives)
+from dpdfit.analyses.diagnosis.fitting.phase_sign import carry
+from dpdfit.analyses.diagnosis.model.residuals import (NUISANCES, Problem,
+                                                       check_forms_left_out)
+from dpdfit.analyses.diagnosis.comparison.refits import refit_label, refit_labels
+from dpdfit.analyses.diagnosis.decisions.named_effects import named_effects
 from dpdfit.analyses.diagnosis.result import Diagnosis
-from dpdfit.analyses.diagnosis.verdict import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
-                                               EXPLAINED_FRACTION, NULL_REDCHI_MAX,
-                                               choose_first, explained_fraction,
-                                               locate_mismatches, mismatch_evidence,
-                                               rank_entry, side_evidence,
-                                               within_null_range)
+from dpdfit.analyses.diagnosis.evidence.thresholds import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
+                                                           EXPLAINED_FRACTION,
+                                                           NULL_REDCHI_MAX)
+from dpdfit.analyses.diagnosis.decisions.first_effect import choose_first
+from dpdfit.analyses.diagnosis.evidence.ranking import explained_fraction, rank_entry
+from dpdfit.analyses.diagnosis.evidence.mismatches import (locate_mismatches,
+                                                           mismatch_evidence, side_evidence,
+                                                           within_null_range)
 from dpdfit.core.progress import progress_bar
 
 __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE",
@@ -81,7 +87,7 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
     ----------
     campaign : path-like, CampaignFolder or Campaign
         The campaign folder, its reader, or its recordings already read
-        (:func:`~dpdfit.analyses.diagnosis.observables.load_campaign`).
+        (:func:`~dpdfit.analyses.diagnosis.observables.campaign.load_campaign`).
     effects : iterable of str, optional
         Catalog effects to consider (default: the registry's default effects,
         :func:`~dpdfit.analyses.diagnosis.effects.default_effects`, read at the call).
@@ -111,7 +117,7 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
     refit : list of dict, optional
         Hypotheses ``{"effects": [...], "forms": [...]}`` (e.g. the ``binding`` pair of
         an earlier diagnosis's ``next_measurement``) fitted again on this campaign
-        (:func:`~dpdfit.analyses.diagnosis.refits.refit_label`): their chi2 are in
+        (:func:`~dpdfit.analyses.diagnosis.comparison.refits.refit_label`): their chi2 are in
         ``extra["refits"]``, for the separation a recording achieved.
 
     Returns
@@ -216,7 +222,7 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
 
 def _proposal(prob: Problem, base: FitResult, chosen, alts: list, effects_out: list,
               form_fits: dict) -> dict | None:
-    """The next measurement (:func:`~dpdfit.analyses.diagnosis.alternatives.propose`)
+    """The next measurement (:func:`~dpdfit.analyses.diagnosis.proposal.propose.propose`)
     when the verdict has alternatives or a poorly constrained size; its binding pair
     with the chi2 a later diagnosis will compare its own refit of them with."""
     if chosen is None or not (alts or any(e.get("poorly_constrained") for e in effects_out)):
@@ -249,7 +255,7 @@ def _campaign_extra(prob: Problem, camp, dropped: list) -> dict:
 
 def _verdict(base: FitResult, chosen, evidence: list, mismatches: list):
     """``(verdict, verdict_fit, named, chosen, unnamed, null_range)`` from the selected
-    fit (see :mod:`~dpdfit.analyses.diagnosis.verdict`): a chosen fit that is not
+    fit (see :mod:`~dpdfit.analyses.diagnosis.evidence.mismatches`): a chosen fit that is not
     acceptable and explains too little is ``unnamed`` (not in the catalog); a campaign
     whose only evidence is the global chi2, with every observable in the null range, is
     ``none`` (``null_range``: the limit used)."""
@@ -301,7 +307,7 @@ def _fit_singles(prob: Problem, base: FitResult, effects: tuple):
 def _rank(prob: Problem, base: FitResult, fits: dict, form_fits: dict) -> list:
     """Ranking entries of the single effects, best family evidence first: each effect's
     best form's entry with its family's evidence over every form
-    (:func:`~dpdfit.analyses.diagnosis.families.family_evidence`; the best form's fit
+    (:func:`~dpdfit.analyses.diagnosis.evidence.families.family_evidence`; the best form's fit
     stands for the family where it was refitted, e.g. carried to the gates)."""
     out = []
     for name, f in fits.items():

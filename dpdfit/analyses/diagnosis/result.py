@@ -8,11 +8,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from dpdfit.analyses.diagnosis.alternatives import alternatives_sentence
+from dpdfit.analyses.diagnosis.decisions.alternatives import alternatives_sentence
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.fitting import FitResult
-from dpdfit.analyses.diagnosis.proposal_schedule import proposal_schedule
-from dpdfit.analyses.diagnosis.verdict import ALPHA
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
+from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA
 from dpdfit.core.display import Displayable
 
 __all__ = ["CONVENTIONS", "Diagnosis", "next_measurement_sentence"]
@@ -113,7 +113,7 @@ class Diagnosis(Displayable):
     def schedule(self, campaign=None) -> pd.DataFrame:
         """The proposed recording (``next_measurement``) as a schedule: one row per point
         and repeat, the table ``dpdfit diagnose --schedule`` writes
-        (:func:`~dpdfit.analyses.diagnosis.proposal_schedule.proposal_schedule`).
+        (:func:`~dpdfit.analyses.diagnosis.proposal.schedule.proposal_schedule`).
         ``campaign``: the campaign folder the diagnosis read (default: :attr:`campaign`),
         whose grids, phases and times the recording repeats."""
         return proposal_schedule((self.extra or {}).get("next_measurement"),

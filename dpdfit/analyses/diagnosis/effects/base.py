@@ -29,8 +29,8 @@ emcee's ``moves/``):
   errors by :meth:`Effect.sizes`).
 
 Every hook defaults to "no change", so an effect implements only what it
-does.  The forward models (:mod:`~dpdfit.analyses.diagnosis.tone_model`,
-:mod:`~dpdfit.analyses.diagnosis.gate_model`) and the simulator call the hooks
+does.  The forward models (:mod:`~dpdfit.analyses.diagnosis.model.tones.tone_model`,
+:mod:`~dpdfit.analyses.diagnosis.model.gates.gate_model`) and the simulator call the hooks
 of the effects present; nothing outside an effect's module knows its
 parameters.  Registering an effect is one line in
 :mod:`~dpdfit.analyses.diagnosis.effects.registry` (or a call of
@@ -102,7 +102,7 @@ class Knob:
     unit: str
     perturb: Callable
     #: the response is far from linear over the range fitted (a coherence that decays
-    #: exponentially): the engine is also run at three steps (:mod:`..gate_model`)
+    #: exponentially): the engine is also run at three steps (:mod:`~dpdfit.analyses.diagnosis.model.gates.gate_model`)
     nonlinear: bool = False
 
 

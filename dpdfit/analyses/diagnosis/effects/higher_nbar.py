@@ -1,5 +1,5 @@
 """``higher_nbar``: a higher initial mean phonon number than the lab's model (gate
-side; not in the default ranking: :mod:`.motional_heating`'s ``initial`` form covers it).
+side; not in the default ranking: :mod:`~dpdfit.analyses.diagnosis.effects.motional_heating`'s ``initial`` form covers it).
 
 Prior: flat, 0 <= dnbar <= 5.  Size: ``mean_nbar``.
 """

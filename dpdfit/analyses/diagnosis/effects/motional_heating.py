@@ -26,7 +26,7 @@ def _nbar(nominal, step):
 
 
 NDOT = Knob("heating.ndot", 0.1, "quanta/ms", _ndot, nonlinear=True)
-#: shared with :mod:`.higher_nbar`
+#: shared with :mod:`~dpdfit.analyses.diagnosis.effects.higher_nbar`
 NBAR = Knob("initial.nbar", 0.2, "quanta", _nbar)
 
 

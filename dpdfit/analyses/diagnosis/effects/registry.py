@@ -1,7 +1,7 @@
-"""The catalog of candidate effects: every effect module's :class:`~.base.Effect`, by name.
+"""The catalog of candidate effects: every effect module's :class:`~dpdfit.analyses.diagnosis.effects.base.Effect`, by name.
 
 Adding an effect: a module beside this one defining it (its parameters, forms
-and behaviour, :mod:`.base`), and one line in ``_CATALOG`` below (or, from
+and behaviour, :mod:`~dpdfit.analyses.diagnosis.effects.base`), and one line in ``_CATALOG`` below (or, from
 outside the package, e.g. a test, :func:`register`).  Everything else that
 lists effects -- the default effects of ``diagnose``, the gate-side effects of
 the null model, the harness's strengths and truths, the catalog table of the

@@ -4,7 +4,7 @@ A preparation error is of two kinds: an ion left in a level outside the gate
 (a *spectator*: not driven, reads bright) or prepared in the other qubit state
 (a *flip*: driven by the gate).  The lab's known total splits between them by
 the baseline's nuisance ``prep_split``; the detection errors ``e01``, ``e10``
-are nuisances of their own (:mod:`dpdfit.analyses.diagnosis.gate_model`), so
+are nuisances of their own (:mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`), so
 preparation is told apart from detection.
 
 Forms: ``total`` (catalog: an extra error per ion ``p_extra``, split like the

@@ -20,7 +20,7 @@ polynomial order), so a drift of 1 is a typical day-to-day change.
   say (the AOM is the model's; the table's calibration is off by ``st_i``).
 
 With the recording times, the calibration runs taken after the recordings
-are data of every hypothesis (:mod:`dpdfit.analyses.diagnosis.problem`): a
+are data of every hypothesis (:mod:`dpdfit.analyses.diagnosis.model.residuals`): a
 drifted AOM moves them (the ``aom`` forms predict by how much), a nonlinear
 detector bends every run alike.
 
@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.calibration_drift import MAX_DRIFT_MODES
+from dpdfit.analyses.diagnosis.observables.calibration_drift import MAX_DRIFT_MODES
 
 from .base import Effect, Form, Param
 

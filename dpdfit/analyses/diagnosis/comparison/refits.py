@@ -1,0 +1,134 @@
+"""The separation a recording achieved: named hypotheses fitted again, the same way on
+the campaign before and after it.
+
+A proposed recording (:mod:`~dpdfit.analyses.diagnosis.proposal.next_measurement`) names the
+pair of hypotheses whose separation it predicts (``binding``: ``truth`` and
+``rival``, each ``{"effects", "forms"}``).  :func:`refit_label` fits one such
+hypothesis from scratch on a campaign's problem exactly as the diagnosis fits its
+single effects (the other side's nuisances held at the baseline's optimum, a
+tone-side hypothesis's field carried to the gates with the phase-sign convention
+kept), so that its chi2 before and after the recording are comparable;
+:func:`achieved_separation` is how far the recording moved the pair apart:
+``|(chi2_rival - chi2_truth)_after - (chi2_rival - chi2_truth)_before|``.
+:func:`binding_refits` is the pair as the later diagnosis is asked to refit it,
+:func:`binding_chi2` its chi2 before (kept in the proposal) and :func:`refitted_chi2`
+after (the later diagnosis's ``extra["refits"]``), the two sides of that difference.
+"""
+
+from __future__ import annotations
+
+from dpdfit.analyses.diagnosis.effects import EFFECTS
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis
+from dpdfit.analyses.diagnosis.fitting.phase_sign import repredict_gates
+
+__all__ = ["refit_label", "refit_labels", "achieved_separation", "binding_refits", "binding_chi2",
+           "refitted_chi2"]
+
+#: the two sides of a binding pair
+_SIDES = ("truth", "rival")
+
+
+def _held(prob, base: FitResult, names) -> dict:
+    sides = {EFFECTS[e].side for e in names}
+    if len(sides) != 1:
+        return {}
+    side = sides.pop()
+    return {k: v for k, v in base.nuisances.items()
+            if (k in prob.tone_nuisances) != (side == "tones") and k != "phase_sign"}
+
+
+def refit_label(prob, base: FitResult, label: dict) -> float:
+    """The chi2 of hypothesis ``label`` (``{"effects": [...], "forms": [...]}``) fitted on
+    ``prob`` (module doc); ``base`` is that problem's baseline fit.  The problem's
+    models are left as they were."""
+    effects = list(label.get("effects") or ())
+    if not effects:
+        return float(base.chi2)
+    hyp = tuple(zip(effects, label.get("forms") or [None] * len(effects)))
+    saved = prob.tone, prob.gate
+    # the baseline's models (the diagnosis may have left the gates on a named field)
+    tone, gate = getattr(prob, "base_models", saved)
+    try:
+        prob.use_tone(tone)
+        prob.gate = gate
+        f = fit_hypothesis(prob, hyp, fixed=_held(prob, base, effects), init=base.nuisances)
+        if prob.gate is not None and any(EFFECTS[e].side == "tones" for e in effects):
+            f = repredict_gates(prob, f, keep_sign=True)
+    finally:
+        prob.use_tone(saved[0])
+        prob.gate = saved[1]
+    return float(f.chi2)
+
+
+def refit_labels(prob, base: FitResult, labels: list) -> list:
+    """Each hypothesis of ``labels`` refitted (:func:`refit_label`): ``{**label, "chi2"}``.
+    A hypothesis this campaign cannot fit (a form its recordings no longer support, an
+    effect not in the catalog) gets ``chi2`` None and the ``reason``: the caller compares
+    nothing for it, and the diagnosis itself stands."""
+    out = []
+    for lab in labels:
+        try:
+            out.append({**lab, "chi2": refit_label(prob, base, lab)})
+        except (KeyError, ValueError) as exc:
+            out.append({**lab, "chi2": None,
+                        "reason": f"not fitted on this campaign ({type(exc).__name__}: {exc})"})
+    return out
+
+
+def achieved_separation(before: dict, after: dict) -> float | None:
+    """``|gap_after - gap_before|``, ``gap`` the rival's chi2 minus the truth's, from two
+    ``{"truth": chi2, "rival": chi2}`` (None when one is missing)."""
+    try:
+        g0 = float(before["rival"]) - float(before["truth"])
+        g1 = float(after["rival"]) - float(after["truth"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    return abs(g1 - g0)
+
+
+def _binding(proposal) -> dict:
+    b = proposal.get("binding") if isinstance(proposal, dict) else None
+    return b if isinstance(b, dict) else {}
+
+
+def binding_refits(proposal: dict | None) -> list | None:
+    """The binding pair of a proposal (``next_measurement``: the hypotheses whose
+    separation it predicts) as the ``refit`` list a later diagnosis is given,
+    ``[truth, rival]`` each ``{"effects", "forms"}``; None without a pair."""
+    b = _binding(proposal)
+    if not all(isinstance(b.get(r), dict) and b[r] for r in _SIDES):
+        return None
+    return [{k: b[r].get(k) for k in ("effects", "forms")} for r in _SIDES]
+
+
+def binding_chi2(proposal: dict | None) -> dict | None:
+    """``{"truth": chi2, "rival": chi2}`` of a proposal's binding pair on the recordings
+    it was proposed from (None when the proposal does not carry both)."""
+    b = _binding(proposal)
+    try:
+        return {r: float(b[r]["chi2"]) for r in _SIDES}
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def _same_label(a: dict, b: dict) -> bool:
+    return (list(a.get("effects") or []) == list(b.get("effects") or [])
+            and list(a.get("forms") or []) == list(b.get("forms") or []))
+
+
+def refitted_chi2(proposal: dict | None, refits: list | None) -> dict | None:
+    """``{"truth": chi2, "rival": chi2}`` of a proposal's binding pair refitted by a later
+    diagnosis: the entries of its ``refits`` (``extra["refits"]``) with the same effects
+    and forms; None when the pair was not refitted."""
+    labels = binding_refits(proposal)
+    if labels is None or not refits:
+        return None
+    out = {}
+    for side, label in zip(_SIDES, labels):
+        hit = next((r for r in refits if isinstance(r, dict) and _same_label(r, label)
+                    and r.get("chi2") is not None), None)
+        if hit is None:
+            return None
+        out[side] = float(hit["chi2"])
+    return out

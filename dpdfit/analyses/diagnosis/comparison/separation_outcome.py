@@ -1,0 +1,85 @@
+"""The separation further recordings achieved between the earlier proposal's binding
+pair, against the one it predicted (:func:`separation`), and whether the later diagnosis
+proposes another recording (:func:`proposal_after`)."""
+
+from __future__ import annotations
+
+from dpdfit.analyses.diagnosis.comparison.refits import (achieved_separation, binding_chi2,
+                                                         binding_refits, refitted_chi2)
+from dpdfit.analyses.diagnosis.comparison.previous import hypothesis_label, json_number, named_in, unknown_in_binding
+
+__all__ = ['separation', 'proposal_after']
+
+
+def _no_separation(before: dict, nxt) -> str | None:
+    """Why the earlier diagnosis leaves no separation to compare (None: it does not)."""
+    if not isinstance(nxt, dict):
+        alts = "" if before.get("alternatives") else " had no alternatives and"
+        return f"the previous diagnosis{alts} proposed no recording"
+    if not nxt.get("what"):
+        return (f"the previous diagnosis proposed no recording: "
+                f"{nxt.get('reason') or 'no reason given'}")
+    if binding_refits(nxt) is None:
+        return "the previous proposal names no binding pair to refit"
+    if binding_chi2(nxt) is None:
+        return "the previous proposal does not carry its binding pair's chi2"
+    unknown = unknown_in_binding(nxt)
+    if unknown:
+        return (f"the previous proposal's pair names what this catalog does not have "
+                f"({', '.join(unknown)})")
+    return None
+
+
+def separation(before: dict, after: dict) -> dict:
+    """The separation between the earlier proposal's binding pair that the recordings
+    achieved (:func:`~dpdfit.analyses.diagnosis.comparison.refits.achieved_separation` of the pair's
+    chi2 in the proposal and refitted by the later diagnosis) against the one predicted:
+    ``what``, ``truth``, ``rival`` (labels), ``predicted`` (the proposal's
+    ``expected_delta_bic``), ``predicted_if_truth`` / ``predicted_if_rival`` (the
+    separation expected were that one true), ``chi2_before`` / ``chi2_after``
+    (``{"truth", "rival"}``), ``achieved``, ``ratio`` (achieved / predicted) and
+    ``reason`` (why a value is None; None when all are there)."""
+    nxt = before.get("next_measurement")
+    out = {"what": None, "settings": None, "truth": None, "rival": None, "predicted": None,
+           "predicted_if_truth": None, "predicted_if_rival": None, "chi2_before": None,
+           "chi2_after": None, "achieved": None, "ratio": None}
+    why = _no_separation(before, nxt)
+    if why is not None:
+        return {**out, "what": (nxt or {}).get("what") if isinstance(nxt, dict) else None,
+                "reason": why}
+    b = nxt["binding"]
+    out.update(what=nxt["what"], settings=nxt.get("settings"),
+               predicted=json_number(nxt.get("expected_delta_bic")),
+               truth=hypothesis_label(b["truth"].get("effects")),
+               rival=hypothesis_label(b["rival"].get("effects")),
+               predicted_if_truth=json_number(b["truth"].get("expected_delta_bic")),
+               predicted_if_rival=json_number(b["rival"].get("expected_delta_bic")),
+               chi2_before=binding_chi2(nxt),
+               chi2_after=refitted_chi2(nxt, after.get("refits")))
+    if out["chi2_after"] is None:
+        return {**out, "reason": "this diagnosis did not refit the previous proposal's "
+                                 "binding pair (diagnose(..., refit=binding_refits("
+                                 "previous next_measurement)))"}
+    out["achieved"] = achieved_separation(out["chi2_before"], out["chi2_after"])
+    p = out["predicted"]
+    out["ratio"] = (out["achieved"] / p if p and p > 0 and out["achieved"] is not None
+                    else None)
+    return {**out, "reason": None if out["ratio"] is not None
+            else "the previous proposal predicted no separation to compare with"}
+
+
+def proposal_after(after: dict) -> dict:
+    """Whether the later diagnosis proposes another recording: ``proposed``, ``what``,
+    ``decisive``, ``expected_delta_bic`` and ``reason`` (its settings are the diagnosis's
+    own ``next_measurement``)."""
+    nxt = after.get("next_measurement")
+    if not isinstance(nxt, dict):
+        why = ("no effect is named" if not named_in(after) else "none given"
+               if after.get("alternatives") else "no alternatives and no poorly "
+                                                 "constrained size")
+        return {"proposed": False, "what": None, "decisive": None, "expected_delta_bic": None,
+                "reason": why}
+    return {"proposed": bool(nxt.get("what")), "what": nxt.get("what"),
+            "decisive": nxt.get("decisive") if nxt.get("what") else None,
+            "expected_delta_bic": json_number(nxt.get("expected_delta_bic")),
+            "reason": nxt.get("reason")}

@@ -1,0 +1,7 @@
+"""The model of a campaign: the forward models of its tone powers (:mod:`.tones`) and
+gate observables (:mod:`.gates`), the nuisances a lab does not state, learnt before any
+effect (the null model), and the residuals of every observable at a parameter set
+(:mod:`.residuals`, :class:`~.residuals.Problem`).
+"""
+
+__all__: list[str] = []

@@ -1,0 +1,8 @@
+"""The gate side of the model: the exact engine's runs at every gate setting
+(:mod:`.engine_runs`), the responses to the effects' knobs and to the power
+(:mod:`.knob_response`), the measured probabilities (:mod:`.observe`, :mod:`.fringes`),
+all put together by :class:`~.gate_model.GateModel`; and the gate-rate calibration's
+scatter the null model learns (:mod:`.rate_scatter`).
+"""
+
+__all__: list[str] = []

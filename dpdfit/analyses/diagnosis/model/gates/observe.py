@@ -1,0 +1,118 @@
+"""Measured gate probabilities from the engine's branch outcomes, for
+:meth:`~dpdfit.analyses.diagnosis.model.gates.gate_model.GateModel.predict`.
+
+The two-ion outcomes at a power error and knob weights (their linear and quadratic
+power responses and the knobs' responses added to the base), mixed with the
+preparation branches and read through the detection errors.  A prediction evaluates
+them at three power errors; what does not depend on it (the knobs' changes, the fixed
+branches' terms of the mixture, the confusion matrix) is made once (:func:`knob_terms`,
+:class:`BranchMixer`, :func:`confusion_t`), with the same values in the same order of
+sums as :func:`~dpdfit.models.gate_sim.mix_branches` and
+:func:`~dpdfit.models.gate_sim.confusion`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dpdfit.analyses.diagnosis.effects import Prep
+from dpdfit.analyses.diagnosis.model.gates.fringes import decohere
+from dpdfit.models.gate_sim.spam import spectator_outcomes
+
+__all__ = ["observe", "knob_terms", "BranchMixer", "confusion_t"]
+
+
+def knob_terms(base, d, coefs, qs) -> dict:
+    """The knobs' changes of the two-ion outcomes ``qs`` for knob weights ``coefs``
+    (``{knob: array over the rows' times}``), in the order they add: they do not
+    depend on the power error, so a prediction computes them once for its three
+    power errors."""
+    out = {q: [] for q in qs}
+    for kk, c in coefs.items():
+        c = np.asarray(c, dtype=float)
+        if not np.any(c):
+            continue
+        for q in qs:
+            out[q].append(d[kk][q](c.reshape(c.shape + (1,) * (base[q].ndim - c.ndim))
+                                   if c.ndim else c))
+    return out
+
+
+def observe(base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
+            coherence=None, terms=None, det=None, mixers=None):
+    """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
+    ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
+    ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics.
+    ``terms``: the knobs' changes (:func:`knob_terms`) when already computed;
+    ``det``: the detection confusion matrix, transposed, when already made;
+    ``mixers``: the preparation branches' mixers (:class:`BranchMixer`, ``{"p": ...,
+    "par": ...}``), made here when missing (a dict passed in keeps them)."""
+    eps = np.asarray(eps, dtype=float)
+    vm = np.asarray(v_mean, dtype=float)
+    if terms is None:
+        terms = knob_terms(base, d, coefs, ("p2", "par2") if gate else ("p2",))
+
+    def two_ion(q):
+        shape = (-1,) + (1,) * (base[q].ndim - 1)
+        e = eps.reshape(shape) if eps.ndim else eps
+        v = base[q] + lin[q] * e + quad[q] * (e ** 2 + (vm.reshape(shape) if vm.ndim
+                                                        else vm))
+        for t in terms[q]:
+            v = v + t
+        return v
+
+    if det is None:
+        det = confusion_t(prep)
+    mixers = {} if mixers is None else mixers
+    if "p" not in mixers:
+        mixers["p"] = BranchMixer(prep, base["p1"], base["p2_01"], base["p1_1"])
+    pop = mixers["p"](two_ion("p2")) @ det
+    if not gate:
+        return pop, None
+    par2 = two_ion("par2")
+    if coherence is not None:
+        par2 = decohere(par2, *coherence)
+    if "par" not in mixers:
+        par2_01 = base["par2_01"]
+        if coherence is not None:
+            par2_01 = decohere(par2_01, *coherence)
+        mixers["par"] = BranchMixer(prep, base["par1"], par2_01, base["par1_1"])
+    return pop, mixers["par"](par2) @ det
+
+
+class BranchMixer:
+    """:func:`~dpdfit.models.gate_sim.mix_branches` of two-ion outcomes ``p2`` with fixed
+    other branches (the one-ion and flipped ones, which no power error or knob moves):
+    their terms are made once, then added to each ``p2`` in the order ``mix_branches``
+    adds them (the same values)."""
+
+    def __init__(self, prep: Prep, p1, p2_01, p1_1):
+        q, f = prep.spectator, prep.flip
+        self.q, self.f, self.g = q, f, 1.0 - q - f
+        self.spec = q * self.g * spectator_outcomes(p1) if q > 0 else None
+        if f > 0:
+            p01 = np.asarray(p2_01, dtype=float)
+            self.flip = f * self.g * (p01 + p01[..., [0, 2, 1, 3]])
+            self.spec_flip = q * f * spectator_outcomes(p1_1) if q > 0 else None
+
+    def __call__(self, p2):
+        q, f, g = self.q, self.f, self.g
+        p2 = np.asarray(p2, dtype=float)
+        out = g ** 2 * p2
+        if q > 0:
+            out = out + self.spec
+            out[..., 0] += q ** 2
+        if f > 0:
+            out = out + self.flip
+            out = out + f * f * p2[..., ::-1]
+            if q > 0:
+                out = out + self.spec_flip
+        return out
+
+
+def confusion_t(prep: Prep) -> np.ndarray:
+    """The transposed four-outcome confusion matrix of the detection errors of ``prep``
+    (:func:`~dpdfit.models.gate_sim.confusion` applies ``p4 @`` it)."""
+    e01, e10 = float(prep.e01), float(prep.e10)
+    C = np.array([[1 - e01, e10], [e01, 1 - e10]])
+    return np.kron(C, C).T

@@ -1,0 +1,223 @@
+"""The envelope engine of the tone model (:mod:`~dpdfit.analyses.diagnosis.model.tones.tone_model`).
+
+Every memoryless field, and the slow power memory: the band at ``+nu`` of a memoryless
+odd nonlinearity of the Cardioid's drive is ``G_1(|2 A eps(t)|/peak) e^{i arg eps(t)} / 2``
+of its slow complex envelope ``eps``, ``G_m`` tabulated by Gauss-Legendre quadrature
+(the tone model's docstring has the whole method).
+
+What a fit moves is cached, each part under what it depends on (least recently used
+dropped, ``CACHE_ENTRIES`` each), so that an evaluation recomputes only what its
+parameters change:
+
+* the quadrature nodes, the drive magnitudes at them (through the table) and the
+  drive power's tables ``S_m``: the table only;
+* the cubic interpolation weights of the slow envelope's magnitudes: the amplitudes;
+* the harmonic tables ``G_m`` and the memoryless bands: the transfer's coefficients,
+  the table, the effects' static transfers and a slow memory's gain, not its kernel
+  (a slow memory's time scales and delay move only the last, cheap step).
+
+Every cached value is the one the computation would give again (the same operations on
+the same numbers).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dpdfit.analyses.diagnosis.model.caches import lru_get, lru_put, read_only
+from dpdfit.analyses.diagnosis.model.tones.active_effects import ActiveEffects
+from dpdfit.analyses.diagnosis.effects.base import Effect
+from dpdfit.analyses.diagnosis.model.tones.interpolation import (cubic_apply, cubic_weights,
+                                                                 uniform_interp)
+from dpdfit.models.waveforms import cardioid, drive_peak, sample_grid
+
+__all__ = ["EnvelopeEngine", "M_SLOW", "K_TABLE", "N_QUAD"]
+
+#: samples of the slow envelope per gate period (envelope engine)
+M_SLOW = 128
+#: amplitudes of the harmonic tables G_m(u) on [0, 1], and quadrature nodes per piece
+K_TABLE = 256
+N_QUAD = 16
+#: harmonics of the drive power's components through a slow memory's kernel (x nu)
+_POWER_M = (0, 2, -2, 4, -4)
+
+
+class EnvelopeEngine:
+    """The envelope engine's part of :class:`~dpdfit.analyses.diagnosis.model.tones.tone_model.ToneModel`
+    (a mixin: it reads the model's ``nu``, ``xi0``, ``phase_sign``, ``_static`` and
+    ``_coefficients``, ``_table``)."""
+
+    def _setup_envelope(self):
+        tones = cardioid()
+        grid = sample_grid(self.nu, self.xi0, tones, extra_harmonics=(-2, 0, 3, 5))
+        self._grid0 = grid
+        # peak of the continuous drive (what synthesize normalises to A)
+        peak = drive_peak(tones, grid)
+        t = np.arange(M_SLOW) / (M_SLOW * self.xi0)
+        eps = np.zeros(M_SLOW, dtype=complex)
+        for n, r, ph in zip(tones.n, tones.r_blue, tones.phi_blue):
+            eps += r * np.exp(1j * (2 * np.pi * n * self.xi0 * t + ph))
+        self._E_unit = 2 * np.abs(eps) / peak               # |drive| per unit A
+        self._rot = np.exp(1j * np.angle(eps))              # e^{i arg eps}
+        # quadrature on [0, pi/2], split at the clip point (per table amplitude)
+        self._Eg = np.linspace(0.0, 1.0, K_TABLE + 1)
+        self._gx, self._gw = np.polynomial.legendre.leggauss(N_QUAD)
+        self._k_slow = np.fft.fftfreq(M_SLOW, 1.0 / M_SLOW)   # slow harmonic index
+        rot = self._rot
+        self._rot_powers = {1: rot, -1: np.conj(rot)}
+        for k in range(2, 6):
+            self._rot_powers[k], self._rot_powers[-k] = rot ** k, np.conj(rot) ** k
+        # frequencies of the drive power's components at 0, +-2 nu, +-4 nu (slow memory)
+        f_slow = self._k_slow * self.xi0
+        self._f_power = np.stack([m * self.nu + f_slow for m in _POWER_M])
+
+    def _quadrature(self, table):
+        """The quadrature of the harmonic tables for ``table`` (None: without DPD), on
+        both sides of the clip point (the first axis: the piece above it, then below):
+        the nodes' angles ``th``, weights ``w``, drive magnitudes ``x`` and ``cos(m th)``
+        (m = 1..5).  It depends on the table only, so it is cached (a fit moves the
+        transfer far more often than the table)."""
+        key = None if table is None else table.tobytes()
+        quad = lru_get(self.__dict__.setdefault("_quad_cache", {}), key)
+        if quad is not None:
+            return quad
+        Eg = self._Eg
+        if table is None:
+            u_c = 1.0
+        else:
+            sat = np.nonzero(table >= 1.0)[0]
+            u_c = sat[0] / (table.size - 1) if sat.size else 1.0 + 1e-12
+        thc = np.where(Eg > u_c, np.arccos(np.minimum(u_c / np.maximum(Eg, 1e-300), 1.0)), 0.0)
+        th, w = [], []
+        for lo, hi in ((thc, np.full_like(Eg, np.pi / 2)), (np.zeros_like(Eg), thc)):
+            th.append(lo[:, None] + (self._gx[None, :] + 1) / 2 * (hi - lo)[:, None])
+            w.append(self._gw[None, :] * (hi - lo)[:, None] / 2)
+        th, w = np.stack(th), np.stack(w)
+        u = Eg[:, None] * np.cos(th)
+        x = u if table is None else uniform_interp(u, table)
+        quad = {"th": th, "w": w, "x": x, "cos": {m: np.cos(m * th) for m in range(1, 6)}}
+        read_only(quad)
+        return lru_put(self._quad_cache, key, quad)
+
+    def _harmonics(self, coef, table, act: ActiveEffects, memory: bool) -> np.ndarray:
+        """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field over ``u`` on [0, 1] (module
+        doc)."""
+        q = self._quadrature(table)
+        w, cos = q["w"], q["cos"]
+        g = self._static(q["x"], coef, act)                # both pieces at once
+        ms = (1, 3, 5) if memory else (1,)
+        G = np.empty((len(ms), self._Eg.size), dtype=complex)
+        for j, m in enumerate(ms):
+            part = (4 / np.pi) * np.sum(g * cos[m] * w, axis=-1)
+            G[j] = part[0] + part[1]
+        return G
+
+    def _power_harmonics(self, table) -> np.ndarray:
+        """Tables of ``S_m(u)`` (m = 0, 2, 4) of the drive power over ``u`` on [0, 1]
+        (module doc): they depend on the table only."""
+        q = self._quadrature(table)
+        w, cos = q["w"], q["cos"]
+        pw = np.minimum(q["x"], 1.0) ** 2
+        S = np.empty((3, self._Eg.size))
+        for j, (c, wm) in enumerate(((2 / np.pi, None), (4 / np.pi, cos[2]), (4 / np.pi, cos[4]))):
+            part = c * np.sum((pw * w) if wm is None else (pw * wm * w), axis=-1)
+            S[j] = part[0] + part[1]
+        return S
+
+    def _static_key(self, coef, table, act: ActiveEffects, memory: bool) -> tuple:
+        """What the harmonic tables depend on: the transfer's coefficients, the table,
+        the hooks that act on the static field (an effect's ``transfer``, a memory's
+        gain: its kernel does not enter them) and whether a memory is present."""
+        parts = [self.phase_sign, memory, coef[0].dtype.str, coef[0].tobytes(),
+                 coef[1].dtype.str, coef[1].tobytes(), None if table is None else table.tobytes()]
+        for e, v in act.items:
+            if type(e).transfer is not Effect.transfer:
+                parts.append((e.name, tuple(sorted(v.items()))))
+            mem = e.power_memory(self, v, np.zeros(1))
+            if mem is not None:
+                parts.append((e.name, complex(mem[0])))
+        return tuple(parts)
+
+    def _slow_parts(self, A, coef, table, act: ActiveEffects, memory: bool) -> dict:
+        """The slow signals of the bands that do not depend on a memory's kernel, cached
+        (a slow memory's fit moves its kernel's time scales at fixed harmonic tables):
+        ``blue``, ``red`` (memoryless bands) and, with ``memory``, ``gm`` (the field's
+        bands at +-1, 3, 5 nu) and ``pc_fft`` (the spectra of the drive power's
+        components at 0, +-2, +-4 nu, rows in the order of ``_POWER_M``)."""
+        A = np.ascontiguousarray(A, dtype=float)
+        key = (A.tobytes(), self._static_key(coef, table, act, memory))
+        out = lru_get(self.__dict__.setdefault("_slow_cache", {}), key)
+        if out is not None:
+            return out
+        wts = self._cubic_weights(A)
+        rp = self._rot_powers
+        g = cubic_apply(self._harmonics(coef, table, act, memory), wts) / 2
+        blue, red = g[0] * rp[1], g[0] * rp[-1]
+        out = {"blue": blue, "red": red}
+        if memory:
+            g3, g5 = g[1], g[2]
+            out["gm"] = {1: blue, -1: red, 3: g3 * rp[3], -3: g3 * rp[-3],
+                         5: g5 * rp[5], -5: g5 * rp[-5]}
+            out["pc_fft"] = self._power_spectra(A, table, wts)
+        read_only(out)
+        return lru_put(self._slow_cache, key, out)
+
+    def _power_spectra(self, A, table, wts) -> np.ndarray:
+        """Spectra (along the slow time) of the drive power's components at 0, +-2 nu,
+        +-4 nu for amplitudes ``A``, cached: they depend on the table only."""
+        key = (A.tobytes(), None if table is None else table.tobytes())
+        out = lru_get(self.__dict__.setdefault("_power_cache", {}), key)
+        if out is not None:
+            return out
+        rp = self._rot_powers
+        s0, s2, s4 = cubic_apply(self._power_harmonics(table), wts)
+        pc = {0: s0.astype(complex), 2: s2 * rp[2] / 2, -2: s2 * rp[-2] / 2,
+              4: s4 * rp[4] / 2, -4: s4 * rp[-4] / 2}
+        out = np.stack([np.fft.fft(pc[m], axis=-1) for m in _POWER_M])
+        read_only(out)
+        return lru_put(self._power_cache, key, out)
+
+    def _cubic_weights(self, A: np.ndarray):
+        """Cubic interpolation weights of the harmonic tables at the slow envelope's
+        magnitudes ``A |eps(t)|`` (fixed by the amplitudes, so cached per ``A``)."""
+        key = A.tobytes()
+        out = lru_get(self.__dict__.setdefault("_weights_cache", {}), key)
+        if out is None:
+            out = lru_put(self._weights_cache, key,
+                           cubic_weights(A[:, None] * self._E_unit[None, :], K_TABLE))
+        return out
+
+    def _bands(self, A, coef, table, act: ActiveEffects) -> tuple[np.ndarray, np.ndarray]:
+        """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
+        drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
+        mems = act.memories(np.zeros(1))
+        parts = self._slow_parts(A, coef, table, act, bool(mems))
+        blue, red = parts["blue"], parts["red"]
+        if not mems:
+            return blue, red
+        gm, pc_fft = parts["gm"], parts["pc_fft"]
+        out_b, out_r = blue.copy(), red.copy()
+        # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
+        # its own frequencies (every memory present adds its own term), all at once
+        for e, v in act.items:
+            mem = e.power_memory(self, v, np.zeros(1))
+            if mem is None:
+                continue
+            gain = mem[0]
+            H = e.power_memory(self, v, self._f_power)[1]            # (5, M_SLOW)
+            s = dict(zip(_POWER_M, np.fft.ifft(pc_fft * H[:, None, :], axis=-1)))
+            out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
+                                    + gm[-3] * s[4] + gm[5] * s[-4])
+            out_r = out_r + gain * (gm[-1] * s[0] + gm[1] * s[-2] + gm[-3] * s[2]
+                                    + gm[3] * s[-4] + gm[-5] * s[4])
+        return out_b, out_r
+
+    def _tones_envelope(self, A, p, act, dpd_flags, harmonics):
+        coef = self._coefficients(p, act)
+        n = np.asarray(harmonics)
+        out = []
+        for d in dpd_flags:
+            bands = np.stack(self._bands(A, coef, self._table(act) if d else None, act))
+            cb, cr = np.fft.fft(bands, axis=-1) / M_SLOW          # both in one call
+            out.append(np.stack([cr[:, (-n) % M_SLOW], cb[:, n % M_SLOW]], axis=1))
+        return np.stack(out, axis=1)                         # (nA, n flags, 2 sb, H)

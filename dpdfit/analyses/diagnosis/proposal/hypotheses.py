@@ -1,0 +1,171 @@
+"""A hypothesis in reach as the proposal sees it: one fit's parameter set, its tone
+and gate models, its predictions of every source a recording reads (tone powers on
+:data:`SPECTRA_GRID`, the gates, the next amplitude run's drift, the phase curve on
+:data:`RUN_AMPLITUDES`) and the parameters that can absorb a recording, with their
+covariance from the recordings so far."""
+
+from __future__ import annotations
+
+import numpy as np
+from dpdfit.analyses.diagnosis.effects import EFFECTS, effect_of_key
+from dpdfit.analyses.diagnosis.model.tones.active_effects import ActiveEffects
+from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
+from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
+from dpdfit.core.defaults import PHASE_MIN_A
+
+__all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'MODE_STEP', 'PARAM_STEP']
+
+
+#: amplitudes a spectra recording may choose from
+SPECTRA_GRID = np.round(np.linspace(0.05, 1.0, 20), 4)
+
+
+#: amplitudes of a calibration run (the campaigns' runs: 101 points on [0, 1])
+RUN_AMPLITUDES = np.linspace(0.0, 1.0, 101)
+
+
+#: finite-difference step (prior sigmas) of the calibration modes in the Jacobians
+MODE_STEP = 0.05
+
+
+#: finite-difference step of a fitted parameter, in units of its scale
+PARAM_STEP = 1e-3
+
+
+#: which parameters can move each source: the tone side's for the spectra, the phase
+#: curve and the runs' drift, the gate side's for the gate recordings
+_SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates"}
+
+
+# ----------------------------------------------------------------- hypotheses
+class Hypothesis:
+    """One fit's parameter set, its tone model (phase-sign convention) and, on demand,
+    its gate model (rebased on its field when it has tone-side effects); its
+    predictions of every source at any parameter set (memoised), the parameters that
+    can absorb a recording of a side and their covariance from the recordings so far.
+
+    ``label``: the hypothesis as ``{"effects": [...], "forms": [...]}`` (what a later
+    diagnosis refits to measure the separation a recording achieved).
+    """
+
+    def __init__(self, prob, fit):
+        self.prob, self.fit, self.p = prob, fit, fit.all_params
+        tone = getattr(prob, "tone", None)
+        sign = int(fit.nuisances.get("phase_sign", 1 if tone is None else tone.phase_sign))
+        self.tone = (tone if tone is None or sign == tone.phase_sign
+                     else tone.with_phase_sign(sign))
+        self._gate = None
+        self._memo = {}
+        self._mode_cov = None
+        self.label = {"effects": list(fit.effects), "forms": list(fit.forms)}
+
+    @property
+    def gate(self):
+        """The gate model of this hypothesis (rebased on its field when it has tone-side
+        effects or another phase-sign convention), made on first use."""
+        if self._gate is None:
+            held = tone_held(self.prob, self.fit)
+            tone_effect = any(effect_of_key(k) is not None for k in held)
+            self._gate = (self.prob.gate.rebased(self.tone, held)
+                          if tone_effect or self.tone is not self.prob.tone else self.prob.gate)
+        return self._gate
+
+    # ------------------------------------------------------------ predictions
+    def raw(self, source: str, p: dict | None = None):
+        """The prediction of ``source`` (``"powers"``: tone powers on
+        :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
+        next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
+        :data:`RUN_AMPLITUDES`) at the parameter set ``p`` (default: the fit's)."""
+        p = self.p if p is None else p
+        key = (source, tuple(sorted(p.items())))
+        if key not in self._memo:
+            self._memo[key] = _SOURCES[source](self, p)
+        return self._memo[key]
+
+    # ------------------------------------------------------------ what can absorb
+    def absorbing(self, source: str) -> list:
+        """``[(key, step)]``: the parameters of this hypothesis that can move ``source``
+        (the fitted ones of its side; for the tone sources also the calibration's error
+        modes, which every fit profiles out) with their finite-difference steps."""
+        fit = self.fit
+        side = _SOURCE_SIDE[source]
+        out = []
+        for k, s in zip(fit.free, fit.scales or (1.0,) * len(fit.free)):
+            if param_side(self.prob, k) == side:
+                out.append((k, PARAM_STEP * float(s)))
+        if side == "tones" and source in ("powers", "phase"):
+            modes = [k for k in getattr(getattr(self.prob, "tone", None), "mode_names", ())
+                     if source == "powers" or k.startswith("cal_phase")]
+            out += [(k, MODE_STEP) for k in modes]
+        return out
+
+    def covariance(self, keys: list) -> np.ndarray | None:
+        """Covariance of the parameters ``keys`` from the recordings so far: the fit's
+        (Gauss-Newton, calibration modes profiled out) for the fitted ones, the modes'
+        posterior ``(J^T J + I)^-1`` on the recordings for the calibration modes (the
+        two blocks taken as uncorrelated); None without a covariance."""
+        fit = self.fit
+        if fit.cov is None or not keys:
+            return None
+        n = len(keys)
+        C = np.zeros((n, n))
+        fitted = [i for i, k in enumerate(keys) if k in fit.free]
+        if fitted:
+            idx = [fit.free.index(keys[i]) for i in fitted]
+            sub = np.asarray(fit.cov, float)[np.ix_(idx, idx)]
+            if not np.all(np.isfinite(sub)):
+                return None
+            C[np.ix_(fitted, fitted)] = sub
+        modes = [i for i, k in enumerate(keys) if k not in fit.free]
+        if modes:
+            M = self._modes_posterior()
+            names = list(getattr(self.prob.tone, "mode_names", ()))
+            j = [names.index(keys[i]) for i in modes]
+            C[np.ix_(modes, modes)] = M[np.ix_(j, j)]
+        return C
+
+    def _modes_posterior(self) -> np.ndarray:
+        if self._mode_cov is None:
+            names = list(getattr(self.prob.tone, "mode_names", ()))
+
+            def z(p):
+                r = self.prob.residuals(p, with_prior=False)
+                return np.where(np.isfinite(r), r, 0.0)
+
+            z0 = z(self.p)
+            J = np.empty((z0.size, len(names)))
+            for i, k in enumerate(names):
+                J[:, i] = (z({**self.p, k: self.p.get(k, 0.0) + MODE_STEP}) - z0) / MODE_STEP
+            self._mode_cov = np.linalg.inv(J.T @ J + np.eye(len(names)))
+        return self._mode_cov
+
+
+def _powers(h: Hypothesis, p: dict):
+    return h.tone.tone_powers_at(SPECTRA_GRID, p)
+
+
+def _gates(h: Hypothesis, p: dict):
+    return h.gate.predict(p)
+
+
+def _drift(h: Hypothesis, p: dict):
+    prob = h.prob
+    modes = prob.tone.drift_modes
+    ra = prob.runs_after
+    days = np.array([float(np.max(ra.days)) if ra is not None else 0.0])
+    shift = np.zeros((1, len(modes)))
+    for e in EFFECTS.values():
+        v = e.values(p)
+        s = None if v is None else e.run_drift(prob, v, days)
+        if s is not None:
+            shift = shift + s
+    return shift[0]
+
+
+def _phase(h: Hypothesis, p: dict):
+    A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
+    cp = h.tone._coefficients(p, ActiveEffects(h.tone, p))[1]
+    return h.tone.phase_sign * (np.polynomial.polynomial.polyval(A, cp) - cp[0])
+
+
+_SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase}

@@ -1,0 +1,237 @@
+"""The menu of further recordings, each predicted under each hypothesis in reach.
+
+The predictions behind :func:`~dpdfit.analyses.diagnosis.proposal.next_measurement.propose_next_measurement`
+(its module doc lists the items and their noise).  One builder per kind returns
+:class:`Item` objects: what the recording is, its lab time, which side of the model
+predicts it, and how to read its predicted values (:meth:`Item.vector`) from a
+hypothesis's *source* -- the spectra on a grid of amplitudes, the gate model's
+predictions, the calibration runs' drift, the phase curve -- at any parameter set
+(:meth:`Hypothesis.raw`, memoised, so the items of one source share the model
+evaluations their Jacobians need) and its noise at a pair of hypotheses
+(:meth:`Item.whitener`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+import numpy as np
+from dpdfit.analyses.diagnosis.proposal.hypotheses import SPECTRA_GRID
+from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
+from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
+from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.analyses.diagnosis.proposal.hypotheses import Hypothesis
+
+__all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS']
+
+
+#: numbers of amplitudes of the spectra items of the menu (each with and without DPD)
+SPECTRA_COUNTS = (1, 2, 4)
+
+
+# ----------------------------------------------------------------- items
+@dataclass(frozen=True)
+class Item:
+    """One recording of the menu.
+
+    ``source`` names the hypotheses' prediction it reads (:meth:`Hypothesis.raw`),
+    ``select(raw)`` its predicted values from it, ``noise(raw_a, raw_b)`` the whitening
+    of its noise at a pair of hypotheses: a vector (independent errors: 1/sigma, 0
+    where unusable) or a matrix ``W`` with ``W Cov W^T = I``.  Repeats of the item are
+    independent recordings of the same values (their own noise and power errors), unless
+    ``pooled(raw_a, raw_b, k)`` gives the whitening of ``k`` repeats pooled with what is
+    recorded (a gate setting's scans share its rate error: :mod:`~dpdfit.analyses.diagnosis.proposal.pooled_scans`)."""
+
+    what: str
+    settings: dict
+    seconds: float
+    source: str
+    select: Callable
+    noise: Callable
+    pooled: Callable | None = None
+
+    def vector(self, h: Hypothesis, p: dict | None = None) -> np.ndarray:
+        """The item's predicted values under hypothesis ``h`` at ``p`` (default its fit)."""
+        return np.asarray(self.select(h.raw(self.source, p)), dtype=float)
+
+    def whitener(self, ha: Hypothesis, hb: Hypothesis, k=None):
+        """The whitening of the item's noise at the pair ``(ha, hb)`` (with ``k``: of
+        ``k`` repeats pooled with what is recorded; None when repeats are independent)."""
+        if k is not None:
+            return None if self.pooled is None else self.pooled(
+                ha.raw(self.source), hb.raw(self.source), k)
+        return self.noise(ha.raw(self.source), hb.raw(self.source))
+
+
+def white(W, v: np.ndarray) -> np.ndarray:
+    """``W v`` for a whitening vector or matrix (non-finite entries as 0)."""
+    v = np.asarray(v, dtype=float)
+    out = W * v if np.ndim(W) == 1 else np.asarray(W) @ v
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def _inv_sd(sd) -> np.ndarray:
+    sd = np.asarray(sd, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = 1.0 / sd
+    return np.where(np.isfinite(w) & (sd > 0), w, 0.0)
+
+
+# ----------------------------------------------------------------- calibration runs
+def _amplitude_run(prob, hyps, lab):
+    modes = getattr(getattr(prob, "tone", None), "drift_modes", None)
+    if modes is None or len(modes) == 0:
+        return []
+    ra = prob.runs_after
+    sd = np.asarray(ra.sd, float) if ra is not None else np.ones(len(modes))
+    w = _inv_sd(sd)
+    return [Item("amplitude_run", {"runs": 1}, lab.amplitude_run_s, "drift",
+                 lambda r: r, lambda a, b: w)]
+
+
+def _phase_run(prob, hyps, lab):
+    """No phase run is offered: the diagnosis's likelihood has no phase-run term (phase
+    runs only locate a mismatch, :meth:`~dpdfit.analyses.diagnosis.model.residuals.Problem.series`),
+    so a further run cannot separate two hypotheses, whatever their predicted phases (in
+    the closed loop every phase run proposed achieved a separation of exactly 0 and was
+    proposed again).  Once the phase runs are fitted as data, this builds their item."""
+    return []
+
+
+# ----------------------------------------------------------------- spectra
+def _tone_sd(prob, P):
+    """Error (dB) of recorded tone powers ``P`` (dB): the learnt repeatability with the
+    noise floor's part; NaN below the usable SNR."""
+    noise = prob.tone_noise
+    N0 = float(noise.floor.N0)
+    lin = 10 ** (P / 10)
+    snr = 10 * np.log10(lin + N0) - 10 * np.log10(N0 * np.log(2))
+    sd = np.hypot(noise.s_tone_db, 10 / np.log(10) * np.sqrt(2 * N0 / lin))
+    return np.where(snr >= MIN_SNR_DB, sd, np.nan)
+
+
+def _feature_values(P, A, idx) -> np.ndarray:
+    """The per-trace features but ``gate_power`` (the absolute scale, a profiled
+    nuisance) of the spectra at grid indices ``idx``, flattened."""
+    f = tone_features(P[idx], A[idx])
+    return np.concatenate([np.ravel(v) for name, (v, _) in f.items() if name != "gate_power"])
+
+
+def _feature_whitener(prob, idx):
+    A = SPECTRA_GRID
+
+    def noise(Pa, Pb):
+        P = (Pa[idx] + Pb[idx]) / 2
+        f = tone_features(P, A[idx], _tone_sd(prob, P))
+        return _inv_sd(np.concatenate([np.ravel(e) for name, (_, e) in f.items()
+                                       if name != "gate_power"]))
+    return noise
+
+
+def _spectra_contributions(prob, hyps) -> np.ndarray:
+    """Delta chi2 of one trace pair (both DPD flags) at each amplitude of
+    :data:`SPECTRA_GRID`, first hypothesis against each other, parameters at their
+    fits: (n others, n amplitudes).  It chooses the amplitudes of the spectra items."""
+    A = SPECTRA_GRID
+    P = [h.raw("powers") for h in hyps]
+    out = []
+    for Pb in P[1:]:
+        sd = _tone_sd(prob, (P[0] + Pb) / 2)
+        fa, fb = tone_features(P[0], A, sd), tone_features(Pb, A, sd)
+        c = np.zeros(A.size)
+        for name, (va, e) in fa.items():
+            if name == "gate_power":
+                continue
+            z = (va - fb[name][0]) / e
+            c += np.nansum(z.reshape(A.size, -1) ** 2, axis=1)
+        out.append(c)
+    return np.array(out)
+
+
+def _spectra(prob, hyps, lab):
+    if getattr(prob, "tone", None) is None or getattr(prob, "tone_noise", None) is None:
+        return []
+    c = _spectra_contributions(prob, hyps)
+    items = []
+    for k in SPECTRA_COUNTS:
+        chosen, total = [], np.zeros(c.shape[0])
+        for _ in range(min(k, SPECTRA_GRID.size)):
+            # greedy: the amplitude that raises the smallest separation most
+            gain = np.min(total[:, None] + c, axis=0)
+            gain[chosen] = -np.inf
+            j = int(np.argmax(gain))
+            chosen.append(j)
+            total = total + c[:, j]
+        idx = np.array(sorted(chosen))
+        amps = [float(a) for a in SPECTRA_GRID[idx]]
+        items.append(Item("spectra", {"amplitudes": amps, "dpd": [0, 1]},
+                          2 * len(amps) * lab.spectrum_trace_s, "powers",
+                          lambda P, idx=idx: _feature_values(P, SPECTRA_GRID, idx),
+                          _feature_whitener(prob, idx)))
+    return items
+
+
+# ----------------------------------------------------------------- gate recordings
+def _typical_shots(prob) -> int:
+    g = prob.gate.gates
+    return int(np.round(np.median(g["shots"].to_numpy(float) / g["n_scans"].to_numpy(float))))
+
+
+def _gate_scans(prob, hyps, lab):
+    if getattr(prob, "gate", None) is None or prob.gate.gates is None \
+            or len(prob.gate.gates) == 0:
+        return []
+    g = prob.gate
+    N = _typical_shots(prob)
+    n_par = N * int(ERROR_MODEL.parity_phases)
+    v_lin = g.sig_jit ** 2 + g.rate_error_db() ** 2
+    v_quad = 2 * (g.sig_jit ** 4 + g.rate_error_db() ** 4)
+    pops = ("F_pop", "imb") if prob.camp.has_imbalance else ("F_pop",)
+    items = []
+    for i, (A, d) in enumerate(g.keys):
+        # what the setting has: its scans pool with the new ones (module pooled_scans)
+        had = dict(ns=float(g.gates["n_scans"].iloc[i]), n_pop=float(g.gates["shots"].iloc[i]),
+                   vj=g.sig_jit ** 2, vx=g.rate_error_db((A, d)) ** 2)
+        items.append(Item("populations", {"A": float(A), "dpd": int(d), "shots": N},
+                          N * lab.shot_s, "gates",
+                          lambda pr, i=i: [pr[q][i] for q in pops],
+                          scan_whitener(pops, i, N, v_lin, v_quad),
+                          pooled_whitener(pops, i, N, n_par, **had)))
+        items.append(Item("parity", {"A": float(A), "dpd": int(d), "shots": n_par},
+                          n_par * lab.shot_s, "gates",
+                          lambda pr, i=i: [pr["C"][i]],
+                          scan_whitener(("C",), i, n_par, v_lin, v_quad),
+                          pooled_whitener(("C",), i, N, n_par, **had)))
+    return items
+
+
+def _time_scans(prob, hyps, lab):
+    if getattr(prob, "gate", None) is None or getattr(prob, "ts", None) is None \
+            or not prob.gate.ts_keys:
+        return []
+    if any("P00_t" not in h.raw("gates") for h in hyps):
+        return []
+    ts = prob.ts
+    # one time scan's shots per point: a point pooled from repeated scans sums theirs
+    reps = ts["n_repeats"].to_numpy(float) if "n_repeats" in ts.columns else 1.0
+    N = int(np.round(np.median(ts["shots"].to_numpy(float) / reps)))
+    items = []
+    for A, d in prob.gate.ts_keys:
+        sel = (np.isclose(ts["A"].to_numpy(float), A) & (ts["dpd"].to_numpy() == d))
+
+        def select(pr, sel=sel):
+            return np.concatenate([pr["P00_t"][sel], pr["P11_t"][sel]])
+
+        def noise(pa, pb, select=select):
+            pm = np.clip((select(pa) + select(pb)) / 2, 0.5 / N, 1 - 0.5 / N)
+            return _inv_sd(np.sqrt(pm * (1 - pm) / N))
+
+        points = int(sel.sum())
+        items.append(Item("time_scan", {"A": float(A), "dpd": int(d), "shots": N,
+                                        "points": points},
+                          points * N * lab.shot_s, "gates", select, noise))
+    return items
+
+
+#: the builders of the menu, in the order the menu lists them
+BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans)
