@@ -388,7 +388,7 @@ def test_whitened_gate_residuals_are_standard_normal_and_give_the_mahalanobis_ch
     """One setting's F_pop, imb, C share its random power error: the whitened
     residuals of draws from the stated covariance are N(0, I) (checked on
     20,000 draws), and their sum of squares is r^T Sigma^-1 r."""
-    from dpdfit.analyses.diagnosis.model.residuals import _whiten_settings
+    from dpdfit.analyses.diagnosis.model.gates.whitening import whiten_settings
     rng = np.random.default_rng(11)
     shot = np.array([0.002, 0.023, 0.003])
     g = np.array([-0.0008, -0.35, 0.011])           # per dB, as the engine gives
@@ -397,7 +397,7 @@ def test_whitened_gate_residuals_are_standard_normal_and_give_the_mahalanobis_ch
     cov = np.diag(shot ** 2) + v_lin * np.outer(g, g) + v_quad * np.outer(h, h)
     n = 20000
     r = rng.multivariate_normal(np.zeros(3), cov, size=n)
-    z = _whiten_settings(r, np.tile(shot, (n, 1)), np.tile(g, (n, 1)), np.tile(h, (n, 1)),
+    z = whiten_settings(r, np.tile(shot, (n, 1)), np.tile(g, (n, 1)), np.tile(h, (n, 1)),
                          np.full(n, v_lin), np.full(n, v_quad))
     # sampling error of a covariance entry of unit-variance normals: ~1/sqrt(n) = 0.007
     np.testing.assert_allclose(np.cov(z.T), np.eye(3), atol=0.035)
@@ -409,7 +409,7 @@ def test_whitened_gate_residuals_are_standard_normal_and_give_the_mahalanobis_ch
     # a setting with a missing value keeps the marginal z
     r2 = r[:2].copy()
     r2[0, 2] = np.nan
-    z2 = _whiten_settings(r2, np.tile(shot, (2, 1)), np.tile(g, (2, 1)), np.tile(h, (2, 1)),
+    z2 = whiten_settings(r2, np.tile(shot, (2, 1)), np.tile(g, (2, 1)), np.tile(h, (2, 1)),
                           np.full(2, v_lin), np.full(2, v_quad))
     np.testing.assert_allclose(z2[0, :2], r2[0, :2] / np.sqrt(np.diag(cov)[:2]))
     np.testing.assert_allclose(z2[1], z[1])
@@ -419,7 +419,7 @@ def test_effect_scales_follow_the_calibration_modes():
     """At full drive (|x| = 1) the extra AM-to-PM phase is dphi, the fifth-order factor
     1 + k5 and the detector correction that of u = P/P_max = 1, whatever the
     calibration modes do to y(1): the scales belong to the forward curve in use."""
-    from dpdfit.analyses.diagnosis.model.tones.active_effects import ActiveEffects
+    from dpdfit.analyses.diagnosis.model.tones.tone_model import ActiveEffects
     from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
     from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
     tone = ToneModel(load_campaign(BUNDLED))

@@ -112,11 +112,11 @@ def test_gate_engine_defaults_are_the_error_model():
 
 
 def test_diagnosis_defaults_are_the_error_model():
-    from dpdfit.analyses.diagnosis.model.gates import fringes
-    from dpdfit.analyses.diagnosis.observables import campaign as observables
-    assert observables.DEFAULT_ERROR_MODEL == ERROR_MODEL.campaign_dict()
-    assert ErrorModel.from_dict(observables.DEFAULT_ERROR_MODEL) == ERROR_MODEL
-    assert np.array_equal(fringes.PHASES, ERROR_MODEL.analysis_phases())
+    from dpdfit.analyses.diagnosis.model.gates import observe
+    from dpdfit.analyses.diagnosis.observables import campaign
+    assert campaign.DEFAULT_ERROR_MODEL == ERROR_MODEL.campaign_dict()
+    assert ErrorModel.from_dict(campaign.DEFAULT_ERROR_MODEL) == ERROR_MODEL
+    assert np.array_equal(observe.PHASES, ERROR_MODEL.analysis_phases())
 
 
 def test_simulator_and_alignment_defaults_are_the_error_model():

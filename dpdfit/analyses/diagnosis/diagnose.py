@@ -208,7 +208,7 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
              "null_range": null_range,
              "explained_fraction": (None if chosen is None
                                     else explained_fraction(base, chosen)),
-             "null_model": null_model, **({"refits": refits} if refits is not None else {}),
+             "null_model": null_model.to_dict(), **({"refits": refits} if refits is not None else {}),
              "generic": generic, "timing_seconds": timing,
              **_campaign_extra(prob, camp, dropped)}
     return Diagnosis(

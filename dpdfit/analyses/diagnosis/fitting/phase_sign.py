@@ -99,8 +99,8 @@ def refit_other_sign(prob, f: FitResult, gate_nuis: dict, init: dict) -> FitResu
     g = repredict_gates(prob, g, keep_sign=True)
     if g.chi2 < f.chi2:
         return g
-    prob.tone, prob.gate, prob.prior = saved
-    prob._cache_key = None
+    prob.use_tone(saved[0])
+    prob.gate, prob.prior = saved[1], saved[2]
     return f
 
 

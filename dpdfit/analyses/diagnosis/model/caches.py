@@ -1,41 +1,40 @@
 """Small least-recently-used caches of the diagnosis's forward models.
 
 The engines keep what a fit evaluates again (a Jacobian's columns share most of their
-work) in plain dicts, in the order of use: :func:`lru_get` moves an entry to the end,
-:func:`lru_put` drops from the front.  Cached arrays are made read-only
-(:func:`read_only`): every caller shares them.
+work): :class:`ModelCache` is a :class:`cachetools.LRUCache` of a few entries, used as a
+dict (``cache.get(key)``, ``cache[key] = value``).  A cache of values that every caller
+shares (``shared=True``) makes their arrays read-only as they are stored.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from cachetools import LRUCache
 
-__all__ = ["CACHE_ENTRIES", "lru_get", "lru_put", "read_only"]
+__all__ = ["CACHE_ENTRIES", "ModelCache"]
 
 #: entries each cache keeps unless it says otherwise
 CACHE_ENTRIES = 8
 
 
-def lru_get(cache: dict, key):
-    """The entry of ``key`` in a least-recently-used ``cache`` (None when absent)."""
-    out = cache.pop(key, None)
-    if out is not None:
-        cache[key] = out                                  # most recently used last
-    return out
+class ModelCache(LRUCache):
+    """A least-recently-used cache of at most ``entries`` values; with ``shared``, the
+    arrays of a stored value (nested in dicts) are made read-only: every caller shares
+    them."""
+
+    def __init__(self, entries: int = CACHE_ENTRIES, shared: bool = False):
+        super().__init__(maxsize=entries)
+        self.shared = shared
+
+    def __setitem__(self, key, value):
+        if self.shared:
+            _freeze(value)
+        super().__setitem__(key, value)
 
 
-def lru_put(cache: dict, key, value, entries: int = CACHE_ENTRIES):
-    """Store ``value`` under ``key``, dropping the least recently used entry when full."""
-    while len(cache) >= entries:
-        cache.pop(next(iter(cache)))
-    cache[key] = value
-    return value
-
-
-def read_only(tree) -> None:
-    """Mark the arrays of a cached entry read-only (every caller shares them)."""
+def _freeze(tree) -> None:
     for v in (tree.values() if isinstance(tree, dict) else (tree,)):
         if isinstance(v, dict):
-            read_only(v)
+            _freeze(v)
         elif isinstance(v, np.ndarray):
             v.flags.writeable = False

@@ -5,14 +5,16 @@
 (:class:`~dpdfit.analyses.diagnosis.model.tones.tone_model.ToneModel`,
 :class:`~dpdfit.analyses.diagnosis.model.gates.gate_model.GateModel`) and the baseline's
 nuisances with their priors, and gives the standardised residuals of any
-parameter set (:meth:`Problem.blocks`, :meth:`Problem.residuals`) and the
-series the interval scan reads (:meth:`Problem.series`).
+parameter set (:meth:`Problem.blocks`, :meth:`Problem.residuals`: the tone features'
+:class:`~dpdfit.analyses.diagnosis.model.tones.tone_residuals.ToneResiduals`, the runs
+after the recordings' :mod:`~dpdfit.analyses.diagnosis.model.runs_after`, the gates'
+:class:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals` and the
+priors) and the series the deviation search reads (:meth:`Problem.series`).
 
 Before any effect is considered it learns what the lab does not state (the
-null model): the tone-side noise
-(:mod:`dpdfit.analyses.diagnosis.model.tones.tone_noise`), the sign convention of the
-recorded phase response (chosen by the gates) and the gate-rate calibration's
-relative scatter (:mod:`dpdfit.analyses.diagnosis.model.gates.rate_scatter`).
+null model, :mod:`~dpdfit.analyses.diagnosis.model.null_model`): the tone-side noise,
+the sign convention of the recorded phase response (chosen by the gates) and the
+gate-rate calibration's relative scatter.
 """
 
 from __future__ import annotations
@@ -20,17 +22,19 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import pandas as pd
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, effect_of_key
 from dpdfit.analyses.diagnosis.model.gates.gate_model import (DETECTION_PRIOR_SIGMA,
                                                               GateModel)
+from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
+from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
+from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
+from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
+from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
 from dpdfit.analyses.diagnosis.model.tones.tone_noise import (learn_tone_noise, repeats_of,
                                                               trace_jitter_multiple)
+from dpdfit.analyses.diagnosis.model.tones.tone_residuals import ToneResiduals
 from dpdfit.analyses.diagnosis.observables.campaign import Campaign
-from dpdfit.analyses.diagnosis.observables.tone_features import tone_features
-from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
-from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
 
 __all__ = ["Problem", "NUISANCES", "PM_PRIOR_RAD", "check_forms_left_out"]
 
@@ -75,6 +79,8 @@ class Problem:
         The nuisances: name -> prior sigma (inf: flat), centre, optional bounds.
     tone_nuisances : set
         The nuisances of the tone side (the rest belong to the gates).
+    tone, gate : ToneModel, GateModel or None
+        The forward models in use (the gate model None without gate recordings).
     phase_sign_chi2, rate_scatter : dict or None
         What the null model learnt (:meth:`null_model`).
     """
@@ -88,16 +94,15 @@ class Problem:
         #: does not have)
         self.forms_left_out = check_forms_left_out(forms_left_out)
         self.tone = ToneModel(camp)
-        self._cache_key, self._cache_val = None, None
         # the tone-side noise (floor, repeatability, trace power jitter) learnt from the
-        # recordings before any effect is considered (dpdfit.analyses.diagnosis.model.tones.tone_noise)
+        # recordings before any effect is considered (the null model)
         P, sd, self.tone_noise = learn_tone_noise(camp, self.tone.features({}))
         camp = dataclasses.replace(camp, P_dB=P, sd_dB=sd)
         self.camp = camp
-        self.meas = tone_features(camp.P_dB, camp.A_tones, camp.sd_dB)
-        self.sig_jit = self.tone_noise.s_trace_db
         # a trace pooled from repeated recordings carries a share of one trace's jitter
-        self.jit_multiple = trace_jitter_multiple(repeats_of(camp))
+        self.tone_residuals = ToneResiduals(camp.P_dB, camp.A_tones, camp.sd_dB,
+                                            self.tone_noise.s_trace_db,
+                                            trace_jitter_multiple(repeats_of(camp)))
         self.prior = {k: 1.0 for k in self.tone.mode_names}
         self.center = {k: 0.0 for k in self.tone.mode_names}
         self.bounds = {}
@@ -108,10 +113,15 @@ class Problem:
         #: the calibration runs taken after the recordings (a data block of every
         #: hypothesis), or None
         self.runs_after = camp.runs_after
-        self.gate, self.ts = None, None
+        self.gate, self.gate_residuals = None, None
         self.phase_sign_chi2, self.rate_scatter = None, None
         if with_gates and camp.gates is not None:
             self._init_gates(camp)
+
+    @property
+    def ts(self):
+        """The time scans' points after the start (None without time scans or gates)."""
+        return None if self.gate_residuals is None else self.gate_residuals.ts
 
     def forms_of(self, name: str) -> tuple:
         """Effect ``name``'s forms this campaign supports, less those left out
@@ -138,13 +148,10 @@ class Problem:
         """The gate model, the gate nuisances and what the null model learns from the gates."""
         em = camp.error_model
         # per-scan laser jitter: the lab's own figure, else the one learnt on the spectra
-        jit = float(em["power_jitter_db"]) if camp.has_error_model else self.sig_jit
+        jit = (float(em["power_jitter_db"]) if camp.has_error_model
+               else self.tone_residuals.sig_jit)
         self.gate = GateModel(camp, self.tone, jit, effects=self.effects, responses=False)
-        g = self.gate.gates
-        self.g_obs = tuple(q for q in ("F_pop", "imb", "C") if np.isfinite(g[q]).any())
-        self.g_meas = {q: g[q].to_numpy() for q in self.g_obs}
-        self.g_shot = {q: g[q + "_shot"].to_numpy() for q in self.g_obs}
-        self.ts = None if camp.time_scans is None else _scan_points(camp.time_scans)
+        self.gate_residuals = GateResiduals(self.gate.gates, camp.time_scans)
         self.prior["prep_split"], self.center["prep_split"] = np.inf, 0.5
         self.bounds["prep_split"] = (0.0, 1.0)
         for k in ("e01", "e10"):
@@ -154,62 +161,29 @@ class Problem:
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
             self.center[f"eps_ts{k}"] = 0.0
         if camp.phase is not None:
-            self._choose_phase_sign()
+            self.phase_sign_chi2 = choose_phase_sign(self)
         self.gate.compute_responses()
         for k in range(self.gate.n_time_scans):
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
         self.rate_scatter = learn_rate_scatter(self)
 
-    def _gate_chi2(self) -> float:
-        """Gate and time-scan chi2 of the baseline, the preparation split profiled on a grid."""
-        best = np.inf
-        for f in np.linspace(0.0, 1.0, 11):
-            z = [zz for lab, zz in self.blocks({"prep_split": f}, with_prior=False,
-                                                with_tones=False)]
-            z = np.concatenate([np.ravel(x) for x in z])
-            best = min(best, float(np.sum(z[np.isfinite(z)] ** 2)))
-        return best
-
-    def _choose_phase_sign(self):
-        """The sign convention of the recorded phase response, chosen by the gates.
-
-        The tone powers are the same for both signs (:meth:`ToneModel.with_phase_sign`);
-        the gates are not.  Both baselines' means are evaluated (the other sign's two-ion
-        branch only: the single-ion branches of the preparation errors weigh ~1e-3 and
-        are kept; all of them when that sign is kept; the effect responses are then
-        computed once for the chosen sign) and the one with the smaller gate chi2 is
-        kept; both are reported.
-        """
-        plus = self._gate_chi2()
-        alt_tone = self.tone.with_phase_sign(-1)
-        keep = self.gate
-        self.gate = keep.rebased(alt_tone, {}, two_ion_only=True)
-        minus = self._gate_chi2()
-        self.phase_sign_chi2 = {"+1": plus, "-1": minus}
-        if minus < plus:
-            self.use_tone(alt_tone)
-            self.gate = keep.rebased(alt_tone, {})
-        else:
-            self.gate = keep
-
-    def null_model(self, base=None) -> dict:
-        """What the baseline learnt from the campaign before any effect."""
-        out = {"tone_noise": self.tone_noise.to_dict(),
-               "calibration_noise": dict(self.camp.calibration_noise),
-               "phase_sign": self.tone.phase_sign if self.camp.phase is not None else None,
-               "phase_sign_chi2": self.phase_sign_chi2,
-               "rate_scatter": self.rate_scatter,
-               "per_scan_power_jitter_db": None if self.gate is None else self.gate.sig_jit,
-               "preparation_error_total": None if self.gate is None else self.gate.p_total}
-        if base is not None:
-            out["fitted"] = {k: v for k, v in base.nuisances.items()
-                             if not k.startswith("cal_")}
-        return out
+    def null_model(self, base=None) -> NullModel:
+        """What the baseline learnt from the campaign before any effect (``base``: the
+        baseline's fit, whose nuisances are reported as ``fitted``)."""
+        return NullModel(
+            tone_noise=self.tone_noise, calibration_noise=dict(self.camp.calibration_noise),
+            phase_sign=self.tone.phase_sign if self.camp.phase is not None else None,
+            phase_sign_chi2=self.phase_sign_chi2, rate_scatter=self.rate_scatter,
+            per_scan_power_jitter_db=None if self.gate is None else self.gate.sig_jit,
+            preparation_error_total=None if self.gate is None else self.gate.p_total,
+            fitted=None if base is None else {k: v for k, v in base.nuisances.items()
+                                              if not k.startswith("cal_")})
 
     # ------------------------------------------------------------ models in use
     def use_tone(self, tone: ToneModel) -> None:
         """Evaluate the tone side with ``tone`` (e.g. the other phase-sign convention)."""
-        self.tone, self._cache_key = tone, None
+        self.tone = tone
+        self.tone_residuals.reset()
 
     def set_rate_scatter(self, rel: float) -> None:
         """Hold the gate-rate calibration's relative scatter at ``rel`` (and the time
@@ -219,29 +193,17 @@ class Problem:
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
 
     # -------------------------------------------------------------- residuals
-    def _is_tone_key(self, k: str) -> bool:
+    def is_tone_key(self, k: str) -> bool:
+        """Whether the parameter ``k`` belongs to the tone side (a tone-side effect's or a
+        tone nuisance; the rest belong to the gates)."""
         e = effect_of_key(k)
         return k in self.tone_nuisances if e is None else e.side == "tones"
 
-    def _tone_features(self, p: dict) -> dict:
-        key = tuple(sorted((k, float(v)) for k, v in p.items() if self._is_tone_key(k)))
-        if key != self._cache_key:
-            self._cache_key, self._cache_val = key, self.tone.features(p)
-        return self._cache_val
-
     def gate_whitened(self, p: dict, logdet: bool = False):
-        """Whitened gate residuals at ``p`` (:func:`_whiten_settings`; with ``logdet``,
-        also the log-determinant of their covariance)."""
-        return self._whiten(self.gate.predict(p), logdet)
-
-    def _whiten(self, pr: dict, logdet: bool = False):
-        """Whitened gate residuals of the gate model's prediction ``pr``."""
-        qs = self.g_obs
-        r = np.stack([self.g_meas[q] - pr[q] for q in qs], axis=1)
-        return _whiten_settings(r, np.stack([self.g_shot[q] for q in qs], axis=1),
-                                np.stack([pr["dlin_" + q] for q in qs], axis=1),
-                                np.stack([pr["dquad_" + q] for q in qs], axis=1),
-                                pr["v_lin"], pr["v_quad"], logdet=logdet)
+        """Whitened gate residuals at ``p``
+        (:meth:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.whitened`;
+        with ``logdet``, also the log-determinant of their covariance)."""
+        return self.gate_residuals.whitened(self.gate, p, logdet)
 
     def residuals(self, p: dict, with_prior: bool = True) -> np.ndarray:
         """All standardised residuals at the parameter set ``p`` as one vector (the
@@ -252,82 +214,25 @@ class Problem:
                with_tones: bool = True):
         """(label, z) blocks; labels are dicts of observable/sideband/dpd/x.
 
-        With ``whiten`` (the fits) the gate observables of one setting, which
-        share its random power errors, are decorrelated (:func:`_whiten_settings`:
-        ``F_pop`` standardised, ``imb`` given ``F_pop``, ``C`` given both), so
-        their chi2 counts the shared error once; without it (interval scan,
-        plots) each is standardised on its own.
+        The tone features, the runs after the recordings, the gates (whitened per
+        setting with ``whiten``, the fits; each observable standardised on its own
+        without it, for the deviation search and plots: :meth:`GateResiduals.gate_blocks
+        <dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.gate_blocks>`) and,
+        ``with_prior``, the priors.  Each side sees its own parameters only.
         """
-        out = self._tone_blocks(p) if with_tones else []
-        if with_tones and self.runs_after is not None:
-            out.append(({"kind": "runs", "observable": "calibration_after"},
-                        self._runs_after_z(p)))
+        tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
+        gate_p = {k: v for k, v in p.items() if k not in tone_p}
+        out = []
+        if with_tones:
+            out += self.tone_residuals.feature_blocks(self.tone, tone_p)
+            if self.runs_after is not None:
+                out.append(runs_after_block(self, p))
         if self.gate is not None:
-            out += self._gate_blocks(p, whiten)
+            out += self.gate_residuals.gate_blocks(self.gate, gate_p, whiten)
         if with_prior:
             z = np.array([(p.get(k, self.center[k]) - self.center[k]) / s
                           for k, s in self.prior.items() if np.isfinite(s)])
             out.append(({"kind": "prior", "observable": "prior"}, z))
-        return out
-
-    def _runs_after_z(self, p: dict) -> np.ndarray:
-        """Standardised residuals of the runs taken after the recordings: the null (the
-        runs before them) plus the drift the effects present predict."""
-        ra = self.runs_after
-        shift = np.zeros_like(ra.coords)
-        for e in EFFECTS.values():
-            v = e.values(p)
-            if v is not None:
-                s = e.run_drift(self, v, ra.days)
-                if s is not None:
-                    shift = shift + s
-        return ra.residuals(shift).ravel()
-
-    def _tone_blocks(self, p: dict) -> list:
-        out = []
-        model = self._tone_features(p)
-        for name, (v, e) in self.meas.items():
-            m = model[name]
-            if name == "gate_power":
-                # absolute scale of the tone powers: profiled (weighted mean), 1 parameter
-                e = np.sqrt(e ** 2 + self.sig_jit ** 2 * self.jit_multiple)
-                r = v - m
-                ok = np.isfinite(r)
-                m = m + (np.sum(r[ok] / e[ok] ** 2) / np.sum(1 / e[ok] ** 2) if ok.any() else 0)
-            z = (v - m) / e
-            out.append(({"kind": "tones", "observable": name}, z))
-        return out
-
-    def _gate_blocks(self, p: dict, whiten: bool) -> list:
-        # cached on the gate side's parameters: a tone-side fit holds them, and then the
-        # gate residuals are the same at every one of its evaluations
-        g = self.gate
-        key = (id(g), id(g.base), getattr(g, "rate_rel", None), g.resp is None, whiten,
-               tuple(sorted((k, float(v)) for k, v in p.items() if not self._is_tone_key(k))))
-        if getattr(self, "_gate_key", None) == key:
-            return list(self._gate_val)
-        out = self._gate_blocks_uncached(p, whiten)
-        self._gate_key, self._gate_val = key, out
-        return list(out)
-
-    def _gate_blocks_uncached(self, p: dict, whiten: bool) -> list:
-        out = []
-        pr = self.gate.predict(p)
-        qs = self.g_obs
-        if whiten:
-            z = self._whiten(pr)
-        else:
-            r = np.stack([self.g_meas[q] - pr[q] for q in qs], axis=1)
-            z = r / np.sqrt(np.stack([self.g_shot[q] ** 2 + pr["var_" + q] for q in qs],
-                                     axis=1))
-        for j, q in enumerate(qs):
-            out.append(({"kind": "gates", "observable": q}, z[:, j]))
-        if self.ts is not None and "P00_t" in pr:
-            N = self.ts["shots"].to_numpy(dtype=float)
-            for q, col in (("P00_t", "n00"), ("P11_t", "n11")):
-                pm = np.clip(pr[q], 0.5 / N, 1 - 0.5 / N)
-                z = (self.ts[col].to_numpy() / N - pr[q]) / np.sqrt(pm * (1 - pm) / N)
-                out.append(({"kind": "time_scan", "observable": q}, z))
         return out
 
     def series(self, p: dict):
@@ -364,38 +269,3 @@ class Problem:
             ph = self.camp.phase_residuals
             out.append(("calibration_phase", "none", -1, "A", ph.A.to_numpy(), ph.z.to_numpy()))
         return out
-
-
-def _scan_points(ts: pd.DataFrame) -> pd.DataFrame:
-    """The time scans' points after the start (``t > 0``), grouped by setting."""
-    parts = []
-    for (A, d), t in ts.groupby(["A", "dpd"], sort=False):
-        parts.append(t[t.t_s > 0])
-    return pd.concat(parts, ignore_index=True)
-
-
-def _whiten_settings(r, shot, g, h, v_lin, v_quad, logdet: bool = False):
-    """Whitened residuals of each setting's gate observables (shape (n, 3)).
-
-    ``r``: residuals, ``shot``: their shot-noise errors, ``g``, ``h``: the
-    settings' responses to the shared random power error (linear and
-    quadratic parts, :meth:`dpdfit.analyses.diagnosis.model.gates.gate_model.GateModel.predict`), with
-    variances ``v_lin``, ``v_quad`` (arrays over settings).  The covariance of one
-    setting is ``diag(shot^2) + v_lin g g^T + v_quad h h^T``; its Cholesky
-    factor ``L`` gives ``z = L^-1 r`` (N(0, I) under the model), whose sum of
-    squares is the Mahalanobis chi2.  Settings with a missing value keep the
-    marginal standardisation.  Hand-written: a batched 3x3 Cholesky solve.
-    """
-    v_lin = np.broadcast_to(np.asarray(v_lin, float), r.shape[:1])
-    v_quad = np.broadcast_to(np.asarray(v_quad, float), r.shape[:1])
-    cov = (np.einsum("i,ij,ik->ijk", v_lin, g, g) + np.einsum("i,ij,ik->ijk", v_quad, h, h)
-           + np.einsum("ij,jk->ijk", shot ** 2, np.eye(r.shape[1])))
-    diag = np.einsum("ijj->ij", cov)
-    z = r / np.sqrt(diag)
-    ld = np.where(np.isfinite(r), np.log(diag), 0.0).sum(axis=1)
-    ok = np.all(np.isfinite(r), axis=1) & np.all(np.isfinite(cov), axis=(1, 2))
-    if ok.any():
-        L = np.linalg.cholesky(cov[ok])
-        z[ok] = np.linalg.solve(L, r[ok][..., None])[..., 0]
-        ld[ok] = 2 * np.log(np.einsum("ijj->ij", L)).sum(axis=1)
-    return (z, float(ld.sum())) if logdet else z

@@ -98,7 +98,7 @@ class RunsAfter:
     mu: np.ndarray
     sd: np.ndarray
 
-    def residuals(self, shift=None) -> np.ndarray:
+    def standardised(self, shift=None) -> np.ndarray:
         """Standardised residuals (n runs, n modes) against the null plus ``shift``."""
         c = self.coords - self.mu[None, :] - (0.0 if shift is None else shift)
         return c / self.sd[None, :]

@@ -7,9 +7,9 @@ covariance from the recordings so far."""
 from __future__ import annotations
 
 import numpy as np
-from dpdfit.analyses.diagnosis.effects import EFFECTS, effect_of_key
-from dpdfit.analyses.diagnosis.model.tones.active_effects import ActiveEffects
+from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
+from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.core.defaults import PHASE_MIN_A
 
@@ -149,22 +149,14 @@ def _gates(h: Hypothesis, p: dict):
 
 
 def _drift(h: Hypothesis, p: dict):
-    prob = h.prob
-    modes = prob.tone.drift_modes
-    ra = prob.runs_after
+    ra = h.prob.runs_after
     days = np.array([float(np.max(ra.days)) if ra is not None else 0.0])
-    shift = np.zeros((1, len(modes)))
-    for e in EFFECTS.values():
-        v = e.values(p)
-        s = None if v is None else e.run_drift(prob, v, days)
-        if s is not None:
-            shift = shift + s
-    return shift[0]
+    return run_drift(h.prob, p, days)[0]
 
 
 def _phase(h: Hypothesis, p: dict):
     A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
-    cp = h.tone._coefficients(p, ActiveEffects(h.tone, p))[1]
+    cp = h.tone.coefficients(p)[1]
     return h.tone.phase_sign * (np.polynomial.polynomial.polyval(A, cp) - cp[0])
 
 

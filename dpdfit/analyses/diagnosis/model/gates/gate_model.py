@@ -45,11 +45,13 @@ import copy
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.model.caches import lru_get, lru_put
+from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
 from dpdfit.analyses.diagnosis.model.gates.engine_runs import run_settings
-from dpdfit.analyses.diagnosis.model.gates.fringes import PHASES, collapse, contrast
-from dpdfit.analyses.diagnosis.model.gates.observe import confusion_t, knob_terms, observe
+from dpdfit.analyses.diagnosis.model.gates.effect_terms import (active_effects, effect_terms,
+                                                                preparation)
+from dpdfit.analyses.diagnosis.model.gates.observe import (PHASES, collapse, confusion_t, contrast,
+                                                           observe)
 from dpdfit.analyses.diagnosis.model.gates.knob_response import (KNOB_MULTIPLES,
                                                                  POWER_STEP_DB,
                                                                  response_tables)
@@ -257,66 +259,11 @@ class GateModel:
         return self._stk[1]
 
     # ------------------------------------------------------------------ predict
-    def _active(self, p: dict) -> list:
-        out = []
-        for name in self.effects:
-            v = EFFECTS[name].values(p)
-            if v is not None:
-                out.append((EFFECTS[name], v))
-        return out
-
     def preparation(self, p: dict, active=None) -> Prep:
         """Preparation and detection errors per ion at parameters ``p`` (nuisances and
-        effects)."""
-        f = float(np.clip(p.get("prep_split", 0.5), 0.0, 1.0))
-        prep = Prep(f * self.p_total, (1 - f) * self.p_total,
-                    max(float(p.get("e01", self.p_det)), 0.0),
-                    max(float(p.get("e10", self.p_det)), 0.0))
-        for e, v in (self._active(p) if active is None else active):
-            prep = e.preparation(self, v, prep)
-        return prep
-
-    def _coherence(self, active, t):
-        """Product of the active effects' coherence factors ``(k1, k2)`` at times ``t``
-        (None: no effect decoheres the final state)."""
-        out = None
-        for e, v in active:
-            k = e.coherence(self, v, t)
-            if k is not None:
-                out = k if out is None else (out[0] * k[0], out[1] * k[1])
-        return out
-
-    def _weights(self, active, t, A):
-        """Knob weights and power offsets of the active effects at times ``t``, amplitudes ``A``."""
-        coefs = {}
-        eps = np.zeros(np.shape(A))
-        for e, v in active:
-            for kk, c in e.knob_coefficients(self, v, t).items():
-                coefs[kk] = coefs.get(kk, 0.0) + np.broadcast_to(c, np.shape(t))
-            eps = eps + e.power_offset_db(self, v, A)
-        return coefs, eps
-
-    def _effect_parts(self, active) -> dict:
-        """What the active gate-side effects' values alone fix in a prediction, kept per
-        values (a fit's Jacobian moves the nuisances far more often than them): the knob
-        weights, power offsets, coherence and knob changes of the gates (``"gate"``) and
-        of each time scan (``"ts"``), and the preparation mixers made for them per
-        preparation error (``"mixers"``; the detection errors act after them)."""
-        memo = self._stacks().setdefault("parts", {})
-        key = tuple((e.name, tuple(sorted(v.items()))) for e, v in active)
-        parts = lru_get(memo, key)
-        if parts is not None:
-            return parts
-        tab = self._tables()
-        coefs, eps = self._weights(active, self.T_gate, self.A_settings)
-        gate = (coefs, eps, self._coherence(active, self.T_gate),
-                knob_terms(tab["gate"][0], tab["gate"][1], coefs, ("p2", "par2")))
-        ts = []
-        for key_t, times, (b, dd, _, _) in tab["ts"]:
-            c_t, e_t = self._weights(active, times, np.full(1, key_t[0]))
-            c_t = {kk: np.asarray(c)[None, :] if np.ndim(c) else c for kk, c in c_t.items()}
-            ts.append((c_t, float(e_t[0]), knob_terms(b, dd, c_t, ("p2",))))
-        return lru_put(memo, key, {"gate": gate, "ts": ts, "mixers": {}})
+        effects; :func:`~dpdfit.analyses.diagnosis.model.gates.effect_terms.preparation`)."""
+        return preparation(self, p, active_effects(self.effects, p) if active is None
+                           else active)
 
     def predict(self, p: dict) -> dict:
         """Predicted gate observables and their model-side variances.
@@ -333,9 +280,16 @@ class GateModel:
         gate-rate error (dB).
         """
         tab = self._tables()
-        active = self._active(p)
-        prep = self.preparation(p, active)
-        parts = self._effect_parts(active)
+        active = active_effects(self.effects, p)
+        prep = preparation(self, p, active)
+        # what the effects' values alone fix (effect_terms), kept per values: a fit's
+        # Jacobian moves the nuisances far more often than them; with the preparation
+        # mixers made for them per preparation error (the detection errors act after them)
+        memo = self._stacks().setdefault("parts", ModelCache())
+        key = tuple((e.name, tuple(sorted(v.items()))) for e, v in active)
+        parts = memo.get(key)
+        if parts is None:
+            parts = memo[key] = {**effect_terms(self, active, tab), "mixers": ModelCache()}
         coefs, eps, coh, terms = parts["gate"]
         v_mean, v_quad = tab["var"]
         base, d, lin, quad = tab["gate"]
@@ -343,9 +297,9 @@ class GateModel:
         vals = {}
         det = confusion_t(prep)
         mix_key = (prep.spectator, prep.flip)                # what the mixers depend on
-        mixers = lru_get(parts["mixers"], mix_key)
+        mixers = parts["mixers"].get(mix_key)
         if mixers is None:
-            mixers = lru_put(parts["mixers"], mix_key, {"gate": {}, "ts": [{} for _ in tab["ts"]]})
+            mixers = parts["mixers"][mix_key] = {"gate": {}, "ts": [{} for _ in tab["ts"]]}
         for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
             pop, par = observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
                                terms, det, mixers["gate"])

@@ -1,14 +1,19 @@
-"""Measured gate probabilities from the engine's branch outcomes, for
+"""From the engine's branch outcomes to what a lab measures, for
 :meth:`~dpdfit.analyses.diagnosis.model.gates.gate_model.GateModel.predict`.
 
-The two-ion outcomes at a power error and knob weights (their linear and quadratic
-power responses and the knobs' responses added to the base), mixed with the
-preparation branches and read through the detection errors.  A prediction evaluates
-them at three power errors; what does not depend on it (the knobs' changes, the fixed
-branches' terms of the mixture, the confusion matrix) is made once (:func:`knob_terms`,
-:class:`BranchMixer`, :func:`confusion_t`), with the same values in the same order of
-sums as :func:`~dpdfit.models.gate_sim.mix_branches` and
+**Measured probabilities** (:func:`observe`): the two-ion outcomes at a power error and
+knob weights (their linear and quadratic power responses and the knobs' responses added
+to the base), mixed with the preparation branches and read through the detection errors.
+A prediction evaluates them at three power errors; what does not depend on it (the
+knobs' changes, the fixed branches' terms of the mixture, the confusion matrix) is made
+once (:func:`knob_terms`, :class:`BranchMixer`, :func:`confusion_t`), with the same values
+in the same order of sums as :func:`~dpdfit.models.gate_sim.mix_branches` and
 :func:`~dpdfit.models.gate_sim.confusion`.
+
+**Fringes** on the analysis phases :data:`PHASES` (:func:`collapse`, :func:`contrast`,
+:func:`decohere`): the fringe of a setting is a combination of ``1, cos phi, sin phi,
+cos 2phi, sin 2phi``; on 16 equally spaced phases these are orthogonal, so the contrast
+and the decay of a coherence are exact linear maps of the fringe.
 """
 
 from __future__ import annotations
@@ -16,10 +21,20 @@ from __future__ import annotations
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import Prep
-from dpdfit.analyses.diagnosis.model.gates.fringes import decohere
+from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models.gate_sim.spam import spectator_outcomes
 
-__all__ = ["observe", "knob_terms", "BranchMixer", "confusion_t"]
+__all__ = ["observe", "knob_terms", "BranchMixer", "confusion_t", "PHASES", "collapse",
+           "contrast", "decohere"]
+
+#: analysis phases of the model's fringes (the contrast does not depend on them): the
+#: lab's ``ERROR_MODEL.parity_phases`` (16) equally spaced phases
+PHASES = ERROR_MODEL.analysis_phases()
+
+# design of the fringe fit: 1, cos phi, sin phi, cos 2phi, sin 2phi (exact on PHASES)
+_DESIGN = np.stack([np.ones_like(PHASES), np.cos(PHASES), np.sin(PHASES), np.cos(2 * PHASES),
+                    np.sin(2 * PHASES)], axis=1)
+_PINV = np.linalg.pinv(_DESIGN)[3:5]                 # rows giving the cos/sin 2phi coefficients
 
 
 def knob_terms(base, d, coefs, qs) -> dict:
@@ -116,3 +131,28 @@ def confusion_t(prep: Prep) -> np.ndarray:
     e01, e10 = float(prep.e01), float(prep.e10)
     C = np.array([[1 - e01, e10], [e01, 1 - e10]])
     return np.kron(C, C).T
+
+
+def collapse(p4):
+    """Two-ion outcome probabilities (..., 4: 00, 01, 10, 11) as (even population, P00 - P11)."""
+    return p4[..., 0] + p4[..., 3], p4[..., 0] - p4[..., 3]
+
+
+def contrast(par4):
+    """``cos 2 phi`` amplitude of the parity ``2 (P00 + P11) - 1`` over PHASES (last-but-one axis)."""
+    parity = 2 * (par4[..., 0] + par4[..., 3]) - 1
+    c = np.einsum("ij,...j->...i", _PINV, parity)
+    return np.hypot(c[..., 0], c[..., 1])
+
+
+def decohere(par, k1, k2):
+    """Fringes ``par`` (rows, PHASES, outcomes) with their ``phi`` harmonic scaled by
+    ``k1`` and their ``2 phi`` harmonic by ``k2`` (per row): the final state's
+    single-ion and two-ion coherences decayed, its populations kept (exact on PHASES)."""
+    c = np.einsum("kj,rjo->rko", np.linalg.pinv(_DESIGN), par)      # (rows, 5, outcomes)
+    k1 = np.asarray(k1, dtype=float).reshape(-1, 1)
+    k2 = np.asarray(k2, dtype=float).reshape(-1, 1)
+    c = c.copy()
+    c[:, 1:3] *= k1[:, None]
+    c[:, 3:5] *= k2[:, None]
+    return np.einsum("jk,rko->rjo", _DESIGN, c)

@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.model.caches import lru_get, lru_put, read_only
-from dpdfit.analyses.diagnosis.model.tones.active_effects import ActiveEffects
+from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.effects.base import Effect
 from dpdfit.analyses.diagnosis.model.tones.interpolation import (cubic_apply, cubic_weights,
                                                                  uniform_interp)
@@ -78,7 +77,8 @@ class EnvelopeEngine:
         (m = 1..5).  It depends on the table only, so it is cached (a fit moves the
         transfer far more often than the table)."""
         key = None if table is None else table.tobytes()
-        quad = lru_get(self.__dict__.setdefault("_quad_cache", {}), key)
+        cache = self.__dict__.setdefault("_quad_cache", ModelCache(shared=True))
+        quad = cache.get(key)
         if quad is not None:
             return quad
         Eg = self._Eg
@@ -96,10 +96,10 @@ class EnvelopeEngine:
         u = Eg[:, None] * np.cos(th)
         x = u if table is None else uniform_interp(u, table)
         quad = {"th": th, "w": w, "x": x, "cos": {m: np.cos(m * th) for m in range(1, 6)}}
-        read_only(quad)
-        return lru_put(self._quad_cache, key, quad)
+        cache[key] = quad
+        return quad
 
-    def _harmonics(self, coef, table, act: ActiveEffects, memory: bool) -> np.ndarray:
+    def _harmonics(self, coef, table, act, memory: bool) -> np.ndarray:
         """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field over ``u`` on [0, 1] (module
         doc)."""
         q = self._quadrature(table)
@@ -124,7 +124,7 @@ class EnvelopeEngine:
             S[j] = part[0] + part[1]
         return S
 
-    def _static_key(self, coef, table, act: ActiveEffects, memory: bool) -> tuple:
+    def _static_key(self, coef, table, act, memory: bool) -> tuple:
         """What the harmonic tables depend on: the transfer's coefficients, the table,
         the hooks that act on the static field (an effect's ``transfer``, a memory's
         gain: its kernel does not enter them) and whether a memory is present."""
@@ -138,7 +138,7 @@ class EnvelopeEngine:
                 parts.append((e.name, complex(mem[0])))
         return tuple(parts)
 
-    def _slow_parts(self, A, coef, table, act: ActiveEffects, memory: bool) -> dict:
+    def _slow_parts(self, A, coef, table, act, memory: bool) -> dict:
         """The slow signals of the bands that do not depend on a memory's kernel, cached
         (a slow memory's fit moves its kernel's time scales at fixed harmonic tables):
         ``blue``, ``red`` (memoryless bands) and, with ``memory``, ``gm`` (the field's
@@ -146,7 +146,8 @@ class EnvelopeEngine:
         components at 0, +-2, +-4 nu, rows in the order of ``_POWER_M``)."""
         A = np.ascontiguousarray(A, dtype=float)
         key = (A.tobytes(), self._static_key(coef, table, act, memory))
-        out = lru_get(self.__dict__.setdefault("_slow_cache", {}), key)
+        cache = self.__dict__.setdefault("_slow_cache", ModelCache(shared=True))
+        out = cache.get(key)
         if out is not None:
             return out
         wts = self._cubic_weights(A)
@@ -159,14 +160,15 @@ class EnvelopeEngine:
             out["gm"] = {1: blue, -1: red, 3: g3 * rp[3], -3: g3 * rp[-3],
                          5: g5 * rp[5], -5: g5 * rp[-5]}
             out["pc_fft"] = self._power_spectra(A, table, wts)
-        read_only(out)
-        return lru_put(self._slow_cache, key, out)
+        cache[key] = out
+        return out
 
     def _power_spectra(self, A, table, wts) -> np.ndarray:
         """Spectra (along the slow time) of the drive power's components at 0, +-2 nu,
         +-4 nu for amplitudes ``A``, cached: they depend on the table only."""
         key = (A.tobytes(), None if table is None else table.tobytes())
-        out = lru_get(self.__dict__.setdefault("_power_cache", {}), key)
+        cache = self.__dict__.setdefault("_power_cache", ModelCache(shared=True))
+        out = cache.get(key)
         if out is not None:
             return out
         rp = self._rot_powers
@@ -174,20 +176,20 @@ class EnvelopeEngine:
         pc = {0: s0.astype(complex), 2: s2 * rp[2] / 2, -2: s2 * rp[-2] / 2,
               4: s4 * rp[4] / 2, -4: s4 * rp[-4] / 2}
         out = np.stack([np.fft.fft(pc[m], axis=-1) for m in _POWER_M])
-        read_only(out)
-        return lru_put(self._power_cache, key, out)
+        cache[key] = out
+        return out
 
     def _cubic_weights(self, A: np.ndarray):
         """Cubic interpolation weights of the harmonic tables at the slow envelope's
         magnitudes ``A |eps(t)|`` (fixed by the amplitudes, so cached per ``A``)."""
         key = A.tobytes()
-        out = lru_get(self.__dict__.setdefault("_weights_cache", {}), key)
+        cache = self.__dict__.setdefault("_weights_cache", ModelCache())
+        out = cache.get(key)
         if out is None:
-            out = lru_put(self._weights_cache, key,
-                           cubic_weights(A[:, None] * self._E_unit[None, :], K_TABLE))
+            out = cache[key] = cubic_weights(A[:, None] * self._E_unit[None, :], K_TABLE)
         return out
 
-    def _bands(self, A, coef, table, act: ActiveEffects) -> tuple[np.ndarray, np.ndarray]:
+    def _bands(self, A, coef, table, act) -> tuple[np.ndarray, np.ndarray]:
         """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
         drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
         mems = act.memories(np.zeros(1))

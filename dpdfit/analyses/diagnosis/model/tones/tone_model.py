@@ -50,9 +50,8 @@ import copy
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.model.caches import lru_get, lru_put, read_only
+from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.model.tones.active_effects import ActiveEffects
 from dpdfit.analyses.diagnosis.model.tones.interpolation import (uniform_at, uniform_interp,
                                                                  uniform_place)
 from dpdfit.analyses.diagnosis.observables.tone_features import (TONE_HARMONICS,
@@ -65,7 +64,7 @@ from dpdfit.models import gate_sim
 from dpdfit.models.transfer import TransferFunction, predistortion_table
 from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
 
-__all__ = ['ToneModel', 'OVERSAMPLE', 'M_SLOW', 'K_TABLE', 'N_QUAD', 'GATE_HARMONICS', 'STATIC_TABLE', 'calibration_error_modes']
+__all__ = ['ToneModel', 'ActiveEffects', 'OVERSAMPLE', 'M_SLOW', 'K_TABLE', 'N_QUAD', 'GATE_HARMONICS', 'STATIC_TABLE', 'calibration_error_modes']
 
 #: oversampling of the time-domain grid beyond the single-nonlinearity no-alias rate,
 #: without and with DPD: against a 16x grid the DPD-off tones agree exactly already at
@@ -77,6 +76,35 @@ STATIC_TABLE = 8192
 GATE_HARMONICS = tuple(range(-2, 6))
 #: filtered drives kept by the time-domain engine (megabytes each: a Jacobian's worth)
 _TD_CACHE_ENTRIES = 6
+
+
+class ActiveEffects:
+    """The tone-side effects present in a parameter set with their values, in the order
+    their hooks apply (:attr:`~dpdfit.analyses.diagnosis.effects.base.Effect.stage`)."""
+
+    def __init__(self, tm, p: dict):
+        self.items = []
+        for e in EFFECTS.values():
+            if e.side != "tones":
+                continue
+            v = e.values(p)
+            if v is not None:
+                self.items.append((e, v))
+        self.items.sort(key=lambda ev: ev[0].stage)
+        self.tm = tm
+
+    def filters(self, f):
+        """The present effects' linear filters ``H(f)`` of the complex drive envelope
+        at the frequencies ``f`` (Hz), in the order they apply."""
+        out = [e.drive_filter(self.tm, v, f) for e, v in self.items]
+        return [h for h in out if h is not None]
+
+    def memories(self, f):
+        """The present effects' power memories ``(gain, H(f))`` at the frequencies
+        ``f`` (Hz): the field is multiplied by ``1 + gain s(t)``, ``s`` the drive power
+        through ``H``."""
+        out = [e.power_memory(self.tm, v, f) for e, v in self.items]
+        return [m for m in out if m is not None]
 
 
 class ToneModel(EnvelopeEngine):
@@ -156,6 +184,12 @@ class ToneModel(EnvelopeEngine):
     def y_max(self, cy) -> float:
         """Largest field of the amplitude curve ``cy`` on 0 <= A <= 1 (P_max = its square)."""
         return float(np.max(np.polynomial.polynomial.polyval(self._A_pmax, cy)))
+
+    def coefficients(self, p: dict):
+        """The forward model's coefficient vectors ``(cy, cp)`` (index = power of the drive
+        amplitude) at the parameter set ``p``: the calibration modes and the effects
+        present applied."""
+        return self._coefficients(p, ActiveEffects(self, p))
 
     def _coefficients(self, p: dict, act: ActiveEffects):
         """Forward-model coefficient vectors with the calibration modes and effects applied."""
@@ -258,16 +292,16 @@ class ToneModel(EnvelopeEngine):
         it)."""
         A = np.ascontiguousarray(A, dtype=float)
         key = (A.tobytes(), int(bool(d)), table.tobytes() if d else None, H.tobytes())
-        cache = self.__dict__.setdefault("_drive_td_cache", {})
-        out = lru_get(cache, key)
+        cache = self.__dict__.setdefault("_drive_td_cache",
+                                         ModelCache(_TD_CACHE_ENTRIES, shared=True))
+        out = cache.get(key)
         if out is None:
             x = np.fft.ifft(self._drive_spectrum(A, d, table) * H, axis=-1)
             mag = np.abs(x)
             out = {"mag": mag, "phase": x / np.maximum(mag, 1e-300)}
             if mag.size > 8 * STATIC_TABLE:
                 out["where"] = uniform_place(mag, STATIC_TABLE)
-            read_only(out)
-            out = lru_put(cache, key, out, _TD_CACHE_ENTRIES)
+            cache[key] = out
         return out
 
     def _tones_time_domain(self, A, p, act, dpd_flags, harmonics):
@@ -330,11 +364,11 @@ class ToneModel(EnvelopeEngine):
         some points again (its start for the modes' linearisation and again for the
         solver, the profiled modes and the result at its optimum)."""
         key = tuple(sorted((k, float(v)) for k, v in p.items()))
-        out = lru_get(self.__dict__.setdefault("_features_cache", {}), key)
+        cache = self.__dict__.setdefault("_features_cache", ModelCache(shared=True))
+        out = cache.get(key)
         if out is None:
-            out = {k: v for k, (v, _) in tone_features(self.P_dB(p), self.A).items()}
-            read_only(out)
-            lru_put(self._features_cache, key, out)
+            P = self.P_dB(p)
+            out = cache[key] = {k: v for k, (v, _) in tone_features(P, self.A).items()}
         return out
 
     def gate_tones(self, p: dict, A: float, dpd: int, harmonics=GATE_HARMONICS):
