@@ -11,8 +11,8 @@ import pytest
 h5py = pytest.importorskip("h5py")
 
 from dpdfit.cli.main import main  # noqa: E402
-from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
-                                             write_results_file)
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,  # noqa: E402
+                                                  write_results_file)
 
 T0 = 1.76e9
 MAPPING = '''\
