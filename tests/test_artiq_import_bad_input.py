@@ -161,7 +161,7 @@ def test_without_h5py_the_message_names_the_extra(monkeypatch):
     import builtins
 
     from dpdfit.errors import DpdfitError
-    from dpdfit.recordings.artiq import h5py_module
+    from dpdfit.recordings.hdf5_contents import h5py_module
     real = builtins.__import__
 
     def no_h5py(name, *a, **kw):
