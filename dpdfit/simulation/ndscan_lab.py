@@ -43,6 +43,8 @@ class NdscanLab:
         self.out, self.rid = Path(out), 0
 
     def run(self, class_name, start, datasets, arguments=None, metadata=None):
+        """Write the next run (``rid + 1``) of experiment ``class_name``, started at
+        ``start`` (s since the epoch), as a results file in ``out``."""
         self.rid += 1
         write_results_file(self.out, self.rid, class_name, start, datasets, arguments=arguments,
                            metadata=metadata)
