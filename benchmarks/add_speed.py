@@ -25,7 +25,7 @@ import numpy as np
 
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.recordings.campaign_add import add_recordings
-from dpdfit.simulation.artiq_results import axis, channel, ndscan_datasets, write_results_file
+from dpdfit.simulation.artiq_results_file import axis, channel, ndscan_datasets, write_results_file
 from record import ROOT, add_json_option, summary_line, write_record
 
 TARGET_S = 15.0

@@ -6,7 +6,7 @@
 The lab: one amplitude calibration (201 amplitudes) and N - 1 parity scans of 16
 phases (axis in turns; arguments ``amplitude`` and ``dpd``), written as ARTIQ does
 (``results/<YYYY-MM-DD>/<HH>/<rid:09d>-<Class>.h5``, by
-:func:`dpdfit.simulation.artiq_results.write_results_file`) at start times spread
+:func:`dpdfit.simulation.artiq_results_file.write_results_file`) at start times spread
 evenly, with jitter, over 30 days (720 hour folders: about 14 files per hour
 folder at N = 10,000).  The parity scans record *per-point counts* (integer
 channels ``n_even`` and ``shots``, 16 values each) rather than per-shot outcome
@@ -92,8 +92,8 @@ MB = 1e6
 # ----------------------------------------------------------------------------- the trees
 def write_tree(lab: Path, n_files: int) -> None:
     """One amplitude calibration and ``n_files - 1`` parity scans over 30 days."""
-    from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,
-                                                 write_results_file)
+    from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,
+                                                      write_results_file)
     rng = np.random.default_rng(SEED)
     a = np.linspace(0, 1, 201)
     write_results_file(lab, 1, "AmplitudeCalibration", T0 - 600.0, ndscan_datasets(

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from dpdfit.recordings.campaign_import import import_campaign
-from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,
-                                             write_results_file)
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,
+                                                  write_results_file)
 from record import add_json_option, summary_line, write_record
 
 TARGET_S = 5.0

@@ -1,7 +1,9 @@
-"""The package's structure: layers, `__all__`, private names, plotting at the edge.
+"""The package's structure: layers, `__all__`, private names, import circles, plotting at
+the edge.
 
 The layer contract itself is import-linter's (``[tool.importlinter]`` in pyproject.toml);
-the other rules are read from the source with :mod:`ast`.
+the other rules are read from the source with :mod:`ast`, counting imports inside functions
+as well as those at the top.
 """
 
 from __future__ import annotations
@@ -12,7 +14,10 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 import dpdfit
 
@@ -48,6 +53,39 @@ def _absolute(node: ast.ImportFrom, module: str, is_pkg: bool) -> str:
     base = base if is_pkg else base[:-1]
     base = base[: len(base) - (node.level - 1)]
     return ".".join(base + ([node.module] if node.module else []))
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def _imports(path: Path):
+    """``(node, source, names)`` of every import of a dpdfit module in ``path``, inside
+    functions too: ``source`` the absolute module imported from (``import a.b``: ``a.b``,
+    with ``names`` empty), ``names`` what ``from source import ...`` takes."""
+    module = _name(path)
+    for node in ast.walk(_tree(path)):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] == "dpdfit":
+                    yield node, alias.name, []
+        elif isinstance(node, ast.ImportFrom):
+            source = _absolute(node, module, path.name == "__init__.py")
+            if source.split(".")[0] == "dpdfit":
+                yield node, source, [a.name for a in node.names]
+
+
+def _imported_modules(path: Path, modules: set) -> set:
+    """The dpdfit modules ``path`` imports: ``from pkg import sub`` counts as importing the
+    module ``pkg.sub``, a name that is not a module as importing its module."""
+    out = set()
+    for _, source, names in _imports(path):
+        targets = [f"{source}.{n}" if f"{source}.{n}" in modules else source for n in names]
+        for target in targets or [source]:
+            while target not in modules and "." in target:
+                target = target.rpartition(".")[0]
+            out.add(target)
+    return out
 
 
 @pytest.mark.skipif(shutil.which("lint-imports") is None, reason="import-linter not installed")
@@ -127,12 +165,43 @@ def test_matplotlib_only_in_report():
     assert not bad, bad
 
 
-def test_modules_and_functions_are_readable_in_one_sitting():
-    """No module over 400 lines and no function over 80."""
-    long_modules = [(_name(p), n) for p in MODULES
-                    if (n := p.read_text().count("\n")) > 400]
+def test_functions_are_readable_in_one_sitting():
+    """No function over 80 lines (a module is as long as its one concept needs)."""
     long_functions = [(_name(p), f.name, f.end_lineno - f.lineno + 1) for p in MODULES
                       for f in ast.walk(_tree(p))
                       if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef))
                       and f.end_lineno - f.lineno + 1 > 80]
-    assert not long_modules and not long_functions, (long_modules, long_functions)
+    assert not long_functions, long_functions
+
+
+def test_no_private_name_is_imported_from_another_module():
+    """A name with a leading underscore is used only in the module that defines it: no
+    ``from X import _name`` between two dpdfit modules (a package's ``__init__`` and its
+    submodules are different modules), and no module whose own name starts with ``_`` is
+    imported.  What another module needs is a public name of the module it belongs to."""
+    bad = []
+    for path in MODULES:
+        module = _name(path)
+        for node, source, names in _imports(path):
+            where = f"{module}:{node.lineno}"
+            private = [n for n in names if _private(n)] if source != module else []
+            if any(_private(part) for part in source.split(".")):
+                bad.append(f"{where} imports the private module {source}")
+            elif private:
+                bad.append(f"{where} imports {', '.join(private)} from {source}")
+    assert not bad, "\n".join(bad)
+
+
+def test_no_import_circle():
+    """The imports between dpdfit modules (inside functions too) form no circle: every
+    strongly connected component of the import graph is a single module."""
+    names = [_name(p) for p in MODULES]
+    index = {n: i for i, n in enumerate(names)}
+    edges = [(index[_name(p)], index[t]) for p in MODULES
+             for t in _imported_modules(p, set(index)) if t != _name(p)]
+    rows, cols = zip(*edges)
+    graph = coo_matrix((np.ones(len(edges)), (rows, cols)), shape=(len(names), len(names)))
+    _, label = connected_components(graph, directed=True, connection="strong")
+    circles = [sorted(n for n, k in zip(names, label) if k == c)
+               for c in np.unique(label) if np.count_nonzero(label == c) > 1]
+    assert not circles, "\n".join(" <-> ".join(c) for c in circles)

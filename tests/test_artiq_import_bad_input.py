@@ -11,8 +11,8 @@ import pytest
 h5py = pytest.importorskip("h5py")
 
 from dpdfit.cli.main import main  # noqa: E402
-from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
-                                             write_results_file)
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,  # noqa: E402
+                                                  write_results_file)
 
 T0 = 1.76e9
 MAPPING = '''\
@@ -161,7 +161,7 @@ def test_without_h5py_the_message_names_the_extra(monkeypatch):
     import builtins
 
     from dpdfit.errors import DpdfitError
-    from dpdfit.recordings.artiq import h5py_module
+    from dpdfit.recordings.hdf5_contents import h5py_module
     real = builtins.__import__
 
     def no_h5py(name, *a, **kw):

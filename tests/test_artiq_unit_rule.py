@@ -18,7 +18,7 @@ pytest.importorskip("h5py")
 
 from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.recordings.units import ARTIQ_UNITS, scale_from_metadata  # noqa: E402
-from dpdfit.simulation.artiq_results import write_results_file  # noqa: E402
+from dpdfit.simulation.artiq_results_file import write_results_file  # noqa: E402
 
 #: artiq.language.units as ARTIQ 8 defines it, written out by hand from its source
 #: (``_register_unit("s", "pnum_")``, ``("Hz", "m_kMG")``, ``("dB", "_")``,
@@ -109,7 +109,7 @@ def test_a_unit_of_another_dimension_is_refused_in_one_line(tmp_path, unit):
 
 def test_ndscan_quantities_without_a_scale_take_the_units_si_factor(tmp_path):
     from dpdfit.recordings.artiq import read_results_file
-    from dpdfit.simulation.artiq_results import axis, channel, ndscan_datasets
+    from dpdfit.simulation.artiq_results_file import axis, channel, ndscan_datasets
     ds = ndscan_datasets(3, "exp.Scan", [axis("duration", np.array([1e-6, 2e-6]), "us", 1e-6)],
                          {"rate": channel(np.array([2e4, 3e4]), "kHz", 1e3)})
     import json

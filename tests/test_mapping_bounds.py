@@ -11,8 +11,8 @@ import pytest
 
 pytest.importorskip("h5py")
 
-from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
-                                             write_results_file)
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,  # noqa: E402
+                                                  write_results_file)
 from tests.helpers.cli_refusal import assert_refused  # noqa: E402
 
 T0 = 1.76e9

@@ -18,8 +18,8 @@ pytest.importorskip("h5py")
 from dpdfit.errors import InputError  # noqa: E402
 from dpdfit.recordings.artiq import read_results_file  # noqa: E402
 from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
-from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
-                                             write_results_file)
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,  # noqa: E402
+                                                  write_results_file)
 from dpdfit.simulation.ndscan_subscan_results import subscan_channels  # noqa: E402
 from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
 

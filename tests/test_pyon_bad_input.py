@@ -80,8 +80,8 @@ def test_pyon_as_sipyco_writes_it_still_decodes():
                                   "a chain of signs"])
 def test_a_results_file_with_crafted_pyon_is_refused_in_one_line(tmp_path, capsys, case):
     h5py = pytest.importorskip("h5py")
-    from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,
-                                                 write_results_file)
+    from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,
+                                                      write_results_file)
     from tests.helpers.cli_refusal import assert_refused
     from tests.helpers.mapping_text import CALIBRATION_STUB
     lab = tmp_path / "lab"

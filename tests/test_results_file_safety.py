@@ -23,8 +23,8 @@ from dpdfit.errors import InputError  # noqa: E402
 from dpdfit.recordings.artiq import read_results_file  # noqa: E402
 from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.recordings.hdf5_contents import ResultsFileContents  # noqa: E402
-from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
-                                             pyon_encode, write_results_file)
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,  # noqa: E402
+                                                  pyon_encode, write_results_file)
 from tests.helpers.cli_refusal import assert_refused  # noqa: E402
 from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
 

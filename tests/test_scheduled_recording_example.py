@@ -107,7 +107,7 @@ def _lab(cls, rng):
 
 
 def test_experiment_records_what_the_mapping_imports(example, tmp_path):
-    from dpdfit.simulation.artiq_results import write_results_file
+    from dpdfit.simulation.artiq_results_file import write_results_file
     rng = np.random.default_rng(41)
     frames = [proposal_schedule(p, CAMPAIGN) for p in PROPOSALS]
     sched = tmp_path / "schedule.csv"

@@ -43,6 +43,7 @@ from dpdfit.core.adequacy import ModelAdequacy
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
+from dpdfit.fits.lmfit_export import alignment_parameters, alignment_report
 
 __all__ = ["AlignmentFit", "align", "curves", "xi0_band", "K_DB"]
 
@@ -155,12 +156,10 @@ class AlignmentFit(ModelAdequacy, Displayable):
         """The fit as ``lmfit.Parameters`` ``alpha_khz``, ``delta`` with ``stderr`` and
         ``correl``; dpdfit's absolute errors (lmfit's ``scale_covar`` rescaling by the
         reduced chi-square is not applied).  See :mod:`dpdfit.fits.lmfit_export`."""
-        from dpdfit.fits.lmfit_export import alignment_parameters
         return alignment_parameters(self)
 
     def fit_report(self, **kws) -> str:
         """:func:`lmfit.fit_report` of :meth:`to_lmfit` with this fit's statistics."""
-        from dpdfit.fits.lmfit_export import alignment_report
         return alignment_report(self, **kws)
 
 

@@ -47,7 +47,7 @@ def to_parameters(names, values, covariance, *, fixed=(), derived=None):
         ``name -> (expr, stderr)``: parameters defined by an expression of the
         others (``Parameter.expr``), with their standard error.
     """
-    import lmfit
+    import lmfit       # here: importing lmfit takes ~0.6 s, and only an export needs it
     values = np.asarray(values, dtype=float)
     cov = np.asarray(covariance, dtype=float)
     err = np.sqrt(np.clip(np.diag(cov), 0.0, None))
@@ -75,7 +75,7 @@ def lmfit_report(params, *, title: str, method: str, ndata: int, chi2: float, do
     ``nvarys`` defaults to the number of varying parameters; ``kws`` go to
     :func:`lmfit.fit_report` (``show_correl``, ``min_correl``, ...).
     """
-    import lmfit
+    import lmfit       # here: importing lmfit takes ~0.6 s, and only an export needs it
     if nvarys is None:
         nvarys = sum(1 for p in params.values() if p.vary)
     result = SimpleNamespace(

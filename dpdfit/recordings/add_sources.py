@@ -26,7 +26,10 @@ import pandas as pd
 
 from dpdfit.errors import InputError
 
+from .campaign_import import import_campaign
 from .columns import CAMPAIGN_TABLES
+from .mapping import read_mapping
+from .mapping_lines import KeyLines
 from .outputs import sha256_file
 from .tables import read_csv_strings
 
@@ -67,7 +70,6 @@ class NewRecordings:
         """``key`` as named in NEW: ``campaign.json key 'k'`` or ``[campaign] k (line N)``."""
         if self.kind == "csv":
             return f"key '{key}'"
-        from .mapping_lines import KeyLines
         table, _, name = key.rpartition(".")
         line = KeyLines(self.mapping_text or "").find(
             "campaign" + (f".{table}" if table else ""), name)
@@ -169,8 +171,6 @@ def _csv_folder(path: Path, check) -> NewRecordings:
 
 
 def _mapping(path: Path, complete_only, progress, skip_bad_files, check) -> NewRecordings:
-    from .campaign_import import import_campaign
-    from .mapping import read_mapping
     m = read_mapping(path, partial=True)
     check(NewRecordings(path=path, kind="mapping", tables={}, constants=dict(m.campaign),
                         constants_file=str(path), sources=(), mapping_text=m.text))

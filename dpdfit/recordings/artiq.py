@@ -13,10 +13,9 @@ older files ``ndscan.``) found by ``<prefix>ndscan_schema_revision`` (or, in fil
 older than that key, ``ndscan.axes``).  ``<prefix>axes`` and ``<prefix>channels``
 are JSON (names, units, scales); ``<prefix>points.axis_<i>`` and
 ``<prefix>points.channel_<name>`` hold every point in acquisition order (a
-point measured again appears again).  Values are stored in SI base units; a
-quantity's ``scale`` is the factor of the ``unit`` it is shown in (a time shown
-in ``us`` has scale 1e-6 and is stored in seconds), so the shown value is
-``stored / scale`` (:meth:`NdscanScan.points` with ``shown=True``).
+point measured again appears again).  Values are stored in SI base units
+(:mod:`.ndscan_scan`: :class:`~.ndscan_scan.NdscanScan`, each axis and channel a
+:class:`~.ndscan_scan.Quantity`; :mod:`.ndscan_roots` reads them).
 
 :func:`read_results_file` checks the file's signature, lists its datasets and
 reads the run's provenance, and returns a frozen :class:`ResultsFile` whose
@@ -35,33 +34,20 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
-from dpdfit.errors import DpdfitError, InputError
+from dpdfit.errors import InputError
 
-from .hdf5_contents import (ResultsFileContents, check_signature, file_sha256, one_value,
-                            short_repr)
+from .hdf5_contents import (ResultsFileContents, check_signature, file_sha256, h5py_module,
+                            one_value, short_repr)
 from .lazy_mapping import LazyMapping
+from .ndscan_roots import find_ndscan_roots, read_scan
+from .ndscan_scan import NdscanScan
 from .pyon import PyonError, decode_pyon
-from .units import scale_from_metadata
 
-__all__ = ["Run", "Quantity", "NdscanScan", "ResultsFile", "read_results_file",
-           "find_ndscan_roots", "h5py_module", "spec_scale"]
+__all__ = ["Run", "ResultsFile", "read_results_file"]
 
 log = logging.getLogger(__name__)
-
-_SCHEMA_KEY = "ndscan_schema_revision"
-
-
-def h5py_module():
-    """h5py, or a DpdfitError that names the extra to install."""
-    try:
-        import h5py
-    except ImportError:
-        raise DpdfitError("reading ARTIQ results files needs h5py: pip install "
-                          "'dpdfit[artiq]' (or pip install h5py)") from None
-    return h5py
 
 
 @dataclass(frozen=True)
@@ -100,100 +86,11 @@ class Run:
 
 
 @dataclass(frozen=True)
-class Quantity:
-    """One ndscan axis or result channel: its values as stored and how they are shown."""
-
-    name: str
-    dataset: str
-    values: np.ndarray
-    unit: str = ""
-    scale: float = 1.0
-    type: str = "float"
-    fqn: str | None = None
-    description: str = ""
-
-    @property
-    def shown(self) -> np.ndarray:
-        """The values in ``unit`` (stored / scale), as ndscan's applet shows them."""
-        return self.values / self.scale if self.values.dtype.kind in "fiu" else self.values
-
-
-@dataclass(frozen=True)
-class NdscanScan:
-    """One ndscan root: the scan's axes and result channels, point by point.
-
-    Read from a file, ``channels`` and ``subscans`` are read-only mappings whose
-    values are read on first access (:class:`~.lazy_mapping.LazyMapping`), and
-    ``declared_points`` gives each channel's ``(dataset, number of points)`` from the
-    shape its dataset declares."""
-
-    root: str
-    source_id: str | None
-    fragment_fqn: str | None
-    completed: bool | None
-    schema_revision: int | None
-    axes: tuple = ()
-    channels: Mapping = field(default_factory=dict)
-    subscans: Mapping = field(default_factory=dict)
-    declared_points: dict = field(default_factory=dict, repr=False, compare=False)
-
-    @property
-    def n_points(self) -> int:
-        """Number of scan points (length of the first axis, else of a channel; 0 if none)."""
-        q = self.axes[0] if self.axes else next(iter(self.channels.values()), None)
-        return 0 if q is None else len(q.values)
-
-    def point_counts(self) -> dict:
-        """``{dataset: number of points}`` of every axis and channel; a channel's from
-        ``declared_points`` when it names the channel (which is then not read: None
-        there leaves out a channel whose dataset is refused if it is used)."""
-        counts = {q.dataset: len(q.values) for q in self.axes}
-        for c in self.channels:
-            if c not in self.declared_points:
-                q = self.channels[c]
-                counts[q.dataset] = len(q.values)
-            elif self.declared_points[c] is not None:
-                counts.update([self.declared_points[c]])
-        return counts
-
-    def axis(self, name: str) -> Quantity:
-        """An axis by its short name (last part of the parameter's fqn) or its fqn."""
-        for a in self.axes:
-            if name in (a.name, a.fqn):
-                return a
-        raise KeyError(name)
-
-    def subscan(self, name: str, file: str | None = None) -> NdscanScan:
-        """Subscan ``name`` as a scan of its own: one point per inner point, the outer
-        point's axes and channels repeated (:func:`~.ndscan_subscans.flatten_subscan`)."""
-        from .ndscan_subscans import flatten_subscan
-        return flatten_subscan(self, name, file)
-
-    def channel(self, name: str) -> Quantity:
-        """A result channel by its name (KeyError if the scan has none of that name)."""
-        return self.channels[name]
-
-    def points(self, shown: bool = False) -> pd.DataFrame:
-        """One row per point: the axes, then the channels (a per-shot channel holds one
-        array per row).  Stored values, or with ``shown`` the values in each quantity's
-        unit; ``attrs["units"]`` gives ``{column: (unit, scale)}``."""
-        cols, units = {}, {}
-        for q in (*self.axes, *self.channels.values()):
-            v = q.shown if shown else q.values
-            cols[q.name] = list(v) if v.ndim > 1 else v
-            units[q.name] = (q.unit, q.scale)
-        df = pd.DataFrame(cols)
-        df.attrs["units"] = units
-        df.attrs["root"] = self.root
-        return df
-
-
-@dataclass(frozen=True)
 class ResultsFile:
     """An ARTIQ results file: the run, its ndscan scans (by root) and plain datasets.
 
     ``datasets`` maps each name under ``datasets/`` to ``(value, attributes)`` and
-    ``scans`` each ndscan root to its :class:`NdscanScan`; read from a file, both
+    ``scans`` each ndscan root to its :class:`~.ndscan_scan.NdscanScan`; read from a file, both
     read a value on first access, through ``contents``
     (:class:`~.hdf5_contents.ResultsFileContents`).  The file is opened for each
     read, or once for a ``with`` block: ``with read_results_file(path) as rf: ...``."""
@@ -230,15 +127,6 @@ class ResultsFile:
                          "'root' in the mapping", file=self.run.file)
 
 
-def find_ndscan_roots(names) -> list[str]:
-    """The ndscan root prefixes among dataset ``names`` (as ndscan.results.tools does)."""
-    roots = [n[: -len(_SCHEMA_KEY)] for n in names
-             if n == _SCHEMA_KEY or n.endswith("." + _SCHEMA_KEY)]
-    if not roots and "ndscan.axes" in names:
-        roots = ["ndscan."]
-    return sorted(roots)
-
-
 def read_results_file(path, name: str | None = None, *,
                       max_dataset_bytes: int | None = None) -> ResultsFile:
     """Read an ARTIQ results file (module doc).  InputError if it is not one.
@@ -257,7 +145,6 @@ def read_results_file(path, name: str | None = None, *,
     # hashed once the file proved to be a results file; in blocks, never whole
     run = replace(run, sha256=file_sha256(path, name))
     datasets = LazyMapping(contents.names(), contents.read)
-    from .ndscan_roots import read_scan      # it builds this module's NdscanScan
     scans = LazyMapping(find_ndscan_roots(contents.names()),
                         lambda root: read_scan(datasets, root, name, contents))
     return ResultsFile(run, scans, datasets, contents)
@@ -308,11 +195,3 @@ def _time(v, name: str, key: str):
         raise InputError(f"dataset '{key}' is not a time (seconds since the epoch): "
                          f"{short_repr(v)}", file=name) from None
 
-
-def spec_scale(spec: dict):
-    """The ``scale`` of an ndscan axis or channel spec.  ndscan always writes it,
-    defaulting it from the unit as ARTIQ does (``ndscan/experiment/parameters.py``,
-    ``result_channels.py``); a spec without one gets it the same way."""
-    if spec.get("scale") is None:
-        return scale_from_metadata({"unit": spec.get("unit") or ""})
-    return spec["scale"]

@@ -65,6 +65,7 @@ from .add_merge import merge_table, renumber_scans
 from .add_sources import NewRecordings, leading_comments, read_new_recordings, read_text_table
 from .campaign_folder import CampaignFolder
 from .imported_check import READERS
+from .outputs import staged_folder
 
 __all__ = ["AddedCampaign", "add_recordings", "provenance", "DROPPED_FILES"]
 
@@ -127,7 +128,6 @@ class AddedCampaign(Displayable):
         readers (a refusal names the file and row the value came from)."""
         rec = self._recordings
         check_output(out, self.campaign, self.new, rec is not None and rec.kind == "csv")
-        from .outputs import staged_folder
         with staged_folder(out) as tmp:
             for p in sorted(self.campaign.iterdir()):
                 name = p.name

@@ -219,7 +219,7 @@ def _rows(src: SourceSpec, rf: ResultsFile, rel: str):
                         f in ("axis", "channel") for f, _ in c.expression.references))
                     for c in src.columns.values())
     scan = rf.scan(src.root) if uses_scan or src.subscan else None
-    if src.subscan:                      # one row per inner point (ndscan_subscans)
+    if src.subscan:                      # one row per inner point (ndscan_scan)
         scan = scan.subscan(src.subscan, rf.run.file)
     keys = _pattern_keys(src, rf, scan) if src.placeholders else [{}]
     parts, notes = [], []

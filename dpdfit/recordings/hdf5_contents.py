@@ -15,7 +15,8 @@ times element size) first checked against a limit
 (:data:`~dpdfit.core.defaults.MAX_DATASET_BYTES`, or the mapping's ``[import]
 max_dataset_bytes``), so that a dataset declaring gigabytes it never wrote is
 refused, not allocated; its type must be numbers or text.  :func:`check_signature`
-reads a file's first 8 bytes only; :func:`file_sha256` streams it.
+reads a file's first 8 bytes only; :func:`file_sha256` streams it.  :func:`h5py_module`
+imports h5py, an optional dependency, when a file is first read.
 """
 
 from __future__ import annotations
@@ -27,9 +28,9 @@ import posixpath
 import numpy as np
 
 from dpdfit.core.defaults import MAX_DATASET_BYTES
-from dpdfit.errors import InputError
+from dpdfit.errors import DpdfitError, InputError
 
-__all__ = ["ResultsFileContents", "check_signature", "file_sha256", "one_value",
+__all__ = ["ResultsFileContents", "h5py_module", "check_signature", "file_sha256", "one_value",
            "short_repr", "HDF5_SIGNATURE"]
 
 #: The first 8 bytes of an HDF5 file (ARTIQ writes no user block before them).
@@ -44,6 +45,16 @@ _VLEN_SLICE_ELEMENTS = 1 << 16
 # not installed, an HDF5 type numpy has no match for
 _H5_ERRORS = (OSError, RuntimeError, KeyError, TypeError)
 _RAISE = "raise it with '[import] max_dataset_bytes = N' in the mapping if the file is right"
+
+
+def h5py_module():
+    """h5py, or a DpdfitError that names the extra to install."""
+    try:
+        import h5py            # here, not at the top: h5py is optional (the extra 'artiq')
+    except ImportError:
+        raise DpdfitError("reading ARTIQ results files needs h5py: pip install "
+                          "'dpdfit[artiq]' (or pip install h5py)") from None
+    return h5py
 
 
 def check_signature(path, name: str) -> None:
@@ -116,7 +127,6 @@ class ResultsFileContents:
     """
 
     def __init__(self, path, name: str, max_dataset_bytes: int | None = None):
-        from .artiq import h5py_module
         self.h5py = h5py_module()
         self.path, self.name = path, name
         self.max_dataset_bytes = int(MAX_DATASET_BYTES if max_dataset_bytes is None

@@ -16,7 +16,7 @@ Its top-level keys:
   of globs, relative to the mapping file; ``**`` allowed), optional ``root``
   (the ndscan root prefix, a glob; default the file's only root) and
   ``columns``, one key per campaign column; optional ``subscan`` (an ndscan
-  subscan of that root: one row per inner point, :mod:`.ndscan_subscans`).
+  subscan of that root: one row per inner point, :mod:`.ndscan_scan`).
 
 A column is a constant (a bare value, or ``{ value = ... }``) or exactly one of
 ``axis`` (ndscan axis: short name or fqn), ``channel`` (ndscan result channel),

@@ -19,11 +19,11 @@ import numpy as np
 
 from dpdfit.errors import InputError
 
-from .artiq import NdscanScan, Quantity, spec_scale
 from .hdf5_contents import ResultsFileContents, one_value, short_repr
 from .lazy_mapping import LazyMapping
+from .ndscan_scan import NdscanScan, Quantity, spec_scale
 
-__all__ = ["read_scan"]
+__all__ = ["find_ndscan_roots", "read_scan"]
 
 _SCHEMA_KEY = "ndscan_schema_revision"
 
@@ -72,6 +72,15 @@ def _fields(spec: dict, kind, description, where: str, name: str) -> dict:
     if not isinstance(kind, str):
         raise InputError(f"{where}: its type is not text", file=name)
     return dict(unit=unit, scale=float(scale), type=kind, description=str(description))
+
+
+def find_ndscan_roots(names) -> list[str]:
+    """The ndscan root prefixes among dataset ``names`` (as ndscan.results.tools does)."""
+    roots = [n[: -len(_SCHEMA_KEY)] for n in names
+             if n == _SCHEMA_KEY or n.endswith("." + _SCHEMA_KEY)]
+    if not roots and "ndscan.axes" in names:
+        roots = ["ndscan."]
+    return sorted(roots)
 
 
 def read_scan(datasets, root: str, name: str, contents: ResultsFileContents) -> NdscanScan:

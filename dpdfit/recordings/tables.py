@@ -39,8 +39,9 @@ from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
 
-__all__ = ["read_table", "read_calibration", "read_calibration_runs",
-           "read_calibration_table", "check_repeated_rows", "read_csv_strings", "require_file", "check_calibration_phases", "RANGE_CAUSES"]
+__all__ = ["read_table", "table_source", "read_calibration", "read_calibration_runs",
+           "read_calibration_table", "check_repeated_rows", "read_csv_strings", "require_file",
+           "check_calibration_phases", "RANGE_CAUSES"]
 
 
 def _row(index: int) -> int:
@@ -115,6 +116,12 @@ def read_table(path: str | os.PathLike, required: list[str],
         out["timestamp"] = _timestamps(out["timestamp"], name)
     out.attrs["source"] = name
     return out
+
+
+def table_source(df) -> str | None:
+    """The file a table was read from (``attrs["source"]``, set by the readers); None for a
+    table built in Python."""
+    return df.attrs.get("source") if hasattr(df, "attrs") else None
 
 
 def require_file(path: str | os.PathLike) -> str:

@@ -6,7 +6,7 @@ per outer point) and ``<scan>_spec`` (type ``subscan``: the inner scan's schema
 as JSON at every point); see ``ndscan/experiment/subscan.py`` and
 ``scan_runner.describe_scan``.  :func:`subscan_channels` builds them, to be
 passed with the parent's own channels to
-:func:`~dpdfit.simulation.artiq_results.ndscan_datasets`.
+:func:`~dpdfit.simulation.artiq_results_file.ndscan_datasets`.
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ def subscan_channels(scan: str, fqn: str, axes: list, channels: dict) -> dict:
         The subscan's name (the prefix of its channels).
     fqn : str
         The scanned fragment's fqn (inner axes are ``fqn.<axis name>``).
-    axes : list of :func:`~dpdfit.simulation.artiq_results.axis`
+    axes : list of :func:`~dpdfit.simulation.artiq_results_file.axis`
         The inner axes; ``values`` are (outer points, inner points), stored in SI.
-    channels : dict of name -> :func:`~dpdfit.simulation.artiq_results.channel`
+    channels : dict of name -> :func:`~dpdfit.simulation.artiq_results_file.channel`
         The inner result channels, ``values`` (outer points, inner points[, shots]).
     """
     schema = {"fragment_fqn": fqn, "seed": 0, "axes": [

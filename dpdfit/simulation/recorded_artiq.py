@@ -2,16 +2,16 @@
 
 The rows a stand-in recording added (:func:`~dpdfit.simulation.recorded_schedule.record_further`)
 are written with the ndscan layout of :func:`~dpdfit.simulation.artiq_results.write_ndscan_campaign`
-(its helpers, its mapping), continuing the campaign as its own files would have been
-numbered: an amplitude run's rid is its run number (the mapping labels it
-``R{rid:03d}``), every other file's rid comes after every rid the campaign's files would
-have, and the spectra and gate files start after the campaign's last file (calibration
-runs start at their recorded time, which the mapping reads as their timestamp).  The
-mapping's ``[campaign]`` table is the campaign's ``campaign.json`` (without its recording
-times), so that the new files are seen as the same campaign's; tables without new rows
-are left out of it (a glob that matches nothing is an import error), so it is read as
-the mapping of further recordings (``read_mapping(path, partial=True)``, as ``dpdfit add``
-reads it).
+(its runs, :mod:`~dpdfit.simulation.ndscan_lab`, and its mapping), continuing the campaign
+as its own files would have been numbered: an amplitude run's rid is its run number (the
+mapping labels it ``R{rid:03d}``), every other file's rid comes after every rid the
+campaign's files would have, and the spectra and gate files start after the campaign's
+last file (calibration runs start at their recorded time, which the mapping reads as
+their timestamp).  The mapping's ``[campaign]`` table is the campaign's ``campaign.json``
+(without its recording times), so that the new files are seen as the same campaign's;
+tables without new rows are left out of it (a glob that matches nothing is an import
+error), so it is read as the mapping of further recordings (``read_mapping(path,
+partial=True)``, as ``dpdfit add`` reads it).
 """
 
 from __future__ import annotations
@@ -26,13 +26,16 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.errors import InputError
+from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.outputs import staged_folder
 from dpdfit.recordings.schedule import read_schedule
+from dpdfit.simulation.artiq_results import copy_mapping
+from dpdfit.simulation.artiq_results_file import axis, channel, stored_in_si
 from dpdfit.simulation.campaign import CampaignConfig
-from dpdfit.simulation.artiq_results import (_TABLES, _Lab, _calibrations, _copy_mapping,
-                                             _duration, _epoch, _ints, _ndscan_gates, _si,
-                                             _spectra, _time_scan_runs, axis, channel)
 from dpdfit.simulation.further_recordings import schedule_measurements
+from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_axis, epoch,
+                                          time_scan_runs, write_calibration_runs,
+                                          write_ndscan_gate_runs, write_spectra_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
@@ -47,7 +50,7 @@ _HEADER = ("# The new recordings of '{name}' only (dpdfit write-artiq-results --
            "# (a mapping of some tables only: read_mapping(path, partial=True)).\n")
 
 
-class _Counted(_Lab):
+class _Counted(NdscanLab):
     """A campaign's tables numbered as its ndscan files would be, without writing them."""
 
     def __init__(self, tables: dict, campaign: dict, out=None, rid: int = 0):
@@ -66,13 +69,13 @@ def campaign_files_end(tables: dict, campaign: dict) -> tuple:
     """``(last rid, last start time)`` of a campaign written as ndscan files
     (:func:`~dpdfit.simulation.artiq_results.write_ndscan_campaign`): the rids and times
     its new recordings continue after.  ``tables``: name -> DataFrame of the campaign."""
-    lab = _Counted({t: tables.get(t, pd.DataFrame()) for t in _TABLES}, campaign)
-    _calibrations(lab, percent=False)
+    lab = _Counted({t: tables.get(t, pd.DataFrame()) for t in CAMPAIGN_TABLES}, campaign)
+    write_calibration_runs(lab, percent=False)
     if len(lab.t["spectra"]):
-        _spectra(lab, False, 240.0)
+        write_spectra_runs(lab, False, 240.0)
     if all(len(lab.t[t]) for t in ("gate_rates", "populations", "parity", "time_scans")):
-        _ndscan_gates(lab)
-    times = [_epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
+        write_ndscan_gate_runs(lab)
+    times = [epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
              if k in campaign]
     return lab.rid, max([t for t in (lab.last,) if t is not None] + times)
 
@@ -90,7 +93,7 @@ def _amplitude_runs(lab: _Counted, rows: pd.DataFrame) -> None:
             raise InputError(f"calibration_amplitude: run label {label!r} is not R<number>")
         lab.rid = number - 1
         ch = {"pd_power": channel(run["power"]), "pd_power_err": channel(run["power_err"])}
-        lab.scan("lab.calib.AmplitudeCalibration", _epoch(run["timestamp"].iloc[0]),
+        lab.scan("lab.calib.AmplitudeCalibration", epoch(run["timestamp"].iloc[0]),
                  [axis("amplitude", run["A"].to_numpy(float))], ch, {"label": label})
     lab.rid = after
 
@@ -99,7 +102,7 @@ def _phase_runs(lab: _Counted, rows: pd.DataFrame) -> None:
     for label, run in rows.groupby("run", sort=False):
         ch = {"phase": channel(run["phase_rad"], "rad"),
               "phase_err": channel(run["phase_err"], "rad")}
-        lab.scan("lab.calib.PhaseCalibration", _epoch(run["timestamp"].iloc[0]),
+        lab.scan("lab.calib.PhaseCalibration", epoch(run["timestamp"].iloc[0]),
                  [axis("amplitude", run["A"].to_numpy(float))], ch, {"label": label})
 
 
@@ -110,7 +113,7 @@ def _gates(lab: _Counted, clock) -> None:
     if len(t["gate_rates"]):
         g, ch = t["gate_rates"], {}
         for name, col in (("xi0", "xi0_khz"), ("xi0_err", "xi0_err_khz")):
-            stored, scale = _si(g[col], 1e3)
+            stored, scale = stored_in_si(g[col], 1e3)
             ch[name] = channel(stored, "kHz", scale)
         axes = [axis("amplitude", g["A"].to_numpy(float)),
                 axis("dpd", g["dpd"].to_numpy(np.int64))]
@@ -118,23 +121,23 @@ def _gates(lab: _Counted, clock) -> None:
     for dpd, rows in t["populations"].groupby("dpd") if len(t["populations"]) else ():
         rows = rows.sort_values(["scan", "A"], kind="stable")
         lab.scan("lab.gates.PopulationScan", next(clock), [axis("amplitude", rows["A"])],
-                 _ints(rows, ("n00", "n01_10", "n11", "n_even", "shots")), {"dpd": int(dpd)},
-                 repeats=rows["scan"].nunique())
+                 count_channels(rows, ("n00", "n01_10", "n11", "n_even", "shots")),
+                 {"dpd": int(dpd)}, repeats=rows["scan"].nunique())
     for (a, dpd), rows in t["parity"].groupby(["A", "dpd"]) if len(t["parity"]) else ():
         rows = rows.sort_values("scan", kind="stable")
         lab.scan("lab.gates.ParityScan", next(clock), [axis("phase", rows["phase_rad"], "rad")],
-                 _ints(rows, ("n_even", "shots")), {"amplitude": float(a), "dpd": int(dpd)},
-                 repeats=rows["scan"].nunique())
-    for (a, dpd, _), rows in _time_scan_runs(lab) if len(t["time_scans"]) else ():
+                 count_channels(rows, ("n_even", "shots")),
+                 {"amplitude": float(a), "dpd": int(dpd)}, repeats=rows["scan"].nunique())
+    for (a, dpd, _), rows in time_scan_runs(lab) if len(t["time_scans"]) else ():
         args = {"amplitude": float(a), "dpd": int(dpd), "num_shots": int(rows["shots"].iloc[0])}
-        lab.scan("lab.gates.TimeScan", next(clock), [_duration(rows)],
-                 _ints(rows, ("n00", "n01_10", "n11")), args)
+        lab.scan("lab.gates.TimeScan", next(clock), [duration_axis(rows)],
+                 count_channels(rows, ("n00", "n01_10", "n11")), args)
 
 
 def _mapping_text(campaign: dict, tables, tmp: Path) -> str:
     """The shipped ndscan mapping with the campaign's constants, its sources cut to
     ``tables``."""
-    text = _copy_mapping("ndscan_campaign.toml", campaign, tmp).read_text()
+    text = copy_mapping("ndscan_campaign.toml", campaign, tmp).read_text()
     lines = text.split("\n")
     heads = [i for i, s in enumerate(lines) if s.startswith("[[")]
     starts = []
@@ -180,7 +183,7 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
     last_rid, last_time = campaign_files_end(campaign_tables, campaign)
     out = Path(out_dir)
     with staged_folder(out) as tmp:
-        t = {name: new.get(name, pd.DataFrame()) for name in _TABLES}
+        t = {name: new.get(name, pd.DataFrame()) for name in CAMPAIGN_TABLES}
         lab = _Counted(t, {**campaign, "spectra_recorded": _iso(last_time + _AFTER)}, tmp,
                        rid=last_rid)
         if len(t["calibration_amplitude"]):
@@ -188,9 +191,9 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
         if len(t["calibration_phase"]):
             _phase_runs(lab, t["calibration_phase"])
         if len(t["spectra"]):
-            _spectra(lab, False, 240.0)
+            write_spectra_runs(lab, False, 240.0)
         _gates(lab, itertools.count(max(lab.last or last_time, last_time) + _AFTER, 300.0))
-        text = _mapping_text(campaign, [n for n in _TABLES if len(t[n])], tmp)
+        text = _mapping_text(campaign, [n for n in CAMPAIGN_TABLES if len(t[n])], tmp)
         (tmp / "mapping.toml").write_text(text)
     return out / "mapping.toml"
 
@@ -198,7 +201,7 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
 def read_campaign_tables(folder) -> tuple:
     """(tables, campaign.json) of a campaign folder (tables it lacks are left out)."""
     folder = Path(folder)
-    tables = {t: pd.read_csv(folder / f"{t}.csv", comment="#") for t in _TABLES
+    tables = {t: pd.read_csv(folder / f"{t}.csv", comment="#") for t in CAMPAIGN_TABLES
               if (folder / f"{t}.csv").is_file()}
     return tables, json.loads((folder / "campaign.json").read_text())
 

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,
-                                             write_results_file)
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets,
+                                                  write_results_file)
 
 #: start time of the first run (seconds since the epoch)
 T0 = 1.76e9

@@ -63,6 +63,8 @@ from functools import cache
 
 import numpy as np
 
+from dpdfit.models.fidelity import calibrate_g, phase_space
+
 __all__ = ["DEPHASING_COEFFICIENT", "heating_coefficient", "preparation_loss", "dephasing_loss",
            "heating_loss", "detection_loss"]
 
@@ -76,7 +78,6 @@ def heating_coefficient(n_grid: int = 20001) -> float:
     ``alpha`` is the engine's displacement per unit ``S_y`` (``S_y`` eigenvalues
     +-2), i.e. half the :mod:`dpdfit.models.fidelity` displacement, ``|alpha|^2 = R^2/8``.
     """
-    from dpdfit.models.fidelity import calibrate_g, phase_space
     n = np.array([1, 2])
     r = np.array([1.0, -1.0]) / np.sqrt(1.5)
     x = np.linspace(0.0, 2 * np.pi, n_grid)

@@ -39,6 +39,7 @@ from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 from dpdfit.fits.calibration.shared import (frozen_array, gaussian_ic, json_float,
                                             nonmonotone_intervals, run_source, vander)
+from dpdfit.fits.lmfit_export import amplitude_parameters, amplitude_report
 from dpdfit.fits.polyfit import polyfit
 from dpdfit.recordings.calibration_runs import CalibrationData
 from dpdfit.recordings.repeats import check_duplicates
@@ -214,12 +215,10 @@ class AmplitudeCalibration(ModelAdequacy, Displayable):
         ``raw=True`` the ``b_k``; ``stderr`` and ``correl`` are dpdfit's (absolute with given
         sigmas; lmfit's ``scale_covar`` rescaling is not applied).  See
         :mod:`dpdfit.fits.lmfit_export`."""
-        from dpdfit.fits.lmfit_export import amplitude_parameters
         return amplitude_parameters(self, raw)
 
     def fit_report(self, raw: bool = False, **kws) -> str:
         """:func:`lmfit.fit_report` of :meth:`to_lmfit` with this fit's statistics."""
-        from dpdfit.fits.lmfit_export import amplitude_report
         return amplitude_report(self, raw, **kws)
 
 

@@ -23,6 +23,7 @@ from dpdfit.core.defaults import PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 from dpdfit.fits.calibration.shared import frozen_array, json_float, run_source, vander
+from dpdfit.fits.lmfit_export import phase_parameters, phase_report
 from dpdfit.fits.polyfit import polyfit
 from dpdfit.recordings.calibration_runs import CalibrationData
 from dpdfit.recordings.repeats import check_duplicates
@@ -143,12 +144,10 @@ class PhaseCalibration(ModelAdequacy, Displayable):
         """The fit as ``lmfit.Parameters`` ``b_1 .. b_K`` (rad) with ``stderr`` and ``correl``;
         dpdfit's errors (absolute with given sigmas; lmfit's ``scale_covar`` rescaling is not
         applied).  See :mod:`dpdfit.fits.lmfit_export`."""
-        from dpdfit.fits.lmfit_export import phase_parameters
         return phase_parameters(self)
 
     def fit_report(self, **kws) -> str:
         """:func:`lmfit.fit_report` of :meth:`to_lmfit` with this fit's statistics."""
-        from dpdfit.fits.lmfit_export import phase_report
         return phase_report(self, **kws)
 
 

@@ -29,8 +29,8 @@ The readers of the count files are :func:`dpdfit.recordings.counts.read_populati
 and :func:`dpdfit.recordings.counts.read_parity`.
 """
 
-from ._common import LEVEL_1SIGMA
 from .gates import GATE_COLUMNS, combined_fidelity, gate_fidelities
+from .levels import LEVEL_1SIGMA
 from .parity_fit import ParityFit, fit_parity
 from .parity_intervals import BOUNDARY_SIGMAS, HESSIAN_FD_STEP, parity_information
 from .pooling import merge_parity, pool_populations

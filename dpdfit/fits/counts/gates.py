@@ -16,10 +16,11 @@ from scipy import stats
 
 from dpdfit.errors import FitError, InputError
 from dpdfit.recordings.counts import PHASE_GRID_RAD, fringe_points, setting_label
+from dpdfit.recordings.tables import table_source
 
 from .parity_fit import ParityFit, fit_parity
-from .pooling import _source, merge_parity, pool_populations
-from .population import PopulationFidelity, _interval_name, population_fidelity
+from .pooling import merge_parity, pool_populations
+from .population import PopulationFidelity, interval_method, population_fidelity
 
 __all__ = ["GATE_COLUMNS", "SCAN_CONSISTENCY_ALPHA", "combined_fidelity", "gate_fidelities"]
 
@@ -135,7 +136,7 @@ def gate_fidelities(populations_df: pd.DataFrame, parity_df: pd.DataFrame,
         A setting present in one table but not the other, bad columns, fewer
         than 3 distinct phases in a setting.
     """
-    method = _interval_name(interval)
+    method = interval_method(interval)
     pop = pool_populations(populations_df)
     par = merge_parity(parity_df, grid=grid)
     _check_same_settings(pop, par, populations_df, parity_df)
@@ -163,12 +164,12 @@ def _check_same_settings(pop, par, populations_df, parity_df):
     missing = sorted(pop_keys - par_keys)
     if missing:
         raise InputError(f"setting {setting_label(*missing[0])} has populations but no parity "
-                         "scans (a Bell fidelity needs both)", file=_source(parity_df))
+                         "scans (a Bell fidelity needs both)", file=table_source(parity_df))
     missing = sorted(par_keys - pop_keys)
     if missing:
         raise InputError(f"setting {setting_label(*missing[0])} has parity scans but no "
                          "populations (a Bell fidelity needs both)",
-                         file=_source(populations_df))
+                         file=table_source(populations_df))
 
 
 def _scan_labels(df) -> dict:
@@ -200,7 +201,7 @@ def _fit_setting(key, r, grid, parity_df) -> ParityFit:
     if fringe_points(r["phase_rad"].to_numpy(), tol=grid / 2) < 3:
         raise InputError(f"setting {setting_label(*key)} has fewer than 3 distinct "
                          "analysis phases (modulo pi); a fringe fit needs at least 3",
-                         file=_source(parity_df), column="phase_rad")
+                         file=table_source(parity_df), column="phase_rad")
     try:
         return fit_parity(r["phase_rad"].to_numpy(), r["n_even"].to_numpy(),
                           r["shots"].to_numpy())
@@ -230,7 +231,7 @@ def _scan_tests(key, fit, r, scan_A, parity_df):
                                 keep["shots"].to_numpy()).nll
     lr, lr_dof, lr_p = _scan_lrt(scan_A, pooled_nll)
     if lr_p < SCAN_CONSISTENCY_ALPHA:
-        src = _source(parity_df)
+        src = table_source(parity_df)
         log.warning("%ssetting %s: its %d parity scans do not share one fringe "
                     "(likelihood ratio %.1f for %d dof, p = %.2g): pooled F_par_err "
                     "understates the scatter", f"{src}: " if src else "",

@@ -31,12 +31,20 @@ from dpdfit.core.display import Displayable
 from dpdfit.errors import FitError, InputError
 from dpdfit.recordings.counts import fringe_points
 
-from ._common import LEVEL_1SIGMA, _check_level, _readonly, _to_dict
-from .parity_intervals import _contrast_errors, _fisher_error
-from .parity_likelihood import _Data
-from .parity_optimiser import _optimise
+from .levels import LEVEL_1SIGMA, check_level
+from .parity_intervals import contrast_errors, fisher_error
+from .parity_likelihood import FringeCounts
+from .parity_optimiser import optimise
 
 __all__ = ["ParityFit", "fit_parity"]
+
+
+def _readonly(a):
+    if a is None:
+        return None
+    arr = np.array(a, dtype=float, copy=True)
+    arr.setflags(write=False)
+    return arr
 
 
 @dataclass(frozen=True, repr=False)
@@ -134,7 +142,7 @@ class ParityFit(Displayable):
 
     def to_dict(self) -> dict:
         """Plain-python (JSON-serialisable) copy of the fields (NaN stays NaN)."""
-        out = _to_dict(self)
+        out = super().to_dict()
         out["F_par"] = self.F_par
         return out
 
@@ -249,7 +257,7 @@ def fit_parity(phases, n_even, shots, level: float = LEVEL_1SIGMA) -> ParityFit:
     >>> round(r.A, 2), round(r.phi0, 2), r.method
     (0.9, 0.3, 'hessian')
     """
-    level = _check_level(level)
+    level = check_level(level)
     phases, k, n = _validate_parity(phases, n_even, shots)
     if phases.size < 2 or fringe_points(phases, period=math.pi / 2) < 2:
         raise FitError(
@@ -257,12 +265,12 @@ def fit_parity(phases, n_even, shots, level: float = LEVEL_1SIGMA) -> ParityFit:
             "(phases equal modulo pi/2: 2*phi equal modulo pi, where the fringe only flips "
             "sign), so the contrast A and the phase offset phi0 cannot be separated; scan the "
             "analysis phase over at least 3 distinct values that are not pi/2 apart")
-    d = _Data(phases, k, n)
-    a, b, f_min, converged, iterations, on_boundary = _optimise(d)
+    d = FringeCounts(phases, k, n)
+    a, b, f_min, converged, iterations, on_boundary = optimise(d)
     A = 1.0 if on_boundary else min(math.hypot(a, b), 1.0)
     phi0 = _wrap(math.atan2(-b, a))
-    A_err_fisher, fisher_note = _fisher_error(d, A, phi0)   # cross-check
-    err = _contrast_errors(d, A, phi0, f_min, level, on_boundary, A_err_fisher)
+    A_err_fisher, fisher_note = fisher_error(d, A, phi0)   # cross-check
+    err = contrast_errors(d, A, phi0, f_min, level, on_boundary, A_err_fisher)
     return ParityFit(A=A, A_err=err.A_err, A_err_fisher=A_err_fisher, phi0=phi0,
                      phi0_err=err.phi0_err, covariance=err.covariance, A_lo=err.A_lo,
                      A_hi=err.A_hi, method=err.method,

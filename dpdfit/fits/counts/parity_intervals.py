@@ -33,11 +33,12 @@ import numpy as np
 
 from dpdfit.errors import FitError, InputError
 
-from ._common import _z
-from .parity_likelihood import _boundary_derivs, _Data, _dnll_dA, _nll_polar, _phi_derivs
-from .parity_optimiser import _boundary_solve
+from .levels import normal_quantile
+from .parity_likelihood import FringeCounts, boundary_derivs, dnll_dA, nll_polar, phi_derivs
+from .parity_optimiser import boundary_minimum
 
-__all__ = ["HESSIAN_FD_STEP", "BOUNDARY_SIGMAS", "parity_information"]
+__all__ = ["HESSIAN_FD_STEP", "BOUNDARY_SIGMAS", "parity_information", "ContrastErrors",
+           "contrast_errors", "fisher_error"]
 
 #: Finite-difference step of the Hessian of -lnL in (A, phi0) (as the paper).
 HESSIAN_FD_STEP = 1e-5
@@ -46,11 +47,11 @@ BOUNDARY_SIGMAS = 3.0
 
 
 # --- derivatives in (A, phi0) ---------------------------------------------------
-def _fd_hessian(d: _Data, A: float, phi0: float, h: float = HESSIAN_FD_STEP):
+def _fd_hessian(d: FringeCounts, A: float, phi0: float, h: float = HESSIAN_FD_STEP):
     """Central finite-difference Hessian of -lnL in (A, phi0), step h (9 evaluations)."""
     dA = np.array([0, 1, -1, 0, 0, 1, 1, -1, -1]) * h
     dp = np.array([0, 0, 0, 1, -1, 1, -1, 1, -1]) * h
-    f = _nll_polar(d, A + dA, phi0 + dp)
+    f = nll_polar(d, A + dA, phi0 + dp)
     if not np.all(np.isfinite(f)):
         return None
     haa = (f[1] - 2 * f[0] + f[2]) / h ** 2
@@ -90,7 +91,7 @@ def parity_information(phases, shots, A, phi0) -> np.ndarray:
     return info
 
 
-def _profile_at(d: _Data, A: float, phi_start: float):
+def _profile_at(d: FringeCounts, A: float, phi_start: float):
     """min over phi0 of -lnL at fixed A: ``(nll, phi0, dnll/dA)``.
 
     Newton's method in phi0 from ``phi_start`` (the optimum's phase, or the
@@ -99,14 +100,14 @@ def _profile_at(d: _Data, A: float, phi_start: float):
     is exact to ~1e-14 relative).
     """
     if A >= 1.0:
-        sol = _boundary_solve(d, phi_start)
+        sol = boundary_minimum(d, phi_start)
         if sol is None:
             return math.inf, phi_start, 0.0
         return sol[1], sol[0], sol[2]
     if A <= 0.0:
-        return float(d.n.sum() * math.log(2.0)), phi_start, _dnll_dA(d, 0.0, phi_start)
+        return float(d.n.sum() * math.log(2.0)), phi_start, dnll_dA(d, 0.0, phi_start)
     x = phi_start
-    f, d1, d2 = _phi_derivs(d, A, x)
+    f, d1, d2 = phi_derivs(d, A, x)
     for _ in range(100):
         step = -d1 / d2 if d2 > 0 else -math.copysign(0.1, d1)
         step = max(-0.5, min(0.5, step))
@@ -116,12 +117,12 @@ def _profile_at(d: _Data, A: float, phi_start: float):
         t = 1.0
         slack = 64 * np.finfo(float).eps * abs(f)        # rounding level of -lnL
         while True:
-            fn, d1n, d2n = _phi_derivs(d, A, x + t * step)
+            fn, d1n, d2n = phi_derivs(d, A, x + t * step)
             if fn <= f + 1e-4 * t * step * d1 + slack or t < 1e-10:
                 break
             t *= 0.5
         x, f, d1, d2 = x + t * step, fn, d1n, d2n
-    return f, x, _dnll_dA(d, A, x)
+    return f, x, dnll_dA(d, A, x)
 
 
 def _profile_root(d, target, A_in, A_out, f_out, phi_out, dfdA_out):
@@ -150,7 +151,7 @@ def _profile_root(d, target, A_in, A_out, f_out, phi_out, dfdA_out):
     return float(x)
 
 
-def _profile_interval(d: _Data, A_hat, phi_hat, f_min, level, scale):
+def _profile_interval(d: FringeCounts, A_hat, phi_hat, f_min, level, scale):
     """Profile-likelihood interval of A at ``level`` (2 Delta(-lnL) <= z^2), clipped to [0, 1].
 
     The profile ``P(A) = min_phi0 -lnL(A, phi0)`` is non-increasing below
@@ -158,7 +159,7 @@ def _profile_interval(d: _Data, A_hat, phi_hat, f_min, level, scale):
     is a single crossing: bracketed by steps of 1.5, 3, 6, ... ``scale``
     from the MLE, then solved by safeguarded Newton.
     """
-    target = f_min + 0.5 * _z(level) ** 2
+    target = f_min + 0.5 * normal_quantile(level) ** 2
     step0 = 1.5 * max(scale, 1e-6)
     # lower end
     if float(d.n.sum() * math.log(2.0)) <= target:      # -lnL at A = 0
@@ -197,7 +198,7 @@ def _profile_interval(d: _Data, A_hat, phi_hat, f_min, level, scale):
 
 
 # --- the boundary policy -----------------------------------------------------------
-class _ContrastErrors(NamedTuple):
+class ContrastErrors(NamedTuple):
     """Errors of (A, phi0) by the method the boundary policy chose."""
 
     method: str                     # "hessian" or "profile"
@@ -210,7 +211,7 @@ class _ContrastErrors(NamedTuple):
     reasons: list                   # why the profile was used (empty for the Hessian)
 
 
-def _fisher_error(d: _Data, A: float, phi0: float):
+def fisher_error(d: FringeCounts, A: float, phi0: float):
     """``(sqrt([I^-1]_AA), note)`` from the expected information at the optimum.
 
     The error is NaN, and ``note`` says why, when the information is infinite
@@ -232,7 +233,7 @@ def _fisher_error(d: _Data, A: float, phi0: float):
                           else "Fisher information singular (A = 0?)")
 
 
-def _hessian_errors(d: _Data, A: float, phi0: float):
+def _hessian_errors(d: FringeCounts, A: float, phi0: float):
     """The paper's errors from the finite-difference Hessian.
 
     Returns ``(H, cov, A_err, phi0_err, problem)``; ``cov`` is None and the
@@ -268,24 +269,24 @@ def _profile_reasons(A: float, A_err_h: float, on_boundary: bool, problem) -> li
     return reasons
 
 
-def _contrast_errors(d: _Data, A: float, phi0: float, f_min: float, level: float,
-                     on_boundary: bool, A_err_fisher: float) -> _ContrastErrors:
+def contrast_errors(d: FringeCounts, A: float, phi0: float, f_min: float, level: float,
+                     on_boundary: bool, A_err_fisher: float) -> ContrastErrors:
     """Errors and interval of A at the optimum, by the boundary policy (module docstring)."""
-    z = _z(level)
+    z = normal_quantile(level)
     Hfd, cov, A_err_h, phi0_err_h, problem = _hessian_errors(d, A, phi0)
     reasons = _profile_reasons(A, A_err_h, on_boundary, problem)
     if not reasons:
         A_lo, A_hi = max(A - z * A_err_h, 0.0), min(A + z * A_err_h, 1.0)
-        return _ContrastErrors("hessian", A_err_h, phi0_err_h, A_lo, A_hi, cov, Hfd, reasons)
+        return ContrastErrors("hessian", A_err_h, phi0_err_h, A_lo, A_hi, cov, Hfd, reasons)
     scale = next((s for s in (A_err_h, A_err_fisher) if np.isfinite(s) and s > 0),
                  0.5 / math.sqrt(d.n.sum()))
     A_lo, A_hi = _profile_interval(d, A, phi0, f_min, level, scale)
     A_err = max(A - A_lo, A_hi - A) / z
     if on_boundary:
-        _, d2, _ = _boundary_derivs(d, phi0)
+        _, d2, _ = boundary_derivs(d, phi0)
     else:
-        _, _, d2 = _phi_derivs(d, A, phi0)
+        _, _, d2 = phi_derivs(d, A, phi0)
     phi0_err = 1.0 / math.sqrt(d2) if d2 > 0 else math.inf
     if not A_err > 0:                             # cannot happen for finite data; guard
         raise FitError("profile-likelihood interval of A has zero width")
-    return _ContrastErrors("profile", A_err, phi0_err, A_lo, A_hi, None, Hfd, reasons)
+    return ContrastErrors("profile", A_err, phi0_err, A_lo, A_hi, None, Hfd, reasons)

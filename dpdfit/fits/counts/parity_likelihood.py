@@ -19,11 +19,13 @@ import math
 
 import numpy as np
 
-__all__: list[str] = []
+__all__ = ["FringeCounts", "nll_polar", "nll_ab", "grad_hess_ab", "boundary_poles",
+           "boundary_derivs", "phi_derivs", "dnll_dA"]
 
 
-class _Data:
-    """Fit data: fringe angles theta = 2 phi, cos/sin, even/odd counts."""
+class FringeCounts:
+    """A parity fringe's counts as the likelihood reads them: fringe angles theta = 2 phi,
+    their cos/sin, even/odd counts."""
 
     __slots__ = ("theta", "c", "s", "k", "m", "n", "kpos", "mpos")
 
@@ -45,7 +47,7 @@ def _xlog(coef, x):
     return np.where(coef == 0, 0.0, out)
 
 
-def _nll_polar(d: _Data, A, phi0):
+def nll_polar(d: FringeCounts, A, phi0):
     """-lnL at (A, phi0); arrays broadcast against the data's last axis.
 
     +inf outside the domain (a p_i <= 0 or >= 1 against its counts, or p_i
@@ -61,7 +63,7 @@ def _nll_polar(d: _Data, A, phi0):
     return np.where(bad | np.isnan(val), np.inf, val)
 
 
-def _nll_ab(d: _Data, a, b) -> float:
+def nll_ab(d: FringeCounts, a, b) -> float:
     """-lnL at (a, b); +inf outside the domain.  Rounding below 0 (< 1e-13) counts as 0."""
     t = a * d.c + b * d.s
     p = 0.5 * (1.0 + t)
@@ -76,7 +78,7 @@ def _nll_ab(d: _Data, a, b) -> float:
     return val if not math.isnan(val) else math.inf
 
 
-def _grad_hess_ab(d: _Data, a, b):
+def grad_hess_ab(d: FringeCounts, a, b):
     """Gradient and Hessian of -lnL in (a, b).
 
     Terms with a zero count contribute nothing also where their p is 0.
@@ -103,14 +105,14 @@ def _grad_hess_ab(d: _Data, a, b):
 
 
 # --- the circle A = 1 --------------------------------------------------------
-def _boundary_poles(d: _Data) -> np.ndarray:
+def boundary_poles(d: FringeCounts) -> np.ndarray:
     """Sorted phi0 values in [0, 2pi) where -lnL(A = 1, phi0) has a pole."""
     poles = np.concatenate([np.mod(math.pi - d.theta[d.kpos], 2 * math.pi),
                             np.mod(-d.theta[d.mpos], 2 * math.pi)])
     return np.unique(poles)
 
 
-def _boundary_derivs(d: _Data, phi0: float):
+def boundary_derivs(d: FringeCounts, phi0: float):
     """d/dphi0 and d2/dphi0^2 of -lnL(A = 1, phi0) and d(-lnL)/dA at A = 1."""
     h = 0.5 * (d.theta + phi0)                    # u/2
     ch, sh = np.cos(h), np.sin(h)
@@ -128,7 +130,7 @@ def _boundary_derivs(d: _Data, phi0: float):
 
 
 # --- at fixed A -------------------------------------------------------------------
-def _phi_derivs(d: _Data, A: float, phi0: float):
+def phi_derivs(d: FringeCounts, A: float, phi0: float):
     """-lnL and its first two phi0-derivatives at fixed 0 < A < 1."""
     u = d.theta + phi0
     cu, su = np.cos(u), np.sin(u)
@@ -145,6 +147,7 @@ def _phi_derivs(d: _Data, A: float, phi0: float):
     return f, d1, d2
 
 
-def _dnll_dA(d: _Data, A: float, phi0: float) -> float:
+def dnll_dA(d: FringeCounts, A: float, phi0: float) -> float:
+    """d(-lnL)/dA at (A, phi0), |A| < 1."""
     cu = np.cos(d.theta + phi0)
     return -float((d.k * cu) @ (1 / (1 + A * cu)) - (d.m * cu) @ (1 / (1 - A * cu)))

@@ -35,10 +35,10 @@ import math
 
 import numpy as np
 
-from .parity_likelihood import (_boundary_derivs, _boundary_poles, _Data, _grad_hess_ab, _nll_ab,
-                                _nll_polar)
+from .parity_likelihood import (FringeCounts, boundary_derivs, boundary_poles, grad_hess_ab,
+                                nll_ab, nll_polar)
 
-__all__: list[str] = []
+__all__ = ["optimise", "boundary_minimum"]
 
 _NEWTON_TOL = 1e-14         # model decrease -g.s (Newton decrement^2) at convergence
 _MAX_NEWTON = 100
@@ -90,14 +90,14 @@ def _disk_step(x, g, H):
 
 
 # --- the circle A = 1 --------------------------------------------------------
-def _boundary_solve(d: _Data, phi_start: float):
+def boundary_minimum(d: FringeCounts, phi_start: float):
     """Minimum of -lnL on the circle A = 1 in the pole-free arc containing phi_start.
 
     Returns ``(phi0, nll, dnll_dA)`` or None when the arc is degenerate.
     Between poles -lnL(phi0) is strictly convex and its derivative runs
     from -inf to +inf, so a bracketed Newton iteration finds the minimum.
     """
-    poles = _boundary_poles(d)
+    poles = boundary_poles(d)
     x = phi_start % (2 * math.pi)
     j = int(np.searchsorted(poles, x, side="right"))
     lo = poles[j - 1] if j > 0 else poles[-1] - 2 * math.pi
@@ -107,7 +107,7 @@ def _boundary_solve(d: _Data, phi_start: float):
     if not hi - lo > 1e-12:
         return None
     for _ in range(200):
-        d1, d2, _ = _boundary_derivs(d, x)
+        d1, d2, _ = boundary_derivs(d, x)
         if d1 > 0:
             hi = min(hi, x)
         else:
@@ -120,12 +120,12 @@ def _boundary_solve(d: _Data, phi_start: float):
             x = xn
             break
         x = xn
-    _, _, dA = _boundary_derivs(d, x)
-    return x, float(_nll_polar(d, 1.0, x)), dA
+    _, _, dA = boundary_derivs(d, x)
+    return x, float(nll_polar(d, 1.0, x)), dA
 
 
 # --- the optimiser -------------------------------------------------------------
-def _start(d: _Data):
+def _start(d: FringeCounts):
     """Weighted linear least squares of the parity 2 k/n - 1 on (cos, sin)."""
     y = 2.0 * d.k / d.n - 1.0
     w = d.n
@@ -140,7 +140,7 @@ def _start(d: _Data):
     return float(a), float(b)
 
 
-def _optimise(d: _Data):
+def optimise(d: FringeCounts):
     """MLE of (a, b) on the disk a^2 + b^2 <= 1 (convex problem).
 
     Newton steps whose quadratic model is minimised *on the disk*
@@ -155,18 +155,18 @@ def _optimise(d: _Data):
     """
     a, b = _start(d)
     x = np.array([a, b])
-    f = _nll_ab(d, a, b)
+    f = nll_ab(d, a, b)
     converged = False
     it = 0
     for it in range(1, _MAX_NEWTON + 1):
-        g, H = _grad_hess_ab(d, x[0], x[1])
+        g, H = grad_hess_ab(d, x[0], x[1])
         s = _disk_step(x, g, H)
         dec = float(-(g @ s))
         resolution = 64 * np.finfo(float).eps * max(1.0, abs(f))
         if not dec > max(_NEWTON_TOL, resolution):
             # the quadratic model is exact to rounding here: take the last full step
             xn = x + s
-            fn = _nll_ab(d, xn[0], xn[1])
+            fn = nll_ab(d, xn[0], xn[1])
             if fn <= f + resolution:
                 x, f = xn, fn
             converged = True
@@ -174,7 +174,7 @@ def _optimise(d: _Data):
         t = 1.0
         while True:
             xn = x + t * s
-            fn = _nll_ab(d, xn[0], xn[1])
+            fn = nll_ab(d, xn[0], xn[1])
             if fn <= f - 1e-4 * t * dec:
                 break
             t *= 0.5
@@ -187,7 +187,7 @@ def _optimise(d: _Data):
     a, b = float(x[0]), float(x[1])
     on_boundary = False
     if a * a + b * b > (1.0 - 1e-9) ** 2:
-        sol = _boundary_solve(d, math.atan2(-b, a))
+        sol = boundary_minimum(d, math.atan2(-b, a))
         if sol is not None and np.isfinite(sol[1]) and sol[1] <= f + 1e-12 * max(1.0, abs(f)) \
                 and sol[2] <= 0:
             phi_b, f, _ = sol

@@ -19,18 +19,16 @@ import pandas as pd
 
 from dpdfit.errors import InputError
 from dpdfit.recordings.counts import PHASE_GRID_RAD, check_counts, grid_keys
+from dpdfit.recordings.tables import table_source
 
 __all__ = ["pool_populations", "merge_parity"]
-
-
-def _source(df):
-    return df.attrs.get("source") if hasattr(df, "attrs") else None
 
 
 def _require(df, cols, what):
     for c in cols:
         if c not in df.columns:
-            raise InputError(f"{what}: required column is missing", file=_source(df), column=c)
+            raise InputError(f"{what}: required column is missing", file=table_source(df),
+                             column=c)
 
 
 def _check_frame(df, counts, extra_finite=()):
@@ -39,7 +37,7 @@ def _check_frame(df, counts, extra_finite=()):
     Rows are reported as the DataFrame's position + 1 (= the data row of a
     file read by :func:`read_populations` / :func:`read_parity`).
     """
-    file = _source(df)
+    file = table_source(df)
     for c in ["A", *extra_finite]:
         arr = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
         bad = ~np.isfinite(arr)
@@ -71,12 +69,12 @@ def pool_populations(df: pd.DataFrame) -> pd.DataFrame:
         ``n01_10``, ``n11``), one row per setting, sorted by ``dpd`` then ``A``.
     """
     if "n_even" not in df.columns and all(c in df.columns for c in ("n00", "n01_10", "n11")):
-        src_name = _source(df)
+        src_name = table_source(df)
         df = df.assign(n_even=df["n00"] + df["n11"])
         df.attrs["source"] = src_name
     _require(df, ["A", "dpd", "n_even", "shots"], "populations")
     if len(df) == 0:
-        raise InputError("populations table has no rows", file=_source(df))
+        raise InputError("populations table has no rows", file=table_source(df))
     _check_frame(df, ["n_even"] + [c for c in ("n00", "n01_10", "n11") if c in df.columns])
     extra = [c for c in ("n00", "n01_10", "n11") if c in df.columns]
     agg = {"n_even": ("n_even", "sum"), "shots": ("shots", "sum")}
@@ -112,7 +110,7 @@ def merge_parity(df: pd.DataFrame, grid: float = PHASE_GRID_RAD) -> pd.DataFrame
     """
     _require(df, ["A", "dpd", "phase_rad", "n_even", "shots"], "parity")
     if len(df) == 0:
-        raise InputError("parity table has no rows", file=_source(df))
+        raise InputError("parity table has no rows", file=table_source(df))
     _check_frame(df, ["n_even"], extra_finite=["phase_rad"])
     grid = float(grid)
     if not grid > 0:

@@ -28,9 +28,9 @@ from scipy import stats
 from dpdfit.core.display import Displayable
 from dpdfit.errors import InputError
 
-from ._common import LEVEL_1SIGMA, _check_level, _to_dict, _z
+from .levels import LEVEL_1SIGMA, check_level, normal_quantile
 
-__all__ = ["PopulationFidelity", "population_fidelity"]
+__all__ = ["PopulationFidelity", "population_fidelity", "interval_method"]
 
 
 @dataclass(frozen=True, repr=False)
@@ -67,7 +67,7 @@ class PopulationFidelity(Displayable):
 
     def to_dict(self) -> dict:
         """Plain-python (JSON-serialisable) copy of the fields."""
-        return _to_dict(self)
+        return super().to_dict()
 
     def report(self) -> str:
         """Readable one-block report."""
@@ -101,7 +101,7 @@ def _binomial_interval(k, n, level: float, method: str):
     n = np.asarray(n, dtype=float)
     alpha = 1.0 - level
     if method == "wilson":
-        z = _z(level)
+        z = normal_quantile(level)
         z2 = z * z
         centre = (k + z2 / 2) / (n + z2)
         half = z * np.sqrt(k * (n - k) / n + z2 / 4) / (n + z2)
@@ -118,7 +118,9 @@ def _binomial_interval(k, n, level: float, method: str):
     return np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
 
 
-def _interval_name(interval: str) -> str:
+def interval_method(interval: str) -> str:
+    """The binomial interval method ``"wilson"`` or ``"clopper-pearson"`` named by ``interval``
+    (case, ``_`` and spaces aside; ``"cp"`` and ``"exact"`` mean Clopper-Pearson)."""
     key = str(interval).lower().replace("_", "-").replace(" ", "-")
     aliases = {"wilson": "wilson", "clopper-pearson": "clopper-pearson", "cp": "clopper-pearson",
                "exact": "clopper-pearson"}
@@ -166,8 +168,8 @@ def population_fidelity(n_even, shots, interval: str = "wilson",
         raise InputError("shots must be > 0 (a setting with no shots)")
     if k > n:
         raise InputError(f"n_even = {k} exceeds shots = {n}")
-    method = _interval_name(interval)
-    level = _check_level(level)
+    method = interval_method(interval)
+    level = check_level(level)
     F = k / n
     err = math.sqrt(F * (1 - F) / n)
     lo, hi = _binomial_interval(k, n, level, method)

@@ -31,6 +31,7 @@ Modules (each documents the method it implements)
 ``spam``         preparation branches and their mixing, detection confusion
 ``setting``      measured probabilities of one setting (:func:`simulate_setting`)
 ``results``      :class:`SettingProbabilities`, :class:`SampledCounts`
+``arguments``    the argument checks the modules share (InputError on bad input)
 """
 
 from .dephasing import accumulated_dephasing, dephase_coherences

@@ -74,7 +74,7 @@ import numpy as np
 from dpdfit.core.defaults import ETA_LD
 from dpdfit.errors import InputError
 
-from ._validate import check_tones, positive
+from .arguments import check_tones, positive
 
 __all__ = ["ETA", "field_amplitudes", "calibrate_xi0", "Drive"]
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from dpdfit.errors import InputError
 
-from ._validate import check_times, check_tones, positive
+from .arguments import check_times, check_tones, positive
 from .dephasing import profile_rates
 from .drive import Drive
 from .fock import thermal_weights

@@ -21,7 +21,7 @@ import math
 import numpy as np
 from scipy.linalg import expm
 
-from ._validate import check_tones, positive
+from .arguments import check_tones, positive
 
 __all__ = ["THERMAL_TAIL", "thermal_levels", "thermal_weights", "displacement_bound",
            "fock_cutoff"]

@@ -15,7 +15,7 @@ import numpy as np
 from dpdfit.core.defaults import ERROR_MODEL, NBAR
 from dpdfit.errors import InputError
 
-from ._validate import check_times, positive
+from .arguments import check_times, positive
 from .evolve import evolve, evolve_lindblad
 from .results import SettingProbabilities
 from .spam import (branch_states, confusion, detection_errors, mixed_outcomes,

@@ -23,7 +23,7 @@ import numpy as np
 
 from dpdfit.core.memory import ENGINE_BYTES_PER_AMPLITUDE, check_memory
 
-from ._validate import check_times, positive
+from .arguments import check_times, positive
 from .fock import displacement_bound, fock_cutoff, thermal_levels
 
 __all__ = ["EngineSize", "engine_size", "check_engine_size", "setting_size"]

@@ -20,7 +20,7 @@ import numpy as np
 
 from dpdfit.errors import InputError
 
-from ._validate import probability
+from .arguments import probability
 from .dephasing import dephase_coherences
 from .evolve import evolve, evolve_lindblad
 

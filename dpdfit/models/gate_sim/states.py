@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import check_tones, positive
+from .arguments import check_tones, positive
 from .drive import calibrate_xi0
 from .evolve import evolve
 

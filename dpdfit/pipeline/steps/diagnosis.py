@@ -6,6 +6,9 @@ missing physics (:mod:`dpdfit.analyses.diagnosis`).  -> ``diagnosis.json``.
 
 from __future__ import annotations
 
+from dpdfit.analyses.diagnosis.diagnose import diagnose
+from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
+
 from ..context import Context
 
 __all__ = ["diagnosis_step", "diagnosis_summary"]
@@ -23,8 +26,6 @@ def diagnosis_step(ctx: Context, fits=None):
     if not ctx.campaign.has("spectra.csv"):
         res.status("diagnosis", "skipped", "spectra.csv not found")
         return None
-    from dpdfit.analyses.diagnosis.diagnose import diagnose
-    from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
     order = int(ctx.meta["order"])
     d = diagnose(ctx.campaign, run_fits=None if fits is None else fits.amplitude_fits(order),
                  calibration=None if fits is None else fits.calibration,

@@ -1,12 +1,18 @@
-"""ndscan subscans: a scan inside every point of an outer scan, read as rows.
+"""One ndscan scan as read: its axes and result channels, point by point, and its subscans.
 
-ndscan's ``setattr_subscan`` (``ndscan/experiment/subscan.py``) records a
+ndscan (``ndscan/experiment/entry_point.py``) stores every value in SI base units; a
+quantity's ``scale`` is the factor of the ``unit`` it is shown in (a time shown in
+``us`` has scale 1e-6 and is stored in seconds), so the shown value is ``stored /
+scale`` (:attr:`Quantity.shown`, :meth:`NdscanScan.points` with ``shown=True``).
+:mod:`.ndscan_roots` reads a scan from its root in a results file.
+
+Subscans.  ndscan's ``setattr_subscan`` (``ndscan/experiment/subscan.py``) records a
 subscan named ``<s>`` in its parent's result channels: ``<s>_axis_<i>`` (the
 inner coordinates, one array per outer point), ``<s>_channel_<name>`` (each
 inner result channel, one array per outer point) and ``<s>_spec`` (type
 ``subscan``: the inner scan's schema as JSON, with each axis's parameter spec
 and each channel's ``unit`` and ``scale``).  :func:`flatten_subscan` turns that
-into an ordinary :class:`~.artiq.NdscanScan` with one point per inner point:
+into an ordinary :class:`NdscanScan` with one point per inner point:
 the inner axes and channels first (named as the inner scan names them), then
 the outer scan's axes and channels, each outer value repeated for its inner
 points.  A name the inner scan and the outer one share is the inner one.
@@ -14,13 +20,114 @@ points.  A name the inner scan and the outer one share is the inner one.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
 import numpy as np
+import pandas as pd
 
 from dpdfit.errors import InputError
 
-from .artiq import NdscanScan, Quantity, spec_scale
+from .units import scale_from_metadata
 
-__all__ = ["flatten_subscan"]
+__all__ = ["Quantity", "NdscanScan", "spec_scale", "flatten_subscan"]
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One ndscan axis or result channel: its values as stored and how they are shown."""
+
+    name: str
+    dataset: str
+    values: np.ndarray
+    unit: str = ""
+    scale: float = 1.0
+    type: str = "float"
+    fqn: str | None = None
+    description: str = ""
+
+    @property
+    def shown(self) -> np.ndarray:
+        """The values in ``unit`` (stored / scale), as ndscan's applet shows them."""
+        return self.values / self.scale if self.values.dtype.kind in "fiu" else self.values
+
+
+@dataclass(frozen=True)
+class NdscanScan:
+    """One ndscan root: the scan's axes and result channels, point by point.
+
+    Read from a file, ``channels`` and ``subscans`` are read-only mappings whose
+    values are read on first access (:class:`~.lazy_mapping.LazyMapping`), and
+    ``declared_points`` gives each channel's ``(dataset, number of points)`` from the
+    shape its dataset declares."""
+
+    root: str
+    source_id: str | None
+    fragment_fqn: str | None
+    completed: bool | None
+    schema_revision: int | None
+    axes: tuple = ()
+    channels: Mapping = field(default_factory=dict)
+    subscans: Mapping = field(default_factory=dict)
+    declared_points: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def n_points(self) -> int:
+        """Number of scan points (length of the first axis, else of a channel; 0 if none)."""
+        q = self.axes[0] if self.axes else next(iter(self.channels.values()), None)
+        return 0 if q is None else len(q.values)
+
+    def point_counts(self) -> dict:
+        """``{dataset: number of points}`` of every axis and channel; a channel's from
+        ``declared_points`` when it names the channel (which is then not read: None
+        there leaves out a channel whose dataset is refused if it is used)."""
+        counts = {q.dataset: len(q.values) for q in self.axes}
+        for c in self.channels:
+            if c not in self.declared_points:
+                q = self.channels[c]
+                counts[q.dataset] = len(q.values)
+            elif self.declared_points[c] is not None:
+                counts.update([self.declared_points[c]])
+        return counts
+
+    def axis(self, name: str) -> Quantity:
+        """An axis by its short name (last part of the parameter's fqn) or its fqn."""
+        for a in self.axes:
+            if name in (a.name, a.fqn):
+                return a
+        raise KeyError(name)
+
+    def subscan(self, name: str, file: str | None = None) -> NdscanScan:
+        """Subscan ``name`` as a scan of its own: one point per inner point, the outer
+        point's axes and channels repeated (:func:`flatten_subscan`)."""
+        return flatten_subscan(self, name, file)
+
+    def channel(self, name: str) -> Quantity:
+        """A result channel by its name (KeyError if the scan has none of that name)."""
+        return self.channels[name]
+
+    def points(self, shown: bool = False) -> pd.DataFrame:
+        """One row per point: the axes, then the channels (a per-shot channel holds one
+        array per row).  Stored values, or with ``shown`` the values in each quantity's
+        unit; ``attrs["units"]`` gives ``{column: (unit, scale)}``."""
+        cols, units = {}, {}
+        for q in (*self.axes, *self.channels.values()):
+            v = q.shown if shown else q.values
+            cols[q.name] = list(v) if v.ndim > 1 else v
+            units[q.name] = (q.unit, q.scale)
+        df = pd.DataFrame(cols)
+        df.attrs["units"] = units
+        df.attrs["root"] = self.root
+        return df
+
+
+def spec_scale(spec: dict):
+    """The ``scale`` of an ndscan axis or channel spec.  ndscan always writes it,
+    defaulting it from the unit as ARTIQ does (``ndscan/experiment/parameters.py``,
+    ``result_channels.py``); a spec without one gets it the same way."""
+    if spec.get("scale") is None:
+        return scale_from_metadata({"unit": spec.get("unit") or ""})
+    return spec["scale"]
 
 
 def flatten_subscan(scan: NdscanScan, name: str, file: str | None = None) -> NdscanScan:

@@ -1,0 +1,152 @@
+"""A campaign's tables as the ndscan runs a lab records them, numbered and timed in order.
+
+:class:`NdscanLab` holds the tables and writes each run as an ARTIQ results file
+(:func:`~dpdfit.simulation.artiq_results_file.write_results_file`) with the next rid.
+The runs every layout shares: one per calibration run (:func:`write_calibration_runs`),
+the spectra (:func:`write_spectra_runs`), and the ndscan set's gate runs
+(:func:`write_ndscan_gate_runs`); :mod:`dpdfit.simulation.artiq_results` writes whole
+campaigns with them and :mod:`dpdfit.simulation.recorded_artiq` continues one.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from dpdfit.errors import DpdfitError
+from dpdfit.recordings.columns import CAMPAIGN_TABLES
+from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets, stored_in_si,
+                                                  write_results_file)
+
+__all__ = ["NdscanLab", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
+           "time_scan_runs", "count_channels", "write_ndscan_gate_runs"]
+
+
+def epoch(iso: str) -> float:
+    """The POSIX time of an ISO 8601 timestamp (a campaign's recording times)."""
+    return datetime.fromisoformat(iso).timestamp()
+
+
+class NdscanLab:
+    """A campaign's tables (``t``, name -> DataFrame; ``campaign``: its campaign.json), and
+    the runs written from them into ``out`` (``rid``: the last run's, in order)."""
+
+    def __init__(self, campaign_dir, out):
+        folder = Path(campaign_dir)
+        self.t = {n: pd.read_csv(folder / f"{n}.csv", comment="#") for n in CAMPAIGN_TABLES}
+        self.campaign = json.loads((folder / "campaign.json").read_text())
+        self.out, self.rid = Path(out), 0
+
+    def run(self, class_name, start, datasets, arguments=None, metadata=None):
+        """Write the next run (``rid + 1``) of experiment ``class_name``, started at
+        ``start`` (s since the epoch), as a results file in ``out``."""
+        self.rid += 1
+        write_results_file(self.out, self.rid, class_name, start, datasets, arguments=arguments,
+                           metadata=metadata)
+
+    def scan(self, fqn, start, axes, channels, arguments=None, overrides=None, repeats=1, **kw):
+        """An ndscan run of fragment ``fqn``; ``overrides``: parameter name -> value."""
+        rid = self.rid + 1
+        over = {f"{fqn}.{k}": [{"path": "*", "value": v}] for k, v in (overrides or {}).items()}
+        gens = [{"type": "list", "fqn": f"{fqn}.{a['name']}", "path": "*",
+                 "range": {"values": list(dict.fromkeys(a["values"].tolist()))}} for a in axes]
+        scan = {"axes": gens, "num_repeats": repeats, "randomise_order_globally": False}
+        params = {"instances": {"": [fqn]}, "scan": scan, "overrides": over}
+        ds = ndscan_datasets(rid, fqn, axes, channels, seed=rid * 7919 % 2**31, **kw)
+        self.run(fqn.rsplit(".", 1)[1], start, ds, {"ndscan_params": params, **(arguments or {})})
+
+
+
+def write_calibration_runs(lab: NdscanLab, percent: bool) -> None:
+    """One run per calibration run (amplitude runs first: rid = run number), at its timestamp;
+    with ``percent`` the amplitude calibration's axis is in % (if that round-trips exactly)."""
+    percent = percent and stored_in_si(lab.t["calibration_amplitude"]["A"], 100.0)[1] == 100.0
+    for table, fqn in (("calibration_amplitude", "lab.calib.AmplitudeCalibration"),
+                       ("calibration_phase", "lab.calib.PhaseCalibration")):
+        runs = lab.t[table].groupby("run", sort=False)
+        for label, rows in sorted(runs, key=lambda r: epoch(r[1]["timestamp"].iloc[0])):
+            ax = axis("amplitude", rows["A"].to_numpy(float))
+            if table == "calibration_amplitude":
+                if percent:
+                    ax = axis("amplitude", ax["values"] * 100.0, unit="%")
+                ch = {"pd_power": channel(rows["power"]),
+                      "pd_power_err": channel(rows["power_err"])}
+            else:
+                ch = {"phase": channel(rows["phase_rad"], "rad"),
+                      "phase_err": channel(rows["phase_err"], "rad")}
+            lab.scan(fqn, epoch(rows["timestamp"].iloc[0]), [ax], ch, {"label": label})
+
+
+def write_spectra_runs(lab: NdscanLab, per_amplitude: bool, step: float) -> None:
+    """One file per dpd (amplitude an axis, dpd an argument) or per (A, dpd) (amplitude an
+    argument, dpd a parameter override); axes sideband x order.  A spectrum recorded
+    again (repeated rows of a tone) is a further run, after the first: the import reads
+    the runs in that order, so the k-th row of a tone is again its k-th repeat."""
+    clock = itertools.count(epoch(lab.campaign["spectra_recorded"]), step)
+    cols = (("tone_power", "P_dB", "dB"), ("valid", "valid", ""), ("snr", "snr_db", "dB"))
+    sp = lab.t["spectra"]
+    rep = sp.groupby(["A", "dpd", "sideband", "n"], sort=False).cumcount().rename("_repeat")
+    keys = (["A", "dpd"] if per_amplitude else ["dpd"])
+    for key, rows in sp.groupby([sp[k] for k in keys] + [rep]):
+        key = key[:-1]
+        axes = [axis("sideband", (rows["sideband"] == "blue").to_numpy(np.int64)),
+                axis("order", rows["n"].to_numpy(np.int64))]
+        ch = {name: channel(rows[col], unit) for name, col, unit in cols if col in rows}
+        args, over = {"amplitude": float(key[0])}, {"dpd": int(key[-1])}
+        if not per_amplitude:
+            args, over = over, None
+            axes.insert(0, axis("amplitude", rows["A"].to_numpy(float)))
+        lab.scan("lab.spectra.HeterodyneSpectrum", next(clock), axes, ch, args, over)
+
+
+def duration_axis(rows: pd.DataFrame) -> dict:
+    """The time scan's axis ``duration`` of ``rows['t_us']``, stored in s when that is exact."""
+    stored, scale = stored_in_si(rows["t_us"], 1e-6)
+    return axis("duration", stored, unit="us", scale=scale)
+
+
+def time_scan_runs(lab: NdscanLab):
+    """The time scans, one run per (A, dpd) and repeat: a point recorded again (the same
+    ``A, dpd, t_us``) belongs to a further run, as a lab repeats a scan."""
+    ts = lab.t["time_scans"]
+    rep = ts.groupby(["A", "dpd", "t_us"], sort=False).cumcount().rename("_repeat")
+    return ts.groupby([ts["A"], ts["dpd"], rep])
+
+
+def count_channels(rows: pd.DataFrame, cols) -> dict:
+    """An integer result channel per count column ``cols`` of ``rows``."""
+    return {c: channel(rows[c].to_numpy(np.int64)) for c in cols}
+
+
+def write_ndscan_gate_runs(lab: NdscanLab) -> None:
+    """Set 1's gate runs: gate rates, populations per dpd, parity and time scans per (A, dpd)."""
+    clock = itertools.count(epoch(lab.campaign["gates_recorded"]), 300.0)
+    g, ch = lab.t["gate_rates"], {}
+    for name, col in (("xi0", "xi0_khz"), ("xi0_err", "xi0_err_khz")):
+        stored, scale = stored_in_si(g[col], 1e3)
+        ch[name] = channel(stored, "kHz", scale)
+    axes = [axis("amplitude", g["A"].to_numpy(float)), axis("dpd", g["dpd"].to_numpy(np.int64))]
+    lab.scan("lab.gates.GateRateCalibration", next(clock), axes, ch)
+    for dpd, rows in lab.t["populations"].groupby("dpd"):
+        rows = rows.sort_values(["scan", "A"], kind="stable")
+        lab.scan("lab.gates.PopulationScan", next(clock), [axis("amplitude", rows["A"])],
+                 count_channels(rows, ("n00", "n01_10", "n11", "n_even", "shots")),
+                 {"dpd": int(dpd)}, repeats=rows["scan"].nunique())
+    for (a, dpd), rows in lab.t["parity"].groupby(["A", "dpd"]):
+        rows = rows.sort_values("scan", kind="stable")
+        lab.scan("lab.gates.ParityScan", next(clock), [axis("phase", rows["phase_rad"], "rad")],
+                 count_channels(rows, ("n_even", "shots")),
+                 {"amplitude": float(a), "dpd": int(dpd)}, repeats=rows["scan"].nunique())
+    for (a, dpd, _), rows in time_scan_runs(lab):
+        if rows["shots"].nunique() != 1:
+            raise DpdfitError(f"time_scans: shots vary at A = {a}, dpd = {dpd}; "
+                              "the mapping expects them constant per (A, dpd)")
+        args = {"amplitude": float(a), "dpd": int(dpd), "num_shots": int(rows["shots"].iloc[0])}
+        lab.scan("lab.gates.TimeScan", next(clock), [duration_axis(rows)],
+                 count_channels(rows, ("n00", "n01_10", "n11")), args)
+
