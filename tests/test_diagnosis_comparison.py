@@ -17,6 +17,8 @@ import pytest
 
 import dpdfit.cli.diagnose as cli_diagnose
 from dpdfit.analyses.diagnosis.comparison.compare import Comparison, compare_diagnoses
+from dpdfit.analyses.diagnosis.decisions.alternatives import Alternative
+from dpdfit.analyses.diagnosis.proposal.next_measurement import NextMeasurement
 from dpdfit.analyses.diagnosis.comparison.previous import (read_diagnosis, refit_request,
                                                            unknown_in_binding)
 from dpdfit.analyses.diagnosis.comparison.refits import (binding_chi2, binding_refits,
@@ -254,7 +256,10 @@ def _minimal_diagnosis(**extra) -> Diagnosis:
                      baseline=SimpleNamespace(chi2=1000.0, dof=900, nuisances={}),
                      chosen=None, baseline_p_value=1e-6, seconds=0.0,
                      effects=a["effects"],
-                     extra={k: a[k] for k in ("alternatives", "next_measurement", "refits")})
+                     alternatives=tuple(Alternative.from_dict(x) for x in a["alternatives"]),
+                     proposal=(None if a["next_measurement"] is None
+                               else NextMeasurement.from_dict(a["next_measurement"])),
+                     refits=a["refits"])
 
 
 def test_a_diagnosis_object_or_a_file_stand_for_its_dict(tmp_path):

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from dpdfit.analyses.diagnosis.decisions.alternatives import (addition_alternatives,
-                                                              alternatives_sentence,
                                                               swap_alternatives)
 from dpdfit.analyses.diagnosis.effects import Size
 from dpdfit.analyses.diagnosis.evidence.form_errors import (form_weights, honest_cost,
@@ -23,6 +22,7 @@ from dpdfit.analyses.diagnosis.evidence.form_errors import (form_weights, honest
 from dpdfit.analyses.diagnosis.evidence.tempering import (evidence_dispersion,
                                                           hac_quadratic, series_pairs,
                                                           tempered_gap)
+from dpdfit.analyses.diagnosis.rendering import alternatives_sentence
 
 
 def _ar1(rng, n, rho):
@@ -200,7 +200,7 @@ def test_detector_size_is_the_reading_error_at_full_power(k_true, q):
 
 
 def test_the_report_says_what_would_decide_or_why_nothing_can():
-    from dpdfit.analyses.diagnosis.result import next_measurement_sentence
+    from dpdfit.analyses.diagnosis.rendering import next_measurement_sentence
     none = next_measurement_sentence({"what": None, "reason": "no calibration runs to "
                                                               "extend and no gate settings"})
     assert none == ("no further measurement could be proposed: no calibration runs to "

@@ -8,7 +8,6 @@ import json
 import sys
 from pathlib import Path
 
-from dpdfit.analyses.diagnosis.comparison.compare import compare_diagnoses
 from dpdfit.analyses.diagnosis.comparison.previous import read_diagnosis, refit_request
 from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
@@ -40,8 +39,8 @@ def cmd_diagnose(args) -> int:
             _write_schedule(res, folder, args.schedule)
     if is_mapping(args.campaign):         # the temporary folder is gone: name the mapping
         res = dataclasses.replace(res, campaign=f"{args.campaign} (imported)")
-    comparison = None if previous is None else compare_diagnoses(previous, res)
-    for w in res.extra.get("warnings", []):
+    comparison = None if previous is None else res.compared_with(previous)
+    for w in res.warnings:
         print(f"dpdfit: warning: {w}", file=sys.stderr)
     if args.plot:
         use_noninteractive_backend()
@@ -70,9 +69,8 @@ def _check_schedule_path(path, campaign) -> None:
 
 def _write_schedule(res, folder, path) -> None:
     """The proposal as a schedule file, or one line on stderr saying why there is none."""
-    if ((res.extra or {}).get("next_measurement") or {}).get("what") is None:
-        why = ((res.extra or {}).get("next_measurement") or {}).get("reason") or \
-            "the diagnosis is not ambiguous"
+    if res.proposal is None or res.proposal.what is None:
+        why = (res.proposal and res.proposal.reason) or "the diagnosis is not ambiguous"
         print(f"dpdfit: no recording proposed ({why}): no schedule written", file=sys.stderr)
         return
     write_schedule(res.schedule(folder), path)

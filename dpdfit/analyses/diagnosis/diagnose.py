@@ -37,36 +37,38 @@ Steps (:func:`diagnose`):
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 from threadpoolctl import threadpool_limits
 
+from dpdfit.analyses.diagnosis.comparison.refits import refit_label, refit_labels
 from dpdfit.analyses.diagnosis.decisions.alternatives import (addition_alternatives,
                                                               swap_alternatives)
-from dpdfit.analyses.diagnosis.proposal.propose import propose
-from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
-from dpdfit.analyses.diagnosis.evidence.families import family_evidence
-from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
-from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_effects, fit_hypothesis
-from dpdfit.analyses.diagnosis.model.gates.gate_model import GATE_NUISANCES
-from dpdfit.analyses.diagnosis.evidence.generic_discrepancy import generic_discrepancy
-from dpdfit.analyses.diagnosis.observables.campaign import Campaign, load_campaign
 from dpdfit.analyses.diagnosis.decisions.explanations import (open_sides, select,
                                                               start_alternatives)
-from dpdfit.analyses.diagnosis.fitting.phase_sign import carry
-from dpdfit.analyses.diagnosis.model.residuals import (NUISANCES, Problem,
-                                                       check_forms_left_out)
-from dpdfit.analyses.diagnosis.comparison.refits import refit_label, refit_labels
-from dpdfit.analyses.diagnosis.decisions.named_effects import named_effects
-from dpdfit.analyses.diagnosis.result import Diagnosis
-from dpdfit.analyses.diagnosis.evidence.thresholds import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
-                                                           EXPLAINED_FRACTION,
-                                                           NULL_REDCHI_MAX)
 from dpdfit.analyses.diagnosis.decisions.first_effect import choose_first
-from dpdfit.analyses.diagnosis.evidence.ranking import explained_fraction, rank_entry
+from dpdfit.analyses.diagnosis.decisions.named_effects import named_effects
+from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
+from dpdfit.analyses.diagnosis.evidence.families import family_evidence
+from dpdfit.analyses.diagnosis.evidence.generic_discrepancy import generic_discrepancy
 from dpdfit.analyses.diagnosis.evidence.mismatches import (locate_mismatches,
                                                            mismatch_evidence, side_evidence,
                                                            within_null_range)
+from dpdfit.analyses.diagnosis.evidence.ranking import explained_fraction, rank_entry
+from dpdfit.analyses.diagnosis.evidence.thresholds import (ALPHA, ALPHA_FIT, BIC_DECISIVE,
+                                                           EXPLAINED_FRACTION,
+                                                           NULL_REDCHI_MAX)
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_effects, fit_hypothesis
+from dpdfit.analyses.diagnosis.fitting.phase_sign import carry
+from dpdfit.analyses.diagnosis.model.gates.gate_model import GATE_NUISANCES
+from dpdfit.analyses.diagnosis.model.residuals import (NUISANCES, Problem,
+                                                       check_forms_left_out)
+from dpdfit.analyses.diagnosis.observables.campaign import Campaign, load_campaign
+from dpdfit.analyses.diagnosis.proposal.next_measurement import NextMeasurement
+from dpdfit.analyses.diagnosis.proposal.propose import propose
+from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.core.progress import progress_bar
 
 __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE",
@@ -118,7 +120,8 @@ def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,
         Hypotheses ``{"effects": [...], "forms": [...]}`` (e.g. the ``binding`` pair of
         an earlier diagnosis's ``next_measurement``) fitted again on this campaign
         (:func:`~dpdfit.analyses.diagnosis.comparison.refits.refit_label`): their chi2 are in
-        ``extra["refits"]``, for the separation a recording achieved.
+        :attr:`~dpdfit.analyses.diagnosis.result.Diagnosis.refits`, for the separation a
+        recording achieved.
 
     Returns
     -------
@@ -203,51 +206,49 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
     nxt = _proposal(prob, base, chosen, alts, effects_out, form_fits)
     refits = refit_labels(prob, base, refit) if refit else None
     lap("report")
-    extra = {"mismatch_evidence": evidence, "verdict_fit": verdict_fit,
-             "alternatives": [a for a, _ in alts], "next_measurement": nxt,
-             "null_range": null_range,
-             "explained_fraction": (None if chosen is None
-                                    else explained_fraction(base, chosen)),
-             "null_model": null_model.to_dict(), **({"refits": refits} if refits is not None else {}),
-             "generic": generic, "timing_seconds": timing,
-             **_campaign_extra(prob, camp, dropped)}
     return Diagnosis(
         campaign=str(camp.folder), mismatches=mismatches, ranking=ranking, verdict=verdict,
         redchi_before=base.redchi(), redchi_after=after.redchi(), baseline=base,
         chosen=chosen, baseline_p_value=base.p_fit, seconds=time.perf_counter() - t0,
         effects=effects_out, steps=steps,
-        redchi_one=None if one is None else one.redchi(), extra=extra,
+        redchi_one=None if one is None else one.redchi(),
+        mismatch_evidence=tuple(evidence), verdict_fit=verdict_fit,
+        alternatives=tuple(a for a, _ in alts), proposal=nxt, null_range=null_range,
+        explained_fraction=None if chosen is None else explained_fraction(base, chosen),
+        null_model=null_model, refits=refits, generic=generic, timing_seconds=timing,
+        **_campaign_notes(prob, camp, dropped),
         series_before=series_before, series_after=prob.series(pa), context=prob)
 
 
 def _proposal(prob: Problem, base: FitResult, chosen, alts: list, effects_out: list,
-              form_fits: dict) -> dict | None:
+              form_fits: dict) -> NextMeasurement | None:
     """The next measurement (:func:`~dpdfit.analyses.diagnosis.proposal.propose.propose`)
     when the verdict has alternatives or a poorly constrained size; its binding pair
     with the chi2 a later diagnosis will compare its own refit of them with."""
     if chosen is None or not (alts or any(e.get("poorly_constrained") for e in effects_out)):
         return None
     nxt = propose(prob, chosen, alts, effects_out, form_fits)
-    if nxt and nxt.get("binding"):
+    if nxt.binding:
         # the binding pair fitted as a later diagnosis will fit it again: the gap the
         # recording starts from
-        nxt["binding"] = {k: {**v, "chi2": refit_label(prob, base, v)}
-                          for k, v in nxt["binding"].items()}
+        nxt = dataclasses.replace(nxt, binding={k: {**v, "chi2": refit_label(prob, base, v)}
+                                                for k, v in nxt.binding.items()})
     return nxt
 
 
-def _campaign_extra(prob: Problem, camp, dropped: list) -> dict:
-    """The JSON keys that describe the campaign and the run rather than the verdict."""
+def _campaign_notes(prob: Problem, camp, dropped: list) -> dict:
+    """The Diagnosis's attributes that describe the campaign and the run rather than the
+    verdict."""
     out = {"nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
                          **{k: v[0] for k, v in GATE_NUISANCES.items()}},
            "recording_times": {k: v.isoformat() for k, v in camp.recorded.items()},
            "runs_after_recordings": (None if camp.runs_after is None
                                      else list(camp.runs_after.runs)),
-           "warnings": list(camp.warnings), "left_out": list(camp.left_out),
-           "dropped": [{"effect": e, **{k: v for k, v in en.items()
-                                        if k in ("delta_bic", "delta_bic_tempered",
-                                                 "family_delta_bic_tempered")}}
-                       for e, en in dropped]}
+           "warnings": tuple(camp.warnings), "left_out": tuple(camp.left_out),
+           "dropped": tuple({"effect": e, **{k: v for k, v in en.items()
+                                             if k in ("delta_bic", "delta_bic_tempered",
+                                                      "family_delta_bic_tempered")}}
+                            for e, en in dropped)}
     if prob.forms_left_out:
         out["forms_left_out"] = {k: sorted(v) for k, v in prob.forms_left_out.items()}
     return out

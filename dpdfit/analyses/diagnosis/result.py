@@ -1,21 +1,30 @@
-"""The result of a diagnosis: :class:`Diagnosis`, its JSON (:meth:`Diagnosis.to_dict`,
-the keys of ``dpdfit diagnose --json``) and its text report (:meth:`Diagnosis.report`)."""
+"""The result of a diagnosis: :class:`Diagnosis`, typed and read-only, and its JSON
+(:meth:`Diagnosis.to_dict`, the keys of ``dpdfit diagnose --json``).
+
+Its parts are typed too: the alternatives
+(:class:`~dpdfit.analyses.diagnosis.decisions.alternatives.Alternative`), the proposed
+recording (:class:`~dpdfit.analyses.diagnosis.proposal.next_measurement.NextMeasurement`),
+the null model (:class:`~dpdfit.analyses.diagnosis.model.null_model.NullModel`).  The text
+report is rendered apart (:mod:`~dpdfit.analyses.diagnosis.rendering`).
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
 import pandas as pd
 
-from dpdfit.analyses.diagnosis.decisions.alternatives import alternatives_sentence
+from dpdfit.analyses.diagnosis.comparison.compare import Comparison, compare_diagnoses
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
-from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
 from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.model.null_model import NullModel
+from dpdfit.analyses.diagnosis.proposal.next_measurement import NextMeasurement
+from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
+from dpdfit.analyses.diagnosis.rendering import report_text
 from dpdfit.core.display import Displayable
 
-__all__ = ["CONVENTIONS", "Diagnosis", "next_measurement_sentence"]
+__all__ = ["CONVENTIONS", "Diagnosis"]
 
 #: what the JSON's quantities mean
 CONVENTIONS = {"delta_bic": "BIC(effect) - BIC(baseline); negative favours the effect "
@@ -56,7 +65,7 @@ def _chosen_dict(f: FitResult) -> dict:
 @dataclass(frozen=True, repr=False)
 class Diagnosis(Displayable):
     """Result of :func:`~dpdfit.analyses.diagnosis.diagnose.diagnose` (JSON keys of
-    ``dpdfit diagnose --json``).
+    ``dpdfit diagnose --json``: :meth:`to_dict`).
 
     ``verdict`` is the first named effect, ``"none"`` or ``"unexplained"``;
     ``effects`` lists every named effect, best first, each with its form,
@@ -64,23 +73,66 @@ class Diagnosis(Displayable):
     ``steps`` the candidates tried as an addition at each step.
     """
 
+    #: the campaign folder the diagnosis read
     campaign: str
+    #: the mismatches located in the baseline's residuals, most significant first
     mismatches: list
+    #: ranking entries of the single effects, best family evidence first
     ranking: list
+    #: the first named effect, ``"none"`` or ``"unexplained"``
     verdict: str
+    #: reduced chi2 per observable of the baseline and of the final fit
     redchi_before: dict
     redchi_after: dict
+    #: the baseline's fit and the named effects' (None when nothing is named)
     baseline: FitResult
     chosen: FitResult | None
+    #: the baseline's chi2 p-value
     baseline_p_value: float
+    #: seconds the diagnosis took
     seconds: float
-    extra: dict = field(default_factory=dict)
     #: every named effect, best first (dicts: effect, form, params, sizes, fidelity_cost)
     effects: list = field(default_factory=list)
     #: ranking entries of the effects tried as additions, per step
     steps: list = field(default_factory=list)
     #: reduced chi2 per observable with the first named effect alone
     redchi_one: dict | None = None
+    #: which tests say the baseline does not describe the recordings (empty: none;
+    #: :func:`~dpdfit.analyses.diagnosis.evidence.mismatches.mismatch_evidence`)
+    mismatch_evidence: tuple = ()
+    #: the named effects' fit: ``"acceptable"``, ``"approximate"`` (decisive, but its form
+    #: leaves an unacceptable fit) or ``"none"``
+    verdict_fit: str = "none"
+    #: the hypotheses the recordings do not separate from the named one
+    alternatives: tuple = ()
+    #: the recording that would decide, or why none is proposed (None: none was needed)
+    proposal: NextMeasurement | None = None
+    #: the null range of reduced chi2 that made a global mismatch a null (None: not used)
+    null_range: float | None = None
+    #: the fraction of the baseline's excess chi2 the named effects remove
+    explained_fraction: float | None = None
+    #: what the baseline learnt before any effect
+    null_model: NullModel | None = None
+    #: an earlier proposal's binding pair refitted on this campaign,
+    #: ``[{"effects", "forms", "chi2"}]`` (None: not asked for)
+    refits: list | None = None
+    #: a smooth generic discrepancy fitted where the model fails (None: not needed)
+    generic: dict | None = None
+    #: seconds per stage of the diagnosis
+    timing_seconds: dict = field(default_factory=dict)
+    #: the nuisances of the baseline and their units
+    nuisances: dict = field(default_factory=dict)
+    #: when the campaign's recordings were taken (ISO times, by recording)
+    recording_times: dict = field(default_factory=dict)
+    #: the calibration runs taken after the recordings (None: none)
+    runs_after_recordings: list | None = None
+    #: the campaign reader's warnings, and what was absent from the folder
+    warnings: tuple = ()
+    left_out: tuple = ()
+    #: named effects dropped again, with their evidence
+    dropped: tuple = ()
+    #: forms of the catalog left out of every fit (None: none)
+    forms_left_out: dict | None = None
     #: residual series (``Problem.series``) of the baseline and the chosen fit, for plots;
     #: the baseline's are taken when the baseline is fitted (the fit behind
     #: ``redchi_before``, before any effect's fit can re-choose the phase-sign convention)
@@ -93,6 +145,31 @@ class Diagnosis(Displayable):
     def named(self) -> list:
         """Names of the named effects, best first."""
         return [e["effect"] for e in self.effects]
+
+    @property
+    def extra(self) -> dict:
+        """The JSON's keys after ``seconds`` as one dict, each typed part as its JSON:
+        ``mismatch_evidence``, ``verdict_fit``, ``alternatives``, ``next_measurement``
+        (:attr:`proposal`), ``null_range``, ``explained_fraction``, ``null_model``,
+        ``refits`` (when asked for), ``generic``, ``timing_seconds``, ``nuisances``,
+        ``recording_times``, ``runs_after_recordings``, ``warnings``, ``left_out``,
+        ``dropped`` and ``forms_left_out`` (when forms were left out)."""
+        out = {"mismatch_evidence": list(self.mismatch_evidence),
+               "verdict_fit": self.verdict_fit,
+               "alternatives": [a.to_dict() for a in self.alternatives],
+               "next_measurement": None if self.proposal is None else self.proposal.to_dict(),
+               "null_range": self.null_range, "explained_fraction": self.explained_fraction,
+               "null_model": None if self.null_model is None else self.null_model.to_dict()}
+        if self.refits is not None:
+            out["refits"] = self.refits
+        out.update(generic=self.generic, timing_seconds=self.timing_seconds,
+                   nuisances=self.nuisances, recording_times=self.recording_times,
+                   runs_after_recordings=self.runs_after_recordings,
+                   warnings=list(self.warnings), left_out=list(self.left_out),
+                   dropped=list(self.dropped))
+        if self.forms_left_out:
+            out["forms_left_out"] = self.forms_left_out
+        return out
 
     def to_dict(self) -> dict:
         return {"campaign": self.campaign, "verdict": self.verdict,
@@ -110,13 +187,19 @@ class Diagnosis(Displayable):
                 "conventions": dict(CONVENTIONS),
                 "alpha": ALPHA, "seconds": self.seconds, **self.extra}
 
+    def compared_with(self, previous) -> Comparison:
+        """What the recordings added since ``previous`` changed (an earlier diagnosis of the
+        campaign: a Diagnosis, its JSON dict or file;
+        :func:`~dpdfit.analyses.diagnosis.comparison.compare.compare_diagnoses`)."""
+        return compare_diagnoses(previous, self)
+
     def schedule(self, campaign=None) -> pd.DataFrame:
-        """The proposed recording (``next_measurement``) as a schedule: one row per point
+        """The proposed recording (:attr:`proposal`) as a schedule: one row per point
         and repeat, the table ``dpdfit diagnose --schedule`` writes
         (:func:`~dpdfit.analyses.diagnosis.proposal.schedule.proposal_schedule`).
         ``campaign``: the campaign folder the diagnosis read (default: :attr:`campaign`),
         whose grids, phases and times the recording repeats."""
-        return proposal_schedule((self.extra or {}).get("next_measurement"),
+        return proposal_schedule(None if self.proposal is None else self.proposal.to_dict(),
                                  self.campaign if campaign is None else campaign)
 
     def to_frame(self) -> pd.DataFrame:
@@ -138,154 +221,5 @@ class Diagnosis(Displayable):
                    for i, r in enumerate(self.ranking[:5])])
 
     def report(self) -> str:
-        ex = self.extra or {}
-        lines = [f"Diagnosis of {self.campaign}",
-                 f"  baseline chi2 = {self.baseline.chi2:.1f} for {self.baseline.dof} dof "
-                 f"(p = {self.baseline_p_value:.2g})",
-                 f"  verdict: {self.verdict}"
-                 + (f"   (named: {', '.join(self.named)})" if len(self.named) > 1 else "")]
-        lines += [f"  {x}" for x in alternatives_sentence(self.verdict,
-                                                           ex.get("alternatives") or [])]
-        if ex.get("null_range") is not None:
-            lines.append(f"  the baseline's global chi2 is above its dof, but nothing is "
-                         f"located and every observable's reduced chi2 is at most "
-                         f"{ex['null_range']:g} (the harness's null range): nothing missing")
-        nxt = ex.get("next_measurement")
-        if nxt:
-            lines.append("  " + next_measurement_sentence(nxt))
-        lines += ["", "  mismatches located:"]
-        lines += _mismatch_lines(self.mismatches)
-        lines += ["", "  ranking of single effects (delta_bic, LRT p):"]
-        lines += _ranking_lines(self.ranking)
-        for i, step in enumerate(self.steps):
-            lines += ["", f"  added to the named effects, step {i + 1} (delta_bic vs them):"]
-            lines += _ranking_lines(step[:4])
-        if self.effects:
-            lines += ["", "  named effects (size in a laboratory's terms, 1 sigma):"]
-            for e in self.effects:
-                cost = e["fidelity_cost"]
-                lines.append(f"    {e['effect']} (form {e['form']}): cost in Bell fidelity "
-                             f"{_pm(cost, e['fidelity_cost_err'])}")
-                for k, s in e["sizes"].items():
-                    parts = ("" if "error_statistical" not in s else
-                             f"   (statistical {_pm(s['error_statistical'], None)} x "
-                             f"sqrt({s['tempering']:.3g}) for the misfit, form "
-                             f"{_pm(s['error_form'], None)})")
-                    lines.append(f"      {k:>24s} = {_pm(s['value'], s['error'])} "
-                                 f"{s['unit']}{parts}")
-        lines += _redchi_lines(self)
-        if len(self.effects) > 1:
-            lines += ["", "  what each effect explains (chi2 removed per observable group):"]
-            lines += _explains_lines(self)
-        if ex.get("verdict_fit") == "approximate":
-            lines += ["", f"  the named effects' forms are approximate: they remove "
-                          f"{ex['explained_fraction']:.1%} of the baseline's excess chi2 but "
-                          "leave an unacceptable fit"]
-        if ex.get("generic"):
-            lines += ["", "  generic smooth discrepancy where the model fails:"]
-            lines += _generic_lines(ex["generic"])
-        if ex.get("null_model"):
-            lines += ["", "  null model (learnt from the campaign before any effect):"]
-            lines += _null_model_lines(ex["null_model"])
-        if ex.get("left_out"):
-            lines += ["", "  left out (absent from the folder):"]
-            lines += [f"    {x}" for x in ex["left_out"]]
-        return "\n".join(lines)
-
-
-def next_measurement_sentence(nxt: dict) -> str:
-    """One sentence: the recording that would decide, or why none could be proposed."""
-    if not nxt.get("what"):
-        return f"no further measurement could be proposed: {nxt.get('reason', 'unknown')}"
-    if nxt.get("decisive") is False and nxt.get("reason"):
-        return f"no single recording would decide: {nxt['reason']}"
-    st = nxt.get("settings") or {}
-    how = ", ".join(f"{k} = {v if not isinstance(v, list) else ', '.join(map(str, v))}"
-                    for k, v in st.items())
-    mins = nxt.get("lab_seconds")
-    when = "" if mins is None else f", about {mins / 60:.0f} min of lab time"
-    return (f"the measurement that would decide: {nxt['what'].replace('_', ' ')} ({how}"
-            f"{when}), expected delta BIC {nxt.get('expected_delta_bic', float('nan')):.3g} "
-            f"between {' and '.join(nxt.get('separates') or [])}")
-
-
-def _redchi_lines(d: Diagnosis) -> list:
-    """Reduced chi2 per observable: baseline, then with the first effect and the final fit
-    where an effect was named (without one there is no such column to print, not a nan)."""
-    cols = [("baseline", d.redchi_before)]
-    if d.redchi_one is not None:
-        cols.append(("first effect", d.redchi_one))
-    if d.redchi_after and (d.redchi_one is not None or d.redchi_after != d.redchi_before):
-        cols.append(("final", d.redchi_after))
-    head = " -> ".join(name for name, _ in cols) + (
-        "" if d.redchi_one is not None else "; no effect named")
-    lines = ["", f"  reduced chi2 per observable ({head}):"]
-    for k in d.redchi_before:
-        vals = [c.get(k) for _, c in cols]
-        lines.append(f"    {k:>28s} " + " -> ".join(
-            "     n/a" if v is None or not np.isfinite(v) else f"{v:8.2f}" for v in vals))
-    return lines
-
-
-def _pm(v, e) -> str:
-    if v is None or not np.isfinite(v):
-        return "n/a"
-    return f"{v:.4g}" + ("" if e is None or not np.isfinite(e) else f" +/- {e:.2g}")
-
-
-def _explains_lines(d: Diagnosis) -> list:
-    """Chi2 each named effect removes, by observable group, in the order it was named."""
-    return [f"    {e['effect']:>26s}: " + ", ".join(f"{g} {v:10.1f}"
-                                                  for g, v in e["explains"].items())
-            for e in d.effects if e.get("explains")]
-
-
-def _mismatch_lines(mismatches: list) -> list:
-    if not mismatches:
-        return ["    none"]
-    return [f"    {m['observable']:>22s} {m['sideband']:>5s} dpd={m['dpd']!s:>4} "
-            f"{m['x']}=[{m['range'][0]:.4g}, {m['range'][1]:.4g}] "
-            f"{m['significance_sigma']:.1f} sigma, {m['shape']}" for m in mismatches[:12]]
-
-
-def _ranking_lines(ranking: list) -> list:
-    lines = []
-    for r in ranking[:8]:
-        par = ", ".join(f"{k}={v:.4g}+/-{r['params_err'].get(k, float('nan')):.2g}"
-                        for k, v in r["params"].items()
-                        if np.isfinite(r["params_err"].get(k, np.nan)))
-        form = f" [{r['variant']}]" if r.get("variant") else ""
-        lines.append(f"    {r['effect'] + form:>44s} {r['delta_bic']:10.1f} "
-                     f"{r['p_value']:9.2g}  {par}")
-    return lines
-
-
-def _generic_lines(g: dict) -> list:
-    frac = g.get("fraction_of_excess")
-    lines = [f"    {g['form']}: removes chi2 {g['chi2_removed']:.1f} with {g['dof_used']} "
-             f"dof" + ("" if frac is None else f" ({frac:.1%} of the excess chi2)")]
-    for r in g["series"][:10]:
-        lines.append(f"    {r['observable']:>22s} {r['sideband']:>5s} dpd={r['dpd']!s:>4} "
-                     f"{r['x']}=[{r['range'][0]:.4g}, {r['range'][1]:.4g}]: chi2 "
-                     f"{r['chi2_before']:.1f} -> {r['chi2_after']:.1f} ({r['n_points']} "
-                     f"points, {r['dof_used']} dof)")
-    return lines
-
-
-def _null_model_lines(nm: dict) -> list:
-    tn = nm["tone_noise"]
-    fl = tn["noise_floor"]
-    err = "" if not np.isfinite(fl["floor_err_db"]) else f" +/- {fl['floor_err_db']:.2f}"
-    lines = [f"    noise floor {fl['floor_db']:.2f}{err} dB ({fl['method']})",
-             f"    tone repeatability {tn['tone_repeatability_db']:.4f} dB, "
-             f"trace power jitter {tn['trace_power_jitter_db']:.4f} dB"]
-    if nm.get("rate_scatter"):
-        rs = nm["rate_scatter"]
-        lines.append(f"    gate-rate calibration scatter {rs['rel']:.3%} "
-                     f"(stated {rs['stated_rel']:.3%})")
-    if nm.get("phase_sign") is not None:
-        lines.append(f"    phase-sign convention {nm['phase_sign']:+d}")
-    fitted = nm.get("fitted") or {}
-    if fitted:
-        lines.append("    fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in fitted.items()))
-    return lines
+        """The text report (:func:`~dpdfit.analyses.diagnosis.rendering.report_text`)."""
+        return report_text(self)

@@ -27,12 +27,14 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-from dpdfit.analyses.diagnosis.comparison.standing import (alternatives_standing,
-                                                           evidence_rows)
 from dpdfit.analyses.diagnosis.comparison.previous import (as_diagnosis_dict,
                                                            hypothesis_label)
-from dpdfit.analyses.diagnosis.comparison.separation_outcome import (proposal_after,
+from dpdfit.analyses.diagnosis.comparison.separation_outcome import (ProposalAfter,
+                                                                     SeparationOutcome,
+                                                                     proposal_after,
                                                                      separation)
+from dpdfit.analyses.diagnosis.comparison.standing import (alternatives_standing,
+                                                           evidence_rows)
 from dpdfit.analyses.diagnosis.proposal.next_measurement import describe_recording
 from dpdfit.core.display import Displayable
 
@@ -47,25 +49,33 @@ class Comparison(Displayable):
     """Result of :func:`compare_diagnoses` (the ``comparison`` key of ``dpdfit diagnose
     --compare --json``).
 
-    ``alternatives_before`` are the earlier alternatives, each with ``status``
-    (``"named"``, ``"open"`` or ``"rejected"``); ``previous_named_status`` is the same
-    for the earlier named set.  ``separation`` and ``next_measurement`` are the dicts of
-    :func:`~dpdfit.analyses.diagnosis.comparison.separation_outcome.separation` and
-    :func:`~dpdfit.analyses.diagnosis.comparison.separation_outcome.proposal_after`; ``evidence`` the
-    rows of :func:`~dpdfit.analyses.diagnosis.comparison.standing.evidence_rows`.
+    Each piece is a typed record (:class:`~dpdfit.core.records.Record`: its attributes, or
+    its JSON keys by index).
     """
 
+    #: the campaigns the two diagnoses read
     campaign_before: str
     campaign_after: str
+    #: the verdicts, and the named effects, before and after
     verdict_before: str
     verdict_after: str
     named_before: list = field(default_factory=list)
     named_after: list = field(default_factory=list)
+    #: where the earlier named set stands now: ``"named"``, ``"open"`` or ``"rejected"``
     previous_named_status: str = "named"
+    #: the earlier alternatives with their status now
+    #: (:class:`~dpdfit.analyses.diagnosis.comparison.standing.AlternativeStanding`)
     alternatives_before: list = field(default_factory=list)
+    #: the later diagnosis's alternatives that are new
     new_alternatives: list = field(default_factory=list)
-    separation: dict = field(default_factory=dict)
-    next_measurement: dict = field(default_factory=dict)
+    #: the separation achieved against the one predicted
+    #: (:class:`~dpdfit.analyses.diagnosis.comparison.separation_outcome.SeparationOutcome`)
+    separation: SeparationOutcome | None = None
+    #: whether another recording is proposed
+    #: (:class:`~dpdfit.analyses.diagnosis.comparison.separation_outcome.ProposalAfter`)
+    next_measurement: ProposalAfter | None = None
+    #: every single effect's evidence before and after
+    #: (:class:`~dpdfit.analyses.diagnosis.comparison.standing.EvidenceRow`)
     evidence: list = field(default_factory=list)
 
     _display_title = "What the recording changed"
@@ -73,12 +83,12 @@ class Comparison(Displayable):
     @property
     def settled(self) -> list:
         """The earlier alternatives no longer in reach: rejected, or named now."""
-        return [a for a in self.alternatives_before if a["status"] != "open"]
+        return [a for a in self.alternatives_before if a.status != "open"]
 
     @property
     def still_open(self) -> list:
         """The earlier alternatives still among the alternatives."""
-        return [a for a in self.alternatives_before if a["status"] == "open"]
+        return [a for a in self.alternatives_before if a.status == "open"]
 
     @property
     def changed(self) -> bool:
@@ -89,13 +99,12 @@ class Comparison(Displayable):
     def to_dict(self) -> dict:
         out = super().to_dict()
         return {**out, "changed": self.changed,
-                "settled": [{"hypothesis": a["label"], "how": a["status"]}
-                            for a in self.settled],
-                "still_open": [a["label"] for a in self.still_open]}
+                "settled": [{"hypothesis": a.label, "how": a.status} for a in self.settled],
+                "still_open": [a.label for a in self.still_open]}
 
     def to_frame(self) -> pd.DataFrame:
         """The evidence of every single effect before and after, one row per effect."""
-        return pd.DataFrame(list(self.evidence))
+        return pd.DataFrame([r.to_dict() for r in self.evidence])
 
     def _display_rows(self) -> list[tuple]:
         s, n = self.separation, self.next_measurement
@@ -104,13 +113,13 @@ class Comparison(Displayable):
                 ("alternatives settled", len(self.settled), None, ""),
                 ("alternatives still open", len(self.still_open), None, ""),
                 ("new alternatives", len(self.new_alternatives), None, ""),
-                ("separation predicted", s.get("predicted"), None, "delta BIC"),
-                ("separation achieved", s.get("achieved"), None, "delta BIC"),
-                ("achieved / predicted", s.get("ratio"), None, ""),
-                ("another recording", n.get("what") or "none", None, "")]
+                ("separation predicted", s.predicted, None, "delta BIC"),
+                ("separation achieved", s.achieved, None, "delta BIC"),
+                ("achieved / predicted", s.ratio, None, ""),
+                ("another recording", n.what or "none", None, "")]
 
     def _display_diagnostics(self) -> dict:
-        why = self.separation.get("reason")
+        why = self.separation.reason
         return {"warnings": [] if not why else [f"no separation to compare: {why}"]}
 
     def report(self) -> str:
@@ -138,7 +147,7 @@ class Comparison(Displayable):
             lines = ["the previous diagnosis had no alternatives: none to settle"]
         else:
             lines = ["alternatives before: " + ", ".join(
-                f"{a['label']} ({_STATUS_WORDS[a['status']]})"
+                f"{a.label} ({_STATUS_WORDS[a.status]})"
                 for a in self.alternatives_before)]
         if self.changed and self.named_before:
             was = {"open": "is now an alternative", "rejected": "is no longer in reach",
@@ -146,38 +155,36 @@ class Comparison(Displayable):
             lines.append(f"the previous verdict ({hypothesis_label(self.named_before)}) "
                          f"{was}")
         if self.new_alternatives:
-            lines.append("new alternatives: " + ", ".join(a["label"]
-                                                          for a in self.new_alternatives))
+            lines.append("new alternatives: " + ", ".join(a.label for a in self.new_alternatives))
         return lines
 
     def _separation_line(self) -> str:
         s = self.separation
-        if s.get("achieved") is None:
-            return f"no separation to compare: {s.get('reason')}"
-        pair = f"{s['truth']} and {s['rival']}"
-        if s.get("ratio") is None:
-            return (f"separation of {pair}: achieved {s['achieved']:.3g} (delta chi2); "
-                    f"{s.get('reason')}")
-        line = (f"separation of {pair} ({str(s['what']).replace('_', ' ')}): achieved "
-                f"{s['achieved']:.3g} against {s['predicted']:.3g} predicted (ratio "
-                f"{s['ratio']:.2f})")
+        if s.achieved is None:
+            return f"no separation to compare: {s.reason}"
+        pair = f"{s.truth} and {s.rival}"
+        if s.ratio is None:
+            return f"separation of {pair}: achieved {s.achieved:.3g} (delta chi2); {s.reason}"
+        line = (f"separation of {pair} ({str(s.what).replace('_', ' ')}): achieved "
+                f"{s.achieved:.3g} against {s.predicted:.3g} predicted (ratio "
+                f"{s.ratio:.2f})")
         # the prediction holds for the recording proposed, not for another one taken instead
-        if isinstance(s.get("settings"), dict):
+        if isinstance(s.settings, dict):
             try:
-                line += f" for {describe_recording(s['what'], s['settings'])}"
+                line += f" for {describe_recording(s.what, s.settings)}"
             except (KeyError, TypeError, ValueError):
                 pass                      # a hand-edited proposal: the line stands without
         return line
 
     def _proposal_line(self) -> str:
         n = self.next_measurement
-        if not n.get("proposed"):
-            return f"no further recording proposed ({n.get('reason') or 'none given'})"
-        what = str(n["what"]).replace("_", " ")
-        ex = n.get("expected_delta_bic")
+        if not n.proposed:
+            return f"no further recording proposed ({n.reason or 'none given'})"
+        what = str(n.what).replace("_", " ")
+        ex = n.expected_delta_bic
         ex = "" if ex is None else f", expected delta BIC {ex:.3g}"
-        if n.get("decisive") is False:
-            return f"another recording proposed: {what}{ex}, not decisive ({n.get('reason')})"
+        if n.decisive is False:
+            return f"another recording proposed: {what}{ex}, not decisive ({n.reason})"
         return f"another recording proposed: {what}{ex}"
 
 

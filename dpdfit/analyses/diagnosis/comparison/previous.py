@@ -10,8 +10,8 @@ import math
 import os
 from pathlib import Path
 
-from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.comparison.refits import binding_refits
+from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
 

@@ -4,11 +4,53 @@ proposes another recording (:func:`proposal_after`)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+from dpdfit.analyses.diagnosis.comparison.previous import (hypothesis_label, json_number,
+                                                           named_in, unknown_in_binding)
 from dpdfit.analyses.diagnosis.comparison.refits import (achieved_separation, binding_chi2,
                                                          binding_refits, refitted_chi2)
-from dpdfit.analyses.diagnosis.comparison.previous import hypothesis_label, json_number, named_in, unknown_in_binding
+from dpdfit.core.records import Record
 
-__all__ = ['separation', 'proposal_after']
+__all__ = ["SeparationOutcome", "ProposalAfter", "separation", "proposal_after"]
+
+
+@dataclass(frozen=True)
+class SeparationOutcome(Record):
+    """The separation further recordings achieved between the earlier proposal's binding
+    pair, against the one predicted (None where a value is missing, with the ``reason``)."""
+
+    #: the recording proposed and its settings
+    what: str | None
+    settings: dict | None
+    #: the binding pair's labels: the hypothesis whose prediction binds, and its rival
+    truth: str | None
+    rival: str | None
+    #: the proposal's expected delta BIC, and the one expected were each true
+    predicted: float | None
+    predicted_if_truth: float | None
+    predicted_if_rival: float | None
+    #: the pair's chi2 in the proposal and refitted now, ``{"truth", "rival"}``
+    chi2_before: dict | None
+    chi2_after: dict | None
+    #: the separation achieved (delta chi2) and achieved / predicted
+    achieved: float | None
+    ratio: float | None
+    #: why a value is None (None when all are there)
+    reason: str | None = None
+
+
+@dataclass(frozen=True)
+class ProposalAfter(Record):
+    """Whether the later diagnosis proposes another recording (its settings are that
+    diagnosis's own proposal)."""
+
+    proposed: bool
+    what: str | None
+    decisive: bool | None
+    expected_delta_bic: float | None
+    #: why none is proposed, or why it does not decide
+    reason: str | None
 
 
 def _no_separation(before: dict, nxt) -> str | None:
@@ -30,7 +72,7 @@ def _no_separation(before: dict, nxt) -> str | None:
     return None
 
 
-def separation(before: dict, after: dict) -> dict:
+def separation(before: dict, after: dict) -> SeparationOutcome:
     """The separation between the earlier proposal's binding pair that the recordings
     achieved (:func:`~dpdfit.analyses.diagnosis.comparison.refits.achieved_separation` of the pair's
     chi2 in the proposal and refitted by the later diagnosis) against the one predicted:
@@ -45,8 +87,8 @@ def separation(before: dict, after: dict) -> dict:
            "chi2_after": None, "achieved": None, "ratio": None}
     why = _no_separation(before, nxt)
     if why is not None:
-        return {**out, "what": (nxt or {}).get("what") if isinstance(nxt, dict) else None,
-                "reason": why}
+        return SeparationOutcome(**{**out, "what": (nxt or {}).get("what")
+                                    if isinstance(nxt, dict) else None, "reason": why})
     b = nxt["binding"]
     out.update(what=nxt["what"], settings=nxt.get("settings"),
                predicted=json_number(nxt.get("expected_delta_bic")),
@@ -57,18 +99,20 @@ def separation(before: dict, after: dict) -> dict:
                chi2_before=binding_chi2(nxt),
                chi2_after=refitted_chi2(nxt, after.get("refits")))
     if out["chi2_after"] is None:
-        return {**out, "reason": "this diagnosis did not refit the previous proposal's "
-                                 "binding pair (diagnose(..., refit=binding_refits("
-                                 "previous next_measurement)))"}
+        return SeparationOutcome(**out, reason="this diagnosis did not refit the previous "
+                                               "proposal's binding pair (diagnose(..., "
+                                               "refit=binding_refits(previous "
+                                               "next_measurement)))")
     out["achieved"] = achieved_separation(out["chi2_before"], out["chi2_after"])
     p = out["predicted"]
     out["ratio"] = (out["achieved"] / p if p and p > 0 and out["achieved"] is not None
                     else None)
-    return {**out, "reason": None if out["ratio"] is not None
-            else "the previous proposal predicted no separation to compare with"}
+    return SeparationOutcome(**out, reason=None if out["ratio"] is not None
+                             else "the previous proposal predicted no separation to compare "
+                                  "with")
 
 
-def proposal_after(after: dict) -> dict:
+def proposal_after(after: dict) -> ProposalAfter:
     """Whether the later diagnosis proposes another recording: ``proposed``, ``what``,
     ``decisive``, ``expected_delta_bic`` and ``reason`` (its settings are the diagnosis's
     own ``next_measurement``)."""
@@ -77,9 +121,7 @@ def proposal_after(after: dict) -> dict:
         why = ("no effect is named" if not named_in(after) else "none given"
                if after.get("alternatives") else "no alternatives and no poorly "
                                                  "constrained size")
-        return {"proposed": False, "what": None, "decisive": None, "expected_delta_bic": None,
-                "reason": why}
-    return {"proposed": bool(nxt.get("what")), "what": nxt.get("what"),
-            "decisive": nxt.get("decisive") if nxt.get("what") else None,
-            "expected_delta_bic": json_number(nxt.get("expected_delta_bic")),
-            "reason": nxt.get("reason")}
+        return ProposalAfter(False, None, None, None, why)
+    return ProposalAfter(bool(nxt.get("what")), nxt.get("what"),
+                         nxt.get("decisive") if nxt.get("what") else None,
+                         json_number(nxt.get("expected_delta_bic")), nxt.get("reason"))

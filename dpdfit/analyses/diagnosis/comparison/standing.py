@@ -4,22 +4,75 @@
 
 from __future__ import annotations
 
-from dpdfit.analyses.diagnosis.comparison.previous import hypothesis_label, named_in
-from dpdfit.analyses.diagnosis.comparison.previous import json_number
+from dataclasses import dataclass
 
-__all__ = ['EVIDENCE_KEYS', 'alternatives_standing', 'evidence_rows']
+from dpdfit.analyses.diagnosis.comparison.previous import (hypothesis_label, json_number,
+                                                           named_in)
+from dpdfit.core.records import Record
+
+__all__ = ["AlternativeStanding", "EvidenceRow", "EVIDENCE_KEYS", "alternatives_standing",
+           "evidence_rows"]
+
+
+@dataclass(frozen=True)
+class AlternativeStanding(Record):
+    """An alternative of either diagnosis, and for an earlier one where it stands now."""
+
+    #: the candidate effect
+    effect: str | None
+    #: the complete set of effects it stands for
+    named: tuple
+    #: the named effect it would replace (None: an addition)
+    replaces: str | None
+    #: the hypothesis as one label, e.g. ``"stale_calibration + dephasing"``
+    label: str
+    #: its delta BIC against the named hypothesis of its diagnosis, raw and tempered
+    delta_bic: float | None
+    delta_bic_tempered: float | None
+    #: an earlier alternative's status now: ``"named"``, ``"open"`` or ``"rejected"``
+    #: (None for a new alternative)
+    status: str | None = None
+    #: an open one's tempered delta BIC now (None otherwise)
+    delta_bic_tempered_after: float | None = None
+
+    def to_dict(self) -> dict:
+        """The JSON's entry; ``status`` and ``delta_bic_tempered_after`` for an earlier
+        alternative only."""
+        out = {"effect": self.effect, "named": list(self.named), "replaces": self.replaces,
+               "label": self.label, "delta_bic": self.delta_bic,
+               "delta_bic_tempered": self.delta_bic_tempered}
+        if self.status is not None:
+            out.update(status=self.status, delta_bic_tempered_after=self.delta_bic_tempered_after)
+        return out
+
+
+@dataclass(frozen=True)
+class EvidenceRow(Record):
+    """One single effect's evidence before and after (None where that diagnosis did not
+    rank it): its ``delta_bic`` (raw, against the baseline), ``evidence`` (the first of
+    :data:`EVIDENCE_KEYS` its ranking entry has), ``gap`` (``evidence`` minus the best's:
+    0 for the best, > 0 worse) and ``role`` (``"named"``, ``"alternative"`` or None)."""
+
+    effect: str
+    delta_bic_before: float | None
+    evidence_before: float | None
+    gap_before: float | None
+    role_before: str | None
+    delta_bic_after: float | None
+    evidence_after: float | None
+    gap_after: float | None
+    role_after: str | None
 
 
 def _key(a: dict) -> tuple:
     return tuple(sorted(a.get("named") or [a.get("effect")]))
 
 
-def _alt(a: dict, **more) -> dict:
-    return {"effect": a.get("effect"), "named": list(a.get("named") or [a.get("effect")]),
-            "replaces": a.get("replaces"), "label": hypothesis_label(a.get("named")
-                                                                     or [a.get("effect")]),
-            "delta_bic": a.get("delta_bic"), "delta_bic_tempered": a.get("delta_bic_tempered"),
-            **more}
+def _alt(a: dict, **more) -> AlternativeStanding:
+    named = a.get("named") or [a.get("effect")]
+    return AlternativeStanding(a.get("effect"), tuple(named), a.get("replaces"),
+                               hypothesis_label(named), a.get("delta_bic"),
+                               a.get("delta_bic_tempered"), **more)
 
 
 def _standing(a: dict, named_after: list, alts_after: list) -> tuple[str, dict | None]:
@@ -82,12 +135,8 @@ def _role(effect: str, d: dict) -> str | None:
 
 
 def evidence_rows(before: dict, after: dict) -> list:
-    """One row per single effect of either ranking: ``effect``, and ``_before`` /
-    ``_after`` its ``delta_bic`` (raw, against the baseline), ``evidence`` (the first of
-    :data:`EVIDENCE_KEYS` the entry has), ``gap`` (``evidence`` minus the best's:
-    0 for the best, > 0 worse) and ``role`` (``"named"``, ``"alternative"`` or None);
-    None where that diagnosis did not rank the effect.  Ordered as the later ranking,
-    then the effects only the earlier one ranked."""
+    """One :class:`EvidenceRow` per single effect of either ranking, ordered as the later
+    ranking, then the effects only the earlier one ranked."""
     rank = {}
     for when, d in (("before", before), ("after", after)):
         entries = {r["effect"]: r for r in d.get("ranking") or []
@@ -98,7 +147,7 @@ def evidence_rows(before: dict, after: dict) -> list:
                           "gap": None if ev[e] is None or best is None else ev[e] - best,
                           "role": _role(e, d)} for e, r in entries.items()}
     order = list(dict.fromkeys([*rank["after"], *rank["before"]]))
-    return [{"effect": e, **{f"{k}_{w}": (rank[w].get(e) or {}).get(k)
-                             for w in ("before", "after")
-                             for k in ("delta_bic", "evidence", "gap", "role")}}
+    return [EvidenceRow(e, **{f"{k}_{w}": (rank[w].get(e) or {}).get(k)
+                              for w in ("before", "after")
+                              for k in ("delta_bic", "evidence", "gap", "role")})
             for e in order]

@@ -37,13 +37,13 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.evidence.families import (family_evidence, form_gain,
                                                          maximal_forms)
+from dpdfit.analyses.diagnosis.evidence.mismatches import locate_mismatches, side_evidence
+from dpdfit.analyses.diagnosis.evidence.ranking import decisive, rank_entry
+from dpdfit.analyses.diagnosis.evidence.thresholds import BIC_DECISIVE, DOMINANT_FRACTION
 from dpdfit.analyses.diagnosis.fitting.fit_result import (FitResult, combine_sides,
                                                           param_side)
 from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_all, fit_hypothesis
 from dpdfit.analyses.diagnosis.fitting.phase_sign import repredict_gates, tone_held
-from dpdfit.analyses.diagnosis.evidence.thresholds import BIC_DECISIVE, DOMINANT_FRACTION
-from dpdfit.analyses.diagnosis.evidence.ranking import decisive, rank_entry
-from dpdfit.analyses.diagnosis.evidence.mismatches import locate_mismatches, side_evidence
 
 __all__ = ["Selection", "select_from", "add_effects", "prune", "addition_entry", "room_for",
            "use_field_of", "set_gain", "MAX_EFFECTS", "ADD_NFEV"]

@@ -15,42 +15,79 @@ forms leave (:mod:`~dpdfit.analyses.diagnosis.evidence.tempering`):
   favours strongly (tempered delta BIC at most ``-ADDITION_IN_REACH``), but not
   decisively -- "perhaps also spam_offset".
 
-Each alternative is a dict: ``effect`` (the candidate), ``delta_bic`` (its BIC
-minus the named hypothesis's, raw: > 0 is worse; for an addition, the BIC of
-the named ones plus it minus theirs), ``delta_bic_tempered`` (the same with
-the chi2 difference divided by the dispersion of the evidence), ``tempering``
-(that dispersion, ``tau``), ``replaces`` (the named effect it would replace,
-None for an addition) and ``named`` (the complete set of effects the
-alternative stands for).
+Each alternative is an :class:`Alternative`; its :meth:`~Alternative.to_dict` is an
+entry of the JSON's ``alternatives``.
 """
 
 from __future__ import annotations
 
-import logging
+from dataclasses import dataclass
+
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.evidence.families import chi2_gap_z, shared_observables
-from dpdfit.analyses.diagnosis.evidence.thresholds import NOISE_Z
-from dpdfit.analyses.diagnosis.evidence.tempering import tempered_gap
-from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA, BIC_DECISIVE
 from dpdfit.analyses.diagnosis.evidence.ranking import decisive
-from dpdfit.analyses.diagnosis.evidence.thresholds import ADDITION_IN_REACH
+from dpdfit.analyses.diagnosis.evidence.tempering import tempered_gap
+from dpdfit.analyses.diagnosis.evidence.thresholds import (ADDITION_IN_REACH, ALPHA,
+                                                           BIC_DECISIVE, NOISE_Z)
+from dpdfit.core.records import Record
 
-__all__ = ["alternative_entry", 'swap_alternatives', 'addition_alternatives', 'alternatives_sentence']
+__all__ = ["Alternative", "alternative_entry", "swap_alternatives", "addition_alternatives"]
 
 
-log = logging.getLogger(__name__)
+@dataclass(frozen=True)
+class Alternative(Record):
+    """A hypothesis the recordings do not separate from the named one (module doc)."""
+
+    #: the candidate effect
+    effect: str
+    #: its BIC minus the named hypothesis's, raw (> 0: worse; for an addition, the BIC of
+    #: the named effects plus it minus theirs)
+    delta_bic: float
+    #: the same with the chi2 difference divided by the dispersion of the evidence
+    delta_bic_tempered: float
+    #: that dispersion (``tau`` >= 1, :mod:`~dpdfit.analyses.diagnosis.evidence.tempering`)
+    tempering: float
+    #: the named effect it would replace (None: an addition)
+    replaces: str | None
+    #: the complete set of effects the alternative stands for
+    named: tuple
+    #: how many standard deviations of its own scatter its chi2 is from the named fit's
+    #: (:func:`~dpdfit.analyses.diagnosis.evidence.families.chi2_gap_z`; None: not computed)
+    separation_sigma: float | None = None
+    #: for an addition a named family leaves no room for: that family's form and evidence
+    #: (``{"family", "form", "delta_bic_tempered"}``; None otherwise)
+    room: dict | None = None
+
+    @property
+    def is_swap(self) -> bool:
+        """Whether it replaces a named effect (else it is an addition)."""
+        return self.replaces is not None
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Alternative":
+        """The alternative of a JSON entry (:meth:`to_dict`), e.g. of an earlier diagnosis."""
+        return cls(d["effect"], d["delta_bic"], d["delta_bic_tempered"], d["tempering"],
+                   d.get("replaces"), tuple(d.get("named") or [d["effect"]]),
+                   d.get("separation_sigma"), d.get("room"))
+
+    def to_dict(self) -> dict:
+        """The JSON's entry: every attribute, ``separation_sigma`` and ``room`` where set."""
+        out = {"effect": self.effect, "delta_bic": self.delta_bic,
+               "delta_bic_tempered": self.delta_bic_tempered, "tempering": self.tempering,
+               "replaces": self.replaces, "named": list(self.named)}
+        if self.separation_sigma is not None:
+            out["separation_sigma"] = self.separation_sigma
+        if self.room is not None:
+            out["room"] = self.room
+        return out
 
 
-def alternative_entry(effect, raw, gap_t, tau, replaces, named, z=None, room=None) -> dict:
-    """One alternative as the JSON lists it (the module doc's keys; ``separation_sigma`` and
-    ``room`` where given)."""
-    out = {"effect": effect, "delta_bic": float(raw), "delta_bic_tempered": float(gap_t),
-           "tempering": float(tau), "replaces": replaces, "named": list(named)}
-    if z is not None:
-        out["separation_sigma"] = float(z)
-    if room is not None:
-        out["room"] = room
-    return out
+def alternative_entry(effect, raw, gap_t, tau, replaces, named, z=None,
+                      room=None) -> Alternative:
+    """One :class:`Alternative` from its evidence against the named hypothesis: raw and
+    tempered delta BIC (``raw``, ``gap_t``), the tempering ``tau``, the separation ``z``."""
+    return Alternative(effect, float(raw), float(gap_t), float(tau), replaces, tuple(named),
+                       None if z is None else float(z), room)
 
 
 def swap_alternatives(fits: dict, form_fits: dict, ranking: list, first: str,
@@ -64,7 +101,7 @@ def swap_alternatives(fits: dict, form_fits: dict, ranking: list, first: str,
     of the named fit (:func:`~dpdfit.analyses.diagnosis.evidence.families.chi2_gap_z` below
     :data:`~dpdfit.analyses.diagnosis.evidence.thresholds.NOISE_Z`): a parameter count alone
     never puts a family out of reach.  ``exclude``: families already given as complete
-    explanations of their own.  Returns ``[(alternative dict, its fit)]``."""
+    explanations of their own.  Returns ``[(Alternative, its fit)]``."""
     out = []
     n_tests = len(ranking)
     by_name = {r["effect"]: r for r in ranking}
@@ -102,7 +139,7 @@ def addition_alternatives(steps: list, named: list, open_sides=()) -> list:
     (module doc).  ``open_sides``: the sides on which the named model still shows a
     mismatch; there an addition the raw likelihood would make stays in reach whatever
     its tempering, since the misfit that tempers it is itself unexplained.  Returns
-    ``[(alternative dict, its fit)]``."""
+    ``[(Alternative, its fit)]``."""
     out = []
     for step in steps:
         entries, added = step[0], step[1]
@@ -140,21 +177,3 @@ def addition_alternatives(steps: list, named: list, open_sides=()) -> list:
                 out.append((alternative_entry(c, raw, gap_t, tau, a,
                                    [c if x == a else x for x in named], z=z), f))
     return out
-
-
-def alternatives_sentence(verdict: str, alternatives: list) -> list[str]:
-    """The report's words for the alternatives: one line per kind."""
-    if not alternatives:
-        return []
-    lines = []
-    swaps = [a for a in alternatives if a["replaces"] is not None]
-    adds = [a for a in alternatives if a["replaces"] is None]
-    for rep in dict.fromkeys(a["replaces"] for a in swaps):
-        others = [a["effect"] for a in swaps if a["replaces"] == rep]
-        lines.append(f"{rep}, or {', or '.join(others)}: these recordings do not "
-                     f"separate them")
-    if adds:
-        lines.append(f"perhaps also {', '.join(a['effect'] for a in adds)}: these "
-                     "recordings favour it, not decisively once the misfit the forms leave "
-                     "is counted")
-    return lines

@@ -16,16 +16,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.decisions.alternatives import alternative_entry, swap_alternatives
+from dpdfit.analyses.diagnosis.decisions.additions import select_from
+from dpdfit.analyses.diagnosis.decisions.alternatives import (alternative_entry,
+                                                              swap_alternatives)
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.evidence.families import chi2_gap_z
-from dpdfit.analyses.diagnosis.evidence.thresholds import NOISE_Z
+from dpdfit.analyses.diagnosis.evidence.mismatches import locate_mismatches, side_evidence
+from dpdfit.analyses.diagnosis.evidence.tempering import tempered_gap
+from dpdfit.analyses.diagnosis.evidence.thresholds import BIC_DECISIVE, NOISE_Z
 from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.fitting.phase_sign import carry
-from dpdfit.analyses.diagnosis.decisions.additions import select_from
-from dpdfit.analyses.diagnosis.evidence.tempering import tempered_gap
-from dpdfit.analyses.diagnosis.evidence.thresholds import BIC_DECISIVE
-from dpdfit.analyses.diagnosis.evidence.mismatches import locate_mismatches, side_evidence
 
 __all__ = ["MAX_STARTS", "select", "better", "start_alternatives", "open_sides"]
 

@@ -2,9 +2,9 @@
 acceptable fit or explains nearly all of the mismatch (:func:`choose_first`)."""
 
 from __future__ import annotations
-from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA_FIT
-from dpdfit.analyses.diagnosis.evidence.ranking import decisive
 
+from dpdfit.analyses.diagnosis.evidence.ranking import decisive
+from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA_FIT
 
 __all__ = ['choose_first']
 

@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.evidence.thresholds import POORLY_CONSTRAINED
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.evidence.fidelity_cost import fidelity_cost
 from dpdfit.analyses.diagnosis.evidence.form_errors import (form_weights, honest_cost,
                                                             honest_sizes)
-from dpdfit.analyses.diagnosis.fitting.likelihood_intervals import profile_errors
 from dpdfit.analyses.diagnosis.evidence.tempering import evidence_dispersion
-from dpdfit.analyses.diagnosis.evidence.fidelity_cost import fidelity_cost
+from dpdfit.analyses.diagnosis.evidence.thresholds import POORLY_CONSTRAINED
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+from dpdfit.analyses.diagnosis.fitting.likelihood_intervals import profile_errors
 
 __all__ = ["named_effects", "group_chi2"]
 

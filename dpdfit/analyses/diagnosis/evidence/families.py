@@ -40,9 +40,9 @@ import numpy as np
 from scipy.special import logsumexp
 from scipy.stats import chi2 as chi2_dist
 
+from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.evidence.tempering import (hac_quadratic, series_pairs,
                                                           tempered_gap)
-from dpdfit.analyses.diagnosis.effects import EFFECTS
 
 __all__ = ["FamilyEvidence", "family_evidence", "form_gain", "chi2_gap_z", "nested",
            "maximal_forms", "shared_observables"]

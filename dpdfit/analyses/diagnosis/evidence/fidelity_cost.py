@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from dpdfit.analyses.diagnosis.effects import EFFECTS, effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS

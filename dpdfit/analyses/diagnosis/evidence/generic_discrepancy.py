@@ -19,8 +19,8 @@ import numpy as np
 from scipy.interpolate import make_lsq_spline
 from scipy.stats import chi2 as chi2_dist
 
-from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA
 from dpdfit.analyses.diagnosis.evidence.mismatches import locate_mismatches
+from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA
 
 __all__ = ["generic_discrepancy", "GENERIC_KNOTS", "smooth_fit"]
 

@@ -12,11 +12,11 @@
 from __future__ import annotations
 
 from scipy.stats import chi2 as chi2_dist
-from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA
-from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
+
 from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
-from dpdfit.analyses.diagnosis.evidence.thresholds import NULL_REDCHI_MAX
 from dpdfit.analyses.diagnosis.evidence.ranking import decisive
+from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA, NULL_REDCHI_MAX
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 
 __all__ = ['locate_mismatches', 'mismatch_evidence', 'side_evidence', 'side_of_observable', 'GATE_OBSERVABLES', 'within_null_range']
 

@@ -7,10 +7,11 @@ decisive (:func:`decisive`) and how much of the baseline's excess chi2 it explai
 from __future__ import annotations
 
 from scipy.stats import chi2 as chi2_dist
-from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA, BIC_DECISIVE
+
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.evidence.tempering import tempered_gap
+from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA, BIC_DECISIVE
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 
 __all__ = ['explained_fraction', 'rank_entry', 'decisive']
 

@@ -6,8 +6,10 @@ covariance (:func:`make_result`), and two one-sided fits combined into a joint o
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
+
 from dpdfit.analyses.diagnosis.effects import effect_of_key, get
 
 __all__ = ['FitResult', 'make_result', 'combine_sides', 'param_side']

@@ -15,13 +15,13 @@ parameter sits at its bound.
 from __future__ import annotations
 
 import numpy as np
+
 from dpdfit.analyses.diagnosis.effects import get
-from dpdfit.analyses.diagnosis.fitting.least_squares import (MAX_NFEV,
-                                                             Objective,
+from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult, make_result
+from dpdfit.analyses.diagnosis.fitting.least_squares import (MAX_NFEV, Objective,
                                                              best_solution, initial_point,
                                                              starting_points)
 from dpdfit.core.parallel import pmap
-from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult, make_result
 
 __all__ = ['fit_hypothesis', 'fit_effect', 'fit_all', 'fit_effects', 'form_chains']
 

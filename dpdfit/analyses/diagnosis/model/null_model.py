@@ -18,12 +18,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from dpdfit.analyses.diagnosis.model.tones.tone_noise import ToneNoise
+from dpdfit.core.records import Record
 
 __all__ = ["NullModel", "choose_phase_sign"]
 
 
 @dataclass(frozen=True)
-class NullModel:
+class NullModel(Record):
     """What the baseline learnt from the campaign before any effect."""
 
     #: the tone-side noise (floor, repeatability, trace power jitter)

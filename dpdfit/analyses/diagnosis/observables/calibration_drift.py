@@ -10,8 +10,8 @@ import pandas as pd
 
 from dpdfit.errors import DpdfitError
 from dpdfit.fits.calibration import fit_amplitude
-from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.calibration_runs import list_runs
+from dpdfit.recordings.campaign_folder import CampaignFolder
 
 __all__ = ["RunsAfter", "MAX_DRIFT_MODES", "DRIFT_MODE_SIGNIFICANCE", "drift_modes",
            "runs_after_recordings"]

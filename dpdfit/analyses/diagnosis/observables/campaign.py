@@ -35,19 +35,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+
 import numpy as np
 import pandas as pd
+
 from dpdfit.analyses.diagnosis.observables.calibration_drift import (RunsAfter, drift_modes,
                                                                      runs_after_recordings)
+from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS, debias_tones
 from dpdfit.analyses.diagnosis.observables.tone_grid import tone_grid
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
-from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
-from dpdfit.recordings.campaign_folder import CampaignFolder
-from dpdfit.fits.counts import fit_parity
 from dpdfit.errors import InputError
+from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
+from dpdfit.fits.counts import fit_parity
 from dpdfit.fits.photodiode import (model_run_with_noise, phase_run_with_noise,
                                     with_phase_noise, with_power_noise)
-from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS, debias_tones
+from dpdfit.recordings.campaign_folder import CampaignFolder
 
 __all__ = ['DEFAULT_ERROR_MODEL', 'Campaign', 'load_campaign']
 

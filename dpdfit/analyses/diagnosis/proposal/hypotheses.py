@@ -7,10 +7,11 @@ covariance from the recordings so far."""
 from __future__ import annotations
 
 import numpy as np
+
 from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
-from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
+from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.core.defaults import PHASE_MIN_A
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'MODE_STEP', 'PARAM_STEP']

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Callable
+
 import numpy as np
-from dpdfit.analyses.diagnosis.proposal.hypotheses import SPECTRA_GRID
+
 from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
+from dpdfit.analyses.diagnosis.proposal.hypotheses import SPECTRA_GRID, Hypothesis
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
 from dpdfit.core.defaults import ERROR_MODEL
-from dpdfit.analyses.diagnosis.proposal.hypotheses import Hypothesis
 
 __all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS']
 

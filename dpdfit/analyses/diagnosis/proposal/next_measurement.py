@@ -60,13 +60,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import norm
 
-from dpdfit.analyses.diagnosis.proposal.menu import BUILDERS, SPECTRA_COUNTS
-from dpdfit.analyses.diagnosis.proposal.hypotheses import (RUN_AMPLITUDES, SPECTRA_GRID,
-                                                           Hypothesis)
+from dpdfit.analyses.diagnosis.evidence.thresholds import BIC_DECISIVE
 from dpdfit.analyses.diagnosis.proposal.expected_separation import (REFIT_NFEV, directions,
                                                                     separation)
-from dpdfit.analyses.diagnosis.evidence.thresholds import BIC_DECISIVE
+from dpdfit.analyses.diagnosis.proposal.hypotheses import (RUN_AMPLITUDES, SPECTRA_GRID,
+                                                           Hypothesis)
+from dpdfit.analyses.diagnosis.proposal.menu import BUILDERS, SPECTRA_COUNTS
 from dpdfit.core.defaults import LAB_TIMES
+from dpdfit.core.records import Record
 
 __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
            "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID", "SPECTRA_COUNTS",
@@ -83,7 +84,7 @@ CONFIRMED = 3
 
 
 @dataclass(frozen=True)
-class NextMeasurement:
+class NextMeasurement(Record):
     """The proposed next recording (module doc), or none with the reason.
 
     Attributes
@@ -128,6 +129,22 @@ class NextMeasurement:
     separation: dict = field(default_factory=dict)
     hypotheses: list = field(default_factory=list)
     binding: dict = field(default_factory=dict)
+
+    @property
+    def decisive(self) -> bool | None:
+        """Whether the recording is expected to decide (None when nothing is proposed)."""
+        return None if self.what is None else self.reason is None
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "NextMeasurement":
+        """The proposal of its JSON (:meth:`to_dict`), e.g. of an earlier diagnosis."""
+        if not d.get("what"):
+            return cls(None, reason=d.get("reason"))
+        return cls(d["what"], **{k: d[k] for k in _KEYS[1:] if k in d},
+                   menu=list(d.get("menu") or []), reason=d.get("reason"),
+                   separation=dict(d.get("predicted_separation") or {}),
+                   hypotheses=list(d.get("hypotheses") or []),
+                   binding=dict(d.get("binding") or {}))
 
     def to_dict(self) -> dict:
         """The proposal as a JSON-ready dict: the keys of :attr:`menu`'s items plus

@@ -14,7 +14,8 @@ import numpy as np
 from dpdfit.analyses.diagnosis.evidence.families import chi2_gap_z, shared_observables
 from dpdfit.analyses.diagnosis.evidence.tempering import tempered_gap
 from dpdfit.analyses.diagnosis.evidence.thresholds import FORM_IN_REACH, NOISE_Z
-from dpdfit.analyses.diagnosis.proposal.next_measurement import propose_next_measurement
+from dpdfit.analyses.diagnosis.proposal.next_measurement import (NextMeasurement,
+                                                                 propose_next_measurement)
 
 __all__ = ['shifted_hypothesis', 'forms_in_reach', 'propose']
 
@@ -56,16 +57,17 @@ def forms_in_reach(fit, form_fits: dict) -> list:
 
 
 def propose(prob, chosen, alternatives: list, named_effects: list,
-            form_fits: dict | None = None) -> dict:
-    """The next measurement's JSON object (:mod:`..next_measurement`) for an ambiguous
-    verdict (the named fit against every alternative's fit, each with its family's forms
+            form_fits: dict | None = None) -> NextMeasurement:
+    """The next measurement
+    (:class:`~dpdfit.analyses.diagnosis.proposal.next_measurement.NextMeasurement`) for an
+    ambiguous verdict (the named fit against every alternative's fit, each with its family's forms
     in reach, :func:`forms_in_reach`) or, without alternatives, for the named effects
     whose main size is poorly constrained (the fit against the same fit with that effect
     moved by 1 sigma, parameters held)."""
     form_fits = form_fits or {}
     # the swaps first: they are the competing explanations; additions in reach differ
     # from the verdict by a refinement, and the smallest separation would chase it
-    swaps = [f for a, f in alternatives if a["replaces"] is not None]
+    swaps = [f for a, f in alternatives if a.is_swap]
     hyps = [forms_in_reach(chosen, form_fits)] + [
         forms_in_reach(f, form_fits) for f in (swaps or [f for _, f in alternatives])]
     profile = True
@@ -78,12 +80,12 @@ def propose(prob, chosen, alternatives: list, named_effects: list,
                     profile = False
                     break
     if len(hyps) == 1:
-        return {"what": None, "reason": "no parameter of the poorly constrained effect "
-                                        "has an error to move it by"}
-    tau = max([a["tempering"] for a, _ in alternatives] or [1.0])
+        return NextMeasurement(None, reason="no parameter of the poorly constrained effect "
+                                            "has an error to move it by")
+    tau = max([a.tempering for a, _ in alternatives] or [1.0])
     try:
-        return propose_next_measurement(prob, hyps, tempering=tau, profile=profile).to_dict()
+        return propose_next_measurement(prob, hyps, tempering=tau, profile=profile)
     except Exception as exc:          # the verdict stands whatever the proposal does
         log.warning("no next measurement could be proposed: %s", exc)
-        return {"what": None, "reason": f"the menu's simulation failed: "
-                                        f"{type(exc).__name__}: {exc}"}
+        return NextMeasurement(None, reason=f"the menu's simulation failed: "
+                                            f"{type(exc).__name__}: {exc}")

@@ -45,16 +45,16 @@ import copy
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
+from dpdfit.analyses.diagnosis.model.caches import ModelCache
+from dpdfit.analyses.diagnosis.model.gates.effect_terms import (active_effects,
+                                                                effect_terms, preparation)
 from dpdfit.analyses.diagnosis.model.gates.engine_runs import run_settings
-from dpdfit.analyses.diagnosis.model.gates.effect_terms import (active_effects, effect_terms,
-                                                                preparation)
-from dpdfit.analyses.diagnosis.model.gates.observe import (PHASES, collapse, confusion_t, contrast,
-                                                           observe)
 from dpdfit.analyses.diagnosis.model.gates.knob_response import (KNOB_MULTIPLES,
                                                                  POWER_STEP_DB,
                                                                  response_tables)
+from dpdfit.analyses.diagnosis.model.gates.observe import (PHASES, collapse, confusion_t,
+                                                           contrast, observe)
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 

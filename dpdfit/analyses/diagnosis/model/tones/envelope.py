@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.effects.base import Effect
+from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.model.tones.interpolation import (cubic_apply, cubic_weights,
                                                                  uniform_interp)
 from dpdfit.models.waveforms import cardioid, drive_peak, sample_grid

@@ -50,15 +50,15 @@ import copy
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.model.tones.interpolation import (uniform_at, uniform_interp,
-                                                                 uniform_place)
-from dpdfit.analyses.diagnosis.observables.tone_features import (TONE_HARMONICS,
-                                                                 tone_features)
-from dpdfit.analyses.diagnosis.observables.campaign import Campaign
+from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.model.tones.envelope import (K_TABLE, M_SLOW, N_QUAD,
                                                             EnvelopeEngine)
+from dpdfit.analyses.diagnosis.model.tones.interpolation import (uniform_at, uniform_interp,
+                                                                 uniform_place)
+from dpdfit.analyses.diagnosis.observables.campaign import Campaign
+from dpdfit.analyses.diagnosis.observables.tone_features import (TONE_HARMONICS,
+                                                                 tone_features)
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 from dpdfit.models.transfer import TransferFunction, predistortion_table

@@ -35,12 +35,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.observables.campaign import Campaign
 from dpdfit.analyses.diagnosis.observables.tone_features import (TONE_FEATURES,
                                                                  TONE_HARMONICS,
                                                                  debias_tones,
                                                                  tone_features)
-from dpdfit.analyses.diagnosis.observables.campaign import Campaign
-from dpdfit.fits.tone_noise import NoiseFloor, estimate_noise_floor, floor_from_snr, robust_scale
+from dpdfit.fits.tone_noise import (NoiseFloor, estimate_noise_floor, floor_from_snr,
+                                    robust_scale)
 
 __all__ = ["GATE", "ToneNoise", "learn_tone_noise", "repeats_of", "trace_jitter_multiple",
            "S_TONE_MIN", "S_TONE_MAX", "S_TRACE_MAX"]
