@@ -10,15 +10,14 @@ may import.  Read from the source with :mod:`ast`, imports inside functions incl
 from __future__ import annotations
 
 import ast
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-TESTS = ROOT / "tests"
-TEST_MODULES = sorted(TESTS.glob("test_*.py"))
+from tests.helpers.paths import ROOT, TESTS
+
+TEST_MODULES = sorted(TESTS.rglob("test_*.py"))
 #: modules of tests/ that are not test modules: they must not reach a test module either
-SUPPORT = sorted([TESTS / "conftest.py", *(TESTS / "helpers").glob("*.py")])
+SUPPORT = sorted([*TESTS.rglob("conftest.py"), *(TESTS / "helpers").glob("*.py")])
 BENCHMARKS = sorted((ROOT / "benchmarks").glob("*.py"))
 IMPORTERS = {"import_module", "__import__"}       # importlib.import_module("..."), __import__
 

@@ -35,8 +35,8 @@ from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
 from dpdfit.errors import DpdfitError
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 AOM = ROOT / "datasets" / "synthetic_aom"
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 
