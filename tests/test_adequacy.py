@@ -21,8 +21,8 @@ from dpdfit.fits.alignment import align
 from dpdfit.fits.calibration import fit_amplitude, fit_phase
 from dpdfit.fits.polyfit import polyfit
 from dpdfit.recordings.tables import read_calibration
-from benchmarks.gate_points import simulated_gate
-from benchmarks.truth_model import truth_poly_tf
+from dpdfit.simulation.gate_points import simulated_gate
+from dpdfit.simulation.aom_truth import truth_poly_tf
 from tests.helpers.bundled_data import AOM
 
 N_REP = 300

@@ -8,8 +8,8 @@ from dpdfit.fits.alignment import align, xi0_band
 from dpdfit.errors import FitError, InputError
 from dpdfit.models.fidelity import cardioid_populations
 from dpdfit.analyses.sweep import SweepConfig, run_sweep
-from benchmarks.gate_points import ALPHA, DELTA, SDB, simulated_gate
-from benchmarks.truth_model import truth_poly_tf
+from dpdfit.simulation.gate_points import ALPHA, DELTA, SDB, simulated_gate
+from dpdfit.simulation.aom_truth import truth_poly_tf
 
 
 @pytest.fixture(scope="module")

@@ -2,9 +2,10 @@
 imports from ``tests/``.
 
 What several test modules share lives in ``tests/helpers/`` (or is a fixture of
-``tests/conftest.py``); what a benchmark shares with the tests lives in a small
-``benchmarks/`` module (the truth model, the problems it measures), which the tests
-may import.  Read from the source with :mod:`ast`, imports inside functions included.
+``tests/conftest.py``); what a benchmark shares with the tests lives in the package
+(the truth AOM's polynomial form, the simulated gate points and the polyfit problems
+are in :mod:`dpdfit.simulation`), so that neither imports from the other.  Read from
+the source with :mod:`ast`, imports inside functions included.
 """
 
 from __future__ import annotations
@@ -70,7 +71,7 @@ def test_no_test_module_imports_another(path):
 def test_no_benchmark_imports_from_tests(path):
     found = _from_tests(imported(path.read_text()))
     assert not found, (f"{path.relative_to(ROOT)} imports {found} from tests/: a helper it "
-                       "shares with the tests belongs in benchmarks/ (or the package)")
+                       "shares with the tests belongs in the package")
 
 
 @pytest.mark.parametrize("source, test_module, from_tests", [

@@ -15,7 +15,7 @@ from scipy import stats
 from dpdfit.fits.polyfit import double_double as _dd
 from dpdfit.errors import FitError, InputError
 from dpdfit.fits.polyfit import PolyFitResult, parse_powers, polyfit
-from benchmarks.polyfit_problems import hard_case, mp_reference, no_constant_case
+from dpdfit.simulation.polyfit_problems import hard_case, mp_reference, no_constant_case
 
 DICT_KEYS = {
     "powers", "coefficients", "stderr", "covariance", "residual_std", "chi2", "dof",

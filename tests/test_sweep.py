@@ -10,7 +10,7 @@ from dpdfit.errors import InputError
 from dpdfit.analyses.sweep import COLUMNS, SweepConfig, eta_bar, parse_amplitudes, run_sweep
 from dpdfit.analyses.sweep import first_crossing as _first_crossing
 from dpdfit.models.waveforms import cardioid, sample_grid, synthesize
-from benchmarks.truth_model import truth_poly_tf
+from dpdfit.simulation.aom_truth import truth_poly_tf
 from tests.helpers.cli_refusal import assert_refused
 from tests.helpers.cli_run import run
 

@@ -3,7 +3,7 @@ import pytest
 
 from dpdfit.errors import NotInvertibleError
 from dpdfit.models.transfer import TransferFunction, predistortion_table
-from benchmarks.truth_model import truth_poly_tf
+from dpdfit.simulation.aom_truth import truth_poly_tf
 
 
 def test_forward_symmetries_and_clipping():

@@ -6,7 +6,7 @@ import pytest
 from dpdfit.errors import InputError
 from dpdfit.models.spectrum import field_tone_powers, simulate_field
 from dpdfit.models.waveforms import ToneSet, cardioid, sample_grid, synthesize
-from benchmarks.truth_model import truth_poly_tf
+from dpdfit.simulation.aom_truth import truth_poly_tf
 
 NU, XI0 = 1.84e6, 20e3
 

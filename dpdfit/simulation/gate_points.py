@@ -1,16 +1,21 @@
 """Gate points of the paper's design drawn from a known alpha and delta.
 
 The 10 points (A = 0.4..0.8, both DPD flags) around a sweep, with 1 % gate-rate
-calibration error, ``SDB`` dB laser-power fluctuation and 0.004 fidelity errors:
-the simulated campaigns of ``alignment_coverage.py``, and of the alignment and
-adequacy tests (``from benchmarks.gate_points import simulated_gate``).
+calibration error, ``SDB`` dB laser-power fluctuation and 0.004 fidelity errors,
+drawn from the alignment's own curves (:func:`dpdfit.fits.alignment.curves`): the
+simulated campaigns of ``benchmarks/alignment_coverage.py`` and of the alignment and
+adequacy tests.
 """
 
 import pandas as pd
 
 from dpdfit.fits.alignment import K_DB, curves
 
+__all__ = ["ALPHA", "DELTA", "SDB", "AMPS", "simulated_gate"]
+
+#: the true alignment (kHz per unit rate, fidelity offset) and laser-power fluctuation (dB)
 ALPHA, DELTA, SDB = 3.42, -0.018, 0.2
+#: the design's drive amplitudes, each recorded with and without DPD
 AMPS = (0.4, 0.5, 0.6, 0.7, 0.8)
 
 

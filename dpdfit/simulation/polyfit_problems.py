@@ -1,14 +1,16 @@
 """Two ill-conditioned least-squares problems and their 50-digit reference solution.
 
-The problems ``polyfit_precision.py`` measures and ``tests/test_polyfit.py`` checks
-(``from benchmarks.polyfit_problems import ...``): a benchmark module, not a test
-module, so that the benchmarks need nothing from ``tests/``.
+Synthetic data with a known answer, as the rest of this layer: the problems
+``benchmarks/polyfit_precision.py`` measures :func:`dpdfit.fits.polyfit.polyfit` on and
+``tests/test_polyfit.py`` checks it with.  The reference needs mpmath (in the
+``test`` extra), imported when it is called.
 """
 
 from __future__ import annotations
 
-import mpmath
 import numpy as np
+
+__all__ = ["mp_reference", "hard_case", "no_constant_case"]
 
 
 def mp_reference(x, y, powers, sigma=None, dps=50):
@@ -17,6 +19,8 @@ def mp_reference(x, y, powers, sigma=None, dps=50):
     cond(A)**2 ~ 1e30 < 1e50, so 50 digits leave ~20 correct ones.  Applies
     the same sigma convention as polyfit.  Returns mpf lists/matrices.
     """
+    import mpmath    # an optional dependency (the test extra), not an import circle
+
     with mpmath.workdps(dps):
         n, p = len(x), len(powers)
         w = [mpmath.mpf(1) if sigma is None else 1 / mpmath.mpf(float(s)) for s in
