@@ -8,7 +8,7 @@ data.  Numbers there have fixed significant digits (``dpdfit.core.display``),
 so they are stable across platforms.  After an intended change of the
 rendering, regenerate them with::
 
-    DPDFIT_UPDATE_GOLDEN=1 python -m pytest tests/test_display.py
+    DPDFIT_UPDATE_GOLDEN=1 python -m pytest tests/core/test_display.py
 
 and review the diff of ``tests/golden/`` before committing.
 """
@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import os
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -45,8 +44,8 @@ from dpdfit.fits.tones.results import SidebandTones, TraceSpectrum
 from dpdfit.models.fidelity import Estimate
 from dpdfit.recordings.tables import read_calibration
 from tests.helpers.bundled_data import AOM, CAMPAIGN
+from tests.helpers.paths import GOLDEN
 
-GOLDEN = Path(__file__).resolve().parent / "golden"
 UPDATE = os.environ.get("DPDFIT_UPDATE_GOLDEN") == "1"
 
 #: every public result class of dpdfit

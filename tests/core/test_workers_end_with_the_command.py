@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers.paths import ROOT
+
 
 # a parent that starts a pool of busy workers (as the diagnosis does) and reports them
 _SCRIPT = r"""

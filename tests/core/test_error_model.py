@@ -5,15 +5,13 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from dpdfit.core.defaults import ERROR_MODEL, NBAR, ErrorModel
 from dpdfit.errors import InputError
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers.paths import ROOT
 
 
 def test_default_instance_values():
