@@ -13,7 +13,7 @@ Hypothesis profiles (chosen by the environment variable HYPOTHESIS_PROFILE):
 
 * ``ci`` (default): 30 examples per test, derandomized (reproducible in CI);
 * ``thorough``: 600 examples per test, random seeds;
-  ``HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_properties.py
+  ``HYPOTHESIS_PROFILE=thorough python -m pytest tests/recordings/test_reader_properties.py
   tests/test_properties_cli.py``.
 
 ``benchmarks/property_counts.py`` runs the same tests (under pytest, in a child

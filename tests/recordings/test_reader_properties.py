@@ -8,7 +8,7 @@ endings, comment and blank lines, shuffled rows) must give the same result as
 the original file.
 
 Default profile ``ci`` (30 derandomized examples per test); the larger run is
-``HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_properties.py``.
+``HYPOTHESIS_PROFILE=thorough python -m pytest tests/recordings/test_reader_properties.py``.
 """
 
 import json

@@ -20,8 +20,8 @@ from dpdfit.recordings.counts import read_time_scans
 from dpdfit.recordings.gate_rates import read_gate_rates
 from dpdfit.recordings.spectra import check_spectra_repeats, pool_spectra, read_spectra
 from tests.helpers.cli_refusal import assert_refused
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 
 

@@ -27,8 +27,8 @@ from dpdfit.recordings.counts import read_parity
 from dpdfit.recordings.plausibility import DEGREES_SPAN_RAD, RATE_SPECTRA_FACTOR
 from dpdfit.recordings.tables import read_calibration
 from tests.helpers.cli_refusal import assert_refused
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 SHARED = ROOT.parent / "shared"
 TABLES = ["calibration_amplitude.csv", "calibration_phase.csv", "spectra.csv",

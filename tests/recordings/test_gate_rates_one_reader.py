@@ -2,8 +2,6 @@
 --gate-rates` and `fidelity --gate-rates` read it alike, and the import mapping's
 columns are the readers' own."""
 
-from pathlib import Path
-
 import pandas as pd
 import pytest
 
@@ -12,8 +10,9 @@ from dpdfit.cli.main import main
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.mapping import TABLE_COLUMNS
 from tests.helpers.cli_refusal import assert_refused
+from tests.helpers.paths import ROOT
 
-CAMP = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+CAMP = ROOT / "datasets" / "synthetic_campaign"
 
 
 def _fidelity(rates, *extra):
@@ -73,7 +72,7 @@ def test_budget_reader_says_what_it_returns():
 
 def test_the_import_guide_lists_the_mapping_columns():
     import re
-    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "import.md").read_text()
+    guide = (ROOT / "docs" / "guide" / "import.md").read_text()
     for table, (required, optional) in TABLE_COLUMNS.items():
         row = next(line for line in guide.splitlines() if line.startswith(f"| `{table}` |"))
         names = set(re.findall(r"`(\w+)`", row)) - {table}

@@ -3,15 +3,14 @@ optional files and columns, what is left out, bad input in one line."""
 
 import json
 import shutil
-from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from dpdfit.recordings.campaign_folder import META_DEFAULTS, CampaignFolder
 from dpdfit.errors import InputError
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 
 

@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from dpdfit.cli.main import main
+from tests.helpers.paths import ROOT
 
-BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 
 
 def _snapshot(folder: Path) -> dict:
