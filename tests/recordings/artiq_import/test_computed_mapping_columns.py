@@ -22,8 +22,9 @@ from dpdfit.recordings.mapping import read_mapping  # noqa: E402
 from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # noqa: E402
                                              write_results_file)
 from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
+from tests.helpers.paths import ROOT  # noqa: E402
 
-BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 
 
 def _bundled(table: str) -> pd.DataFrame:

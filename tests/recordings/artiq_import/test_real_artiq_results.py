@@ -21,8 +21,9 @@ from dpdfit.recordings.artiq import read_results_file  # noqa: E402
 from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.recordings.units import scale_from_metadata, stored_unit  # noqa: E402
 from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
+from tests.helpers.paths import TEST_DATA  # noqa: E402
 
-REAL = Path(__file__).parent / "data" / "real_artiq_results" / "haeffnerlab_photonics"
+REAL = TEST_DATA / "real_artiq_results" / "haeffnerlab_photonics"
 PHOTONICS = REAL / "000071085-track_sideband_with_seq.h5"
 SHOTS = "Check_729_Freq_cal_num_samples_per_freq"
 

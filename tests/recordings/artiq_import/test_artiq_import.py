@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -21,8 +20,8 @@ from dpdfit.recordings.artiq import read_results_file  # noqa: E402
 from dpdfit.recordings.campaign_import import import_campaign  # noqa: E402
 from dpdfit.simulation.artiq_results import (write_ndscan_campaign,  # noqa: E402
                                              write_per_shot_campaign)
+from tests.helpers.paths import ROOT  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
           "time_scans", "gate_rates")

@@ -3,16 +3,15 @@ written (so an error is never preceded by warnings), every path relative to the 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 pytest.importorskip("h5py")
 
 from dpdfit.cli.main import main  # noqa: E402
 from dpdfit.simulation.artiq_results import write_per_shot_campaign  # noqa: E402
+from tests.helpers.paths import ROOT  # noqa: E402
 
-BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 
 
 @pytest.fixture(scope="module")

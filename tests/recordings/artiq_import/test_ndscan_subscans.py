@@ -7,8 +7,6 @@ The files have the layout ndscan's ``setattr_subscan`` gives a parent scan
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 import pytest
@@ -22,8 +20,9 @@ from dpdfit.simulation.artiq_results import (axis, channel, ndscan_datasets,  # 
                                              write_results_file)
 from dpdfit.simulation.ndscan_subscan_results import subscan_channels  # noqa: E402
 from tests.helpers.mapping_text import CALIBRATION_STUB  # noqa: E402
+from tests.helpers.paths import ROOT  # noqa: E402
 
-BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 MAPPING = CALIBRATION_STUB.replace("{", "{{").replace("}", "}}") + '''[[time_scans]]
 files = "results/**/*.h5"
 subscan = "{subscan}"

@@ -18,8 +18,8 @@ from pathlib import Path
 from dpdfit.recordings.mapping import read_mapping
 from dpdfit.recordings.name_patterns import match_name, matching_keys
 from tests.helpers.mapping_text import CALIBRATION_STUB
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 #: a linear count grows 4x for a 4x input; a quadratic one 16x
 LINEAR_RATIO = 6.0
 PARITY_BLOCK = '''
