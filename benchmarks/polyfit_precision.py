@@ -35,7 +35,7 @@ except ImportError:                      # run from a source checkout
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
     from dpdfit.fits.polyfit import polyfit
 
-# problems and the 50-digit reference: the very ones tests/test_polyfit.py checks
+# problems and the 50-digit reference: the very ones tests/fits/test_polyfit.py checks
 from dpdfit.simulation.polyfit_problems import hard_case, no_constant_case  # noqa: E402
 from dpdfit.simulation.polyfit_problems import mp_reference as _mp_reference  # noqa: E402
 from record import add_json_option, summary_line, write_record  # noqa: E402

@@ -2,7 +2,7 @@
 
 Synthetic data with a known answer, as the rest of this layer: the problems
 ``benchmarks/polyfit_precision.py`` measures :func:`dpdfit.fits.polyfit.polyfit` on and
-``tests/test_polyfit.py`` checks it with.  The reference needs mpmath (in the
+``tests/fits/test_polyfit.py`` checks it with.  The reference needs mpmath (in the
 ``test`` extra), imported when it is called.
 """
 

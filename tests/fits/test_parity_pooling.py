@@ -9,7 +9,6 @@ never refused.
 
 import json
 import logging
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -18,11 +17,11 @@ from scipy.optimize import minimize
 
 from dpdfit.cli.main import main
 from dpdfit.fits.counts import gate_fidelities
+from tests.helpers.paths import ROOT, TEST_DATA
 
 PHI16 = np.arange(16) * 2 * np.pi / 16
 SHOTS = (400, 625, 900)
-HERE = Path(__file__).parent
-VALIDATION = HERE.parent.parent / "shared" / "validation_campaigns"
+VALIDATION = ROOT.parent / "shared" / "validation_campaigns"
 
 
 def _scans(rng, A, phi0, offsets, shift_phi0=(0.0, 0.0, 0.0)):
@@ -122,7 +121,7 @@ def test_a_shifted_scan_is_reported_with_a_warning_not_refused(caplog):
 
 @pytest.mark.parametrize("camp", ["v01", "v02"])
 def test_validation_campaign_scans_are_accepted_by_the_cli(camp, capsys):
-    d = HERE / "data" / "validation" / camp
+    d = TEST_DATA / "validation" / camp
     code = main(["fidelity", "--populations", str(d / "populations.csv"),
                  "--parity", str(d / "parity.csv"), "--json"])
     assert code == 0

@@ -8,7 +8,6 @@ pooling gain; exact binomial sums for the population intervals.
 import dataclasses
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -23,8 +22,8 @@ from dpdfit.fits.counts import (BOUNDARY_SIGMAS, GATE_COLUMNS, LEVEL_1SIGMA, Par
                                 population_fidelity)
 from dpdfit.recordings.counts import read_parity, read_populations
 from dpdfit.errors import FitError, InputError
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 PHI16 = np.arange(16) * 2 * np.pi / 16          # the paper's 16 phases on [0, 2 pi)
 N = 625

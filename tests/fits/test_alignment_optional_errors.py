@@ -9,7 +9,6 @@ campaign's laser-power fluctuation.
 
 import json
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -22,8 +21,9 @@ from dpdfit.fits.alignment import K_DB, align, curves
 from dpdfit.models.transfer import TransferFunction
 from dpdfit.pipeline.analyze import analyze
 from dpdfit.pipeline.steps.gates import power_jitter_db
+from tests.helpers.paths import ROOT
 
-CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 
 
 @pytest.fixture(scope="module")
