@@ -154,7 +154,7 @@ def test_gate_side_form_moves_the_gates_as_the_model_predicts(gate_campaign, nam
         ratio = (s @ mo) / (mo @ mo)              # the simulator's change along the model's
         if form == "stretched" and obs == "C":
             # the model treats G(t)/t as a constant rate; slow noise acts late in the gate,
-            # where it costs the contrast more (tests/test_slow_dephasing.py)
+            # where it costs the contrast more (tests/models/test_slow_dephasing.py)
             assert 1.0 < ratio < 2.0, (obs, s, mo)
         else:
             assert 0.7 < ratio < 1.4, (obs, s, mo)

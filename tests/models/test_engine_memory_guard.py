@@ -10,7 +10,6 @@ a normal size must be refused.
 
 import math
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -23,8 +22,8 @@ from dpdfit.errors import InputError
 from dpdfit.models import gate_sim
 from dpdfit.models.gate_sim.fock import fock_cutoff, thermal_levels
 from tests.helpers.cli_refusal import assert_refused
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 
 # a Cardioid(1,2)-like drive calibrated to a 3.4 kHz gate rate, with a weak
