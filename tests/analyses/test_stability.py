@@ -17,8 +17,8 @@ from dpdfit.analyses.stability import allan_deviation, drift_test, stability
 from dpdfit.report.figure_io import save_figures
 from dpdfit.report.stability_plots import stability_figures
 from dpdfit.cli.stability import add_stability_command
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 AMP = CAMPAIGN / "calibration_amplitude.csv"
 PHASE = CAMPAIGN / "calibration_phase.csv"
