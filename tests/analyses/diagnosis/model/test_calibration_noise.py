@@ -8,7 +8,6 @@ results.
 """
 
 import shutil
-from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -19,8 +18,9 @@ from dpdfit.analyses.diagnosis.observables import load_campaign
 from dpdfit.pipeline.context import Context, Results
 from dpdfit.pipeline.steps import calibration_step
 from dpdfit.recordings.campaign_folder import CampaignFolder
+from tests.helpers.paths import ROOT
 
-CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 
 
 @pytest.fixture(scope="module")

@@ -7,15 +7,14 @@ the null model's ``phase_sign`` must be those of the baseline fit, captured when
 computed, not re-evaluated afterwards under the effect's convention.
 """
 
-from pathlib import Path
-
 import numpy as np
 
 import dpdfit.analyses.diagnosis.diagnose as diagnose_module
 from dpdfit.analyses.diagnosis.diagnose import diagnose
 from dpdfit.report.diagnosis_plots import DIAGNOSIS_GROUPS, diagnosis_figure
+from tests.helpers.paths import ROOT
 
-CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 
 
 def _flip_after_baseline(monkeypatch, seen: dict):

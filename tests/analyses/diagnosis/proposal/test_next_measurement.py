@@ -8,7 +8,6 @@ model.
 
 from __future__ import annotations
 
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -20,8 +19,9 @@ from dpdfit.analyses.diagnosis.next_measurement import (KINDS, NextMeasurement,
                                                         decisive_target,
                                                         propose_next_measurement)
 from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES, LabTimes
+from tests.helpers.paths import ROOT
 
-BUNDLED_CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+BUNDLED_CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 CONTRACT_KEYS = {"what", "settings", "expected_delta_bic", "separates", "lab_seconds",
                  "per_hour", "menu", "decisive"}
 GATE_KINDS = {"populations", "parity", "time_scan"}

@@ -1,7 +1,6 @@
 """Discrepancy diagnosis: contract, null campaign, concealed campaign, reduced harness."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,8 +10,8 @@ from dpdfit.analyses.diagnosis.diagnose import ALPHA, diagnose, mismatch_evidenc
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects
 from dpdfit.simulation.harness import concealed_effects, plan, run_harness, summarise
 from dpdfit.analyses.diagnosis.scan import scan_intervals
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 CONCEALED_DIR = ROOT / "datasets" / "concealed_campaign"
 CONCEALED_TRUTH = ROOT / "datasets" / "concealed_campaign_truth.json"
