@@ -2,14 +2,14 @@
 
 import json
 import shutil
-from pathlib import Path
 
 import pytest
 
 from dpdfit.cli.main import main
 from dpdfit.simulation.harness_external import summarise_external
+from tests.helpers.paths import TEST_DATA
 
-DATA = Path(__file__).parent / "data" / "validation"
+DATA = TEST_DATA / "validation"
 
 
 def _run(campaign, truth, verdict, seconds=1.0):

@@ -7,7 +7,7 @@ calibration) with and without the form's parameters.  Gate side (slow: the gate 
 engine responses): the simulator's noise-free populations and parity contrast at each
 gate setting against the gate model's prediction.  The stale table's forms are
 parametrised in the campaign's drift modes, not in the simulator's terms; their
-calibration signatures are checked in ``tests/test_form_injection.py``."""
+calibration signatures are checked in ``tests/simulation/test_form_injection.py``."""
 
 import dataclasses
 
