@@ -30,8 +30,8 @@ from dpdfit.analyses.stability import stability  # noqa: E402
 from dpdfit.fits.posterior import sample_amplitude_posterior  # noqa: E402
 from dpdfit.pipeline.steps.gates import closest_pair  # noqa: E402
 from dpdfit.report.figure_io import save_figures  # noqa: E402
+from tests.helpers.paths import ROOT  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
 PKG = Path(dpdfit.__file__).resolve().parent
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 PNG = b"\x89PNG\r\n\x1a\n"

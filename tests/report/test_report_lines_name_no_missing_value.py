@@ -3,7 +3,6 @@ the one-line error of an alignment without gate-rate errors names ``gate_rates.c
 
 import json
 import shutil
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -15,8 +14,9 @@ from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.errors import InputError
 from dpdfit.fits.alignment import align
 from dpdfit.report.summary import summary_markdown
+from tests.helpers.paths import ROOT
 
-CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 
 REDCHI = {"tones:R10": 1.004, "gates:F_pop": 0.913}
 #: a ranking entry as a null campaign's diagnosis has it: the form's fixed parameters
