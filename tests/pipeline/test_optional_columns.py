@@ -3,15 +3,15 @@ with the reason, and ``left_out`` names the optional columns a file lacks."""
 
 import json
 import shutil
-from pathlib import Path
 
 import pandas as pd
 
 from dpdfit.pipeline.context import Context, Results
 from dpdfit.pipeline.steps import stability_step
 from dpdfit.recordings.campaign_folder import CampaignFolder
+from tests.helpers.paths import ROOT
 
-CAMP = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+CAMP = ROOT / "datasets" / "synthetic_campaign"
 
 
 def _folder(tmp_path, drop: dict) -> CampaignFolder:

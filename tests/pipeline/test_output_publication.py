@@ -22,8 +22,8 @@ from dpdfit.errors import InputError
 from dpdfit.pipeline.analysis import Analysis, previous_outputs
 from dpdfit.recordings.outputs import (atomic_write_text, check_output_file,
                                        check_output_folder, staged_outputs)
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 AMP = ROOT / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 
