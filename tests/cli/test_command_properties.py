@@ -9,7 +9,7 @@ file or an option, and no traceback; the input files are never modified.
 
 Only light options are generated (small grids, few draws); ``analyze`` and
 ``diagnose`` are left to their own tests.  Default profile ``ci``; the larger
-run is ``HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_properties_cli.py``.
+run is ``HYPOTHESIS_PROFILE=thorough python -m pytest tests/cli/test_command_properties.py``.
 """
 
 import contextlib

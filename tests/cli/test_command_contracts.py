@@ -2,7 +2,6 @@
 
 import hashlib
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,6 +11,7 @@ from dpdfit.fits.calibration import load_calibration
 from dpdfit.models.transfer import TransferFunction
 from tests.helpers.cli_refusal import assert_refused
 from tests.helpers.cli_run import run
+from tests.helpers.paths import ROOT
 
 CONTRACT_KEYS = ["A_corr", "A_corr_stderr", "phi_at_1", "phi_at_1_stderr"]
 AMP_KEYS = ["powers", "coefficients", "stderr", "covariance", "monotone"]
@@ -234,7 +234,7 @@ def test_ctrl_c_exits_130_with_one_line_and_leaves_outputs(tmp_path, capsys, mon
         raise KeyboardInterrupt
 
     monkeypatch.setattr(calcli, "calibrate_amplitude", interrupted)
-    amp = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
+    amp = ROOT / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
     code = main(["calibrate", "--amplitude", str(amp), "-o", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 130

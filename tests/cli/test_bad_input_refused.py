@@ -18,8 +18,8 @@ from dpdfit.cli.main import main
 from tests.helpers.cli_refusal import assert_refused
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration import load_calibration
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 AMP = ROOT / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 

@@ -1,7 +1,6 @@
 """`dpdfit fidelity`, `dpdfit align` and the gate analysis of `analyze` on the bundled campaign."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -9,8 +8,9 @@ import pytest
 
 from tests.helpers.cli_refusal import assert_refused
 from tests.helpers.cli_run import run
+from tests.helpers.paths import ROOT
 
-CAMP = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+CAMP = ROOT / "datasets" / "synthetic_campaign"
 KEYS = ["A", "dpd", "F_pop", "F_pop_err", "F_par", "F_par_err", "F", "F_err", "contrast",
         "phi0", "n_scans", "shots", "interval_method"]
 

@@ -33,8 +33,8 @@ from dpdfit.errors import (DpdfitError, ImplausibleValueError, InputError, NotIn
 from dpdfit.recordings.counts import read_parity
 from dpdfit.recordings.plausibility import DEGREES_SPAN_RAD
 from dpdfit.recordings.tables import read_table
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 AMP = ROOT / "datasets" / "synthetic_aom" / "calibration_amplitude.csv"
 PHASE = ROOT / "datasets" / "synthetic_aom" / "calibration_phase.csv"
 CAMP = ROOT / "datasets" / "synthetic_campaign"
