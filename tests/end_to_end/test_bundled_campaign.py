@@ -1,14 +1,14 @@
 """The bundled campaign: regenerated bit for bit by the simulator; analysed by `analyze`."""
 
 import json
-from pathlib import Path
 
 import pytest
 
 from dpdfit.simulation.campaign import campaign_hashes, simulate_campaign
 from tests.helpers.same_campaign import assert_same_campaign
+from tests.helpers.paths import ROOT
 
-BUNDLED = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+BUNDLED = ROOT / "datasets" / "synthetic_campaign"
 SEED = 20260329
 
 
