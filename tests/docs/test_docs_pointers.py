@@ -22,7 +22,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers.paths import ROOT
+
 PREFIXES = ("datasets/", "docs/", "benchmarks/", "scripts/", "dpdfit/", "tests/", "examples/")
 
 #: paths the pages tell the reader to create; they are not in the repository

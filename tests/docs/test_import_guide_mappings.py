@@ -4,13 +4,13 @@ table gets the amplitude calibration every mapping needs)."""
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import pytest
 
 from dpdfit.recordings.mapping import read_mapping
+from tests.helpers.paths import ROOT
 
-GUIDE = Path(__file__).resolve().parents[1] / "docs" / "guide" / "import.md"
+GUIDE = ROOT / "docs" / "guide" / "import.md"
 BLOCKS = re.findall(r"^( *)```toml\n(.*?)^\1```", GUIDE.read_text(encoding="utf-8"),
                     flags=re.S | re.M)
 CALIBRATION = ('[[calibration_amplitude]]\nfiles = "x.h5"\n[calibration_amplitude.columns]\n'

@@ -3,13 +3,12 @@ README template writes the bundled campaign's README."""
 
 import importlib
 import re
-from pathlib import Path
 
 import pytest
 
 from dpdfit.simulation.campaign.readme import README_TEMPLATE, campaign_readme
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 READMES = sorted((ROOT / "datasets").glob("*/README.md"))
 
 

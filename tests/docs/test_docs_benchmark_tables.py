@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 PAGE = DOCS / "benchmarks.md"
 DIRECTIVE = re.compile(r"^```\{(benchmark-table|benchmark-history)\}\s+(\S+)\s*$", re.M)

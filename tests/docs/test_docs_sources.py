@@ -11,7 +11,8 @@ import re
 import zlib
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers.paths import ROOT
+
 DOCS = ROOT / "docs"
 
 INSTALL_AND_ANALYZE = ("python3 -m venv .venv && . .venv/bin/activate && pip install . "

@@ -15,7 +15,6 @@ import json
 import shutil
 import sys
 import types
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -25,10 +24,11 @@ from dpdfit.analyses.diagnosis.proposal_schedule import proposal_schedule
 from dpdfit.recordings.campaign_import import import_campaign
 from dpdfit.recordings.schedule import write_schedule
 from tests.helpers.bundled_data import CAMPAIGN
+from tests.helpers.paths import ROOT
 
 pytest.importorskip("h5py")
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "schedule"
+EXAMPLE = ROOT / "examples" / "schedule"
 PROPOSALS = [
     {"what": "populations", "settings": {"A": 0.5, "dpd": 1, "shots": 625, "scans": 3}},
     {"what": "parity", "settings": {"A": 0.6, "dpd": 0, "shots": 10000, "scans": 2}},

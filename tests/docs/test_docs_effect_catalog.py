@@ -5,14 +5,14 @@ registered later appears without any other change.  Needs no Sphinx build."""
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
 
 import pytest
 from docutils import nodes
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, register, unregister
+from tests.helpers.paths import ROOT
 
-EXTENSION = Path(__file__).resolve().parents[1] / "docs" / "_ext" / "effect_catalog.py"
+EXTENSION = ROOT / "docs" / "_ext" / "effect_catalog.py"
 
 
 @pytest.fixture(scope="module")

@@ -5,13 +5,14 @@ result displays itself (HTML) and every figure cell shows an image.
 """
 
 import time
-from pathlib import Path
 
 import nbclient
 import nbformat
 import pytest
 
-NOTEBOOK = Path(__file__).resolve().parents[1] / "examples" / "analysis.ipynb"
+from tests.helpers.paths import ROOT
+
+NOTEBOOK = ROOT / "examples" / "analysis.ipynb"
 
 
 @pytest.mark.slow

@@ -8,13 +8,13 @@ checks that they appear as literal blocks and that no option name is smart-quote
 import shlex
 import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 
 from dpdfit.cli.main import build_parser
+from tests.helpers.paths import ROOT
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+DOCS = ROOT / "docs"
 sys.path.insert(0, str(DOCS / "_ext"))
 
 from cli_examples import example_texts  # noqa: E402

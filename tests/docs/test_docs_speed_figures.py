@@ -24,7 +24,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers.paths import ROOT
+
 DOCS = ROOT / "docs"
 sys.path.insert(0, str(DOCS / "_ext"))
 
