@@ -10,7 +10,6 @@ import json
 import logging
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -19,8 +18,8 @@ import pytest
 import dpdfit
 from dpdfit.cli.main import build_parser, main
 from dpdfit.core.progress import progress_bar, progress_enabled, progress_scope
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 
 

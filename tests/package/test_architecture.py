@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 import dpdfit
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 PKG = Path(dpdfit.__file__).resolve().parent
 MODULES = sorted(PKG.rglob("*.py"))
 #: top-level folders of dpdfit, lowest layer first (the import-linter contract)
