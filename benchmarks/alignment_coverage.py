@@ -19,9 +19,9 @@ import numpy as np
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))   # the checkout's dpdfit
 from dpdfit.fits.alignment import align  # noqa: E402
 from dpdfit.analyses.sweep import SweepConfig, run_sweep  # noqa: E402
-from gate_points import ALPHA, DELTA, SDB, simulated_gate  # noqa: E402
+from dpdfit.simulation.aom_truth import truth_poly_tf  # noqa: E402
+from dpdfit.simulation.gate_points import ALPHA, DELTA, SDB, simulated_gate  # noqa: E402
 from record import add_json_option, summary_line, write_record  # noqa: E402
-from truth_model import truth_poly_tf  # noqa: E402
 
 
 def main(n=2000, json_path=None):

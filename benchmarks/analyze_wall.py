@@ -8,7 +8,7 @@ with the diagnosis and once with ``--no-diagnosis``, each REPEATS times,
 alternating the two so that a change of load on the machine hits both alike.
 Prints the median, minimum and maximum wall time of each.  The README's time
 range for the first command is checked against this record by
-``tests/test_docs_speed_figures.py``.
+``tests/docs/test_docs_speed_figures.py``.
 """
 
 from __future__ import annotations

@@ -35,10 +35,9 @@ except ImportError:                      # run from a source checkout
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
     from dpdfit.fits.polyfit import polyfit
 
-
-# problems and the 50-digit reference: the very ones tests/test_polyfit.py checks
-from polyfit_problems import hard_case, no_constant_case  # noqa: E402
-from polyfit_problems import mp_reference as _mp_reference  # noqa: E402
+# problems and the 50-digit reference: the very ones tests/fits/test_polyfit.py checks
+from dpdfit.simulation.polyfit_problems import hard_case, no_constant_case  # noqa: E402
+from dpdfit.simulation.polyfit_problems import mp_reference as _mp_reference  # noqa: E402
 from record import add_json_option, summary_line, write_record  # noqa: E402
 
 CASES = [
@@ -48,7 +47,7 @@ CASES = [
 
 
 def mp_reference(x, y, powers, sigma):
-    """(coefficients, stderr) of the 50-digit solution (polyfit_problems.py)."""
+    """(coefficients, stderr) of the 50-digit solution (dpdfit.simulation.polyfit_problems)."""
     ref = _mp_reference(x, y, powers, sigma)
     return ref["coefficients"], ref["stderr"]
 

@@ -3,8 +3,8 @@
 
     python benchmarks/property_counts.py [EXAMPLES] [--json PATH]
 
-Runs every property test of ``tests/test_properties.py`` and
-``tests/test_properties_cli.py`` (under pytest, in a child process) with
+Runs every property test of ``tests/recordings/test_reader_properties.py`` and
+``tests/cli/test_command_properties.py`` (under pytest, in a child process) with
 EXAMPLES generated inputs each (default 150, random seeds), counting instead
 of stopping at a failure, and prints one row per reader or command: examples
 tried, clean errors (one ``dpdfit: error:`` / DpdfitError line naming the file
@@ -27,7 +27,7 @@ from record import add_json_option, summary_line, write_record
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the property tests counted: run by path under pytest, not imported
-TEST_FILES = ["tests/test_properties.py", "tests/test_properties_cli.py"]
+TEST_FILES = ["tests/recordings/test_reader_properties.py", "tests/cli/test_command_properties.py"]
 
 
 def _arguments():

@@ -10,7 +10,7 @@ intact) at the end of the command's section; the overview's examples go before
 the sub-commands.  Smartquotes is switched off for the whole generated reference:
 option names appear in the commands' descriptions and help texts too.
 
-``tests/test_cli_examples_paste.py`` pastes :func:`example_texts` into the parser.
+``tests/docs/test_cli_examples_paste.py`` pastes :func:`example_texts` into the parser.
 """
 
 from __future__ import annotations

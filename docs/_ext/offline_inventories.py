@@ -7,7 +7,7 @@ project, a small inventory of the objects dpdfit's documentation names (the type
 its signatures and the functions its pages cite) and lists it as the fallback
 location after the project's own inventory: online builds get the full inventory,
 offline builds these entries.  The addresses follow each site's page layout (e.g.
-numpy's ``reference/generated/<name>.html``); ``tests/test_docs_sources.py`` checks
+numpy's ``reference/generated/<name>.html``); ``tests/docs/test_docs_sources.py`` checks
 the inventories are well formed.
 """
 

@@ -95,7 +95,7 @@ def _nll_adjusted(theta, x, A6, idx, T, h=1e-3):
     readings, and the plain maximum likelihood then puts the floor low by most
     of its error (the Neyman-Scott effect; measured -0.9 sigma).  Adding half
     the log of each ``k``'s observed information (diagonal: a ``k`` enters one
-    series only) removes that bias (tests/test_null_model.py)."""
+    series only) removes that bias (tests/analyses/diagnosis/model/test_null_model.py)."""
     g0 = _nll_series(theta, x, A6, idx, T)
     dk = np.r_[0.0, np.full(theta.size - 1, h)]
     with np.errstate(invalid="ignore"):       # inf - inf at rejected trial steps

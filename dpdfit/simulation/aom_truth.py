@@ -40,9 +40,10 @@ import pandas as pd
 from scipy.optimize import brentq
 
 from dpdfit.core.defaults import ETA_REF
+from dpdfit.models.transfer import TransferFunction
 
 __all__ = ["A_CORR", "PHI_1", "BraggAOM", "PhotodiodeNoise", "HeterodyneNoise",
-           "simulate_amplitude_run", "simulate_phase_run", "ou_series"]
+           "simulate_amplitude_run", "simulate_phase_run", "ou_series", "truth_poly_tf"]
 
 #: Maximum correctable amplitude ``y(1)`` of the paper's AOM (Supplement S2).
 A_CORR = 0.5655
@@ -228,3 +229,22 @@ def ou_series(times, sigma: float, tau: float, rng: np.random.Generator) -> np.n
         a = np.exp(-(t[k] - t[k - 1]) / tau)
         x[k] = a * x[k - 1] + sigma * np.sqrt(1 - a * a) * rng.standard_normal()
     return x
+
+
+def truth_poly_tf(K=8, with_phase=True):
+    """The truth AOM's transfer function in the polynomial form dpdfit fits.
+
+    Least-squares polynomials (powers ``1..K`` for the amplitude, normalised to unit
+    slope, and ``1..5`` for the phase) that approximate :class:`BraggAOM` closely on
+    ``A`` in [0, 1]: the truth behind a sweep or a simulated gate when a test or a
+    benchmark needs one without fitting a calibration first.
+    """
+    aom = BraggAOM()
+    A = np.linspace(0, 1, 400)
+    V = A[:, None] ** np.arange(1, K + 1)
+    a, *_ = np.linalg.lstsq(V, aom.y(A), rcond=None)
+    a = a / a[0]
+    if with_phase:
+        b, *_ = np.linalg.lstsq(V[:, :5], aom.phase(A), rcond=None)
+        return TransferFunction(range(1, K + 1), a, range(1, 6), b)
+    return TransferFunction(range(1, K + 1), a)

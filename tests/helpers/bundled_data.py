@@ -1,8 +1,7 @@
-"""Where the bundled data sets are: the tests' one spelling of their paths."""
+"""Where the bundled data sets are (under the repository's root, :mod:`tests.helpers.paths`)."""
 
-from pathlib import Path
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 #: the synthetic AOM calibration recordings (``datasets/synthetic_aom``)
 AOM = ROOT / "datasets" / "synthetic_aom"
 #: the synthetic campaign folder (``datasets/synthetic_campaign``)

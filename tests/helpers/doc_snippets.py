@@ -20,7 +20,8 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.helpers.paths import ROOT
+
 DOCS = ROOT / "docs"
 SNIPPET_LANGS = {"bash", "console", "shell", "python", "{code-cell}"}
 SHELL_LANGS = {"bash", "console", "shell"}

@@ -13,8 +13,8 @@ Hypothesis profiles (chosen by the environment variable HYPOTHESIS_PROFILE):
 
 * ``ci`` (default): 30 examples per test, derandomized (reproducible in CI);
 * ``thorough``: 600 examples per test, random seeds;
-  ``HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_properties.py
-  tests/test_properties_cli.py``.
+  ``HYPOTHESIS_PROFILE=thorough python -m pytest tests/recordings/test_reader_properties.py
+  tests/cli/test_command_properties.py``.
 
 ``benchmarks/property_counts.py`` runs the same tests (under pytest, in a child
 process that writes :data:`TALLY` to ``PROPERTY_TALLY_JSON``) and prints, per
@@ -35,8 +35,8 @@ from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
 from dpdfit.errors import DpdfitError
+from tests.helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 AOM = ROOT / "datasets" / "synthetic_aom"
 CAMP = ROOT / "datasets" / "synthetic_campaign"
 

@@ -3,7 +3,7 @@
 Each characterised error source is turned into a loss of the *measured*
 fidelity ``F = (F_pop + F_par)/2 = (P00 + P11)/2 + C/2`` (``C`` the parity
 contrast), with physically justified first-order formulas that are checked
-against the exact gate engine :mod:`dpdfit.models.gate_sim` (``tests/test_budget.py``),
+against the exact gate engine :mod:`dpdfit.models.gate_sim` (``tests/analyses/test_budget.py``),
 and the input uncertainties are propagated by Monte Carlo (numpy, fixed seed)
 so that upper limits, the physical bound ``amplitude <= 1`` and asymmetric
 distributions are handled honestly.

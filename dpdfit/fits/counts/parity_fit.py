@@ -10,7 +10,7 @@ without the constant binomial coefficients) is minimised under ``|A| <= 1``.
 (:mod:`.parity_intervals`: Hessian near the centre, profile likelihood near
 ``A = 0`` or ``A = 1``).
 
-Measured (16 phases x 625 shots, random phi0; ``tests/test_counts.py``):
+Measured (16 phases x 625 shots, random phi0; ``tests/fits/test_counts.py``):
 contrast 0.96 -- Hessian interval coverage 68.0 +/- 0.3 % (20000 scans),
 bias +0.015 sigma, mean Hessian sigma / Cramer-Rao bound 0.999; contrast
 0.995 -- 97 % profile, 11 % of the MLEs on A = 1, coverage of the reported

@@ -12,7 +12,7 @@ a setting with more than :data:`INTERPOLATE_ABOVE` scans at :data:`CHEBYSHEV_NOD
 Chebyshev nodes of ``eps`` over ``+-`` :data:`JITTER_SPAN` jitter standard deviations,
 interpolating each outcome probability in between (a draw outside the span runs the
 engine).  The interpolation error is far below the engine's own integration tolerance
-(``tests/test_further_engine.py`` compares it with exact runs), so the counts drawn
+(``tests/simulation/test_further_engine.py`` compares it with exact runs), so the counts drawn
 from it are the recording's law.  A time scan carries no per-scan jitter; its repeats
 reuse the first run exactly.
 """

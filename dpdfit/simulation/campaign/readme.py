@@ -5,7 +5,7 @@ The module paths it names (:mod:`dpdfit.simulation.aom_truth`,
 :mod:`dpdfit.models.gate_sim`, :func:`dpdfit.simulation.campaign.generate_trace`)
 must stay those of the package; editing the text changes the README.md of every
 bundled campaign (``datasets/*/README.md``, to be edited alike) and its SHA-256
-(``tests/test_bundled_campaign.py``).
+(``tests/end_to_end/test_bundled_campaign.py``).
 """
 
 from __future__ import annotations

@@ -1,0 +1,1 @@
+"""Tests of dpdfit.analyses: sweep, stability, posterior propagation, budget, trace estimate."""

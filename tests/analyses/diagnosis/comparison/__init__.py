@@ -1,0 +1,1 @@
+"""Tests of the comparison of a diagnosis with the one after further recordings."""

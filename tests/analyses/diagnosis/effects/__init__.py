@@ -1,0 +1,1 @@
+"""Tests of the diagnosis's catalog of effects: registration, forms left out."""

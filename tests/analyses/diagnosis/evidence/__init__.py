@@ -1,0 +1,1 @@
+"""Tests of the diagnosis's evidence: interval scan, tempering, families."""

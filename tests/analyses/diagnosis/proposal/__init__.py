@@ -1,0 +1,1 @@
+"""Tests of the diagnosis's proposal: next measurement, expected separation, schedule."""

@@ -1,0 +1,1 @@
+"""Tests of the ``dpdfit`` command line: contracts, bad input, failures, messages."""

@@ -1,0 +1,1 @@
+"""Tests of the documentation: its pages, snippets, pointers, examples and generated tables."""

@@ -1,0 +1,1 @@
+"""Whole campaigns simulated, analysed and diagnosed, from the simulator to the reports."""

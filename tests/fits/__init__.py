@@ -1,0 +1,1 @@
+"""Tests of dpdfit.fits: polynomial fits, calibration, counts, heterodyne tones, alignment."""

@@ -1,0 +1,1 @@
+"""Tests of the package as a whole: its structure, docstrings, installed data, Python API."""

@@ -1,0 +1,1 @@
+"""Tests of dpdfit.pipeline: the steps of ``analyze`` and the outputs it publishes."""

@@ -1,0 +1,1 @@
+"""Tests of dpdfit.report: figures, report lines, the summary."""
