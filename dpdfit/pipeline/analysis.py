@@ -111,7 +111,7 @@ class Analysis:
         ``gates``: :class:`~dpdfit.pipeline.steps.GateResults`, ``propagation``:
         :class:`~dpdfit.pipeline.steps.PropagationResults`, ``budget``:
         :class:`~dpdfit.analyses.budget.BudgetResult`,
-        ``diagnosis``: :class:`~dpdfit.analyses.diagnosis.Diagnosis`); None when
+        ``diagnosis``: :class:`~dpdfit.analyses.diagnosis.result.Diagnosis`); None when
         the analysis was skipped or failed.
     formula : str
     messages : list of str
@@ -211,7 +211,7 @@ class Analysis:
 
     @property
     def diagnosis(self):
-        """The :class:`~dpdfit.analyses.diagnosis.Diagnosis` (None when not run)."""
+        """The :class:`~dpdfit.analyses.diagnosis.result.Diagnosis` (None when not run)."""
         return self.results.get("diagnosis")
 
     # ------------------------------------------------------------ writing

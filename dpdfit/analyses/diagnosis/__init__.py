@@ -1,14 +1,22 @@
-"""The discrepancy diagnosis: forward model of a campaign's observables, null model, candidate
-effects, fits and verdict.
+"""The discrepancy diagnosis: locate where a campaign's recordings and its simulation
+disagree, name the missing physics, size it and show the fit improve.
 
-Modules, in the order the diagnosis uses them: :mod:`~dpdfit.analyses.diagnosis.observables.campaign.campaign` (the recordings,
-standardised), :mod:`~dpdfit.analyses.diagnosis.model.tones.tone_model` and :mod:`~dpdfit.analyses.diagnosis.model.gates.gate_model` (the forward models),
-:mod:`~dpdfit.analyses.diagnosis.model.tones.tone_noise` and :mod:`~dpdfit.analyses.diagnosis.model.gates.rate_scatter` (what the lab does not state, learnt first),
-:mod:`~dpdfit.analyses.diagnosis.model.residuals` (observables, nuisances and residuals), :mod:`~dpdfit.analyses.diagnosis.effects` (the catalog, one
-module per effect), :mod:`~dpdfit.analyses.diagnosis.fitting.hypothesis_fit.variable_projection` and :mod:`~dpdfit.analyses.diagnosis.fitting.hypothesis_fit.hypothesis_fit` (the fit of one hypothesis),
-:mod:`~dpdfit.analyses.diagnosis.fitting.hypothesis_fit.phase_sign` (a tone-side effect carried over to the gates), :mod:`~dpdfit.analyses.diagnosis.evidence.deviations` and
-:mod:`~dpdfit.analyses.diagnosis.evidence.mismatches` (located mismatches, ranking, verdict), :mod:`~dpdfit.analyses.diagnosis.result` (:class:`Diagnosis`)
-and :mod:`~dpdfit.analyses.diagnosis.diagnose` (the entry point, :func:`~dpdfit.analyses.diagnosis.diagnose.diagnose`).
+The folders follow the data, each stage reading only the ones above it::
+
+    observables/   the recordings of a campaign, standardised with their errors
+    effects/       the catalog: one module per effect, what the diagnosis fits
+    model/         the residuals of every observable: forward models, nuisances, null model
+      tones/       the tone powers' forward model and the tone noise
+      gates/       the gate observables' forward model (exact engine) and the rate scatter
+    fitting/       the fit of one hypothesis (the baseline, an effect, several)
+    evidence/      what the fits say: mismatches, ranking, tempering, families, thresholds
+    decisions/     the verdict: first effect, additions, explanations, alternatives
+    proposal/      the next recording: hypotheses in reach, menu, separation, schedule
+    comparison/    what a further recording changed, against an earlier diagnosis
+    result.py      Diagnosis, the typed result and its JSON (rendering.py: its text)
+    diagnose.py    diagnose(), the stages in order
+
+:func:`~dpdfit.analyses.diagnosis.diagnose.diagnose` is the entry point.
 """
 
 __all__: list[str] = []

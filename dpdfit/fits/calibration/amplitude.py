@@ -378,7 +378,7 @@ def calibrate_amplitude(data: CalibrationData, order: int = AMPLITUDE_ORDER, ord
     """Amplitude fit of one validated run, with file-level checks.
 
     Besides :func:`fit_amplitude` this refuses repeated amplitudes whose
-    powers contradict each other (see :func:`dpdfit.recordings.tables.check_duplicates`)
+    powers contradict each other (see :func:`dpdfit.recordings.repeats.check_duplicates`)
     and names the file and rows.
     """
     noise = None

@@ -1,8 +1,8 @@
 """The diagnosis's catalog of candidate effects, one module per effect.
 
-Each module defines one :class:`~dpdfit.analyses.diagnosis.base.Effect`: its family of parameters and
+Each module defines one :class:`~dpdfit.analyses.diagnosis.effects.base.Effect`: its family of parameters and
 forms, what it does to the optical field or to the gates, how the simulator
-injects it, how its size is stated in a laboratory's terms.  :mod:`~dpdfit.analyses.diagnosis.registry`
+injects it, how its size is stated in a laboratory's terms.  :mod:`~dpdfit.analyses.diagnosis.effects.registry`
 lists them (``EFFECTS``) and derives every list of effects the rest of the
 package uses.
 """

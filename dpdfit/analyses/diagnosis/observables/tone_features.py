@@ -1,6 +1,6 @@
 """A campaign's tone features: ratios of tone powers within one trace, debiased for
 the noise in their bins (the tone side's observables,
-:mod:`~dpdfit.analyses.diagnosis.observables.campaign.campaign` has the whole description)."""
+:mod:`~dpdfit.analyses.diagnosis.observables.campaign` has the whole description)."""
 
 from __future__ import annotations
 
