@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Peak memory per element of the gate engine's state and of the interval scan.
+"""Peak memory per element of the gate engine's state and of the deviation search.
 
     python benchmarks/engine_memory.py
 
@@ -10,7 +10,7 @@ The source of two estimates in ``dpdfit/core/memory.py``:
   ``(4 n_fock)^2`` density-matrix amplitudes, and of one Schrodinger
   integration divided by its ``4 n_fock M`` amplitudes (``M`` thermal levels),
   at forced ``n_fock`` = 30 to 200 (measured: 561 and ~500 B, flat in n_fock);
-* ``SCAN_BYTES_PER_INTERVAL`` -- traced peak of the interval scan of ``n``
+* ``SCAN_BYTES_PER_INTERVAL`` -- traced peak of the deviation search of ``n``
   points divided by its ``n (n + 1) / 2`` intervals (measured: 81 B).
 """
 
@@ -18,7 +18,7 @@ import tracemalloc
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
+from dpdfit.analyses.diagnosis.evidence.deviations import deviating_intervals
 from dpdfit.models import gate_sim
 
 
@@ -43,10 +43,10 @@ def main():
                                                       ndot=5.0, n_fock=N, rtol=1e-4, atol=1e-6))
         pure = _peak(lambda: gate_sim.evolve(b, c, n, eO, xi0, [1 / xi0], 0.1, n_fock=N))
         print(f"{N:6d}  {lind / (4 * N) ** 2:22.0f}  {pure / (4 * N * m):23.0f}")
-    print("points  interval scan B/interval")
+    print("points  deviation search B/interval")
     rng = np.random.default_rng(1)
     for k in (500, 1000, 2000):
-        peak = _peak(lambda: scan_intervals(np.arange(k, dtype=float), rng.normal(size=k)))
+        peak = _peak(lambda: deviating_intervals(np.arange(k, dtype=float), rng.normal(size=k)))
         print(f"{k:6d}  {peak / (k * (k + 1) / 2):24.0f}")
 
 

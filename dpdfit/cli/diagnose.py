@@ -82,7 +82,7 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
         "diagnose", help="locate simulation/recording mismatches and name the missing physics",
         description="Standardised residuals of every observable against the simulation built "
-                    "from the campaign's own calibration; interval scan with Bonferroni "
+                    "from the campaign's own calibration; deviation search with Bonferroni "
                     "correction; every form of each catalog effect fitted and ranked by BIC "
                     "and likelihood-ratio tests; further effects added while decisive; each "
                     "named effect's size in a lab's terms with errors; verdict: the first "

@@ -49,8 +49,8 @@ TABLE_BYTES_PER_FILE_BYTE = 12
 #: from n_fock = 30 to 200 (``benchmarks/engine_memory.py``).
 ENGINE_BYTES_PER_AMPLITUDE = 640
 
-#: Peak bytes per interval of the diagnosis's interval scan
-#: (:func:`dpdfit.analyses.diagnosis.evidence.deviations.scan_intervals`, ``n (n + 1) / 2``
+#: Peak bytes per interval of the diagnosis's deviation search
+#: (:func:`dpdfit.analyses.diagnosis.evidence.deviations.deviating_intervals`, ``n (n + 1) / 2``
 #: intervals of a series of ``n`` points: their ends, lengths, statistics and
 #: p-values); measured 81 B at n = 500 to 2000 (``benchmarks/engine_memory.py``).
 SCAN_BYTES_PER_INTERVAL = 96

@@ -3,7 +3,7 @@
 A state too large for the memory limit (:mod:`dpdfit.core.memory`) is refused
 with one :class:`~dpdfit.errors.InputError` line instead of a traceback or a
 MemoryError: the engine's own check (any caller), the diagnosis's check before
-its parallel runs (naming the setting and the campaign), the interval scan's.
+its parallel runs (naming the setting and the campaign), the deviation search's.
 Cheap: the refused states are never allocated, and the limit is lowered where
 a normal size must be refused.
 """
@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 from dpdfit.analyses.diagnosis.model.gates.engine_runs import check_runs_fit
-from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
+from dpdfit.analyses.diagnosis.evidence.deviations import deviating_intervals
 from dpdfit.core import memory
 from dpdfit.errors import InputError
 from dpdfit.models import gate_sim
@@ -88,13 +88,13 @@ def test_the_diagnosis_names_the_setting_and_the_runs_at_once(monkeypatch, tmp_p
     assert "2 runs at once) needs about" in msg and "time_scans.csv t_us" in msg
 
 
-def test_interval_scan_refuses_a_series_too_large_for_memory(monkeypatch):
+def test_deviation_search_refuses_a_series_too_large_for_memory(monkeypatch):
     x = np.arange(200.0)
-    assert scan_intervals(x, np.zeros(200)) == []
+    assert deviating_intervals(x, np.zeros(200)) == []
     monkeypatch.setenv(memory.MEMORY_ENV, "1e-4")     # 100 kB < 20100 intervals x 96 B
-    with pytest.raises(InputError, match="the interval scan of a residual series of 200 "
+    with pytest.raises(InputError, match="the deviation search of a residual series of 200 "
                                          "points needs about 0.00191 GB"):
-        scan_intervals(x, np.zeros(200))
+        deviating_intervals(x, np.zeros(200))
 
 
 def test_time_scans_in_the_wrong_unit_reach_the_guard_from_the_command_line(tmp_path, capsys):

@@ -9,7 +9,7 @@ from dpdfit.cli.main import main
 from dpdfit.analyses.diagnosis.diagnose import ALPHA, diagnose, mismatch_evidence
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects
 from dpdfit.simulation.harness import concealed_effects, plan, run_harness, summarise
-from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
+from dpdfit.analyses.diagnosis.evidence.deviations import deviating_intervals
 from tests.helpers.paths import ROOT
 
 BUNDLED = ROOT / "datasets" / "synthetic_campaign"
@@ -185,7 +185,7 @@ def test_scan_false_alarm_rate_is_below_alpha_over_many_series():
         hit = False
         for _ in range(n_series):
             x = np.arange(39.0)
-            if scan_intervals(x, rng.standard_normal(39), n_series=n_series, alpha=0.05):
+            if deviating_intervals(x, rng.standard_normal(39), n_series=n_series, alpha=0.05):
                 hit = True
         alarms += hit
     assert alarms / n_rep <= 0.05

@@ -1,4 +1,4 @@
-"""Scan a series of standardised residuals for intervals of significant deviation.
+"""Search a series of standardised residuals for intervals of significant deviation.
 
 Building block of the discrepancy diagnosis (its "Locate" step): given
 residuals ``z_i = (recorded_i - simulated_i) / sigma_i`` ordered by a control
@@ -9,7 +9,7 @@ observables).
 
 Statistic: for an interval of ``m`` consecutive points the offset statistic
 ``S = sum(z)/sqrt(m)`` is N(0, 1) under the null hypothesis (independent
-standard-normal residuals).  The scan takes the most extreme ``|S|`` over all
+standard-normal residuals).  The search takes the most extreme ``|S|`` over all
 ``n(n-1)/2`` intervals of at least ``min_points`` points; its global p-value
 is bounded by Bonferroni: ``p_global = min(1, n_intervals * n_series *
 p_local)`` with ``p_local = 2 (1 - Phi(|S|))``.  Bonferroni is conservative
@@ -35,7 +35,7 @@ from dpdfit.core.display import Displayable
 from dpdfit.core.memory import SCAN_BYTES_PER_INTERVAL, check_memory
 from dpdfit.errors import InputError
 
-__all__ = ["Deviation", "scan_intervals"]
+__all__ = ["Deviation", "deviating_intervals"]
 
 
 @dataclass(frozen=True, repr=False)
@@ -95,7 +95,7 @@ def _shape(x, z):
     return float(coef[0]), float(coef[1]), label
 
 
-def scan_intervals(x, z, *, min_points: int = 2, alpha: float = 0.0027, n_series: int = 1,
+def deviating_intervals(x, z, *, min_points: int = 2, alpha: float = 0.0027, n_series: int = 1,
                    max_intervals: int = 5) -> list[Deviation]:
     """Intervals where standardised residuals deviate significantly (see module doc).
 
@@ -133,7 +133,7 @@ def scan_intervals(x, z, *, min_points: int = 2, alpha: float = 0.0027, n_series
         return []
     # the intervals [i, j) with j - i >= k = min_points: (n + 1 - k)(n + 2 - k)/2 of them
     check_memory((n + 1 - min_points) * (n + 2 - min_points) / 2 * SCAN_BYTES_PER_INTERVAL,
-                 f"the interval scan of a residual series of {n} points",
+                 f"the deviation search of a residual series of {n} points",
                  hint="record fewer points per series or set DPDFIT_MAX_MEMORY_GB")
     c = np.concatenate([[0.0], np.cumsum(z)])
     i, j = np.triu_indices(n + 1, k=min_points)          # interval [i, j) with j - i >= min_points

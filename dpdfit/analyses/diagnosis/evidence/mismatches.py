@@ -2,7 +2,7 @@
 
 * **Locate** (:func:`locate_mismatches`): standardised residuals of each
   series are searched for intervals of significant deviation
-  (:func:`dpdfit.analyses.diagnosis.evidence.deviations.scan_intervals`),
+  (:func:`dpdfit.analyses.diagnosis.evidence.deviations.deviating_intervals`),
   Bonferroni-corrected over all intervals and all series.
 * **Evidence of a mismatch** (:func:`mismatch_evidence`): the global chi2, a located
   interval, or the best gate-side effect's targeted test; :func:`side_evidence` says on
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from scipy.stats import chi2 as chi2_dist
 
-from dpdfit.analyses.diagnosis.evidence.deviations import scan_intervals
+from dpdfit.analyses.diagnosis.evidence.deviations import deviating_intervals
 from dpdfit.analyses.diagnosis.evidence.ranking import decisive
 from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA, NULL_REDCHI_MAX
 from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
@@ -36,7 +36,7 @@ def locate_mismatches(prob, p: dict) -> list:
     series = prob.series(p)
     out = []
     for name, sb, d, xname, x, z in series:
-        for dev in scan_intervals(x, z, n_series=len(series), alpha=ALPHA):
+        for dev in deviating_intervals(x, z, n_series=len(series), alpha=ALPHA):
             out.append({"observable": name, "sideband": sb, "dpd": None if d < 0 else int(d),
                         "x": xname, "range": [dev.lo, dev.hi], "n_points": dev.n_points,
                         "significance_sigma": dev.significance_sigma,
@@ -51,11 +51,11 @@ def mismatch_evidence(p_base: float, mismatches: list, ranking: list) -> list[st
     """Which tests say the baseline does not describe the recordings (empty: none).
 
     ``"global_chi2"``: the baseline's chi2 p-value is below ``ALPHA``;
-    ``"located_interval"``: the interval scan found a deviation;
+    ``"located_interval"``: the deviation search found a deviation;
     ``"targeted:<effect>"``: the best single catalog effect's likelihood-ratio
     test, Bonferroni-corrected over the single effects tried, is below
     ``ALPHA`` with ``delta_bic < -BIC_DECISIVE``.  The targeted test sees
-    effects too weak or too smooth for the interval scan (slow heating,
+    effects too weak or too smooth for the deviation search (slow heating,
     a small power offset).  The correction bounds its false-alarm rate by
     ``ALPHA`` only if the LRT p-values are calibrated (Wilks); that is not
     tested, only observed on the harness's null campaigns.  Only gate-side

@@ -236,7 +236,7 @@ class Problem:
         return out
 
     def series(self, p: dict):
-        """Series for the interval scan: list of (observable, sideband, dpd, x_name, x, z)."""
+        """Series for the deviation search: list of (observable, sideband, dpd, x_name, x, z)."""
         out = []
         A = self.camp.A_tones
         for lab, z in self.blocks(p, with_prior=False, whiten=False):

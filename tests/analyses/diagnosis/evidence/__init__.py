@@ -1,1 +1,1 @@
-"""Tests of the diagnosis's evidence: interval scan, tempering, families."""
+"""Tests of the diagnosis's evidence: deviation search, tempering, families."""
