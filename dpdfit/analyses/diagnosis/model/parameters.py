@@ -9,6 +9,10 @@ values, bounds and scales as arrays (:attr:`Parameters.values`,
 Once fitted, each :class:`Parameter` also says whether the fit stopped on a bound
 and holds its 1-sigma error
 (:attr:`~dpdfit.analyses.diagnosis.fitting.fit_result.FitResult.parameters`).
+
+An effect's :class:`~dpdfit.analyses.diagnosis.effects.base.Param` declares a
+parameter of its family (unit, bounds, start, scale, meaning); a :class:`Parameter`
+is a nuisance or effect parameter free in one particular fit, under the fits' name.
 """
 
 from __future__ import annotations
