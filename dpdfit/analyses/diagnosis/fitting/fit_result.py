@@ -5,12 +5,14 @@ covariance (:func:`make_result`), and two one-sided fits combined into a joint o
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
 from dpdfit.analyses.diagnosis.effects import effect_of_key, get
+from dpdfit.analyses.diagnosis.model.parameters import Parameters
 
 __all__ = ['FitResult', 'make_result', 'combine_sides', 'param_side']
 
@@ -23,8 +25,9 @@ class FitResult:
     (``"<effect>.<param>"``; :meth:`params_of` gives one effect's by its own
     names); ``forms``: the form of each effect; ``sizes``: each effect's size in
     a laboratory's terms (:meth:`dpdfit.analyses.diagnosis.effects.Effect.sizes`);
-    ``cov``/``free``: the covariance of the free parameters (nuisances and
-    effects, the profiled calibration modes excluded) in the order of ``free``.
+    ``parameters``: the free parameters (nuisances and effects, the profiled
+    calibration modes excluded) at the optimum, each with its bounds, scale, error
+    and whether it sits on a bound; ``cov``: their covariance, in their order.
     """
 
     effect: str
@@ -39,13 +42,26 @@ class FitResult:
     forms: tuple = ()
     sizes: dict = field(default_factory=dict, repr=False)
     cov: np.ndarray | None = field(default=None, repr=False)
-    free: tuple = ()
-    at_bound: tuple = ()
-    scales: tuple = ()
+    parameters: Parameters = field(default_factory=Parameters)
     #: the standardised residuals of every data block at the optimum, ``((key, z), ...)``
     #: (keys as :attr:`chi2_by_observable`): what the tempering of the evidence between
     #: two fits reads (:mod:`dpdfit.analyses.diagnosis.evidence.tempering`)
     blocks: tuple = field(default=(), repr=False, compare=False)
+
+    @property
+    def free(self) -> tuple:
+        """The names of the free parameters, in the order of :attr:`cov`."""
+        return self.parameters.names
+
+    @property
+    def scales(self) -> tuple:
+        """The free parameters' scales, in the order of :attr:`free`."""
+        return tuple(p.scale for p in self.parameters)
+
+    @property
+    def at_bound(self) -> tuple:
+        """The names of the free parameters that sit on a bound."""
+        return tuple(p.name for p in self.parameters if p.at_bound)
 
     @property
     def effects(self) -> tuple:
@@ -98,20 +114,27 @@ class FitResult:
                 for k in self.chi2_by_observable}
 
 
-def make_result(prob, hyp: list, p: dict, eff_params: list, fixed_eff: dict, cov, free: list,
-                scales: list, at_bound: list, n_replaced: int = 0) -> FitResult:
+def make_result(prob, hyp: list, p: dict, eff_params: list, fixed_eff: dict, cov,
+                parameters: Parameters, n_replaced: int = 0) -> FitResult:
     """The :class:`FitResult` of the model at parameters ``p`` (hypothesis ``hyp``, free
     effect parameters ``eff_params``, the forms' fixed ones ``fixed_eff``), with the
-    covariance ``cov`` of the ``free`` parameters (scales ``scales``)."""
+    covariance ``cov`` of the free ``parameters`` (their values and errors are taken
+    from ``p`` and ``cov``)."""
     cov = None if cov is None else np.asarray(cov, dtype=float)
     err = (np.sqrt(np.clip(np.diag(cov), 0, None)) if cov is not None and cov.size
            else np.zeros(0))
+    parameters = Parameters(tuple(
+        dataclasses.replace(par, value=float(p[par.name]),
+                            error=(float(err[i]) if err.size and not par.at_bound
+                                   else float("nan")))
+        for i, par in enumerate(parameters)))
+    free = parameters.names
     params_ = {k: float(p[k]) for k in eff_params}
     # the forms' fixed parameters too: the model is what the hooks saw
     params_.update(fixed_eff)
-    perr = {k: (float(err[free.index(k)]) if k in free and k not in at_bound
-                else float("nan")) for k in params_}
-    sizes = {name: get(name).sizes(prob, p, cov, free, scales) for name, _ in hyp}
+    perr = {k: (parameters[k].error if k in free else float("nan")) for k in params_}
+    sizes = {name: get(name).sizes(prob, p, cov, list(free), list(parameters.scales))
+             for name, _ in hyp}
     # chi2 and counts of the model itself at the optimum (modes at their profiled values)
     n_data = int(np.isfinite(prob.residuals(p, with_prior=False)).sum())
     chi_obs, n_obs, blocks = {}, {}, []
@@ -132,8 +155,7 @@ def make_result(prob, hyp: list, p: dict, eff_params: list, fixed_eff: dict, cov
                      # every nuisance (fixed ones were fitted in the baseline) + tone offset
                      n_par=len(prob.prior) + 1 + len(eff_params) - n_replaced,
                      chi2_by_observable=chi_obs, n_by_observable=n_obs, sizes=sizes,
-                     cov=cov, free=tuple(free), scales=tuple(scales),
-                     at_bound=tuple(at_bound), blocks=tuple(blocks))
+                     cov=cov, parameters=parameters, blocks=tuple(blocks))
 
 
 def combine_sides(prob, a: FitResult, b: FitResult, side: str, hyp=None) -> FitResult:
@@ -158,8 +180,11 @@ def combine_sides(prob, a: FitResult, b: FitResult, side: str, hyp=None) -> FitR
            + [k for k in b.params if k in b.free and on_side(k)])
     fixed_eff = {**{k: v for k, v in a.params.items() if k not in a.free and not on_side(k)},
                  **{k: v for k, v in b.params.items() if k not in b.free and on_side(k)}}
-    scales = ([a.scales[i] for i in ia] if a.scales else []) + (
-        [b.scales[i] for i in ib] if b.scales else [])
+    # a parameter either fit left on a bound stays flagged
+    flagged = set(a.at_bound) | set(b.at_bound)
+    parameters = Parameters(tuple(
+        dataclasses.replace(par, at_bound=par.name in flagged)
+        for par in [a.parameters[k] for k in ka] + [b.parameters[k] for k in kb]))
     # nuisances replaced by a form (held at their centre, not counted as parameters)
     n_rep = sum(len(get(n).form(f, prob).replaces) for n, f in
                 (hyp if hyp is not None else list(a.hypothesis) + list(b.hypothesis))
@@ -168,9 +193,7 @@ def combine_sides(prob, a: FitResult, b: FitResult, side: str, hyp=None) -> FitR
         hyp = list(dict.fromkeys(list(a.hypothesis) + list(b.hypothesis)))
     eff = [k for k in dict.fromkeys(eff) if k in ka + kb]
     fixed_eff = {k: v for k, v in fixed_eff.items() if k not in eff}
-    return make_result(prob, list(hyp), p, eff, fixed_eff, cov,
-                       ka + kb, scales, [k for k in a.at_bound + b.at_bound if k in ka + kb],
-                       n_rep)
+    return make_result(prob, list(hyp), p, eff, fixed_eff, cov, parameters, n_rep)
 
 
 def param_side(prob, k: str) -> str:

@@ -28,21 +28,16 @@ __all__ = ['fit_hypothesis', 'fit_effect', 'fit_all', 'fit_effects', 'form_chain
 
 def _result(obj: Objective, best, best_lin) -> FitResult:
     """The :class:`FitResult` of the solution ``best`` (modes profiled at ``best_lin``)."""
-    names = obj.names
     x = best.x
     J = best.jac
     try:
         cov = np.linalg.pinv(J.T @ J)
     except np.linalg.LinAlgError:
         cov = np.full((x.size, x.size), np.nan)
-    lo, hi = obj.lo, obj.hi
-    at_bound = (np.isclose(x, lo, rtol=0, atol=1e-9 * np.maximum(1, np.abs(lo)))
-                | np.isclose(x, hi, rtol=0, atol=1e-9 * np.maximum(1, np.abs(hi))))
     p = {**obj.params(x), **obj.modes_at(best_lin, x)}
     fixed_eff = {k: float(v) for k, v in obj.fixed.items() if "." in k}
     return make_result(obj.prob, [(e.name, f.name) for e, f in obj.forms], p, obj.eff_params,
-                       fixed_eff, cov, list(names), list(obj.scale),
-                       [k for k, b in zip(names, at_bound) if b], obj.n_replaced)
+                       fixed_eff, cov, obj.parameters.at_optimum(x), obj.n_replaced)
 
 
 def fit_hypothesis(prob, hyp: tuple = (), starts=None, fixed: dict | None = None,

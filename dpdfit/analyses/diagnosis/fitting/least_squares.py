@@ -17,6 +17,7 @@ from scipy.optimize import least_squares
 
 from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.analyses.diagnosis.fitting.variable_projection import ModeProfile
+from dpdfit.analyses.diagnosis.model.parameters import Parameter, Parameters
 
 __all__ = ["Objective", "Optimum", "initial_point", "starting_points", "solve_profiled",
            "best_solution", "MAX_NFEV", "FIT_TOL", "PROFILE_RELIN", "PROFILE_TOL",
@@ -61,8 +62,9 @@ class Objective:
 
     Free: every nuisance that is neither ``fixed`` nor a calibration mode
     (those are profiled, :class:`ModeProfile`) nor replaced by a form, then the
-    effects' free parameters (``hyp``: ``((effect, form), ...)``), with bounds,
-    starting values and scales; the forms' fixed parameters are held.
+    effects' free parameters (``hyp``: ``((effect, form), ...)``), each with its
+    bounds, starting value and scale (:attr:`parameters`); the forms' fixed
+    parameters are held.
     """
 
     def __init__(self, prob, hyp: tuple, fixed: dict):
@@ -89,32 +91,22 @@ class Objective:
         self.fixed = fixed
         self.n_replaced = n_replaced
         self.prof = [k for k in prob.tone.mode_names if k not in fixed]
-        names, lo, hi, x0, scale = [], [], [], [], []
+        free = []
         for k, s in prob.prior.items():
             if k in fixed or k in self.prof:
                 continue
             c = prob.center[k]
-            names.append(k)
-            b = prob.bounds.get(k, (c - 50 * s, c + 50 * s))
-            lo.append(b[0])
-            hi.append(b[1])
-            x0.append(c)
-            scale.append(s if np.isfinite(s) else 0.1 * (b[1] - b[0]))
-        for key, par in effect_pars:
-            names.append(key)
-            lo.append(par.lo)
-            hi.append(par.hi)
-            x0.append(par.start)
-            scale.append(par.scale)
-        self.names, self.scale = names, scale
-        self.lo, self.hi = np.array(lo), np.array(hi)
-        #: starting values: nuisances at their prior centre, effects at their start
-        self.x_prior = x0
+            lo, hi = prob.bounds.get(k, (c - 50 * s, c + 50 * s))
+            free.append(Parameter(k, c, lo, hi, s if np.isfinite(s) else 0.1 * (hi - lo)))
+        free += [Parameter(key, par.start, par.lo, par.hi, par.scale) for key, par in effect_pars]
+        #: the free parameters at their starting values: nuisances at their prior centre,
+        #: effects at their start
+        self.parameters = Parameters(tuple(free))
         self.eff_params = [k for k, _ in effect_pars]
 
     def params(self, x) -> dict:
         """The full parameter set at the free parameters ``x``: the fixed ones and ``x`` by name."""
-        return {**self.fixed, **dict(zip(self.names, x))}
+        return {**self.fixed, **dict(zip(self.parameters.names, x))}
 
     def data(self, p) -> np.ndarray:
         """Standardised data residuals at the parameter set ``p`` (priors left out;
@@ -161,10 +153,10 @@ class Objective:
         trust region.
         """
         fun = self.fun(lin)
-        if not self.names:
+        if not len(self.parameters):
             z = fun(np.zeros(0))
             return Optimum(np.zeros(0), 0.5 * float(z @ z), np.zeros((z.size, 0)))
-        lo, hi, scale = self.lo, self.hi, self.scale
+        lo, hi, scale = self.parameters.lower, self.parameters.upper, self.parameters.scales
         memo = {}
 
         def f(x):
@@ -187,7 +179,7 @@ class Objective:
 
         pad = 1e-6 * (hi - lo)
         r = least_squares(f, np.clip(x, lo + pad, hi - pad), jac=jac, bounds=(lo, hi),
-                          x_scale=np.array(scale), method="trf",
+                          x_scale=scale, method="trf",
                           max_nfev=nfev, ftol=FIT_TOL, xtol=FIT_TOL)
         return Optimum(r.x, float(r.cost), r.jac)
 
@@ -195,19 +187,19 @@ class Objective:
 def initial_point(obj: Objective, init: dict):
     """The first starting point, nuisances from ``init`` (e.g. the baseline's optimum)
     else at their centres, and whether one of them is far from its centre."""
-    prob, names = obj.prob, obj.names
-    x0 = list(obj.x_prior)
+    prob, names = obj.prob, obj.parameters.names
+    x0 = list(obj.parameters.values)
     far = False
     for k, v in init.items():
         if k in names:
             i = names.index(k)
-            x0[i] = float(np.clip(v, obj.lo[i], obj.hi[i]))
+            x0[i] = float(np.clip(v, obj.parameters[k].lo, obj.parameters[k].hi))
             far |= k in prob.prior and abs(x0[i] - prob.center[k]) > FAR_NUISANCE * prob.prior[k]
     return np.array(x0), far
 
 
 def starting_points(obj: Objective, forms: list, x0: np.ndarray, far: bool, starts, lin0) -> list:
-    """Starting points of the fit (arrays over ``obj.names``).
+    """Starting points of the fit (arrays over ``obj.parameters``).
 
     ``x0`` (:func:`initial_point`); for an effect with a seed grid (a multimodal chi2
     surface) instead the grid's best point of each sign of its second parameter
@@ -215,7 +207,7 @@ def starting_points(obj: Objective, forms: list, x0: np.ndarray, far: bool, star
     of those also with the nuisances at their prior centre; and every point of
     ``starts`` (dicts of parameters).
     """
-    prob, names = obj.prob, obj.names
+    prob, names = obj.prob, obj.parameters.names
     candidates = [np.array(x0)]
     seeds = next(((e, form.seed_grid) for e, form in forms if form.seed_grid is not None
                   and all(e.key(k) in names for k in form.seed_grid[0])), None)
@@ -236,7 +228,7 @@ def starting_points(obj: Objective, forms: list, x0: np.ndarray, far: bool, star
         # possibly up to its bound, where the trust region cannot move): also start
         # from the nuisances' prior centre
         is_nuis = np.array([k in prob.prior for k in names])
-        x_prior = np.array(obj.x_prior)
+        x_prior = obj.parameters.values
         candidates += [np.where(is_nuis, x_prior, c) for c in candidates]
     for st in starts or ():
         x = np.array(x0)
@@ -279,7 +271,7 @@ def best_solution(obj: Objective, candidates: list, lin0, d_init: dict,
             candidates = [min(screened, key=lambda r: r.cost).x]
     best, best_lin = None, None
     for x in candidates:
-        lin = obj.linearise(x, d_init) if len(obj.names) and obj.prof else lin0
+        lin = obj.linearise(x, d_init) if len(obj.parameters) and obj.prof else lin0
         try:
             r, lin = solve_profiled(obj, x, lin, nfev)
         except ValueError:

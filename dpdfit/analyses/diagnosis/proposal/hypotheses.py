@@ -91,9 +91,9 @@ class Hypothesis:
         fit = self.fit
         side = _SOURCE_SIDE[source]
         out = []
-        for k, s in zip(fit.free, fit.scales or (1.0,) * len(fit.free)):
-            if param_side(self.prob, k) == side:
-                out.append((k, PARAM_STEP * float(s)))
+        for par in fit.parameters:
+            if param_side(self.prob, par.name) == side:
+                out.append((par.name, PARAM_STEP * float(par.scale)))
         if side == "tones" and source in ("powers", "phase"):
             modes = [k for k in getattr(getattr(self.prob, "tone", None), "mode_names", ())
                      if source == "powers" or k.startswith("cal_phase")]

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
+from dpdfit.analyses.diagnosis.model.parameters import Parameter, Parameters
 from dpdfit.core.parallel import pmap
 
 __all__ = ["learn_rate_scatter", "RATE_SCATTER_MIN", "RATE_SCATTER_MAX_FACTOR",
@@ -49,28 +50,29 @@ def _gate_nll(prob, rel: float, start: dict | None = None):
     with every effect absent.
     """
     prob.set_rate_scatter(rel)
+    members = [Parameter("prep_split", 0.5, 0.0, 1.0, 0.1),
+               Parameter("e01", prob.gate.p_det, 0.0, prob.bounds["e01"][1], 1e-4),
+               Parameter("e10", prob.gate.p_det, 0.0, prob.bounds["e10"][1], 1e-4)]
     # every gate-side effect's catalog form (REML-like: the scatter is what no smooth
-    # gate-side effect explains)
-    eff, fixed = [], {}
+    # gate-side effect explains), started absent where its bounds allow
+    fixed = {}
     for e, form in gate_forms(prob):
         pars = {par.name: par for par in e.parameters(prob)}
-        eff += [(e.key(k), pars[k]) for k in form.free]
+        members += [Parameter(e.key(k), 0.0 if pars[k].lo <= 0.0 <= pars[k].hi
+                              else pars[k].start, pars[k].lo, pars[k].hi, pars[k].scale)
+                    for k in form.free]
         fixed.update({e.key(k): v for k, v in form.fixed.items()})
-    keys = [k for k, _ in eff]
-    eff = [par for _, par in eff]
-    ts = [f"eps_ts{k}" for k in range(prob.gate.n_time_scans)]
-    names = ["prep_split", "e01", "e10"] + keys + ts
-    lo = [0.0, 0.0, 0.0] + [par.lo for par in eff] + [-50 * prob.prior[n] for n in ts]
-    hi = ([1.0, prob.bounds["e01"][1], prob.bounds["e10"][1]] + [par.hi for par in eff]
-          + [50 * prob.prior[n] for n in ts])
-    x0 = ([0.5, prob.gate.p_det, prob.gate.p_det]
-          + [0.0 if par.lo <= 0.0 <= par.hi else par.start for par in eff] + [0.0] * len(ts))
+    for k in range(prob.gate.n_time_scans):
+        sd = prob.prior[f"eps_ts{k}"]
+        members.append(Parameter(f"eps_ts{k}", 0.0, -50 * sd, 50 * sd, sd))
+    free = Parameters(tuple(members))
     if start is not None:
-        x0 = [start[n] for n in names]
-    scale = [0.1, 1e-4, 1e-4] + [par.scale for par in eff] + [prob.prior[n] for n in ts]
+        free = free.at([start[n] for n in free.names])
+    names = free.names
     priors = [(n, prob.prior[n]) for n in names if n in prob.prior
               and np.isfinite(prob.prior[n])]
-    pad = 1e-9 * (np.array(hi) - np.array(lo))
+    lo, hi = free.lower, free.upper
+    pad = 1e-9 * (hi - lo)
 
     def fun(x):
         p = {**fixed, **dict(zip(names, x))}
@@ -79,8 +81,8 @@ def _gate_nll(prob, rel: float, start: dict | None = None):
         return np.where(np.isfinite(z), z, 0.0)
 
     # -2 ln L to ~1e-3 is all the posterior over the grid needs
-    r = least_squares(fun, np.clip(x0, np.array(lo) + pad, np.array(hi) - pad),
-                      bounds=(lo, hi), x_scale=scale, max_nfev=200, ftol=1e-6, xtol=1e-6)
+    r = least_squares(fun, np.clip(free.values, lo + pad, hi - pad),
+                      bounds=(lo, hi), x_scale=free.scales, max_nfev=200, ftol=1e-6, xtol=1e-6)
     p = {**fixed, **dict(zip(names, r.x))}
     _, ld = prob.gate_whitened(p, logdet=True)
     ld += sum(2 * np.log(s) for n, s in priors if n.startswith("eps_ts"))
