@@ -3,8 +3,6 @@ and the error, and the fitted result that carries them."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -13,8 +11,9 @@ from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis
 from dpdfit.analyses.diagnosis.model.parameters import Parameter, Parameters
 from dpdfit.analyses.diagnosis.model.residuals import Problem
 from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
+from tests.helpers.paths import ROOT
 
-BUNDLED_CAMPAIGN = Path(__file__).resolve().parents[1] / "datasets" / "synthetic_campaign"
+BUNDLED_CAMPAIGN = ROOT / "datasets" / "synthetic_campaign"
 
 
 @pytest.fixture(scope="module")
