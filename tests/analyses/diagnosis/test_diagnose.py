@@ -452,13 +452,14 @@ def test_report_shows_the_null_model_the_verdict_fit_and_what_was_left_out():
     d = NS(campaign="c", baseline=NS(chi2=10.0, dof=9), baseline_p_value=0.3,
            verdict="aom_memory", mismatches=[], ranking=[], redchi_before={"a": 3.0},
            redchi_after={"a": 1.4}, redchi_one={"a": 1.4}, steps=[], effects=[], named=[],
-           extra={"verdict_fit": "approximate", "explained_fraction": 0.97,
-                  "null_model": {"tone_noise": {"noise_floor": {
-                      "floor_db": -92.1, "floor_err_db": 0.4, "method": "estimated"},
-                      "tone_repeatability_db": 0.03, "trace_power_jitter_db": 0.1},
-                      "rate_scatter": {"rel": 0.012, "stated_rel": 0.023}, "phase_sign": -1,
-                      "fitted": {"e01": 1e-4}},
-                  "left_out": ["time_scans.csv absent (population time scans)"]})
+           alternatives=(), proposal=None, null_range=None, generic=None,
+           verdict_fit="approximate", explained_fraction=0.97,
+           null_model=NS(to_dict=lambda: {"tone_noise": {"noise_floor": {
+               "floor_db": -92.1, "floor_err_db": 0.4, "method": "estimated"},
+               "tone_repeatability_db": 0.03, "trace_power_jitter_db": 0.1},
+               "rate_scatter": {"rel": 0.012, "stated_rel": 0.023}, "phase_sign": -1,
+               "fitted": {"e01": 1e-4}}),
+           left_out=["time_scans.csv absent (population time scans)"])
     text = Diagnosis.report(d)
     for needle in ("approximate: they remove 97.0%", "noise floor -92.10 +/- 0.40 dB (estimated)",
                    "tone repeatability 0.0300 dB", "scatter 1.200% (stated 2.300%)",
