@@ -1,11 +1,12 @@
 """Generating parameters of a simulated campaign and the effects it can conceal.
 
 Effects are injected only through the diagnosis's registry
-(:mod:`dpdfit.analyses.diagnosis.effects`): each effect's ``inject_*`` hooks act
-in the simulator, and ``dpdfit simulate-campaign --effects NAME=S`` sets the one
-parameter its :meth:`~dpdfit.analyses.diagnosis.effects.Effect.strength_of` names
-(``NAME.PARAM=V`` sets another of its parameters).  :data:`SIMULATOR_EFFECTS` is a
-read-only view of that registry.  Two knobs of the simulator are not effects but
+(:mod:`dpdfit.analyses.diagnosis.effects`): each effect's injection's ``inject_*``
+hooks act in the simulator (:mod:`dpdfit.simulation.injections`), and ``dpdfit
+simulate-campaign --effects NAME=S`` sets the one parameter its
+:meth:`~dpdfit.simulation.injections.Injection.strength_of` names (``NAME.PARAM=V``
+sets another of its parameters).  :data:`SIMULATOR_EFFECTS` is a read-only view of
+that registry.  Two knobs of the simulator are not effects but
 its own parameters: :attr:`CampaignConfig.stale_days` and
 :attr:`CampaignConfig.table_drift`.
 """
@@ -18,10 +19,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.effects import EFFECTS, get
+from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.core.defaults import (AMPLITUDE_ORDER, ERROR_MODEL, ETA_LD, ETA_REF, NU_HZ,
                                   XI0_SPECTRA_HZ)
 from dpdfit.errors import InputError
+from dpdfit.simulation import injections
 from dpdfit.simulation.aom_truth import A_CORR, PHI_1, HeterodyneNoise, PhotodiodeNoise
 
 __all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "parse_effects", "CampaignConfig", "rng_for"]
@@ -41,7 +43,7 @@ class _SimulatorEffects(Mapping):
     from the registry at each access: effects registered later are included)."""
 
     def __getitem__(self, name):
-        _, unit, meaning = EFFECTS[name].strength_of()
+        _, unit, meaning = injections.get(name).strength_of()
         return unit, meaning
 
     def __iter__(self):
@@ -65,7 +67,7 @@ def _effect_param(name: str) -> tuple:
     eff, dot, par = name.partition(".")
     if eff not in EFFECTS:
         raise InputError(f"unknown effect '{eff}'; known: {', '.join(EFFECTS)}")
-    e = EFFECTS[eff]
+    e = injections.get(eff)
     if not dot:
         return eff, e.strength_of()[0]
     known = list(e.injection_params())    # the parameters its injection takes
@@ -213,16 +215,16 @@ class CampaignConfig:
 
     def inject(self, effects: dict) -> "CampaignConfig":
         """Config with catalog effects injected: ``{name: {param: value}}`` (values in
-        the effect's own injection terms, :meth:`~dpdfit.analyses.diagnosis.effects.Effect.draw`)."""
-        inj = tuple((name, tuple(sorted(get(name).injected(v).items())))
+        the effect's own injection terms, :meth:`~dpdfit.simulation.injections.Injection.draw`)."""
+        inj = tuple((name, tuple(sorted(injections.get(name).injected(v).items())))
                     for name, v in effects.items())
         return dataclasses.replace(self, injected=self.injected + inj)
 
     def injections(self) -> list:
-        """The injected effects and their values: ``[(Effect, {param: value})]``."""
+        """The injected effects and their values: ``[(Injection, {param: value})]``."""
         if not self.injected:
             return []
-        return [(get(name), dict(items)) for name, items in self.injected]
+        return [(injections.get(name), dict(items)) for name, items in self.injected]
 
     def with_effects(self, effects: dict) -> "CampaignConfig":
         """Config with the ``--effects`` of :func:`parse_effects` injected through the

@@ -109,7 +109,7 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = DEFAULT_SEED,
     check_new_folder(out)
     cfg = (config or CampaignConfig(seed=seed))
     cfg = dataclasses.replace(cfg, seed=seed) if config is None else cfg
-    # the effects act through their inject_* hooks: the configuration's own
+    # the effects act through their injections' inject_* hooks: the configuration's own
     # parameters (the lab's error model in campaign.json among them) stay nominal
     cfg = cfg.with_effects(effects or {})
     # the engine's small matrices gain nothing from threaded BLAS and, on a loaded
