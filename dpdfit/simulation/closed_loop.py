@@ -30,7 +30,9 @@ from dpdfit.analyses.diagnosis.refits import (achieved_separation, binding_chi2,
                                               binding_refits, refitted_chi2)
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import extend_config, random_menu_choice
+from dpdfit.simulation.harness_campaign import harness_config
 from dpdfit.simulation.harness_external import truth_in_reach
+from dpdfit.simulation.harness_kinds import named_correctly
 
 __all__ = ["LOOP_STEPS", "close_loop", "ambiguity", "loop_summary", "loop_report_lines"]
 
@@ -200,8 +202,6 @@ def close_loop(job: dict, first, workdir: str | None = None,
     concealed = sorted(job["effects"])
     if not amb["ambiguous"] and _status(first, concealed) == "exact":
         return None
-    # imported here: the harness imports this module
-    from dpdfit.simulation.harness import harness_config
     cfg = harness_config(job["seed"]).inject(job["effects"])
     rng = np.random.default_rng(np.random.SeedSequence([int(job["seed"]), _RANDOM_KEY]))
 
@@ -214,13 +214,6 @@ def close_loop(job: dict, first, workdir: str | None = None,
 
     return {"recommended": _arm(job, cfg, first, proposed, workdir, steps),
             "random": _arm(job, cfg, first, chance, workdir, steps)}
-
-
-def _named_correctly(r: dict) -> bool:
-    """A run record's ``named_correctly`` (older records: the verdict is the concealed)."""
-    if "named_correctly" in r:
-        return bool(r["named_correctly"])
-    return r["verdict"] == r["concealed"]
 
 
 def loop_summary(results: list) -> dict:
@@ -254,7 +247,7 @@ def loop_summary(results: list) -> dict:
         nothing), ``n_failed`` (re-simulations or re-diagnoses that failed).
     """
     n = len(results)
-    wrong = [not _named_correctly(r)
+    wrong = [not named_correctly(r)
              and not truth_in_reach(r, sorted(r.get("effects") or {})) for r in results]
     loops = [r["closed_loop"] for r in results if r.get("closed_loop")]
 

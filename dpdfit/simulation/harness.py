@@ -21,11 +21,9 @@ with that form left out of the catalog (``forms_left_out``): how the diagnosis d
 when a lab's physics takes a form the catalog does not have.  The figures per kind
 of run are :mod:`dpdfit.simulation.harness_kinds`'s.
 
-Harness campaigns use :func:`harness_config`: the campaign simulator with the
-tone powers taken directly from the field (with the noise the heterodyne
-extraction would leave, :func:`dpdfit.simulation.campaign.direct_tones`), three gate
-amplitudes x two flags x three scans, two time scans, and calibration runs
-before and after the recordings.
+Harness campaigns use :func:`~dpdfit.simulation.harness_campaign.harness_config`
+(:mod:`dpdfit.simulation.harness_campaign`): a reduced campaign, its tone powers
+taken directly from the field.
 
 Runs are independent: :func:`run_harness` spreads them over local processes
 (``concurrent.futures``) or over a Dask cluster (``scheduler="tcp://..."``,
@@ -43,15 +41,15 @@ import tempfile
 import time
 from pathlib import Path
 
-
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
 from dpdfit.simulation import injections
-from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
+from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.closed_loop import ambiguity, close_loop
 from dpdfit.simulation.dispatch import run_jobs
+from dpdfit.simulation.harness_campaign import harness_config
 from dpdfit.simulation.harness_external import spurious_extra, truth_in_reach
 from dpdfit.simulation.harness_jobs import (catalog_jobs, form_jobs, mixed_form_jobs,
                                             triple_jobs)
@@ -76,15 +74,6 @@ def concealed_effects() -> tuple:
     """The effects the harness conceals by default: the registry's default effects whose
     injections have harness strengths (derived from the registries)."""
     return tuple(n for n in default_effects() if injections.get(n).harness)
-
-
-def harness_config(seed: int) -> CampaignConfig:
-    """The reduced campaign of the harness (see module doc)."""
-    return CampaignConfig(seed=seed, spectra_mode="direct", n_amp_runs=9, amp_span_days=14.0,
-                          runs_after_recordings=3, n_phase_runs=2, phase_span_hours=1.0,
-                          gate_amplitudes=(0.4, 0.6, 0.8),
-                          scan_shots=((625, 625), (625, 625), (625, 625)),
-                          time_scan_A=0.6, time_scan_points=13, bundled_traces=())
 
 
 def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED,

@@ -34,7 +34,8 @@ from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.simulation import injections
 from dpdfit.simulation.harness_external import spurious_extra, truth_in_reach
 
-__all__ = ["KINDS", "run_kind", "label", "is_empty_family", "outcome", "coverage",
+__all__ = ["KINDS", "run_kind", "label", "named_correctly", "is_empty_family", "outcome",
+           "coverage",
            "kind_summary", "by_kind", "empty_families", "forms_table", "kind_report_lines"]
 
 #: the kinds of run, in the order the report gives them
@@ -59,6 +60,13 @@ def label(r: dict) -> str:
     if not left:
         return r["concealed"]
     return r["concealed"] + " without " + ",".join(f for forms in left.values() for f in forms)
+
+
+def named_correctly(r: dict) -> bool:
+    """A run record's ``named_correctly`` (older records: the verdict is the concealed)."""
+    if "named_correctly" in r:
+        return bool(r["named_correctly"])
+    return r["verdict"] == r["concealed"]
 
 
 def is_empty_family(r: dict) -> bool:
