@@ -26,7 +26,8 @@ from dpdfit.errors import InputError
 from dpdfit.simulation import injections
 from dpdfit.simulation.aom_truth import A_CORR, PHI_1, HeterodyneNoise, PhotodiodeNoise
 
-__all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "parse_effects", "CampaignConfig", "rng_for"]
+__all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "RETIRED_TRUTH_KEYS", "parse_effects",
+           "CampaignConfig", "rng_for"]
 
 #: Seed of the bundled campaign (``datasets/synthetic_campaign``): ``ERROR_MODEL.seed``.
 DEFAULT_SEED = ERROR_MODEL.seed
@@ -34,7 +35,7 @@ DEFAULT_SEED = ERROR_MODEL.seed
 #: keys of truth.json's ``config`` whose parameters the simulator no longer has (effects
 #: are injected through the registry only, ``injected``): written as 0, so that the
 #: truth.json of a campaign keeps its keys (the bundled campaigns byte for byte)
-_RETIRED_TRUTH_KEYS = ("memory_tau", "memory_offset_hz", "detector_nonlinearity",
+RETIRED_TRUTH_KEYS = ("memory_tau", "memory_offset_hz", "detector_nonlinearity",
                       "post_pm_rad", "post_k5", "extra_dephasing", "gate_power_offset_db")
 
 
@@ -201,7 +202,7 @@ class CampaignConfig:
         d = dict(truth.get("config", truth)) if isinstance(truth, dict) else None
         if d is None:
             raise InputError("truth.json: its config is not a JSON object")
-        for k in _RETIRED_TRUTH_KEYS:
+        for k in RETIRED_TRUTH_KEYS:
             if d.pop(k, 0.0) not in (0, 0.0):
                 raise InputError(f"truth.json: config key '{k}' is not 0: this simulator "
                                  "injects effects only through 'injected'")
