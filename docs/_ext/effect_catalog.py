@@ -6,9 +6,9 @@ build time -- the effects in registry order, and for each what its
 ``meaning``, its forms (:meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.forms_for`),
 its parameters (:class:`~dpdfit.analyses.diagnosis.effects.base.Param`), ``main`` with
 the unit :meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.size_values` gives it,
-the hooks it overrides (and so the observables it can move), ``harness`` and its
-simulator hooks.  An effect added to the registry appears here with no second list to
-keep.
+the hooks it overrides (and so the observables it can move), and from its injection
+(:func:`dpdfit.simulation.injections.get`) the harness's strengths and the simulator
+hooks.  An effect added to the registry appears here with no second list to keep.
 
 Usage (MyST)::
 
@@ -50,7 +50,8 @@ GATE_HOOKS = {
     "power_offset_db": "the optical power at gate time",
     "preparation": "preparation and detection errors",
 }
-#: the simulator's hooks (dpdfit.simulation.campaign): hook -> where it injects
+#: the simulator's hooks of an Injection (dpdfit.simulation.injections): hook -> where it
+#: injects
 INJECT_HOOKS = {
     "inject_drive": "drive envelope",
     "inject_field": "optical field",
@@ -81,6 +82,11 @@ class ModRef(NamedTuple):
 def _overrides(effect, hook: str) -> bool:
     from dpdfit.analyses.diagnosis.effects.base import Effect
     return getattr(type(effect), hook) is not getattr(Effect, hook)
+
+
+def _injects(injection, hook: str) -> bool:
+    from dpdfit.simulation.injections import Injection
+    return getattr(type(injection), hook) is not getattr(Injection, hook)
 
 
 def _join(items, sep=", ") -> list:
@@ -183,11 +189,11 @@ def _ranges(e, ranges: dict) -> list:
     return _join(out)
 
 
-def _fixed(e, form: str) -> list:
+def _fixed(inj, form: str) -> list:
     """The values :meth:`form_values` sets for an injection in ``form`` where they differ
     from the injection's defaults (pieces)."""
-    default = e.injected({})
-    vals = {k: v for k, v in e.form_values(form).items() if default.get(k) != v}
+    default = inj.injected({})
+    vals = {k: v for k, v in inj.form_values(form).items() if default.get(k) != v}
     if not vals:
         return []
     return [" with "] + _join([[Code(f"{k}={_num(v)}")] for k, v in vals.items()])
@@ -196,17 +202,19 @@ def _fixed(e, form: str) -> list:
 def injection_rows() -> tuple[list, list]:
     """Header and rows of the ``injection`` table: one row per registered effect."""
     from dpdfit.analyses.diagnosis.effects.registry import EFFECTS
+    from dpdfit.simulation import injections
     header = ["effect", "harness draws (uniform)", "per form (leave-one-form-out harness)",
               "simulator hooks", [Code("simulate-campaign --effects")]]
     rows = []
     for e in EFFECTS.values():
-        draws = [_ranges(e, e.harness)] if e.harness else [["none"]]
-        if e.harness and not e.default:
+        inj = injections.get(e.name)
+        draws = [_ranges(e, inj.harness)] if inj.harness else [["none"]]
+        if inj.harness and not e.default:
             draws.append(["not concealed by default"])
-        forms = [[Code(f), ": "] + _ranges(e, r) + _fixed(e, f)
-                 for f, r in e.harness_table().items()] or [["none"]]
-        hooks = [[Code(h), f" ({w})"] for h, w in INJECT_HOOKS.items() if _overrides(e, h)]
-        param, unit, _ = e.strength_of()
+        forms = [[Code(f), ": "] + _ranges(e, r) + _fixed(inj, f)
+                 for f, r in inj.harness_table().items()] or [["none"]]
+        hooks = [[Code(h), f" ({w})"] for h, w in INJECT_HOOKS.items() if _injects(inj, h)]
+        param, unit, _ = inj.strength_of()
         knob = [[Code(f"{e.name}=STRENGTH"), " sets ", Code(param),
                  f" ({unit})" if unit else ""]]
         rows.append([[[Code(e.name)]], draws, forms, hooks or [["none"]], knob])
@@ -281,13 +289,19 @@ class EffectCatalog(SphinxDirective):
     option_spec = {"table": lambda arg: directives.choice(arg, TABLES)}
 
     def _note_sources(self) -> None:
-        """Re-read the page when the registry or an effect's module changes."""
+        """Re-read the page when a registry, an effect's module or its injection's
+        changes."""
         import inspect
 
         from dpdfit.analyses.diagnosis.effects import base, registry
         from dpdfit.analyses.diagnosis.effects.registry import EFFECTS
-        files = {inspect.getsourcefile(base), inspect.getsourcefile(registry)}
+        from dpdfit.simulation import injections
+        from dpdfit.simulation.injections import base as injection_base
+        from dpdfit.simulation.injections import registry as injection_registry
+        files = {inspect.getsourcefile(m) for m in (base, registry, injection_base,
+                                                     injection_registry)}
         files |= {inspect.getsourcefile(type(e)) for e in EFFECTS.values()}
+        files |= {inspect.getsourcefile(type(injections.get(n))) for n in EFFECTS}
         for f in sorted(x for x in files if x):
             self.env.note_dependency(f)
 

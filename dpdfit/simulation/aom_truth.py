@@ -75,7 +75,8 @@ class BraggAOM:
     Notes
     -----
     The model is memoryless; a memory of the modulator is injected as the
-    effect ``aom_memory`` (its ``inject_drive`` hook, applied by the campaign
+    effect ``aom_memory`` (its injection's ``inject_drive`` hook,
+    :mod:`dpdfit.simulation.injections.aom_memory`, applied by the campaign
     simulator before :meth:`field`).
     """
 

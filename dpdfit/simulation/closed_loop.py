@@ -28,9 +28,12 @@ import numpy as np
 
 from dpdfit.analyses.diagnosis.comparison.refits import (achieved_separation, binding_chi2,
                                                          binding_refits, refitted_chi2)
+from dpdfit.analyses.diagnosis.diagnose import diagnose
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import extend_config, random_menu_choice
+from dpdfit.simulation.harness_campaign import harness_config
 from dpdfit.simulation.harness_external import truth_in_reach
+from dpdfit.simulation.harness_kinds import named_correctly
 
 __all__ = ["LOOP_STEPS", "close_loop", "ambiguity", "loop_summary", "loop_report_lines"]
 
@@ -65,9 +68,7 @@ def _extra(d) -> dict:
 
 
 def _diagnose(folder, refit=None, forms_left_out=None):
-    # imported when needed, as run_one does: the diagnosis is heavy to import; a job's
-    # left-out forms stay left out of the diagnosis after the further recording
-    from dpdfit.analyses.diagnosis.diagnose import diagnose
+    # a job's left-out forms stay left out of the diagnosis after the further recording
     kw = {k: v for k, v in (("refit", refit), ("forms_left_out", forms_left_out)) if v}
     return diagnose(folder, progress=False, **kw)
 
@@ -200,8 +201,6 @@ def close_loop(job: dict, first, workdir: str | None = None,
     concealed = sorted(job["effects"])
     if not amb["ambiguous"] and _status(first, concealed) == "exact":
         return None
-    # imported here: the harness imports this module
-    from dpdfit.simulation.harness import harness_config
     cfg = harness_config(job["seed"]).inject(job["effects"])
     rng = np.random.default_rng(np.random.SeedSequence([int(job["seed"]), _RANDOM_KEY]))
 
@@ -214,13 +213,6 @@ def close_loop(job: dict, first, workdir: str | None = None,
 
     return {"recommended": _arm(job, cfg, first, proposed, workdir, steps),
             "random": _arm(job, cfg, first, chance, workdir, steps)}
-
-
-def _named_correctly(r: dict) -> bool:
-    """A run record's ``named_correctly`` (older records: the verdict is the concealed)."""
-    if "named_correctly" in r:
-        return bool(r["named_correctly"])
-    return r["verdict"] == r["concealed"]
 
 
 def loop_summary(results: list) -> dict:
@@ -254,7 +246,7 @@ def loop_summary(results: list) -> dict:
         nothing), ``n_failed`` (re-simulations or re-diagnoses that failed).
     """
     n = len(results)
-    wrong = [not _named_correctly(r)
+    wrong = [not named_correctly(r)
              and not truth_in_reach(r, sorted(r.get("effects") or {})) for r in results]
     loops = [r["closed_loop"] for r in results if r.get("closed_loop")]
 

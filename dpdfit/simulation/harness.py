@@ -3,28 +3,27 @@
 Campaigns are simulated with effects of the diagnosis's catalog injected --
 one (``per_effect`` campaigns per effect), two or three at once (``pairs``,
 ``triples`` campaigns: random sets of distinct effects) or none (``nulls``) -- at
-realistic strengths (each effect's :attr:`~dpdfit.analyses.diagnosis.effects.Effect.harness`
-ranges, drawn by :meth:`~dpdfit.analyses.diagnosis.effects.Effect.draw` from a
-fixed seed), by the effects' own simulator hooks.  Each is diagnosed as a lab
+realistic strengths (each effect's injection's
+:attr:`~dpdfit.simulation.injections.Injection.harness` ranges, drawn by
+:meth:`~dpdfit.simulation.injections.Injection.draw` from a fixed seed), by the
+injections' own simulator hooks.  Each is diagnosed as a lab
 would (the diagnosis reads only the recordings, never ``truth.json``) and the
 named effects and their sizes are compared with the truth
-(:meth:`~dpdfit.analyses.diagnosis.effects.Effect.truth`): named correctly =
+(:meth:`~dpdfit.simulation.injections.Injection.truth`): named correctly =
 the same set of effects; pulls ``(fitted - injected) / error`` of each
 effect's main size (:attr:`~dpdfit.analyses.diagnosis.effects.Effect.main`)
 and their 1-sigma coverage.
 
 The leave-one-form-out mode (``leave_one_form_out``) conceals each effect in each
 of its forms (``per_form`` campaigns each, strengths per form:
-:meth:`~dpdfit.analyses.diagnosis.effects.Effect.harness_table`) and diagnoses it
+:meth:`~dpdfit.simulation.injections.Injection.harness_table`) and diagnoses it
 with that form left out of the catalog (``forms_left_out``): how the diagnosis does
 when a lab's physics takes a form the catalog does not have.  The figures per kind
 of run are :mod:`dpdfit.simulation.harness_kinds`'s.
 
-Harness campaigns use :func:`harness_config`: the campaign simulator with the
-tone powers taken directly from the field (with the noise the heterodyne
-extraction would leave, :func:`dpdfit.simulation.campaign.direct_tones`), three gate
-amplitudes x two flags x three scans, two time scans, and calibration runs
-before and after the recordings.
+Harness campaigns use :func:`~dpdfit.simulation.harness_campaign.harness_config`
+(:mod:`dpdfit.simulation.harness_campaign`): a reduced campaign, its tone powers
+taken directly from the field.
 
 Runs are independent: :func:`run_harness` spreads them over local processes
 (``concurrent.futures``) or over a Dask cluster (``scheduler="tcp://..."``,
@@ -42,14 +41,16 @@ import tempfile
 import time
 from pathlib import Path
 
-
+from dpdfit.analyses.diagnosis.diagnose import diagnose
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
-from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
+from dpdfit.simulation import injections
+from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.closed_loop import ambiguity, close_loop
 from dpdfit.simulation.dispatch import run_jobs
+from dpdfit.simulation.harness_campaign import harness_config
 from dpdfit.simulation.harness_external import spurious_extra, truth_in_reach
 from dpdfit.simulation.harness_jobs import (catalog_jobs, form_jobs, mixed_form_jobs,
                                             triple_jobs)
@@ -71,18 +72,9 @@ PLAN_SEED = 7
 
 
 def concealed_effects() -> tuple:
-    """The effects the harness conceals by default: the registry's default effects that
-    have harness strengths (derived from the registry)."""
-    return tuple(n for n in default_effects() if EFFECTS[n].harness)
-
-
-def harness_config(seed: int) -> CampaignConfig:
-    """The reduced campaign of the harness (see module doc)."""
-    return CampaignConfig(seed=seed, spectra_mode="direct", n_amp_runs=9, amp_span_days=14.0,
-                          runs_after_recordings=3, n_phase_runs=2, phase_span_hours=1.0,
-                          gate_amplitudes=(0.4, 0.6, 0.8),
-                          scan_shots=((625, 625), (625, 625), (625, 625)),
-                          time_scan_A=0.6, time_scan_points=13, bundled_traces=())
+    """The effects the harness conceals by default: the registry's default effects whose
+    injections have harness strengths (derived from the registries)."""
+    return tuple(n for n in default_effects() if injections.get(n).harness)
 
 
 def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED,
@@ -110,7 +102,7 @@ def plan(per_effect: int = PER_EFFECT, nulls: int = NULLS, seed: int = PLAN_SEED
                          f"unless --leave-one-form-out, and --per-form >= 1 (got "
                          f"{per_effect}, {nulls}, {pairs}, {triples}, {per_form})")
     for e in effects:
-        if e not in EFFECTS or not EFFECTS[e].harness:
+        if e not in EFFECTS or not injections.get(e).harness:
             known = ", ".join(concealed_effects())
             raise InputError(f"unknown concealed effect '{e}'; known: {known}")
     if pairs and len(effects) < 2:
@@ -138,7 +130,6 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
     had no form left to fit), ``forms_fitted`` (the concealed families' forms the
     diagnosis fitted), ``exact_set`` (= ``named_correctly``), ``confidently_wrong``,
     ``spurious_extra``, ``unexplained``, the truth's and the fits' sizes, and times."""
-    from dpdfit.analyses.diagnosis.diagnose import diagnose
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     t0 = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix="dpdfit-harness-", dir=workdir))
@@ -182,7 +173,8 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
                                           "params_err")} for r in d.ranking[:4]],
            **ambiguity(d), "closed_loop": close_loop(job, d, workdir) if closed_loop else None}
     if concealed:
-        out["truth_sizes"] = {e: get(e).truth(get(e).injected(v), truth, ctx=d.context)
+        out["truth_sizes"] = {e: injections.get(e).truth(injections.get(e).injected(v), truth,
+                                                         ctx=d.context)
                               for e, v in job["effects"].items()}
         out["fit_sizes"] = {}
         for e in concealed:
@@ -195,7 +187,7 @@ def run_one(job: dict, workdir: str | None = None, closed_loop: bool = True) -> 
         if len(concealed) == 1:
             # the keys of earlier reports: the concealed effect's main size
             e = concealed[0]
-            m = get(e).main_size(out["injected_form"].get(e))
+            m = injections.get(e).main_size(out["injected_form"].get(e))
             out["truth_params"] = {m: out["truth_sizes"][e].get(m)}
             fs = out["fit_sizes"].get(e, {}).get(m)
             if fs is not None:
@@ -337,9 +329,9 @@ def run_harness(per_effect: int = PER_EFFECT, nulls: int = NULLS, workers: int |
     out["workers"] = n_workers
     out["scheduler"] = scheduler
     out["seed"] = seed
-    out["strengths"] = {k: {n: list(r) for n, r in EFFECTS[k].harness.items()}
+    out["strengths"] = {k: {n: list(r) for n, r in injections.get(k).harness.items()}
                         for k in concealed_effects()}
     out["strengths_by_form"] = {k: {f: {n: list(r) for n, r in t.items()}
-                                    for f, t in EFFECTS[k].harness_table().items()}
+                                    for f, t in injections.get(k).harness_table().items()}
                                 for k in concealed_effects()}
     return out

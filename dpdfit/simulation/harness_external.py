@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.diagnose import diagnose
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import DpdfitError, InputError
 from dpdfit.simulation.dispatch import run_jobs
@@ -89,7 +90,6 @@ def campaign_folders(directory) -> list[Path]:
 
 def run_external_one(job: dict) -> dict:
     """Diagnose one campaign folder; ``job`` = ``{"campaign", "folder", "truth"}``."""
-    from dpdfit.analyses.diagnosis.diagnose import diagnose
     t0 = time.perf_counter()
     rec = {"campaign": job["campaign"], "truth": job["truth"]}
     job = {**job, "effects": job.get("effects")}

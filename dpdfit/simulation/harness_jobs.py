@@ -14,8 +14,8 @@ import zlib
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.errors import InputError
+from dpdfit.simulation.injections import get
 
 __all__ = ["catalog_jobs", "triple_jobs", "form_jobs", "mixed_form_jobs"]
 

@@ -3,7 +3,7 @@
 A harness run (:func:`dpdfit.simulation.harness.run_one`) is one of
 
 * ``catalog``: one effect concealed as the catalog harness draws it
-  (:attr:`~dpdfit.analyses.diagnosis.effects.Effect.harness`);
+  (:attr:`~dpdfit.simulation.injections.Injection.harness`);
 * ``leave_one_form_out``: one effect concealed in one of its forms, diagnosed with
   that form left out of the catalog (``forms_left_out``): how the diagnosis does when
   a lab's physics takes a form the catalog does not have;
@@ -31,9 +31,11 @@ from __future__ import annotations
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
+from dpdfit.simulation import injections
 from dpdfit.simulation.harness_external import spurious_extra, truth_in_reach
 
-__all__ = ["KINDS", "run_kind", "label", "is_empty_family", "outcome", "coverage",
+__all__ = ["KINDS", "run_kind", "label", "named_correctly", "is_empty_family", "outcome",
+           "coverage",
            "kind_summary", "by_kind", "empty_families", "forms_table", "kind_report_lines"]
 
 #: the kinds of run, in the order the report gives them
@@ -58,6 +60,13 @@ def label(r: dict) -> str:
     if not left:
         return r["concealed"]
     return r["concealed"] + " without " + ",".join(f for forms in left.values() for f in forms)
+
+
+def named_correctly(r: dict) -> bool:
+    """A run record's ``named_correctly`` (older records: the verdict is the concealed)."""
+    if "named_correctly" in r:
+        return bool(r["named_correctly"])
+    return r["verdict"] == r["concealed"]
 
 
 def is_empty_family(r: dict) -> bool:
@@ -93,7 +102,7 @@ def _num(v) -> float:
 
 def coverage(rs: list) -> dict:
     """Per family: the pulls ``(fitted - injected) / error`` of the main size of the form
-    it was injected in (:meth:`~dpdfit.analyses.diagnosis.effects.Effect.main_size`) over
+    it was injected in (:meth:`~dpdfit.simulation.injections.Injection.main_size`) over
     the runs ``rs`` that named it, with their 1- and 2-sigma coverage; ``quantity`` lists
     the sizes compared (forms of one family may have different main sizes; a pull is in
     units of its error either way).  A run whose fit does not report that size (another
@@ -105,7 +114,7 @@ def coverage(rs: list) -> dict:
         for e in r.get("effects") or {}:
             if e not in named or e not in EFFECTS:
                 continue
-            q = EFFECTS[e].main_size(forms.get(e))
+            q = injections.get(e).main_size(forms.get(e))
             t = ((r.get("truth_sizes") or {}).get(e) or {}).get(q)
             f = ((r.get("fit_sizes") or {}).get(e) or {}).get(q)
             a = acc.setdefault(e, {"quantities": set(), "n_named": 0, "pulls": []})

@@ -16,9 +16,10 @@ import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.core.jsonable import to_jsonable
-from dpdfit.simulation.closed_loop import _named_correctly, loop_report_lines, loop_summary
+from dpdfit.simulation.closed_loop import loop_report_lines, loop_summary
 from dpdfit.simulation.harness_kinds import (by_kind, empty_families, forms_table,
-                                             kind_report_lines, label, run_kind)
+                                             kind_report_lines, label, named_correctly,
+                                             run_kind)
 
 __all__ = ["summarise", "write_report", "report"]
 
@@ -81,7 +82,7 @@ def summarise(results: list) -> dict:
         if c == "none":
             continue
         rs = [r for r in results if label(r) == c]
-        named[c] = sum(_named_correctly(r) for r in rs) / len(rs)
+        named[c] = sum(named_correctly(r) for r in rs) / len(rs)
     recovery = {}
     for e in sorted({e for r in singles + pairs for e in r.get("effects", {})}):
         # the runs that named the effect (alone or among others)
@@ -96,9 +97,9 @@ def summarise(results: list) -> dict:
     return {"n_runs": len(results), "n_failed": len(every) - len(results),
             "confusion": confusion, "false_alarm_rate": far,
             "named_correctly": named,
-            "named_correctly_overall": (sum(_named_correctly(r) for r in singles)
+            "named_correctly_overall": (sum(named_correctly(r) for r in singles)
                                         / len(singles)) if singles else None,
-            "pairs_both_named": (sum(_named_correctly(r) for r in pairs) / len(pairs))
+            "pairs_both_named": (sum(named_correctly(r) for r in pairs) / len(pairs))
             if pairs else None,
             "pairs_one_named": (sum(len(set(r.get("named") or []) & set(r["effects"])) >= 1
                                     for r in pairs) / len(pairs)) if pairs else None,

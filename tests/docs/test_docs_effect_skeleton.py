@@ -1,11 +1,15 @@
 """The effect skeleton on ``docs/diagnosis/adding-an-effect.md`` is a working effect.
 
 The page's snippets that edit the package are not run by the docs tests (they would
-change the package); this test runs the skeleton's code as a module of its own instead,
-registers its ``EFFECT`` at run time (as a lab's own effect is) and checks what the
-page's "Right away" check prints: its forms, and that it is a default hypothesis and an
-effect the simulator takes.  Its physics is checked on one field.
+change the package); this test runs the skeleton's two modules (the effect and its
+injection) as modules of their own instead, registers their ``EFFECT`` and
+``INJECTION`` at run time (as a lab's own effect is) and checks what the page's "Right
+away" check prints: its forms, and that it is a default hypothesis and an effect the
+simulator takes.  Its physics is checked on one field.
 """
+
+import sys
+import types
 
 import numpy as np
 import pytest
@@ -18,20 +22,29 @@ from tests.helpers.registered_effect import registered_effect
 PAGE = DOCS / "diagnosis" / "adding-an-effect.md"
 
 
-def _skeleton_code() -> str:
-    (block,) = [b for b in blocks(PAGE) if b.lang == "python" and "EFFECT = " in b.text]
+def _skeleton_code(defines: str = "EFFECT = ") -> str:
+    (block,) = [b for b in blocks(PAGE) if b.lang == "python" and defines in b.text]
     return block.text
 
 
+def _page_module(package: str, defines: str, monkeypatch) -> types.ModuleType:
+    """The page's module that ``defines`` a name, run as ``package.third_order_pm`` (its
+    imports are relative) without writing it into the package."""
+    module = types.ModuleType(f"{package}.third_order_pm")
+    module.__package__ = package
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    exec(compile(_skeleton_code(defines), str(PAGE), "exec"), module.__dict__)
+    return module
+
+
 @pytest.fixture
-def skeleton_effect():
-    # run as the page's file would run: a module of the effects package (its imports
-    # are relative), without writing it into the package
-    package = "dpdfit.analyses.diagnosis.effects"
-    namespace = {"__name__": f"{package}.third_order_pm", "__package__": package}
-    exec(compile(_skeleton_code(), str(PAGE), "exec"), namespace)
-    with registered_effect(namespace["EFFECT"]) as effect:
-        yield effect
+def skeleton_effect(monkeypatch):
+    # run as the page's files would run: the effect, then its injection, which imports it
+    effect = _page_module("dpdfit.analyses.diagnosis.effects", "EFFECT = ", monkeypatch).EFFECT
+    injection = _page_module("dpdfit.simulation.injections", "INJECTION = ",
+                             monkeypatch).INJECTION
+    with registered_effect(effect, injection):
+        yield injection
 
 
 def test_the_pages_effect_skeleton_registers_and_is_a_hypothesis(skeleton_effect):

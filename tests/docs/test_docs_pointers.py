@@ -32,8 +32,9 @@ CREATED_BY_THE_READER = {
     "docs/_build/html/index.html",
     # docs/benchmarks.md: what a new run with `--json` would write, named as such
     "benchmarks/property_counts.json",
-    # docs/diagnosis/adding-an-effect.md: the module the page has the reader write
+    # docs/diagnosis/adding-an-effect.md: the modules the page has the reader write
     "dpdfit/analyses/diagnosis/effects/third_order_pm.py",
+    "dpdfit/simulation/injections/third_order_pm.py",
 }
 
 _INLINE = re.compile(r"(?<!`)(`+)(?!`)(.+?)(?<!`)\1(?!`)", re.S)

@@ -18,11 +18,11 @@ import pytest
 
 import dpdfit.simulation.closed_loop as C
 import dpdfit.simulation.harness as H
-from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import simulate_campaign
 import dpdfit.simulation.further_recordings as F
 from dpdfit.simulation.closed_loop import close_loop
+from dpdfit.simulation.injections import get
 from dpdfit.simulation.further_recordings import (default_menu, extend_config,
                                                   random_menu_choice)
 

@@ -13,12 +13,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep, get
+from dpdfit.analyses.diagnosis.effects import Prep
 from dpdfit.fits.calibration import fit_amplitude
 from dpdfit.models.gate_sim.dephasing import accumulated_dephasing
 from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.campaign.calibration_runs import table_index
 from dpdfit.simulation.harness import concealed_effects, harness_config
+from dpdfit.simulation.injections import get
 
 SEED = 4242
 GM = SimpleNamespace(t_ref=2.1e-4, A_ref=0.6)          # a gate model's references

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 import dpdfit.simulation.campaign.gate_runs as G
-from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
 from dpdfit.analyses.diagnosis.model.tones.tone_model import TONE_HARMONICS, ToneModel
 from dpdfit.models import gate_sim
@@ -23,6 +22,7 @@ from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.campaign.calibration_runs import calibration_runs
 from dpdfit.simulation.campaign.optics import dpd_lut, gate_spectrum, trace_field
 from dpdfit.simulation.harness import harness_config
+from dpdfit.simulation.injections import get
 
 SEED = 4242
 A = np.array([0.6, 0.9])                 # IM tones well above any floor, DPD or not

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import dpdfit.simulation.harness as H
-from dpdfit.analyses.diagnosis.effects import get
 from dpdfit.cli.main import main
 from dpdfit.simulation.harness import concealed_effects, plan
+from dpdfit.simulation.injections import get
 from dpdfit.simulation.harness_kinds import by_kind, empty_families, forms_table, run_kind
 
 

@@ -3,12 +3,14 @@ effect registry and each effect's ``inject_*`` hooks) from a name to the simulat
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Effect, Param, register, unregister
 from dpdfit.cli.main import main
+from dpdfit.simulation import injections
 from dpdfit.simulation.campaign import SIMULATOR_EFFECTS, CampaignConfig, parse_effects
 
 
 def test_simulator_effects_are_the_registry():
     assert list(SIMULATOR_EFFECTS) == list(EFFECTS)
-    for name, e in EFFECTS.items():
+    for name in EFFECTS:
+        e = injections.get(name)
         param, unit, meaning = e.strength_of()
         assert SIMULATOR_EFFECTS[name] == (unit, meaning)
         # NAME=S injects S as that parameter, through the effect's own injection values

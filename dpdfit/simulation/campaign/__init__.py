@@ -20,7 +20,8 @@ seed recorded in ``traces.csv``.
 
 Concealed effects (a memory of the modulator, a nonlinear photodiode, ...) are
 injected only through the diagnosis's effect registry
-(:mod:`dpdfit.analyses.diagnosis.effects`), by each effect's ``inject_*`` hooks;
+(:mod:`dpdfit.analyses.diagnosis.effects`), by the ``inject_*`` hooks of each
+effect's injection (:mod:`dpdfit.simulation.injections`);
 :data:`SIMULATOR_EFFECTS` is a read-only view of that registry.
 
 Modules: ``config`` (generating parameters, :data:`SIMULATOR_EFFECTS`, random

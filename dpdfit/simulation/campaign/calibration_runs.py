@@ -39,7 +39,7 @@ def _detector(cfg: CampaignConfig, df: pd.DataFrame) -> None:
 
 
 def _aom_drift(cfg: CampaignConfig, days_after_table, days_after_recording) -> np.ndarray:
-    """Relative change of A_corr by the injected effects (``Effect.inject_aom``)."""
+    """Relative change of A_corr by the injected effects (``Injection.inject_aom``)."""
     d = np.zeros(np.shape(days_after_table))
     for e, v in cfg.injections():
         d = d + e.inject_aom(v, days_after_table, days_after_recording)
@@ -48,7 +48,7 @@ def _aom_drift(cfg: CampaignConfig, days_after_table, days_after_recording) -> n
 
 def _rf_gain(cfg: CampaignConfig, days_after_table, days_after_recording) -> np.ndarray:
     """The RF gain ahead of the AOM (1: the amplifier ``A_corr`` describes), moved by the
-    injected effects (``Effect.inject_rf_gain``)."""
+    injected effects (``Injection.inject_rf_gain``)."""
     g = np.ones(np.shape(days_after_table))
     for e, v in cfg.injections():
         g = g + e.inject_rf_gain(v, days_after_table, days_after_recording)
@@ -57,7 +57,7 @@ def _rf_gain(cfg: CampaignConfig, days_after_table, days_after_recording) -> np.
 
 def _table_change(cfg: CampaignConfig) -> float:
     """Relative change of A_corr of the calibration behind the table: the simulator's own
-    ``table_drift`` and the injected effects' (``Effect.inject_table``)."""
+    ``table_drift`` and the injected effects' (``Injection.inject_table``)."""
     changes = [e.inject_table(v) for e, v in cfg.injections()]
     if not any(changes):
         return cfg.table_drift

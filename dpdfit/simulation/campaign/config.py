@@ -1,11 +1,12 @@
 """Generating parameters of a simulated campaign and the effects it can conceal.
 
 Effects are injected only through the diagnosis's registry
-(:mod:`dpdfit.analyses.diagnosis.effects`): each effect's ``inject_*`` hooks act
-in the simulator, and ``dpdfit simulate-campaign --effects NAME=S`` sets the one
-parameter its :meth:`~dpdfit.analyses.diagnosis.effects.Effect.strength_of` names
-(``NAME.PARAM=V`` sets another of its parameters).  :data:`SIMULATOR_EFFECTS` is a
-read-only view of that registry.  Two knobs of the simulator are not effects but
+(:mod:`dpdfit.analyses.diagnosis.effects`): each effect's injection's ``inject_*``
+hooks act in the simulator (:mod:`dpdfit.simulation.injections`), and ``dpdfit
+simulate-campaign --effects NAME=S`` sets the one parameter its
+:meth:`~dpdfit.simulation.injections.Injection.strength_of` names (``NAME.PARAM=V``
+sets another of its parameters).  :data:`SIMULATOR_EFFECTS` is a read-only view of
+that registry.  Two knobs of the simulator are not effects but
 its own parameters: :attr:`CampaignConfig.stale_days` and
 :attr:`CampaignConfig.table_drift`.
 """
@@ -18,13 +19,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dpdfit.analyses.diagnosis.effects import EFFECTS, get
+from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.core.defaults import (AMPLITUDE_ORDER, ERROR_MODEL, ETA_LD, ETA_REF, NU_HZ,
                                   XI0_SPECTRA_HZ)
 from dpdfit.errors import InputError
+from dpdfit.simulation import injections
 from dpdfit.simulation.aom_truth import A_CORR, PHI_1, HeterodyneNoise, PhotodiodeNoise
 
-__all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "parse_effects", "CampaignConfig", "rng_for"]
+__all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "RETIRED_TRUTH_KEYS", "parse_effects",
+           "CampaignConfig", "rng_for"]
 
 #: Seed of the bundled campaign (``datasets/synthetic_campaign``): ``ERROR_MODEL.seed``.
 DEFAULT_SEED = ERROR_MODEL.seed
@@ -32,7 +35,7 @@ DEFAULT_SEED = ERROR_MODEL.seed
 #: keys of truth.json's ``config`` whose parameters the simulator no longer has (effects
 #: are injected through the registry only, ``injected``): written as 0, so that the
 #: truth.json of a campaign keeps its keys (the bundled campaigns byte for byte)
-_RETIRED_TRUTH_KEYS = ("memory_tau", "memory_offset_hz", "detector_nonlinearity",
+RETIRED_TRUTH_KEYS = ("memory_tau", "memory_offset_hz", "detector_nonlinearity",
                       "post_pm_rad", "post_k5", "extra_dephasing", "gate_power_offset_db")
 
 
@@ -41,7 +44,7 @@ class _SimulatorEffects(Mapping):
     from the registry at each access: effects registered later are included)."""
 
     def __getitem__(self, name):
-        _, unit, meaning = EFFECTS[name].strength_of()
+        _, unit, meaning = injections.get(name).strength_of()
         return unit, meaning
 
     def __iter__(self):
@@ -65,7 +68,7 @@ def _effect_param(name: str) -> tuple:
     eff, dot, par = name.partition(".")
     if eff not in EFFECTS:
         raise InputError(f"unknown effect '{eff}'; known: {', '.join(EFFECTS)}")
-    e = EFFECTS[eff]
+    e = injections.get(eff)
     if not dot:
         return eff, e.strength_of()[0]
     known = list(e.injection_params())    # the parameters its injection takes
@@ -199,7 +202,7 @@ class CampaignConfig:
         d = dict(truth.get("config", truth)) if isinstance(truth, dict) else None
         if d is None:
             raise InputError("truth.json: its config is not a JSON object")
-        for k in _RETIRED_TRUTH_KEYS:
+        for k in RETIRED_TRUTH_KEYS:
             if d.pop(k, 0.0) not in (0, 0.0):
                 raise InputError(f"truth.json: config key '{k}' is not 0: this simulator "
                                  "injects effects only through 'injected'")
@@ -213,16 +216,16 @@ class CampaignConfig:
 
     def inject(self, effects: dict) -> "CampaignConfig":
         """Config with catalog effects injected: ``{name: {param: value}}`` (values in
-        the effect's own injection terms, :meth:`~dpdfit.analyses.diagnosis.effects.Effect.draw`)."""
-        inj = tuple((name, tuple(sorted(get(name).injected(v).items())))
+        the effect's own injection terms, :meth:`~dpdfit.simulation.injections.Injection.draw`)."""
+        inj = tuple((name, tuple(sorted(injections.get(name).injected(v).items())))
                     for name, v in effects.items())
         return dataclasses.replace(self, injected=self.injected + inj)
 
     def injections(self) -> list:
-        """The injected effects and their values: ``[(Effect, {param: value})]``."""
+        """The injected effects and their values: ``[(Injection, {param: value})]``."""
         if not self.injected:
             return []
-        return [(get(name), dict(items)) for name, items in self.injected]
+        return [(injections.get(name), dict(items)) for name, items in self.injected]
 
     def with_effects(self, effects: dict) -> "CampaignConfig":
         """Config with the ``--effects`` of :func:`parse_effects` injected through the

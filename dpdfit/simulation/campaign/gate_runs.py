@@ -4,10 +4,10 @@ Each setting (gate amplitude, DPD flag) drives the exact gate engine
 (:mod:`dpdfit.models.gate_sim`) with the optical tones the day's AOM
 produces; its ``xi0`` is calibrated with a relative error, and every scan
 carries a laser-power jitter (an injected effect may add a systematic offset).
-Injected effects change the engine's inputs (``Effect.inject_engine``) and may decay
-the final state's coherences before the analysis pulse (``Effect.inject_coherence``);
+Injected effects change the engine's inputs (``Injection.inject_engine``) and may decay
+the final state's coherences before the analysis pulse (``Injection.inject_coherence``);
 those that need the campaign's reference amplitude or gate time get them as the
-diagnosis's gate model defines them (``Effect.inject_refs``).  All draws
+diagnosis's gate model defines them (``Injection.inject_refs``).  All draws
 come from one random stream (purpose 5), in a fixed order; the ``further``
 scans and time scans (:attr:`CampaignConfig.further`) come after, each from
 its own stream, so that adding one leaves every other row as it was.
@@ -37,7 +37,7 @@ def _t2(cfg) -> float:
 
 
 def _references(cfg, spectra: dict, eta_Omega0: float) -> dict:
-    """The campaign's reference values an injection may read (``Effect.inject_refs``), as
+    """The campaign's reference values an injection may read (``Injection.inject_refs``), as
     the diagnosis's gate model defines them: ``A_ref``, the mean amplitude of the gate
     settings, and ``t_ref``, their median gate time (here the nominal one, ``1/xi0`` of
     the exact calibration, known before any rate is drawn)."""
@@ -52,7 +52,7 @@ def _injections(cfg, refs: dict) -> list:
 
 def _engine(cfg, A: float, power_error_db: float, refs: dict) -> dict:
     """The gate engine's physical inputs at a setting of amplitude ``A``: the
-    configuration's, changed by the injected effects (``Effect.inject_engine``)."""
+    configuration's, changed by the injected effects (``Injection.inject_engine``)."""
     kw = dict(nbar=cfg.nbar, T2=_t2(cfg), T2_corr=np.inf, ndot=cfg.ndot, p_prep=cfg.p_prep,
               p_flip=0.0, p_det=cfg.p_det, power_error_db=power_error_db)
     for e, v in _injections(cfg, refs):
@@ -62,7 +62,7 @@ def _engine(cfg, A: float, power_error_db: float, refs: dict) -> dict:
 
 def _after_gate(cfg, t_gate: float, refs: dict) -> dict:
     """The engine's argument for the decay of the final state's coherences after a gate
-    of ``t_gate`` (s) by the injected effects (``Effect.inject_coherence``): ``{}`` when
+    of ``t_gate`` (s) by the injected effects (``Injection.inject_coherence``): ``{}`` when
     none decays them, so the engine runs exactly as without."""
     k1 = k2 = 1.0
     found = False

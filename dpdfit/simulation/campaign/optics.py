@@ -18,7 +18,7 @@ __all__ = ["optical_field", "dpd_lut", "drive_envelope", "trace_field",
 def optical_field(cfg: CampaignConfig, aom: BraggAOM, x: np.ndarray, fs: float) -> np.ndarray:
     """The optical field of one period of RF drive ``x`` at ``fs``: the injected effects'
     drive hooks, the (memoryless) AOM, the injected effects' field hooks
-    (:meth:`dpdfit.analyses.diagnosis.effects.Effect.inject_drive`,
+    (:meth:`dpdfit.simulation.injections.Injection.inject_drive`,
     ``inject_field``)."""
     injected = cfg.injections()
     for e, v in injected:

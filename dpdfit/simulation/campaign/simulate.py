@@ -17,7 +17,7 @@ from dpdfit.core.progress import progress_bar
 from dpdfit.core.version import __version__
 
 from .calibration_runs import calibration_runs, table_index
-from .config import _RETIRED_TRUTH_KEYS, DEFAULT_SEED, CampaignConfig
+from .config import DEFAULT_SEED, RETIRED_TRUTH_KEYS, CampaignConfig
 from .folder import check_new_folder, csv_text, write_folder
 from .gate_runs import gate_tables
 from .optics import dpd_lut
@@ -70,7 +70,7 @@ def _rounded(obj, digits: int = 10):
 
 
 def _jsonable_config(cfg: CampaignConfig) -> dict:
-    d = dict.fromkeys(_RETIRED_TRUTH_KEYS, 0.0)
+    d = dict.fromkeys(RETIRED_TRUTH_KEYS, 0.0)
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
         if f.name == "further" and not v:
@@ -109,7 +109,7 @@ def simulate_campaign(outdir: str | os.PathLike, seed: int = DEFAULT_SEED,
     check_new_folder(out)
     cfg = (config or CampaignConfig(seed=seed))
     cfg = dataclasses.replace(cfg, seed=seed) if config is None else cfg
-    # the effects act through their inject_* hooks: the configuration's own
+    # the effects act through their injections' inject_* hooks: the configuration's own
     # parameters (the lab's error model in campaign.json among them) stay nominal
     cfg = cfg.with_effects(effects or {})
     # the engine's small matrices gain nothing from threaded BLAS and, on a loaded

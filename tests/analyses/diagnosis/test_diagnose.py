@@ -8,6 +8,7 @@ import pytest
 from dpdfit.cli.main import main
 from dpdfit.analyses.diagnosis.diagnose import ALPHA, diagnose, mismatch_evidence
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects
+from dpdfit.simulation import injections
 from dpdfit.simulation.harness import concealed_effects, plan, run_harness, summarise
 from dpdfit.analyses.diagnosis.evidence.deviations import deviating_intervals
 from tests.helpers.paths import ROOT
@@ -33,7 +34,7 @@ def test_catalog_keeps_the_verdict_names_and_every_effect_is_complete():
             assert set(f.free) <= names and set(f.fixed) <= names
             assert not set(f.free) & set(f.fixed)
     # the harness conceals every default effect that has harness strengths
-    assert set(concealed_effects()) == {n for n in default_effects() if EFFECTS[n].harness}
+    assert set(concealed_effects()) == {n for n in default_effects() if injections.get(n).harness}
 
 
 @pytest.fixture

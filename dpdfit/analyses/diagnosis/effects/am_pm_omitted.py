@@ -53,10 +53,6 @@ class AmPmOmitted(Effect):
     phase_odd = ("dphi", "dphi_x", "dphi_x4")
     stage = 1
     main = "am_pm_rad"
-    harness = {"dphi": (0.05, 0.15, True)}
-    harness_forms = {"aom": {"dphi_x": (0.05, 0.15, True)},
-                     "aom_quartic": {"dphi_x": (0.05, 0.15, True),
-                                     "dphi_x4": (0.02, 0.08, True)}}
 
     def forms_for(self, ctx=None):
         """Every form without a phase calibration; with one, not ``aom_quartic``: the
@@ -88,12 +84,6 @@ class AmPmOmitted(Effect):
         return {"am_pm_rad": (v.get("dphi", 0.0) + v.get("dphi_x", 0.0)
                               + v.get("dphi_x4", 0.0), "rad",
                               "missing AM-to-PM phase at full drive")}
-
-    def inject_field(self, v, y, x, fs, y_full):
-        r2 = (np.abs(y) / y_full) ** 2
-        x2 = np.minimum(np.abs(x), 1.0) ** 2
-        return y * np.exp(1j * (v.get("dphi", 0.0) * r2 + v.get("dphi_x", 0.0) * x2
-                                + v.get("dphi_x4", 0.0) * x2 * x2))
 
 
 EFFECT = AmPmOmitted()

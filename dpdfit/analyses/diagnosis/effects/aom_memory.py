@@ -26,14 +26,6 @@ Priors: flat inside the bounds below.  Sizes: ``tau_ns``, ``f_off_MHz`` (fast);
 ``gain_phase_rad`` (slow; the harness compares ``gain_abs``).  Both chi2 surfaces
 are multimodal: the fits start from coarse seed grids, each larger form from the
 smaller one's optimum.
-
-Simulator: the fast memory filters the drive (``inject_drive``); the slow one
-multiplies the field by ``(1 + c s(t)) / (1 + c |x|^2)`` (``inject_field``):
-the simulator's calibration runs are of the static AOM, so the static curve
-they measure must already hold the memory's steady state, as a lab's
-constant-amplitude runs do.  The harness draws slow memories of a few per cent
-of gain and phase at full drive (thermal time scales 0.3-3 us, a second one of
-2-8 us with weight 0.3-0.7, a delay of 50-200 ns).
 """
 
 from __future__ import annotations
@@ -47,8 +39,6 @@ __all__ = ["AomMemory", "EFFECT", "slow_kernel", "FAST_GRID", "SLOW_GRID"]
 #: coarse grids seeding the fits: fast tau (ns) x f_off (MHz); slow tau1 (us) x gain_p
 FAST_GRID = ((30.0, 90.0), (-4.0, -1.5, 1.5, 4.0))
 SLOW_GRID = ((0.3, 1.0, 3.0, 10.0), (-0.3, -0.1, -0.02, 0.02, 0.1, 0.3))
-# harness strengths of the slow memory's gain at full drive (amplitude, phase in rad)
-_SLOW_GAIN = {"gain_a": (0.02, 0.06, True), "gain_p": (0.03, 0.1, True)}
 
 
 def slow_kernel(v: dict, f: np.ndarray) -> np.ndarray:
@@ -97,14 +87,6 @@ class AomMemory(Effect):
     phase_odd = ("gain_p",)
     sign_sensitive = True
     main = "tau_ns"
-    harness = {"tau": (40.0, 120.0, False), "f_off": (1.0, 4.0, True)}
-    harness_forms = {
-        "slow": {**_SLOW_GAIN, "tau1": (0.3, 3.0, False)},
-        "two_scales": {**_SLOW_GAIN, "tau1": (0.3, 1.0, False), "tau2": (2.0, 8.0, False),
-                       "w": (0.3, 0.7, False)},
-        "two_scales_delay": {**_SLOW_GAIN, "tau1": (0.3, 1.0, False), "tau2": (2.0, 8.0, False),
-                             "w": (0.3, 0.7, False), "delay": (50.0, 200.0, False)}}
-    main_forms = {"slow": "gain_abs", "two_scales": "gain_abs", "two_scales_delay": "gain_abs"}
 
     def drive_filter(self, tm, v, f):
         tau = v.get("tau", 0.0) * 1e-9
@@ -130,24 +112,6 @@ class AomMemory(Effect):
                     "gain_phase_rad": (float(np.angle(g)), "rad", "its phase")}
         return {"tau_ns": (v.get("tau", 0.0), "ns", "response time of the modulator"),
                 "f_off_MHz": (v.get("f_off", 0.0), "MHz", "offset of its response centre")}
-
-    def inject_drive(self, v, x, fs):
-        tau = v.get("tau", 0.0) * 1e-9
-        if tau <= 0:
-            return x
-        f = np.fft.fftfreq(x.shape[-1], 1.0 / fs)
-        H = 1.0 / (1.0 + 2j * np.pi * (f - v.get("f_off", 0.0) * 1e6) * tau)
-        return np.fft.ifft(np.fft.fft(x, axis=-1) * H, axis=-1)
-
-    def inject_field(self, v, y, x, fs, y_full):
-        if not (v.get("gain_a") or v.get("gain_p")):
-            return y
-        f = np.fft.fftfreq(x.shape[-1], 1.0 / fs)
-        p = np.minimum(np.abs(x), 1.0) ** 2
-        s = np.fft.ifft(np.fft.fft(p, axis=-1) * slow_kernel(v, f), axis=-1).real
-        c = complex(v.get("gain_a", 0.0), v.get("gain_p", 0.0))
-        # relative to the steady state the (static) calibration runs measured (module doc)
-        return y * (1 + c * s) / (1 + c * p)
 
 
 EFFECT = AomMemory()

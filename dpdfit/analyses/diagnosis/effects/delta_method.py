@@ -1,16 +1,15 @@
-"""Errors of an effect's sizes by the delta method, and the harness's uniform draws.
+"""Errors of an effect's sizes by the delta method.
 
-Small numerical helpers of :class:`~dpdfit.analyses.diagnosis.effects.base.Effect`
-(:meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.sizes`,
-:meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.draw`), kept apart so that the base
-class reads as the list of what an effect declares and does.
+A small numerical helper of :class:`~dpdfit.analyses.diagnosis.effects.base.Effect`
+(:meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.sizes`), kept apart so that the
+base class reads as the list of what an effect declares and does.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["delta_method_errors", "draw_uniform"]
+__all__ = ["delta_method_errors"]
 
 
 def delta_method_errors(values_at, p: dict, cov, free: list, scales: list) -> dict:
@@ -37,12 +36,3 @@ def delta_method_errors(values_at, p: dict, cov, free: list, scales: list) -> di
         out[k] = (float(val), err)
     return out
 
-
-def draw_uniform(rng: np.random.Generator, ranges: dict, v: dict) -> dict:
-    """``v`` with each parameter of ``ranges`` (``{param: (lo, hi, signed)}``) drawn
-    uniform in ``[lo, hi]``, times a random sign when signed (in the order of
-    ``ranges``: the stream the harness has always drawn from)."""
-    for name, (lo, hi, signed) in ranges.items():
-        x = float(rng.uniform(lo, hi))
-        v[name] = x * (float(rng.choice([-1.0, 1.0])) if signed else 1.0)
-    return v

@@ -56,10 +56,6 @@ class DetectorNonlinearity(Effect):
                   extra_starts=({"q": 2.0}, {"q": 0.6})))
     stage = 0
     main = "k_det"
-    harness = {"k": (0.05, 0.15, True)}
-    # a reading error growing faster than P towards full scale (q = 1.5 in the
-    # independent simulator's campaigns)
-    harness_forms = {"power": {"k": (0.05, 0.15, True), "q": (1.5, 3.0, False)}}
 
     def transfer(self, tm, v, y, cy):
         k = v.get("k", 0.0)
@@ -79,15 +75,6 @@ class DetectorNonlinearity(Effect):
         return {"k_det": (k_full, "1", "relative reading error at the maximum power "
                                        "(reading / true power - 1 at full drive)"),
                 "q": (v.get("q", 1.0), "1", "exponent of the reading error")}
-
-    def inject_photodiode(self, v, power, p_full):
-        u = np.maximum(power / p_full, 0.0)
-        return power * (1 + v.get("k", 0.0) * u ** v.get("q", 1.0))
-
-    def truth(self, v, sim_truth, ctx=None):
-        # relative reading error at the largest recorded power of the day's run
-        return {"k_det": float(sim_truth.get("calibration", {}).get(
-            "detector_nonlinearity_rel_max", v.get("k", 0.0))), "q": v.get("q", 1.0)}
 
 
 EFFECT = DetectorNonlinearity()

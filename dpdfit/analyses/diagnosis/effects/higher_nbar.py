@@ -22,7 +22,6 @@ class HigherNbar(Effect):
     params = (Param("dnbar", "quanta", 0.0, 5.0, 0.05, 0.1, "extra initial mean phonons"),)
     default = False
     main = "mean_nbar"
-    harness = {"dnbar": (0.1, 0.5, False)}
 
     def knobs(self):
         return (NBAR,)
@@ -35,9 +34,6 @@ class HigherNbar(Effect):
         nbar0 = gate.nominal["nbar"] if gate else 0.0
         return {"mean_nbar": (nbar0 + (self.values(p) or {}).get("dnbar", 0.0), "quanta",
                               "initial mean phonon number")}
-
-    def inject_engine(self, v, kw, A):
-        return {**kw, "nbar": kw["nbar"] + v.get("dnbar", 0.0)}
 
 
 EFFECT = HigherNbar()

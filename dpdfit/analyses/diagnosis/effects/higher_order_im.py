@@ -23,7 +23,6 @@ class HigherOrderIM(Effect):
     params = (Param("k5", "1", -0.5, 0.5, 0.0, 0.01, "relative field change at full drive"),)
     stage = 1
     main = "k5"
-    harness = {"k5": (0.01, 0.03, True)}
 
     def transfer(self, tm, v, y, cy):
         if not v.get("k5"):
@@ -34,10 +33,6 @@ class HigherOrderIM(Effect):
     def size_values(self, ctx, p):
         return {"k5": ((self.values(p) or {}).get("k5", 0.0), "1",
                        "relative field change ~ |y|^4 at full drive")}
-
-    def inject_field(self, v, y, x, fs, y_full):
-        r2 = (np.abs(y) / y_full) ** 2
-        return y * (1 + v.get("k5", 0.0) * r2 ** 2)
 
 
 EFFECT = HigherOrderIM()

@@ -44,11 +44,6 @@ class MotionalHeating(Effect):
              Form("initial", ("dnbar",), {"ndot": 0.0}, "extra initial phonons"),
              Form("both", ("ndot", "dnbar"), {}, "both", starts_from="during"))
     main = "heating_q_per_ms"
-    harness = {"ndot": (0.05, 0.2, False)}
-    # extra initial phonons as higher_nbar's harness draws them
-    harness_forms = {"initial": {"dnbar": (0.1, 0.5, False)},
-                     "both": {"ndot": (0.05, 0.2, False), "dnbar": (0.1, 0.5, False)}}
-    main_forms = {"initial": "mean_nbar"}
 
     def knobs(self):
         return (NDOT, NBAR)
@@ -69,10 +64,6 @@ class MotionalHeating(Effect):
                                            "beyond the lab's model"),
                 "mean_nbar": (nbar0 + v.get("dnbar", 0.0), "quanta",
                               "initial mean phonon number")}
-
-    def inject_engine(self, v, kw, A):
-        return {**kw, "ndot": kw["ndot"] + v.get("ndot", 0.0) * 1e3,
-                "nbar": kw["nbar"] + v.get("dnbar", 0.0)}
 
 
 EFFECT = MotionalHeating()

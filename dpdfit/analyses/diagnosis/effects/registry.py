@@ -4,9 +4,10 @@ Adding an effect: a module beside this one defining it (its parameters, forms
 and behaviour, :mod:`~dpdfit.analyses.diagnosis.effects.base`), and one line in ``_CATALOG`` below (or, from
 outside the package, e.g. a test, :func:`register`).  Everything else that
 lists effects -- the default effects of ``diagnose``, the gate-side effects of
-the null model, the harness's strengths and truths, the catalog table of the
+the null model, the effects the simulator takes, the catalog table of the
 documentation -- is derived from the registry.  The order is the order of the
-fits and of the reports.
+fits and of the reports.  An effect's injection into the simulator is
+registered on the simulator's side (:mod:`dpdfit.simulation.injections.registry`).
 """
 
 from __future__ import annotations

@@ -42,9 +42,6 @@ class SpamOffset(Effect):
                   "extra spectator and extra flip apart", extra_starts=({"p_spec": 0.005},
                                                                         {"p_flip": 0.005})))
     main = "extra_preparation"
-    harness = {"p_extra": (0.005, 0.02, False)}
-    # the split form with a flip share the lab's (spectator-only) split cannot take
-    harness_forms = {"split": {"p_spec": (0.002, 0.01, False), "p_flip": (0.004, 0.012, False)}}
 
     def preparation(self, gm, v, prep):
         x = v.get("p_extra", 0.0)
@@ -68,16 +65,6 @@ class SpamOffset(Effect):
                 "e01": (pr.e01, "probability", "detection: bright read dark"),
                 "e10": (pr.e10, "probability", "detection: dark read bright")})
         return out
-
-    def inject_engine(self, v, kw, A):
-        # the simulator's p_prep is a spectator probability, p_flip a flip
-        x = v.get("p_extra", 0.0)
-        return {**kw, "p_prep": kw["p_prep"] + x + v.get("p_spec", 0.0),
-                "p_flip": kw.get("p_flip", 0.0) + v.get("p_flip", 0.0)}
-
-    def truth(self, v, sim_truth, ctx=None):
-        return {"extra_preparation": v.get("p_extra", 0.0) + v.get("p_spec", 0.0)
-                + v.get("p_flip", 0.0)}
 
 
 EFFECT = SpamOffset()

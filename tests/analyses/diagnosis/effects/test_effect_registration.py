@@ -11,11 +11,12 @@ from dpdfit.simulation.harness import concealed_effects, harness_config, plan
 
 from tests.helpers.registered_effect import registered_effect
 from tests.helpers.seventh_order_effect import EFFECT as PM7
+from tests.helpers.seventh_order_effect import INJECTION as PM7_INJECTION
 
 
 @pytest.fixture
 def registered():
-    with registered_effect(PM7):
+    with registered_effect(PM7, PM7_INJECTION):
         yield PM7
 
 
