@@ -34,6 +34,7 @@ LAB_ONLY = {
 NOT_RUN = {
     ("docs/diagnosis/adding-an-effect.md", "# not run by the docs tests: a new file of the package (test_docs_effect_skeleton runs it)"),
     ("docs/diagnosis/adding-an-effect.md", "# not run by the docs tests: an edit of the package's registry"),
+    ("docs/diagnosis/adding-an-effect.md", "# not run by the docs tests: needs the lab's own modules"),
     ("docs/diagnosis/adding-an-effect.md", "# not run by the docs tests: needs the new effect in the package"),
     ("docs/diagnosis/adding-an-effect.md", "# not run by the docs tests: needs the new effect (minutes)"),
     ("docs/diagnosis/adding-an-effect.md", "# not run by the docs tests: needs the new effect (a campaign)"),

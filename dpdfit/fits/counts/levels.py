@@ -18,7 +18,7 @@ LEVEL_1SIGMA = math.erf(1 / math.sqrt(2))      # 0.6826894921370859
 
 @functools.lru_cache(maxsize=64)
 def normal_quantile(level: float) -> float:
-    """Two-sided normal quantile: level = P(|Z| <= z)."""
+    """Two-sided normal quantile: ``level = P(|Z| <= z)``."""
     return float(stats.norm.ppf(0.5 + level / 2))
 
 

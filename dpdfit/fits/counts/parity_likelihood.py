@@ -148,6 +148,6 @@ def phi_derivs(d: FringeCounts, A: float, phi0: float):
 
 
 def dnll_dA(d: FringeCounts, A: float, phi0: float) -> float:
-    """d(-lnL)/dA at (A, phi0), |A| < 1."""
+    """``d(-lnL)/dA`` at ``(A, phi0)``, ``|A| < 1``."""
     cu = np.cos(d.theta + phi0)
     return -float((d.k * cu) @ (1 / (1 + A * cu)) - (d.m * cu) @ (1 / (1 - A * cu)))

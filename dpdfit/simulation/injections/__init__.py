@@ -1,6 +1,6 @@
 """The simulator's injections of the diagnosis's effects, one module per effect.
 
-Each module defines one :class:`~.base.Injection`: the effect it injects
+Each module defines one :class:`~dpdfit.simulation.injections.base.Injection`: the effect it injects
 (:mod:`dpdfit.analyses.diagnosis.effects`, what the diagnosis fits), how the campaign
 simulator puts it into a simulated campaign (``inject_*`` hooks), the strengths the
 harness draws per form and the truth it compares.  :mod:`.registry` lists them

@@ -1,6 +1,6 @@
 """The simulator's injections, by the name of the effect each injects.
 
-Adding an effect's injection: a module beside this one defining it (:mod:`.base`),
+Adding an effect's injection: a module beside this one defining it (:mod:`~dpdfit.simulation.injections.base`),
 and one line in ``_CATALOG`` below (or, from outside the package, e.g. a test,
 :func:`register`, after registering the effect itself with
 :func:`dpdfit.analyses.diagnosis.effects.register`).  The effects themselves, and
