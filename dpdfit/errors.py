@@ -13,12 +13,30 @@ the row, ``(line N)``, so that an editor can jump there (:func:`data_line`).
 from __future__ import annotations
 
 import os
+import re
 
 __all__ = ["DpdfitError", "InputError", "ImplausibleValueError", "FitError",
-           "NotInvertibleError", "data_line"]
+           "NotInvertibleError", "data_line", "printable"]
 
 #: Files larger than this are not scanned for a row's line number (the message keeps the row).
 _MAX_SCAN_BYTES = 200_000_000
+
+
+#: numpy's repr of a scalar (numpy 2: ``np.float64(0.5)``, ``np.int64(3)``, ``np.str_('a')``)
+_NUMPY_REPR = re.compile(r"\bnp\.(?:u?int\d*|float\d*|complex\d*|bool_?|str_|bytes_)"
+                         r"\(([^()]*)\)")
+
+
+def printable(text: str) -> str:
+    """``text`` as a person reads it on a terminal: numbers as written (a numpy scalar's
+    repr, ``np.int64(3)``, as ``3``) and every character that is not printable -- a
+    control character, an escape sequence's ESC, a line break -- escaped (``\\x1b``),
+    so that a message quoting a crafted file stays one line and cannot drive the
+    terminal."""
+    text = _NUMPY_REPR.sub(r"\1", str(text))
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def _skipped(line: str) -> bool:
@@ -102,7 +120,7 @@ class InputError(DpdfitError):
         if row is not None:
             where.append(f"row {row}")
         prefix = ", ".join(where)
-        super().__init__(f"{prefix}: {message}" if prefix else message)
+        super().__init__(printable(f"{prefix}: {message}" if prefix else message))
 
 
 class ImplausibleValueError(InputError):

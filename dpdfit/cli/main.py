@@ -27,7 +27,7 @@ from dpdfit.cli.logs import cli_logging
 from dpdfit.cli.spectral import (add_estimate_command, add_im_table_command, add_sweep_command,
                                  add_thresholds_command)
 from dpdfit.core.version import __version__
-from dpdfit.errors import DpdfitError
+from dpdfit.errors import DpdfitError, printable
 from dpdfit.recordings.outputs import check_output_file, check_output_folder, staged_outputs
 
 __all__ = ["main", "build_parser", "check_outputs", "DESCRIPTION", "EPILOG", "INTERNAL_ERROR",
@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _refused(message: str) -> int:
     """Print ``dpdfit: error: message`` as one line on stderr; the exit status 2."""
-    print(f"dpdfit: error: {_one_line(message)}", file=sys.stderr)
+    print(f"dpdfit: error: {printable(_one_line(message))}", file=sys.stderr)
     return 2
 
 

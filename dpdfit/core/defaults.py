@@ -18,7 +18,8 @@ from dpdfit.errors import InputError
 
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
-           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "INTEGER_MAX",
+           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "MAX_INPUT_BYTES",
+           "MAX_INPUT_BYTES_VARIABLE", "MAX_JSON_BYTES", "MAX_CSV_COLUMNS", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
            "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
            "PYON_MAX_DEPTH", "MAX_FILES_PER_SOURCE"]
@@ -254,3 +255,20 @@ MAX_FILES_PER_SOURCE = 100_000
 #: hundred shots) is a few thousand rows, a lab's own plan of calibration runs a few
 #: tens of thousands; a file far beyond that is not a schedule
 MAX_SCHEDULE_ROWS = 1_000_000
+
+# What dpdfit reads from a file it is given (dpdfit.recordings.input_files): a campaign
+# folder, new recordings, a schedule, a mapping, an earlier diagnosis.  Such a file may
+# come from another lab, or be damaged: it is read only if it is a regular file of at
+# most this size, checked before a byte of it is read.
+#: the largest input file dpdfit reads, bytes: 1 GiB.  The largest table of a real
+#: campaign, its spectra of ten thousand traces or a million counted rows, is tens of MB.
+#: The environment variable ``DPDFIT_MAX_INPUT_BYTES`` (:data:`MAX_INPUT_BYTES_VARIABLE`)
+#: raises or lowers it for one run.
+MAX_INPUT_BYTES = 2**30
+#: the environment variable that sets :data:`MAX_INPUT_BYTES` (bytes, an integer)
+MAX_INPUT_BYTES_VARIABLE = "DPDFIT_MAX_INPUT_BYTES"
+#: the largest JSON file dpdfit reads (``campaign.json``, an earlier diagnosis's JSON,
+#: ``truth.json``): 64 MiB; a diagnosis's JSON is a few hundred kB
+MAX_JSON_BYTES = 64 * 2**20
+#: the most columns of a CSV table (a campaign's widest table has about twenty)
+MAX_CSV_COLUMNS = 1000
