@@ -78,7 +78,7 @@ def renumber_scans(campaign: dict, kept: dict) -> list[str]:
     if not tables:
         return []
     old = [df for df in (campaign.get("populations"), campaign.get("parity"))
-           if df is not None and not df.empty and "scan" in df.columns]
+           if df is not None and not df.empty and {"A", "dpd", "scan"} <= set(df.columns)]
     old_keys = [k for df in old for k in _keys(df, ["A", "dpd"])]
     old_labels = [x for df in old for x in df["scan"]]
     new_keys = [k for t in tables for k in _keys(kept[t], ["A", "dpd"])]
@@ -103,17 +103,17 @@ def merge_table(table: str, mine, theirs: pd.DataFrame, rec, campaign_file: str)
     runs skipped and of the notes: ``(rows, mine, skipped, notes)`` (module doc)."""
     skipped, notes = [], []
     theirs = theirs.copy()
+    required, optional = CAMPAIGN_TABLES[table]
+    _check_required(required, mine, theirs, rec, table, campaign_file)
     if table.startswith("calibration_"):
         theirs, skipped = _runs(table, mine, theirs, rec, campaign_file)
     if mine is None or theirs.empty:
         return theirs, mine, skipped, notes
     mine = mine.copy()
-    required, optional = CAMPAIGN_TABLES[table]
     had_repeat = "repeat" in theirs.columns
     for c in [c for c in mine.columns if c not in theirs.columns]:
         if table == "populations" and c == "n_even" and {"n00", "n11"} <= set(theirs):
-            theirs[c] = [str(int(float(a)) + int(float(b))) for a, b in
-                         zip(theirs["n00"], theirs["n11"])]
+            theirs[c] = _even_counts(theirs, rec)
         elif (table, c) in FILLED:
             theirs[c] = "1" if c == "valid" else ""
         elif c in required or c in optional:
@@ -136,6 +136,40 @@ def merge_table(table: str, mine, theirs: pd.DataFrame, rec, campaign_file: str)
         theirs["repeat"] = continued_labels(_keys(mine, _TONE), mine["repeat"],
                                             _keys(theirs, _TONE), new_labels)
     return theirs, mine, skipped, notes
+
+
+def _check_required(required, mine, theirs, rec, table: str, campaign_file: str) -> None:
+    """Refuse a table of NEW, or the campaign's, without a column its reader needs in
+    every row (the merge labels rows by some of them)."""
+    if mine is not None and not mine.empty:
+        for c in required:
+            if c not in mine.columns:
+                raise InputError("required column is missing: rows cannot be added to "
+                                 "this table", file=campaign_file, column=c)
+    for c in required:
+        if c not in theirs.columns and (mine is None or mine.empty):
+            raise InputError(f"NEW's {table} has no column '{c}', which its reader needs in "
+                             "every row", file=_file(rec, table))
+
+
+def _even_counts(theirs: pd.DataFrame, rec) -> list:
+    """``n_even = n00 + n11`` of NEW's populations rows, as text; an InputError naming
+    NEW's file, column and row at a count that is not a whole number."""
+    counts = {}
+    for c in ("n00", "n11"):
+        text = theirs[c]
+        x = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
+        ok = np.isfinite(x) & (x >= 0) & (np.floor(x) == x)
+        if not ok.all():
+            i = int(np.flatnonzero(~ok)[0])
+            value = text.iloc[i]
+            why = ("is empty" if value == "" else f"= {value!r} is not a count (a whole "
+                   "number of shots, 0 or more)")
+            raise InputError(f"{c} {why}: n_even = n00 + n11 is added for the campaign's "
+                             "column 'n_even'", column=c,
+                             **rec.where("populations", int(theirs.index[i]) + 1))
+        counts[c] = x
+    return [str(int(v)) for v in counts["n00"] + counts["n11"]]
 
 
 def _file(rec, table: str) -> str:
