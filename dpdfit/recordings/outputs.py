@@ -395,13 +395,14 @@ def csv_table_text(df, table, **to_csv) -> str:
     return df.to_csv(index=False, **to_csv)
 
 
-def write_csv_table(path: str | os.PathLike, df, *, head: str = "", header: bool = True,
-                    mode: str = "w", **to_csv) -> None:
+def write_csv_table(path: str | os.PathLike, df, *, name=None, head: str = "",
+                    header: bool = True, mode: str = "w", **to_csv) -> None:
     """Write ``df`` as CSV to ``path`` (not atomically: a file of a staged folder or
-    stage), after :func:`refuse_formula_cells` naming ``path``, with the text ``head``
-    on top; pandas writes the rows in chunks, so no copy of the whole text is made.
-    ``mode="a"`` with ``header=False`` appends rows."""
-    refuse_formula_cells(df, path)
+    stage), after :func:`refuse_formula_cells` naming ``name`` (default ``path``; the
+    final path of a staged file), with the text ``head`` on top; pandas writes the rows
+    in chunks, so no copy of the whole text is made.  ``mode="a"`` with
+    ``header=False`` appends rows."""
+    refuse_formula_cells(df, path if name is None else name)
     with open(path, mode, encoding="utf-8", newline="") as fh:
         fh.write(head)
         df.to_csv(fh, index=False, header=header, **to_csv)
