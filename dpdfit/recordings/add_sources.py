@@ -91,7 +91,12 @@ def read_text_table(path: str | os.PathLike) -> pd.DataFrame:
     dupes = sorted({c for c in df.columns if list(df.columns).count(c) > 1})
     if dupes:
         raise InputError(f"column name(s) appear more than once: {dupes}", file=name)
-    return df.apply(lambda c: c.str.strip()) if len(df) else df
+    for c in df.columns:
+        # spaces before a comma: stripped where a cell has them (each distinct value is
+        # looked at once; stripping every cell of a million rows takes seconds)
+        if any(isinstance(v, str) and v != v.strip() for v in df[c].unique()):
+            df[c] = df[c].str.strip()
+    return df
 
 
 def leading_comments(path: str | os.PathLike, within=None) -> str:
@@ -167,8 +172,9 @@ def _csv_folder(path: Path, check) -> NewRecordings:
         if df.empty:
             continue
         for c in SOURCE_COLUMNS:         # NEW made by dpdfit import keeps its results files
-            if c not in df.columns:
-                df[c] = f.name if c == "source_file" else ""
+            if c not in df.columns:      # one value for every row: a byte per row, not 8
+                df[c] = pd.Categorical.from_codes(np.zeros(len(df), dtype=np.int8),
+                                                  [f.name if c == "source_file" else ""])
         tables[table] = df
         sources.append({"file": f.name, "sha256": file_sha256(f), "rid": None,
                         "start_time": None})

@@ -88,7 +88,10 @@ class AddedCampaign(Displayable):
 
     ``rows_added``: table -> rows added; ``tables``: the merged tables (text) that
     changed; ``meta``: the new ``campaign.json``; ``skipped``, ``dropped``, ``left_out``
-    (CAMPAIGN's files not of the layout), ``notes``: lines of the report."""
+    (CAMPAIGN's files not of the layout), ``notes``: lines of the report.
+
+    Each merged table is kept as its two parts, the campaign's rows and NEW's, and
+    written part after part: a million rows added are never copied into one table."""
 
     campaign: Path
     new: Path
@@ -97,15 +100,27 @@ class AddedCampaign(Displayable):
     skipped: tuple = ()
     dropped: tuple = ()
     notes: tuple = ()
-    tables: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
     left_out: tuple = ()
+    _parts: dict = field(default_factory=dict)
     _origin: dict = field(default_factory=dict)
     _recordings: NewRecordings | None = None
     _copy: CampaignCopy = field(default_factory=CampaignCopy)
     _comments: dict = field(default_factory=dict)
     _columns: dict = field(default_factory=dict)
     _display_title = "Recordings added"
+
+    @property
+    def tables(self) -> dict:
+        """The merged tables (text) that changed: table -> DataFrame, the campaign's rows
+        then NEW's (made on each access)."""
+        return {t: df if mine is None else pd.concat([mine, df], ignore_index=True)
+                for t, (mine, df) in self._parts.items()}
+
+    def _rows(self, table: str) -> int:
+        """Rows of the merged ``table``."""
+        mine, df = self._parts[table]
+        return len(df) + (0 if mine is None else len(mine))
 
     def _display_rows(self) -> list[tuple]:
         return [(f"{t} rows added", n, None, "") for t, n in self.rows_added.items()]
@@ -120,7 +135,7 @@ class AddedCampaign(Displayable):
         lines = [f"added to {self.campaign} from {self.new} ({self.kind}, {n_src} source "
                  f"file{'s' if n_src != 1 else ''}):"]
         for t, n in self.rows_added.items():
-            lines.append(f"  {t + '.csv':26s} {f'+{n}':>7s} rows (now {len(self.tables[t])})")
+            lines.append(f"  {t + '.csv':26s} {f'+{n}':>7s} rows (now {self._rows(t)})")
         lines += [f"  skipped: {s}" for s in self.skipped]
         lines += [f"  dropped: {d}" for d in self.dropped]
         lines += [f"  left out: {x}" for x in self.left_out]
@@ -144,10 +159,16 @@ class AddedCampaign(Displayable):
         rec = self._recordings
         check_output(out, self.campaign, self.new, rec is not None and rec.kind == "csv")
         with staged_folder(out) as tmp:
-            self._copy.copy(self.campaign, tmp, skip={f"{t}.csv" for t in self.tables})
-            for t, df in self.tables.items():
-                write_csv_table(tmp / f"{t}.csv", df, head=self._comments.get(t, ""),
-                                lineterminator="\n")
+            self._copy.copy(self.campaign, tmp, skip={f"{t}.csv" for t in self._parts})
+            for t, (mine, df) in self._parts.items():
+                head = self._comments.get(t, "")
+                name = Path(out) / f"{t}.csv"
+                if mine is not None:
+                    write_csv_table(tmp / f"{t}.csv", mine, name=name, head=head,
+                                    lineterminator="\n")
+                write_csv_table(tmp / f"{t}.csv", df, name=name, head="" if mine is not None
+                                else head, header=mine is None,
+                                mode="w" if mine is None else "a", lineterminator="\n")
             (tmp / "campaign.json").write_text(json.dumps(self.meta, indent=2) + "\n",
                                                encoding="utf-8")
             self._read_back(tmp)
@@ -155,7 +176,7 @@ class AddedCampaign(Displayable):
 
     def _read_back(self, tmp: Path) -> None:
         camp = CampaignFolder(tmp)
-        for t in self.tables:
+        for t in self._parts:
             try:
                 getattr(camp, READERS[t])
             except InputError as exc:
@@ -169,9 +190,16 @@ class AddedCampaign(Displayable):
     def _check_cells(self) -> None:
         """Refuse a text cell of a merged table that a spreadsheet would run as a formula
         (:func:`~.outputs.refuse_formula_cells`), naming CAMPAIGN's or NEW's row."""
-        for t, df in self.tables.items():
+        for t, (mine, df) in self._parts.items():
+            n0 = 0 if mine is None else len(mine)
             try:
-                refuse_formula_cells(df, f"{t}.csv")
+                if mine is not None:
+                    refuse_formula_cells(mine, f"{t}.csv")
+                try:
+                    refuse_formula_cells(df, f"{t}.csv")
+                except InputError as exc:   # rows counted in the merged table
+                    raise InputError(_message(exc), file=exc.file, column=exc.column,
+                                     row=None if exc.row is None else exc.row + n0) from None
             except InputError as exc:
                 if exc.row is None:         # a column name: the campaign's, or NEW's
                     rec = self._recordings
@@ -185,7 +213,7 @@ class AddedCampaign(Displayable):
     def _traced(self, exc: InputError, table: str) -> InputError:
         """The readers' refusal of the merged ``table``, naming CAMPAIGN's or NEW's row."""
         msg, origin = _message(exc), self._origin.get(table)
-        n0 = len(self.tables[table]) - (0 if origin is None else len(origin))
+        n0 = self._rows(table) - (0 if origin is None else len(origin))
         if exc.row is None:
             return InputError(f"{table}.csv with the recordings added: {msg}",
                               file=str(self.campaign / f"{table}.csv"))
@@ -241,7 +269,7 @@ def add_recordings(campaign, new, *, added_at=None, complete_only=None, progress
     mine = {t: _campaign_table(camp, t, comments) for t in
             sorted({*rec.tables, "populations", "parity"})}
     columns = {t: tuple(df.columns) for t, df in mine.items() if df is not None}
-    merged, origin, skipped, notes, kept = {}, {}, [], [], {}
+    parts, origin, skipped, notes, kept = {}, {}, [], [], {}
     for t, df in rec.tables.items():
         kept[t], mine[t], skip, note = merge_table(t, mine[t], df, rec,
                                                    str(camp.file(f"{t}.csv")))
@@ -252,22 +280,23 @@ def add_recordings(campaign, new, *, added_at=None, complete_only=None, progress
         if df.empty:
             continue
         origin[t] = df.index.to_numpy()
-        merged[t] = df if mine[t] is None else pd.concat([mine[t], df], ignore_index=True)
-    if not merged:
+        parts[t] = (mine[t], df)
+    if not parts:
         raise InputError("nothing to add: " + ("every calibration run is in the campaign "
                          "already" if skipped else "NEW holds no rows of any campaign table"),
                          file=str(rec.path))
-    rows = {t: len(origin[t]) for t in merged}
+    rows = {t: len(origin[t]) for t in parts}
     meta = dict(camp.raw_meta)
     meta["added"] = list(camp.raw_meta.get("added", [])) + [
-        provenance(rec, merged, origin, skipped, added_at)]
+        provenance(rec, {t: len(df) + (0 if m is None else len(m))
+                         for t, (m, df) in parts.items()}, origin, skipped, added_at)]
     dropped = tuple(f"{n} ({why})" for n, why in DROPPED_FILES.items()
                     if os.path.lexists(camp.file(n)))
     notes += [f"not added: {n} (NEW's files other than the tables)" for n in rec.ignored]
     notes += [f"import: {w}" for w in rec.warnings]
     added = AddedCampaign(campaign=camp.path, new=rec.path, kind=rec.kind, rows_added=rows,
                           skipped=tuple(skipped), dropped=dropped, notes=tuple(notes),
-                          tables=merged, meta=meta, left_out=copy.left_out, _origin=origin,
+                          meta=meta, left_out=copy.left_out, _parts=parts, _origin=origin,
                           _recordings=rec, _copy=copy, _comments=comments, _columns=columns)
     added._check_cells()
     return added
@@ -315,18 +344,20 @@ def _trace_files(camp: CampaignFolder):
     return df["file"].tolist() if len(df) else []
 
 
-def provenance(rec: NewRecordings, merged: dict, origin: dict, skipped, added_at=None) -> dict:
+def provenance(rec: NewRecordings, totals: dict, origin: dict, skipped, added_at=None) -> dict:
     """The ``added`` entry of ``campaign.json``: ``added_at`` (UTC, ISO 8601), ``from`` (NEW
     as given), ``kind``, ``mapping_sha256`` (a mapping), ``dpdfit`` (version),
     ``rows`` (table -> ``[first, last]`` data rows added), ``skipped`` and ``sources``:
     per source file its ``file``, ``sha256``, ``rid``, ``start_time`` and ``rows`` (table
-    -> list of ``[first, last]`` data rows of the new folder it gave)."""
+    -> list of ``[first, last]`` data rows of the new folder it gave).  ``totals``: table
+    -> rows of the merged table; ``origin``: table -> the index in ``rec.tables`` of
+    NEW's rows added."""
     when = _utc(added_at)
     per_file = {s["file"]: {**s, "rows": {}} for s in rec.sources}
     rows = {}
-    for t, df in merged.items():
-        n0 = len(df) - len(origin[t])
-        rows[t] = [n0 + 1, len(df)]
+    for t, total in totals.items():
+        n0 = total - len(origin[t])
+        rows[t] = [n0 + 1, total]
         files = ([f"{t}.csv"] * len(origin[t]) if rec.kind == "csv"
                  else rec.tables[t].loc[origin[t], "source_file"].tolist())
         for f, a, b in _runs(files):
