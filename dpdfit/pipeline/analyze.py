@@ -71,7 +71,7 @@ from pathlib import Path
 from dpdfit.core.defaults import FORMULA
 from dpdfit.core.progress import progress_bar, progress_scope
 from dpdfit.errors import DpdfitError, InputError
-from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.recordings.campaign_folder import CampaignFolder, check_campaign_folder
 from dpdfit.recordings.outputs import check_output_folder
 from dpdfit.report.summary import realism_table
 
@@ -197,10 +197,7 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, 
         (``res.summary["analyses"]``: per analysis ``ok``, ``skipped`` (why) or
         ``failed`` (the error line); ``res.status`` as a table).
     """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError("is a file, not a campaign folder" if folder.is_file()
-                         else "campaign folder not found", file=str(folder))
+    folder = check_campaign_folder(folder)
     if outdir is not None:  # checked before any work, not after minutes of it
         check_output_folder(outdir, "results folder")
         if Path(outdir).resolve() == folder.resolve():

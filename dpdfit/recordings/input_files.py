@@ -22,6 +22,7 @@ read) and checked on that open file.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import os
@@ -31,7 +32,7 @@ from pathlib import Path
 from dpdfit.core.defaults import MAX_INPUT_BYTES, MAX_INPUT_BYTES_VARIABLE, MAX_JSON_BYTES
 from dpdfit.errors import InputError
 
-__all__ = ["max_input_bytes", "format_bytes", "check_inside", "checked_input",
+__all__ = ["max_input_bytes", "format_bytes", "check_inside", "checked_input", "open_input",
            "read_input_bytes", "read_input_text", "read_input_json"]
 
 
@@ -131,11 +132,14 @@ def _too_large(size: int, limit: int, name: str, json_file: bool) -> InputError:
                       f"reads from one {'JSON ' if json_file else ''}file{how}", file=name)
 
 
-def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None = None,
-                     json_file: bool = False) -> bytes:
-    """The bytes of the input file ``path`` (module doc): a regular file, inside
-    ``within`` when given, at most ``limit`` bytes (default :func:`max_input_bytes`).
-    Each refusal is an InputError naming the file."""
+@contextlib.contextmanager
+def open_input(path, *, within=None, what: str = "file", limit: int | None = None,
+               json_file: bool = False):
+    """The input file ``path`` (module doc) open for reading in binary, checked on the open
+    file: a regular file, inside ``within`` when given, at most ``limit`` bytes (default
+    :func:`max_input_bytes`).  For a reader that needs only part of the file (a header)
+    or streams it; it reads at most ``limit`` bytes.  Each refusal is an InputError
+    naming the file."""
     name = str(path)
     limit = max_input_bytes() if limit is None else int(limit)
     real = checked_input(path, within=within, what=what)
@@ -151,6 +155,17 @@ def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None
                              "files only", file=name)
         if st.st_size > limit:
             raise _too_large(st.st_size, limit, name, json_file)
+        yield fh
+
+
+def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None = None,
+                     json_file: bool = False) -> bytes:
+    """The bytes of the input file ``path`` (module doc): a regular file, inside
+    ``within`` when given, at most ``limit`` bytes (default :func:`max_input_bytes`).
+    Each refusal is an InputError naming the file."""
+    name = str(path)
+    limit = max_input_bytes() if limit is None else int(limit)
+    with open_input(path, within=within, what=what, limit=limit, json_file=json_file) as fh:
         try:
             data = fh.read(limit + 1)
         except OSError as exc:
