@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import errno
 import hashlib
 import json
 import os
@@ -78,10 +79,11 @@ def file_sha256(path: str | os.PathLike) -> str:
 
 def refuse_overwriting_inputs(outputs: Iterable[str | os.PathLike],
                               inputs: Iterable[str | os.PathLike]) -> None:
-    """Raise :class:`InputError` if any output path is one of the inputs."""
-    ins = {Path(p).resolve() for p in inputs if p is not None}
+    """Raise :class:`InputError` if any output path is one of the inputs (or is a
+    symbolic link loop)."""
+    ins = {_resolved(p) for p in inputs if p is not None}
     for out in outputs:
-        if out is not None and Path(out).resolve() in ins:
+        if out is not None and _resolved(out) in ins:
             raise InputError("refusing to overwrite an input file; choose another output path",
                              file=str(out))
 
@@ -93,6 +95,7 @@ def check_output_folder(path: str | os.PathLike, what: str = "output folder") ->
     a folder we may write into.
     """
     p = Path(path)
+    _resolved(p, what)
     if p.exists() and not p.is_dir():
         raise InputError(f"{what} is an existing file, not a folder", file=str(path))
     _check_writable_parent(p if p.exists() else p.parent, path, what)
@@ -101,9 +104,23 @@ def check_output_folder(path: str | os.PathLike, what: str = "output folder") ->
 def check_output_file(path: str | os.PathLike, what: str = "output file") -> None:
     """Raise :class:`InputError` now, before any work, if ``path`` cannot be written as a file."""
     p = Path(path)
+    _resolved(p, what)
     if p.is_dir():
         raise InputError(f"{what} is an existing folder; give a file name", file=str(path))
     _check_writable_parent(p.parent, path, what)
+
+
+def _resolved(path, what: str = "path") -> Path:
+    """``path`` resolved, or an InputError naming it when it leads through a symbolic
+    link loop (``Path.resolve`` raises RuntimeError there, before Python 3.13)."""
+    try:
+        return Path(path).resolve()
+    except RuntimeError:
+        raise InputError(f"{what} is a symbolic link loop", file=str(path)) from None
+    except OSError as exc:
+        why = "is a symbolic link loop" if exc.errno == errno.ELOOP else (
+            f"cannot be resolved ({exc.strerror or exc})")
+        raise InputError(f"{what} {why}", file=str(path)) from None
 
 
 def _check_writable_parent(folder: Path, path, what: str) -> None:

@@ -16,6 +16,7 @@ import io
 import math
 import os
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -130,6 +131,9 @@ def _load_npz(z, name: str) -> tuple[np.ndarray, float]:
         sc = z["scale"] if "scale" in keys else None
     except ValueError as exc:
         raise InputError(f"not a numeric array ({exc})", file=name) from None
+    except (zipfile.BadZipFile, zlib.error, OSError, EOFError) as exc:
+        # a damaged archive: a flipped byte fails the member's CRC or its inflation
+        raise InputError(f"not a readable .npz archive ({exc})", file=name) from None
     scale = 1.0
     if sc is not None:
         sc = np.asarray(sc)
@@ -171,29 +175,40 @@ def _check_declared(shape: tuple, dtype: np.dtype, name: str, what: str) -> None
 
 def _check_npz(fh, name: str) -> None:
     """The arrays ``trace`` and ``scale`` of an ``.npz`` within the bounds, from their
-    headers (a member that is not there or not an array is left to the loader)."""
+    headers, then read through (not kept) so that a damaged member (its CRC, its
+    compressed stream) is refused here, not when the traces are analysed.  A file that
+    is not a zip archive, or a member that is not there or not an array, is left to the
+    loader."""
     try:
         zf = zipfile.ZipFile(fh)
     except (zipfile.BadZipFile, OSError, ValueError, EOFError):
         return
+    limit = max_input_bytes()
     with zf:
         for key in ("trace", "scale"):
             try:
                 info = zf.getinfo(f"{key}.npy")
             except KeyError:
                 continue
+            if info.file_size > limit:
+                raise InputError(f"the array '{key}' is {format_bytes(info.file_size)} "
+                                 f"uncompressed, more than the {format_bytes(limit)} dpdfit "
+                                 f"reads from one file; the environment variable "
+                                 f"{MAX_INPUT_BYTES_VARIABLE} raises the limit", file=name)
             try:
                 with zf.open(info) as member:
                     header = _array_header(member)
-            except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError):
-                return
-            if header is None:
-                continue
-            shape, dtype = header
-            if key == "scale" and math.prod(shape) != 1:
-                raise InputError(f"'scale' must be one real number, got shape {shape} "
-                                 f"dtype {dtype}", file=name)
-            _check_declared(shape, dtype, name, f"the array '{key}'")
+                    if header is not None:
+                        shape, dtype = header
+                        if key == "scale" and math.prod(shape) != 1:
+                            raise InputError(f"'scale' must be one real number, got shape "
+                                             f"{shape} dtype {dtype}", file=name)
+                        _check_declared(shape, dtype, name, f"the array '{key}'")
+                    while member.read(1 << 20):     # at most file_size bytes, CRC checked
+                        pass
+            except (zipfile.BadZipFile, zlib.error, OSError, EOFError,
+                    NotImplementedError) as exc:
+                raise InputError(f"not a readable .npz archive ({exc})", file=name) from None
 
 
 def check_trace_file(path, *, within=None) -> None:
@@ -257,7 +272,7 @@ def load_trace(path: str | os.PathLike, *, within=None) -> np.ndarray:
         except ValueError as exc:
             raise InputError(f"not a numeric NumPy file ({str(exc).splitlines()[0]})",
                              file=name) from None
-        except (OSError, EOFError) as exc:
+        except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
             raise InputError(f"not a readable NumPy file ({exc})", file=name) from None
         scale = 1.0
         if ext == ".npz" or not isinstance(obj, np.ndarray):
