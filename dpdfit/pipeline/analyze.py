@@ -5,7 +5,9 @@ analysis (with the reason in the summary), a malformed file stops that
 analysis with the one-line error naming file, column and row, and the others
 go on.  A value no real campaign holds (a unit slip:
 :mod:`dpdfit.recordings.plausibility`) refuses the whole campaign before any
-analysis runs, and nothing is written.  The results folder is checked before any work; all outputs, figures
+analysis runs, and nothing is written; so does a file of the folder that leads out
+of it, is not a regular file or is beyond the size bound, or is not a table a lab
+writes (:class:`~dpdfit.errors.RefusedFileError`, :mod:`dpdfit.recordings.campaign_folder`).  The results folder is checked before any work; all outputs, figures
 included, are staged and published together at the end (Ctrl-C leaves a
 previous results folder exactly as it was), and what a previous run wrote
 there and this one does not is deleted in the same step.

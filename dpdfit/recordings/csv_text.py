@@ -19,7 +19,7 @@ it; a file that is not such a table is damaged or crafted, and is refused as a w
   with ``=``, ``+``, ``-``, ``@`` (spaces before them aside), a tab or a carriage return, and
   is not a number (``-1.5``, ``+3`` and ``-inf`` are numbers, so they pass).  The cell
   would be copied into the CSV files dpdfit writes, which labs open in spreadsheets: it is
-  refused on input (the documentation's "Files from elsewhere"), never written.
+  refused on input, never written.
 
 Comment lines (``#`` at column 1) and blank lines are skipped, as
 :func:`dpdfit.errors.data_line` counts them.  An honest file gives the same table as
