@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import re
 
-__all__ = ["DpdfitError", "InputError", "ImplausibleValueError", "FitError",
+__all__ = ["DpdfitError", "InputError", "ImplausibleValueError", "RefusedFileError", "FitError",
            "NotInvertibleError", "data_line", "printable"]
 
 #: Files larger than this are not scanned for a row's line number (the message keeps the row).
@@ -129,6 +129,16 @@ class ImplausibleValueError(InputError):
     fraction in place of the shots).  ``dpdfit analyze`` refuses the whole campaign
     for it, where a malformed file only fails the analyses that read it
     (:mod:`dpdfit.recordings.plausibility`)."""
+
+
+class RefusedFileError(InputError):
+    """A file of recordings refused as a whole, before any of its values is looked at: it
+    leads out of the folder it was found in, is not a regular file, is larger than the
+    bound, or is not a table a lab writes (a NUL byte, a header wider than
+    :data:`~dpdfit.core.defaults.MAX_CSV_COLUMNS`, a column named twice, a row wider than
+    its header, a cell a spreadsheet would run as a formula).  Such a file is damaged or
+    crafted: ``dpdfit analyze`` refuses the whole campaign for it, as for an
+    :class:`ImplausibleValueError`, and writes nothing."""
 
 
 class FitError(DpdfitError):

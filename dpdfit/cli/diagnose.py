@@ -13,6 +13,7 @@ from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
+from dpdfit.recordings.campaign_folder import check_campaign_folder
 from dpdfit.recordings.outputs import check_output_file, refuse_overwriting_inputs
 from dpdfit.recordings.schedule import write_schedule
 from dpdfit.report.comparison_plots import comparison_figure
@@ -60,6 +61,9 @@ def cmd_diagnose(args) -> int:
 
 def _check_schedule_path(path, campaign) -> None:
     """The schedule file can be written, and not into the campaign (never touched)."""
+    from dpdfit.cli.import_campaign import is_mapping
+    if not is_mapping(campaign):           # a link loop or FIFO named before it is resolved
+        check_campaign_folder(campaign)
     check_output_file(path, "schedule file")
     refuse_overwriting_inputs([path], [campaign])
     if Path(campaign).is_dir() and Path(campaign).resolve() in Path(path).resolve().parents:

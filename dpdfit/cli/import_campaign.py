@@ -36,9 +36,12 @@ def campaign_argument(path, complete_only: bool = False, keep_in=None):
     """The campaign folder a command's argument names: the folder itself, or, for a
     mapping file, the campaign imported from it -- into ``keep_in/imported_campaign``
     when given (an earlier import there is replaced; anything else is refused), else
-    into a temporary folder removed afterwards."""
+    into a temporary folder removed afterwards.  A folder is checked first
+    (:func:`~dpdfit.recordings.campaign_folder.check_campaign_folder`): a symbolic link
+    loop, a FIFO or a folder that cannot be read is one InputError naming it."""
     if not is_mapping(path):
-        yield Path(path)
+        from dpdfit.recordings.campaign_folder import check_campaign_folder
+        yield check_campaign_folder(path)
         return
     from dpdfit.recordings.campaign_import import import_campaign
     imported = import_campaign(path, complete_only=complete_only or None)

@@ -6,13 +6,12 @@ import argparse
 import json
 import sys
 
-import pandas as pd
-
 from dpdfit.analyses.stability import stability
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
+from dpdfit.recordings.columns import header_columns
 from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 from dpdfit.report.stability_plots import stability_figures
 
@@ -21,9 +20,8 @@ __all__ = ["add_stability_command", "cmd_stability"]
 
 def _guess_kind(path) -> str:
     try:
-        cols = [str(c).strip() for c in
-                pd.read_csv(path, comment="#", nrows=0, skipinitialspace=True).columns]
-    except Exception:  # unreadable: let stability() report it properly
+        cols = header_columns(path)    # the header only; a FIFO or device is not opened
+    except InputError:                 # unreadable: let stability() report it properly
         return "amplitude"
     if "phase_rad" in cols and "power" not in cols:
         return "phase"

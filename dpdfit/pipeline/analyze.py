@@ -5,7 +5,9 @@ analysis (with the reason in the summary), a malformed file stops that
 analysis with the one-line error naming file, column and row, and the others
 go on.  A value no real campaign holds (a unit slip:
 :mod:`dpdfit.recordings.plausibility`) refuses the whole campaign before any
-analysis runs, and nothing is written.  The results folder is checked before any work; all outputs, figures
+analysis runs, and nothing is written; so does a file of the folder that leads out
+of it, is not a regular file or is beyond the size bound, or is not a table a lab
+writes (:class:`~dpdfit.errors.RefusedFileError`, :mod:`dpdfit.recordings.campaign_folder`).  The results folder is checked before any work; all outputs, figures
 included, are staged and published together at the end (Ctrl-C leaves a
 previous results folder exactly as it was), and what a previous run wrote
 there and this one does not is deleted in the same step.
@@ -71,7 +73,7 @@ from pathlib import Path
 from dpdfit.core.defaults import FORMULA
 from dpdfit.core.progress import progress_bar, progress_scope
 from dpdfit.errors import DpdfitError, InputError
-from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.recordings.campaign_folder import CampaignFolder, check_campaign_folder
 from dpdfit.recordings.outputs import check_output_folder
 from dpdfit.report.summary import realism_table
 
@@ -197,10 +199,7 @@ def analyze(folder: str | os.PathLike, outdir: str | os.PathLike | None = None, 
         (``res.summary["analyses"]``: per analysis ``ok``, ``skipped`` (why) or
         ``failed`` (the error line); ``res.status`` as a table).
     """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError("is a file, not a campaign folder" if folder.is_file()
-                         else "campaign folder not found", file=str(folder))
+    folder = check_campaign_folder(folder)
     if outdir is not None:  # checked before any work, not after minutes of it
         check_output_folder(outdir, "results folder")
         if Path(outdir).resolve() == folder.resolve():

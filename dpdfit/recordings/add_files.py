@@ -12,8 +12,10 @@ among them is never followed.
 A file copied is checked before a byte of it is (:mod:`.input_files`): a regular file,
 inside CAMPAIGN (a symbolic link to another file of CAMPAIGN is copied as that file;
 one leading out of CAMPAIGN is refused, as is a FIFO, a device or a folder in its
-place), at most :func:`~.input_files.max_input_bytes`; it is then written fresh into
-the new folder, a regular file, never a link.  Each refusal is one
+place), at most :func:`~.input_files.max_input_bytes`; a table is parsed as its reader
+parses it (:mod:`.csv_text`: a cell a spreadsheet would run, a NUL byte, a row wider than
+its header are refused, not copied); it is then written fresh into the new folder, a
+regular file, never a link.  Each refusal is one
 :class:`~dpdfit.errors.InputError` naming the file.
 """
 
@@ -23,8 +25,11 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from dpdfit.errors import InputError, RefusedFileError
+
 from .columns import CAMPAIGN_TABLES
 from .input_files import check_inside, copy_input_file, open_input
+from .tables import read_csv_strings
 
 __all__ = ["LAYOUT_FILES", "DROPPED_FILES", "TRACES_FOLDER", "CampaignCopy", "plan_copy",
            "check_file"]
@@ -53,7 +58,8 @@ class CampaignCopy:
 
     def copy(self, campaign: Path, dest: Path, skip=()) -> None:
         """Copy the files (but those in ``skip``, written anew) into the folder ``dest``
-        (module doc: checked again as they are copied, each written fresh)."""
+        (module doc: checked again as they are copied, each written fresh; a table parsed
+        first, as :func:`~.tables.read_csv_strings` parses it)."""
         for d in self.folders:
             (dest / d).mkdir(parents=True, exist_ok=True)
         for rel in self.files:
@@ -61,7 +67,23 @@ class CampaignCopy:
                 continue
             target = dest / rel
             target.parent.mkdir(parents=True, exist_ok=True)
+            if rel in LAYOUT_FILES and rel.endswith(".csv"):
+                _check_table(campaign / rel, campaign)
             copy_input_file(campaign / rel, target, within=campaign, what=_what(rel))
+
+
+def _check_table(path: Path, campaign: Path) -> None:
+    """Refuse a table of CAMPAIGN that is no table a lab writes (a cell a spreadsheet
+    would run, a NUL byte, a row wider than its header: :mod:`.csv_text`), parsed as its
+    reader parses it, rather than copy it blind.  A table its reader refuses for other
+    reasons (empty, as the simulator's ``traces.csv`` without traces) is copied as it
+    is, as every file was before: the reader says so when the new folder is analysed."""
+    try:
+        read_csv_strings(path, within=campaign)
+    except RefusedFileError:
+        raise
+    except InputError:
+        return
 
 
 def _what(rel: str) -> str:

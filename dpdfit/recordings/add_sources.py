@@ -78,19 +78,12 @@ class NewRecordings:
         return f"[campaign] {key}" + (f" (line {line})" if line else "")
 
 
-def read_text_table(path: str | os.PathLike) -> pd.DataFrame:
-    """A CSV table with every value as its text (module doc); InputError naming the
-    file when it cannot be read.  A file with a header and no rows is an empty table."""
-    name = str(path)
-    df = read_csv_strings(path, name)
-    if not isinstance(df.index, pd.RangeIndex):
-        # the parser took the first field of every row as a label: the first row has one
-        # field more than the header, and each row's first value would be lost
-        raise InputError("has one field more than the header (a value without a column)",
-                         file=name, row=1)
-    dupes = sorted({c for c in df.columns if list(df.columns).count(c) > 1})
-    if dupes:
-        raise InputError(f"column name(s) appear more than once: {dupes}", file=name)
+def read_text_table(path: str | os.PathLike, within=None) -> pd.DataFrame:
+    """A CSV table with every value as its text (module doc), read by
+    :func:`~.tables.read_csv_strings` (inside the folder ``within`` when given; its header
+    and rows checked); InputError naming the file when it cannot be read.  A file with a
+    header and no rows is an empty table."""
+    df = read_csv_strings(path, str(path), within=within)
     for c in df.columns:
         # spaces before a comma: stripped where a cell has them (each distinct value is
         # looked at once; stripping every cell of a million rows takes seconds)
@@ -166,9 +159,7 @@ def _csv_folder(path: Path, check) -> NewRecordings:
         f = path / f"{table}.csv"
         if not os.path.lexists(f):
             continue
-        with open_input(f, within=path, what="table"):
-            pass                              # checked before the reader opens it
-        df = read_text_table(f)
+        df = read_text_table(f, within=path)
         if df.empty:
             continue
         for c in SOURCE_COLUMNS:         # NEW made by dpdfit import keeps its results files

@@ -68,15 +68,14 @@ import pandas as pd
 
 from dpdfit.core.display import Displayable
 from dpdfit.core.version import __version__
-from dpdfit.errors import InputError
+from dpdfit.errors import InputError, RefusedFileError
 
 from .add_checks import check_output, check_same_campaign, check_settings
-from .add_files import DROPPED_FILES, CampaignCopy, check_file, plan_copy
+from .add_files import DROPPED_FILES, CampaignCopy, plan_copy
 from .add_merge import merge_table, renumber_scans
 from .add_sources import NewRecordings, leading_comments, read_new_recordings, read_text_table
 from .campaign_folder import CampaignFolder
 from .imported_check import READERS
-from .input_files import check_inside, read_input_json
 from .outputs import refuse_formula_cells, staged_folder, write_csv_table
 
 __all__ = ["AddedCampaign", "add_recordings", "provenance", "DROPPED_FILES"]
@@ -256,7 +255,7 @@ def add_recordings(campaign, new, *, added_at=None, complete_only=None, progress
         NEW from another campaign, a setting the campaign cannot model, a run label the
         campaign has with other data, NEW with nothing to add (:mod:`.add_checks`).
     """
-    camp = _campaign_folder(campaign)
+    camp = CampaignFolder(campaign)
     if not isinstance(camp.raw_meta.get("added", []), list):
         raise InputError("key 'added' must be a list (the recordings added before)",
                          file=str(camp.file("campaign.json")))
@@ -302,19 +301,6 @@ def add_recordings(campaign, new, *, added_at=None, complete_only=None, progress
     return added
 
 
-def _campaign_folder(campaign) -> CampaignFolder:
-    """CAMPAIGN read by :class:`~.campaign_folder.CampaignFolder`, its path and its
-    ``campaign.json`` checked first: no link loop; JSON in a regular file inside
-    CAMPAIGN of at most :data:`~dpdfit.core.defaults.MAX_JSON_BYTES`
-    (:func:`~.input_files.read_input_json`)."""
-    path = Path(campaign)
-    check_inside(path, path, "campaign folder")
-    meta = path / "campaign.json"
-    if path.is_dir() and os.path.lexists(meta):
-        read_input_json(meta, within=path, what="campaign.json")
-    return CampaignFolder(path)
-
-
 def _campaign_table(camp: CampaignFolder, table: str, comments: dict):
     """The campaign's ``table`` as text (checked first: a regular file inside CAMPAIGN,
     within the size bound), None without the file; its leading ``#`` lines go into
@@ -322,8 +308,7 @@ def _campaign_table(camp: CampaignFolder, table: str, comments: dict):
     f = camp.file(f"{table}.csv")
     if not os.path.lexists(f):
         return None
-    check_file(f, camp.path, "table")
-    df = read_text_table(f)
+    df = read_text_table(f, within=camp.path)
     comments[table] = leading_comments(f, within=camp.path)
     return df
 
@@ -334,9 +319,10 @@ def _trace_files(camp: CampaignFolder):
     f = camp.file("traces.csv")
     if not os.path.lexists(f):
         return []
-    check_file(f, camp.path, "table")
     try:
-        df = read_text_table(f)
+        df = read_text_table(f, within=camp.path)
+    except RefusedFileError:        # not a table, or not inside CAMPAIGN: refused
+        raise
     except InputError as exc:
         return _message(exc)
     if len(df) and "file" not in df.columns:

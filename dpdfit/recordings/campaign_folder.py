@@ -39,31 +39,49 @@ Required and optional (everything else in the layout is optional):
   the repeat of ``spectra.csv`` the trace is).
 
 Nothing is ever written into the folder.
+
+The folder may come from elsewhere (a collaborator's, another lab's): every file is read
+through :mod:`dpdfit.recordings.input_files`, inside the folder only.  When the folder is
+opened, each file of the layout it has (and ``budget.toml``) must be a regular file, lying
+inside the folder (a link may point elsewhere in it, never out), at most
+:func:`~dpdfit.recordings.input_files.max_input_bytes` (``campaign.json``:
+:data:`~dpdfit.core.defaults.MAX_JSON_BYTES`); so must each trace ``traces.csv`` lists,
+whose array is at most that bound too (read from its header, before the samples are
+loaded).  A file that is not so, or that is not a table a lab writes
+(:mod:`dpdfit.recordings.csv_text`), is a :class:`~dpdfit.errors.RefusedFileError`
+or is refused when the folder is opened: ``dpdfit analyze`` refuses the whole campaign.
 """
 
 from __future__ import annotations
 
 import datetime
+import errno
 import functools
 import json
 import os
+import stat
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR, NU_HZ, XI0_SPECTRA_HZ
-from dpdfit.errors import ImplausibleValueError, InputError
+from dpdfit.core.defaults import (AMPLITUDE_ORDER, ETA_LD, ETA_REF, MAX_JSON_BYTES, NBAR,
+                                  NU_HZ, XI0_SPECTRA_HZ)
+from dpdfit.errors import ImplausibleValueError, InputError, RefusedFileError
 
 from .columns import CAMPAIGN_TABLES, missing_column_lines
 from .counts import read_parity, read_populations, read_time_scans
 from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
+from .input_files import check_inside, open_input, read_input_bytes
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
+from .traces import check_trace_file
 
-__all__ = ["CampaignFolder", "META_DEFAULTS", "FILES", "RECORDING_KEYS", "MAX_FUTURE_DAYS"]
+__all__ = ["CampaignFolder", "check_campaign_folder", "META_DEFAULTS", "FILES",
+           "OTHER_FILES", "RECORDING_KEYS", "MAX_FUTURE_DAYS"]
 
 #: campaign.json keys stating when the recordings were taken (optional, ISO 8601)
 RECORDING_KEYS = ("spectra_recorded", "gates_recorded")
@@ -85,6 +103,32 @@ FILES = {
     "time_scans.csv": "population time scans",
     "traces.csv": "raw heterodyne traces",
 }
+#: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
+OTHER_FILES = ("budget.toml",)
+
+
+def check_campaign_folder(folder) -> Path:
+    """``folder`` as a path, or one InputError naming it: not found, a file, a symbolic
+    link loop, a FIFO or device, a folder that cannot be read."""
+    name = str(folder)
+    try:
+        st = os.stat(folder)
+    except FileNotFoundError:
+        raise InputError("campaign folder not found", file=name) from None
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise InputError("is a symbolic link loop, not a campaign folder",
+                             file=name) from None
+        raise InputError(f"campaign folder cannot be read ({exc.strerror or exc})",
+                         file=name) from None
+    if stat.S_ISREG(st.st_mode):
+        raise InputError("is a file, not a campaign folder", file=name)
+    if not stat.S_ISDIR(st.st_mode):
+        raise InputError("is not a folder (a FIFO, device or socket), not a campaign folder",
+                         file=name)
+    if not os.access(folder, os.R_OK | os.X_OK):
+        raise InputError("campaign folder cannot be read (permission denied)", file=name)
+    return Path(folder)
 
 
 class CampaignFolder:
@@ -98,22 +142,12 @@ class CampaignFolder:
     """
 
     def __init__(self, folder):
-        self.path = Path(folder)
-        if self.path.is_file():
-            raise InputError("is a file, not a campaign folder", file=str(self.path))
-        if not self.path.is_dir():
-            raise InputError("campaign folder not found", file=str(self.path))
+        self.path = check_campaign_folder(folder)
         p = self.path / "campaign.json"
-        if not p.exists():
+        if not os.path.lexists(p):
             raise InputError("not a campaign folder: campaign.json missing", file=str(self.path))
-        try:
-            raw = json.loads(p.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError) as exc:
-            why = getattr(exc, "strerror", None) or "not UTF-8 text"
-            raise InputError(f"campaign.json cannot be read ({why})", file=str(p)) from None
-        except json.JSONDecodeError as exc:
-            raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
-                             file=str(p)) from None
+        raw = _campaign_json(p, self.path)
+        self._check_files()
         if not isinstance(raw, dict):
             raise InputError("campaign.json must hold a JSON object", file=str(p))
         self.raw_meta = raw
@@ -154,6 +188,15 @@ class CampaignFolder:
                             f"last calibration run ({last.isoformat()})",
                             file=str(self.path / "campaign.json"))
         return out
+
+    def _check_files(self) -> None:
+        """Every file of the layout the folder has, and budget.toml: a regular file
+        inside the folder, within the size bound (module doc); nothing of it is read."""
+        for name in [*FILES, *OTHER_FILES]:
+            path = self.path / name
+            if name != "campaign.json" and os.path.lexists(path):
+                with open_input(path, within=self.path, what="file"):
+                    pass
 
     # ------------------------------------------------------------------ basics
     def file(self, name: str) -> Path:
@@ -198,7 +241,8 @@ class CampaignFolder:
     def amplitude_runs(self) -> pd.DataFrame:
         """Every amplitude calibration run (validated table)."""
         return read_calibration_table(
-            self.require("calibration_amplitude.csv", "the calibration"), "amplitude")
+            self.require("calibration_amplitude.csv", "the calibration"), "amplitude",
+            within=self.path)
 
     @functools.cached_property
     def amplitude_model(self) -> CalibrationData:
@@ -217,7 +261,8 @@ class CampaignFolder:
         the file."""
         if not self.has("calibration_phase.csv"):
             return None
-        return read_calibration_table(self.file("calibration_phase.csv"), "phase")
+        return read_calibration_table(self.file("calibration_phase.csv"), "phase",
+                                      within=self.path)
 
     @functools.cached_property
     def phase_model(self) -> CalibrationData | None:
@@ -239,7 +284,8 @@ class CampaignFolder:
         """Every reading of ``spectra.csv``: ``A, dpd, sideband, n, P_dB, valid, repeat``
         (+ ``snr_db`` when recorded), repeated recordings of a tone as rows of their own
         (:func:`~.spectra.read_spectra`)."""
-        return read_spectra(self.require("spectra.csv", "the spectra analysis"))
+        return read_spectra(self.require("spectra.csv", "the spectra analysis"),
+                            within=self.path)
 
     @functools.cached_property
     def pooled_spectra(self) -> pd.DataFrame:
@@ -252,14 +298,15 @@ class CampaignFolder:
     def populations(self) -> pd.DataFrame | None:
         """Validated ``populations.csv`` (``A, dpd, scan, n_even, shots``, see
         :func:`~.counts.read_populations`), None without the file."""
-        return read_populations(self.file("populations.csv")) if self.has(
+        return read_populations(self.file("populations.csv"), within=self.path) if self.has(
             "populations.csv") else None
 
     @functools.cached_property
     def parity(self) -> pd.DataFrame | None:
         """Validated ``parity.csv`` (``A, dpd, scan, phase_rad, n_even, shots``, see
         :func:`~.counts.read_parity`), None without the file."""
-        return read_parity(self.file("parity.csv")) if self.has("parity.csv") else None
+        return read_parity(self.file("parity.csv"), within=self.path) if self.has(
+            "parity.csv") else None
 
     @functools.cached_property
     def gate_rates(self) -> pd.DataFrame | None:
@@ -268,7 +315,7 @@ class CampaignFolder:
         (:func:`~.plausibility.check_gate_rates`)."""
         if not self.has("gate_rates.csv"):
             return None
-        df = read_gate_rates(self.file("gate_rates.csv"))
+        df = read_gate_rates(self.file("gate_rates.csv"), within=self.path)
         check_gate_rates(df, self.nu, self.xi0_spectra, str(self.file("gate_rates.csv")),
                          self.defaults_used, str(self.file("campaign.json")))
         return df
@@ -279,17 +326,31 @@ class CampaignFolder:
         repeated recordings of a point pooled (:func:`~.counts.read_time_scans`)."""
         if not self.has("time_scans.csv"):
             return None
-        return read_time_scans(self.file("time_scans.csv"))
+        return read_time_scans(self.file("time_scans.csv"), within=self.path)
 
     @functools.cached_property
     def traces(self) -> pd.DataFrame | None:
         """The heterodyne traces listed in ``traces.csv`` (``file, A, dpd, fs, fdet, nu,
-        xi0``; rates and frequencies in Hz), None without the file."""
+        xi0``; rates and frequencies in Hz), None without the file.  Each listed trace
+        file is checked (:func:`~.traces.check_trace_file`: inside the folder, a regular
+        file, its array within the bound), not loaded; a RefusedFileError names the
+        row of ``traces.csv`` that lists a file refused."""
         if not self.has("traces.csv"):
             return None
-        return read_table(self.file("traces.csv"), ["file", "A", "dpd", "fs", "fdet", "nu", "xi0"],
-                          numeric=["A", "dpd", "fs", "fdet", "nu", "xi0"],
-                          ranges={"A": (0, 1), "dpd": (0, 1)})
+        name = str(self.file("traces.csv"))
+        df = read_table(name, ["file", "A", "dpd", "fs", "fdet", "nu", "xi0"],
+                        numeric=["A", "dpd", "fs", "fdet", "nu", "xi0"],
+                        ranges={"A": (0, 1), "dpd": (0, 1)}, within=self.path)
+        for i, listed in enumerate(df["file"]):
+            path = self.path / listed
+            try:
+                check_inside(path, self.path, "trace")
+                if os.path.lexists(path):     # else the traces step says it is not found
+                    check_trace_file(path, within=self.path)
+            except InputError as exc:
+                raise RefusedFileError(f"lists a trace dpdfit does not read: {exc}",
+                                       file=name, column="file", row=i + 1) from None
+        return df
 
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
@@ -303,7 +364,8 @@ class CampaignFolder:
             try:
                 getattr(self, name)
             except InputError as exc:
-                if isinstance(exc, ImplausibleValueError) or name == "time_scans":
+                if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
+                        name == "time_scans"):
                     raise
 
     # -------------------------------------------------------------- left out
@@ -315,7 +377,8 @@ class CampaignFolder:
                if name not in ("campaign.json", "calibration_amplitude.csv")
                and not self.has(name)]
         for table in CAMPAIGN_TABLES:          # a file absent lacks no column
-            out += missing_column_lines(self.file(f"{table}.csv"), table, consequences)
+            out += missing_column_lines(self.file(f"{table}.csv"), table, consequences,
+                                        within=self.path)
         if self.defaults_used:
             out.append("campaign.json: default for " + ", ".join(
                 f"{k} = {META_DEFAULTS[k]:g}" for k in self.defaults_used))
@@ -325,6 +388,27 @@ class CampaignFolder:
 
     def __repr__(self) -> str:
         return f"CampaignFolder({os.fspath(self.path)!r})"
+
+
+def _campaign_json(path: Path, folder: Path):
+    """The JSON value of ``campaign.json`` (read inside ``folder``, at most
+    :data:`~dpdfit.core.defaults.MAX_JSON_BYTES`); an InputError naming it otherwise."""
+    data = read_input_bytes(path, within=folder, what="campaign.json", limit=MAX_JSON_BYTES,
+                            json_file=True)
+    try:
+        return json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise InputError("campaign.json cannot be read (not UTF-8 text)",
+                         file=str(path)) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
+                         file=str(path)) from None
+    except RecursionError:
+        raise InputError("campaign.json is nested too deeply to be read as JSON",
+                         file=str(path)) from None
+    except ValueError:                # an integer of more digits than Python converts
+        raise InputError("campaign.json holds a number too long to read (more than "
+                         f"{sys.get_int_max_str_digits()} digits)", file=str(path)) from None
 
 
 def _recording_times(raw: dict, path: str) -> dict:

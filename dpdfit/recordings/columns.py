@@ -14,9 +14,13 @@ from __future__ import annotations
 
 import os
 
-import pandas as pd
+from dpdfit.errors import InputError
 
-__all__ = ["CAMPAIGN_TABLES", "LABELS_ONLY", "missing_optional_columns", "missing_column_lines"]
+from .csv_text import header_line, header_names
+from .input_files import open_input
+
+__all__ = ["CAMPAIGN_TABLES", "LABELS_ONLY", "header_columns", "missing_optional_columns",
+           "missing_column_lines"]
 
 #: campaign table (its file without ``.csv``) -> (required columns, optional columns)
 CAMPAIGN_TABLES = {
@@ -34,27 +38,49 @@ CAMPAIGN_TABLES = {
 LABELS_ONLY = ("repeat",)
 
 
-def missing_optional_columns(path: str | os.PathLike, table: str) -> list[str]:
+def header_columns(path: str | os.PathLike, *, within=None) -> list[str]:
+    """The column names of the CSV file ``path`` as its reader names them
+    (:func:`~dpdfit.recordings.csv_text.header_names`), reading the file only up to its
+    header's line, through :func:`~dpdfit.recordings.input_files.open_input` (inside
+    ``within`` when given); an InputError naming the file when it cannot be read or has
+    no header."""
+    name = str(path)
+    data = b""
+    with open_input(path, within=within, what="file") as fh:
+        while True:
+            chunk = fh.read(max(1 << 16, len(data)))     # doubling: linear in the size
+            data += chunk
+            found = header_line(data, name, whole=not chunk)
+            if found is not None or not chunk:
+                break
+    if found is None:
+        raise InputError("file is empty (no header, no data)", file=name)
+    return header_names(found[1], name)
+
+
+def missing_optional_columns(path: str | os.PathLike, table: str, *,
+                             within=None) -> list[str]:
     """The optional columns of ``table`` that the header of its file ``path`` lacks
     (for ``populations`` the three counts ``n00, n01_10, n11``: ``n_even`` follows from
-    them; never the :data:`LABELS_ONLY`).  Only the header is read; a file whose header
-    cannot be read lacks nothing here (its reader says what is wrong)."""
+    them; never the :data:`LABELS_ONLY`).  Only the header is read (inside ``within``
+    when given); a file whose header cannot be read lacks nothing here (its reader says
+    what is wrong)."""
     try:
-        have = {str(c).strip() for c in pd.read_csv(path, comment="#", nrows=0).columns}
-    except (OSError, ValueError, UnicodeDecodeError):
+        have = set(header_columns(path, within=within))
+    except InputError:
         return []
     wanted = ("n00", "n01_10", "n11") if table == "populations" else CAMPAIGN_TABLES[table][1]
     return [c for c in wanted if c not in have and c not in LABELS_ONLY]
 
 
 def missing_column_lines(path: str | os.PathLike, table: str,
-                         consequences: dict | None = None) -> list[str]:
+                         consequences: dict | None = None, *, within=None) -> list[str]:
     """What the file ``path`` of ``table`` lacks of its optional columns, one line each.
 
     ``consequences`` maps ``(table, columns)`` to what an analysis does without those
     columns; a missing group's line says that instead of the generic one (one line per
     absence, never two)."""
-    missing = missing_optional_columns(path, table)
+    missing = missing_optional_columns(path, table, within=within)
     out = []
     for (t, group), why in (consequences or {}).items():
         if t == table and set(group) & set(missing):

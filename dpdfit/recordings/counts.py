@@ -162,7 +162,7 @@ def _check_trio(df, file):
         df["n_even"] = even
 
 
-def read_populations(path: str | os.PathLike) -> pd.DataFrame:
+def read_populations(path: str | os.PathLike, *, within=None) -> pd.DataFrame:
     """Read and validate a population file.
 
     Columns ``A, dpd, scan, n_even, shots`` or ``A, dpd, scan, n00, n01_10,
@@ -173,6 +173,8 @@ def read_populations(path: str | os.PathLike) -> pd.DataFrame:
     Bad input raises InputError naming file, column and row: counts not
     integer, negative or above ``shots``; ``shots < 1``; ``dpd`` not 0/1;
     ``A`` outside [0, 1]; the same ``(A, dpd, scan)`` in two rows.
+    ``within``: the folder the file must lie in (a campaign folder,
+    :func:`~dpdfit.recordings.tables.read_csv_strings`).
 
     Returns
     -------
@@ -183,7 +185,8 @@ def read_populations(path: str | os.PathLike) -> pd.DataFrame:
     name = str(path)
     required, optional = (list(c) for c in CAMPAIGN_TABLES["populations"])
     df = read_table(path, required, optional,
-                    numeric=["A", "dpd", "shots"] + optional, ranges={"A": (0.0, 1.0)})
+                    numeric=["A", "dpd", "shots"] + optional, ranges={"A": (0.0, 1.0)},
+                    within=within)
     trio = [c for c in ("n00", "n01_10", "n11") if c in df.columns]
     if "n_even" not in df.columns and len(trio) < 3:
         missing = next(c for c in ("n00", "n01_10", "n11") if c not in df.columns)
@@ -236,7 +239,8 @@ def _check_fringe_design(df, grid, file):
                 column="phase_rad", row=int(g.index[0]) + 1)
 
 
-def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.DataFrame:
+def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD, *, within=None
+                ) -> pd.DataFrame:
     """Read and validate a parity-fringe file ``A, dpd, scan, phase_rad, n_even, shots``.
 
     Bad input raises InputError naming file, column and row: counts not
@@ -249,6 +253,8 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
     :func:`dpdfit.fits.counts.merge_parity`).  Phases spanning more than
     :data:`~dpdfit.recordings.plausibility.DEGREES_SPAN_RAD` in one scan are
     refused (degrees; radians are expected).
+    ``within``: the folder the file must lie in (a campaign folder,
+    :func:`~dpdfit.recordings.tables.read_csv_strings`).
 
     Returns
     -------
@@ -258,7 +264,7 @@ def read_parity(path: str | os.PathLike, grid: float = PHASE_GRID_RAD) -> pd.Dat
     name = str(path)
     df = read_table(path, list(CAMPAIGN_TABLES["parity"][0]),
                     numeric=["A", "dpd", "phase_rad", "n_even", "shots"],
-                    ranges={"A": (0.0, 1.0)})
+                    ranges={"A": (0.0, 1.0)}, within=within)
     _check_dpd(df, name)
     _check_scan(df, name)
     check_counts(df, ["n_even", "shots"], name)
@@ -327,7 +333,7 @@ def check_count_repeats(df: pd.DataFrame, keys, counts, file, what: str,
                      row=i + 1)
 
 
-def read_time_scans(path: str | os.PathLike) -> pd.DataFrame:
+def read_time_scans(path: str | os.PathLike, *, within=None) -> pd.DataFrame:
     """Read, validate and pool a time-scan file ``A, dpd, t_us, n00, n11, shots``
     (+ ``n01_10``).
 
@@ -336,6 +342,8 @@ def read_time_scans(path: str | os.PathLike) -> pd.DataFrame:
     t_us)`` recorded again (a repeated time scan, or a repeated point) is a further row:
     the rows of a point are pooled, their counts and shots summed (``n_repeats`` counts
     them), unless their counts contradict binomial noise (:func:`check_count_repeats`).
+    ``within``: the folder the file must lie in (a campaign folder,
+    :func:`~dpdfit.recordings.tables.read_csv_strings`).
 
     Returns
     -------
@@ -345,7 +353,7 @@ def read_time_scans(path: str | os.PathLike) -> pd.DataFrame:
     """
     name = str(path)
     ts = read_table(path, *(list(c) for c in CAMPAIGN_TABLES["time_scans"]),
-                    ranges={"A": (0, 1), "dpd": (0, 1)})
+                    ranges={"A": (0, 1), "dpd": (0, 1)}, within=within)
     counts = ["n00", "n11", "shots"] + (["n01_10"] if "n01_10" in ts.columns else [])
     for c in counts:
         v = ts[c].to_numpy()

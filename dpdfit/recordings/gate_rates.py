@@ -29,7 +29,7 @@ RATE_Z_MAX = 6.0
 _SETTING = ["A", "dpd"]
 
 
-def read_gate_rates(path: str | os.PathLike) -> pd.DataFrame:
+def read_gate_rates(path: str | os.PathLike, *, within=None) -> pd.DataFrame:
     """``A, dpd, xi0_khz`` (+ ``xi0_err_khz``), one row per setting, validated and pooled.
 
     A in [0, 1], dpd 0 or 1 (returned as int), ``xi0_khz`` and ``xi0_err_khz`` > 0, no
@@ -39,12 +39,14 @@ def read_gate_rates(path: str | os.PathLike) -> pd.DataFrame:
     file, column and row.  Repeated rows of a setting are pooled
     (:func:`pool_gate_rates`); the index is the 0-based data row of each setting's first
     row, and ``n_repeats`` counts its calibrations.
+    ``within``: the folder the file must lie in (a campaign folder,
+    :func:`~dpdfit.recordings.tables.read_csv_strings`).
     """
     name = str(path)
     required, optional = CAMPAIGN_TABLES["gate_rates"]
     df = read_table(path, list(required), list(optional),
                     ranges={"A": (0.0, 1.0), "dpd": (0, 1)},
-                    positive=["xi0_khz", "xi0_err_khz"])
+                    positive=["xi0_khz", "xi0_err_khz"], within=within)
     v = df["dpd"].to_numpy()
     bad = v != np.round(v)
     if bad.any():

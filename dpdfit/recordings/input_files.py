@@ -33,9 +33,8 @@ from pathlib import Path
 from dpdfit.core.defaults import MAX_INPUT_BYTES, MAX_INPUT_BYTES_VARIABLE, MAX_JSON_BYTES
 from dpdfit.errors import InputError
 
-__all__ = ["max_input_bytes", "format_bytes", "check_inside", "checked_input",
-           "read_input_bytes", "read_input_text", "read_input_json", "open_input",
-           "copy_input_file"]
+__all__ = ["max_input_bytes", "format_bytes", "check_inside", "checked_input", "open_input",
+           "read_input_bytes", "read_input_text", "read_input_json", "copy_input_file"]
 
 
 def max_input_bytes() -> int:
@@ -134,11 +133,14 @@ def _too_large(size: int, limit: int, name: str, json_file: bool) -> InputError:
                       f"reads from one {'JSON ' if json_file else ''}file{how}", file=name)
 
 
-def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None = None,
-                     json_file: bool = False) -> bytes:
-    """The bytes of the input file ``path`` (module doc): a regular file, inside
-    ``within`` when given, at most ``limit`` bytes (default :func:`max_input_bytes`).
-    Each refusal is an InputError naming the file."""
+@contextlib.contextmanager
+def open_input(path, *, within=None, what: str = "file", limit: int | None = None,
+               json_file: bool = False):
+    """The input file ``path`` (module doc) open for reading in binary, checked on the open
+    file: a regular file, inside ``within`` when given, at most ``limit`` bytes (default
+    :func:`max_input_bytes`).  For a reader that needs only part of the file (a header)
+    or streams it; it reads at most ``limit`` bytes.  Each refusal is an InputError
+    naming the file."""
     name = str(path)
     limit = max_input_bytes() if limit is None else int(limit)
     real = checked_input(path, within=within, what=what)
@@ -154,6 +156,17 @@ def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None
                              "files only", file=name)
         if st.st_size > limit:
             raise _too_large(st.st_size, limit, name, json_file)
+        yield fh
+
+
+def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None = None,
+                     json_file: bool = False) -> bytes:
+    """The bytes of the input file ``path`` (module doc): a regular file, inside
+    ``within`` when given, at most ``limit`` bytes (default :func:`max_input_bytes`).
+    Each refusal is an InputError naming the file."""
+    name = str(path)
+    limit = max_input_bytes() if limit is None else int(limit)
+    with open_input(path, within=within, what=what, limit=limit, json_file=json_file) as fh:
         try:
             data = fh.read(limit + 1)
         except OSError as exc:
@@ -194,30 +207,6 @@ def read_input_json(path, *, within=None, what: str = "JSON file",
     except ValueError:                # an integer of more digits than Python converts
         raise InputError("holds a number too long to read (more than "
                          f"{sys.get_int_max_str_digits()} digits)", file=name) from None
-
-
-@contextlib.contextmanager
-def open_input(path, *, within=None, what: str = "file", limit: int | None = None):
-    """The input file ``path`` open for reading (binary), checked as
-    :func:`read_input_bytes` checks it before reading: a regular file, inside ``within``
-    when given, at most ``limit`` bytes (default :func:`max_input_bytes`) on the open
-    file.  Nothing is read: for a reader that streams the file (and stops at the limit
-    itself), or a check of a file another reader opens."""
-    name = str(path)
-    limit = max_input_bytes() if limit is None else int(limit)
-    real = checked_input(path, within=within, what=what)
-    try:
-        fd = os.open(real, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except OSError as exc:
-        raise InputError(f"cannot be read ({exc.strerror or exc})", file=name) from None
-    with os.fdopen(fd, "rb") as fh:
-        st = os.fstat(fh.fileno())
-        if not stat.S_ISREG(st.st_mode):
-            raise InputError(f"is {_kind(st.st_mode)}, not a {what}: dpdfit reads regular "
-                             "files only", file=name)
-        if st.st_size > limit:
-            raise _too_large(st.st_size, limit, name, False)
-        yield fh
 
 
 def copy_input_file(path, dest, *, within=None, what: str = "file",

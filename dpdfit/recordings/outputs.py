@@ -10,8 +10,9 @@ one of them.
 
 Every output table is written as CSV text by :func:`csv_table_text` (or
 :func:`write_csv_table`): a text cell that a spreadsheet would run as a formula --
-one starting with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return, and not a
-number (``-1.5`` is a number) -- is refused, naming the table, column and row
+one starting with ``=``, ``+``, ``-``, ``@`` (spaces before them aside), a tab or a
+carriage return, and not a number (``-1.5`` is a number;
+:mod:`~dpdfit.recordings.formula_cells`) -- is refused, naming the table, column and row
 (:func:`refuse_formula_cells`), instead of being written for a lab to open.  Such a
 cell can only come from a file from elsewhere (a mapping's ``format``, an extra column
 of a campaign table), which is refused on input too; this is the last guard.
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import errno
 import hashlib
 import json
 import os
@@ -34,6 +36,7 @@ from typing import Iterable, Iterator
 
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
+from dpdfit.recordings.formula_cells import FORMULA_STARTS, first_formula_cell, runs_as_formula
 
 __all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "file_sha256",
            "remember_sha256", "staged_folder", "folder_made", "refuse_overwriting_inputs",
@@ -86,10 +89,11 @@ def file_sha256(path: str | os.PathLike) -> str:
 
 def refuse_overwriting_inputs(outputs: Iterable[str | os.PathLike],
                               inputs: Iterable[str | os.PathLike]) -> None:
-    """Raise :class:`InputError` if any output path is one of the inputs."""
-    ins = {Path(p).resolve() for p in inputs if p is not None}
+    """Raise :class:`InputError` if any output path is one of the inputs (or is a
+    symbolic link loop)."""
+    ins = {_resolved(p) for p in inputs if p is not None}
     for out in outputs:
-        if out is not None and Path(out).resolve() in ins:
+        if out is not None and _resolved(out) in ins:
             raise InputError("refusing to overwrite an input file; choose another output path",
                              file=str(out))
 
@@ -101,6 +105,7 @@ def check_output_folder(path: str | os.PathLike, what: str = "output folder") ->
     a folder we may write into.
     """
     p = Path(path)
+    _resolved(p, what)
     if p.exists() and not p.is_dir():
         raise InputError(f"{what} is an existing file, not a folder", file=str(path))
     _check_writable_parent(p if p.exists() else p.parent, path, what)
@@ -109,9 +114,23 @@ def check_output_folder(path: str | os.PathLike, what: str = "output folder") ->
 def check_output_file(path: str | os.PathLike, what: str = "output file") -> None:
     """Raise :class:`InputError` now, before any work, if ``path`` cannot be written as a file."""
     p = Path(path)
+    _resolved(p, what)
     if p.is_dir():
         raise InputError(f"{what} is an existing folder; give a file name", file=str(path))
     _check_writable_parent(p.parent, path, what)
+
+
+def _resolved(path, what: str = "path") -> Path:
+    """``path`` resolved, or an InputError naming it when it leads through a symbolic
+    link loop (``Path.resolve`` raises RuntimeError there, before Python 3.13)."""
+    try:
+        return Path(path).resolve()
+    except RuntimeError:
+        raise InputError(f"{what} is a symbolic link loop", file=str(path)) from None
+    except OSError as exc:
+        why = "is a symbolic link loop" if exc.errno == errno.ELOOP else (
+            f"cannot be resolved ({exc.strerror or exc})")
+        raise InputError(f"{what} {why}", file=str(path)) from None
 
 
 def _check_writable_parent(folder: Path, path, what: str) -> None:
@@ -345,38 +364,19 @@ def atomic_write_json(path: str | os.PathLike, obj) -> None:
     atomic_write_text(path, json.dumps(to_jsonable(obj), indent=2) + "\n")
 
 
-#: the first characters of a text cell that a spreadsheet runs as a formula
-FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
-
-
-def _runs_as_formula(value) -> bool:
-    if not isinstance(value, str) or value[:1] not in FORMULA_STARTS:
-        return False
-    try:
-        float(value)                  # a number (-1.5, +3e-4) is written as it is
-    except ValueError:
-        return True
-    return False
-
-
 def refuse_formula_cells(df, table) -> None:
     """Raise :class:`InputError` at the first text cell of ``df`` (its column names
-    included) that a spreadsheet would run as a formula: a string starting with one of
-    :data:`FORMULA_STARTS` that is not a number (``-1.5``, ``+3e-4`` are numbers, written
-    as they are).  The message names ``table`` (the output file), the column and the
-    row (rows counted from 1, the first data line)."""
+    included) that a spreadsheet would run as a formula
+    (:func:`~.formula_cells.runs_as_formula`: ``-1.5``, ``+3e-4`` are numbers, written as
+    they are).  The message names ``table`` (the output file), the column and the row
+    (rows counted from 1, the first data line)."""
     for c in df.columns:
-        if _runs_as_formula(c):
+        if runs_as_formula(c):
             raise _formula(table, c, None, c)
     for j, c in enumerate(df.columns):
-        col = df.iloc[:, j]
-        if col.dtype.kind in "biufcmM":
-            continue
-        # each distinct value once (a column of text has few, or is checked in C first)
-        bad = [v for v in col.unique() if _runs_as_formula(v)]
-        if bad:
-            i = int(col.isin(bad).to_numpy(dtype=bool).argmax())
-            raise _formula(table, c, i + 1, col.iloc[i])
+        i = first_formula_cell(df.iloc[:, j])
+        if i is not None:
+            raise _formula(table, c, i + 1, df.iloc[i, j])
 
 
 def _formula(table, column, row, value) -> InputError:

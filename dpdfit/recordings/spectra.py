@@ -64,7 +64,7 @@ Z_MAX = 6.0
 _DB = 10 / np.log(10)
 
 
-def read_spectra(path: str | os.PathLike) -> pd.DataFrame:
+def read_spectra(path: str | os.PathLike, *, within=None) -> pd.DataFrame:
     """Every reading of ``spectra.csv``, validated, with its repeat label.
 
     Columns ``A, dpd, sideband, n, P_dB, valid`` (``valid`` 1 when the file has none),
@@ -74,11 +74,13 @@ def read_spectra(path: str | os.PathLike) -> pd.DataFrame:
     rows and tone): a sideband other than red/blue, a non-integer ``dpd`` or ``n``,
     a tone twice in one repeat or a repeat that copies an earlier one, repeated
     readings that contradict each other (module doc).
+    ``within``: the folder the file must lie in (a campaign folder,
+    :func:`~dpdfit.recordings.tables.read_csv_strings`).
     """
     name = str(path)
     required, optional = (list(c) for c in CAMPAIGN_TABLES["spectra"])
     df = read_table(path, required, optional, numeric=["A", "dpd", "n", "P_dB"],
-                    ranges={"A": (0, 1), "dpd": (0, 1)})
+                    ranges={"A": (0, 1), "dpd": (0, 1)}, within=within)
     bad = ~df["sideband"].isin(["red", "blue"])
     if bad.any():
         i = int(np.flatnonzero(bad.to_numpy())[0])

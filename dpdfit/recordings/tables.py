@@ -26,7 +26,6 @@ Extra columns are allowed and ignored.
 from __future__ import annotations
 
 import difflib
-import io
 import os
 import numpy as np
 import pandas as pd
@@ -36,6 +35,8 @@ from dpdfit.errors import ImplausibleValueError, InputError, data_line
 from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, CalibrationData,
                                                 calibration_data, calibration_runs_data)
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
+from dpdfit.recordings.csv_text import parse_csv_strings
+from dpdfit.recordings.input_files import read_input_bytes
 from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
 
@@ -53,7 +54,7 @@ def read_table(path: str | os.PathLike, required: list[str],
                optional: list[str] = (), *, numeric: list[str] | None = None,
                ranges: dict[str, tuple[float, float]] | None = None,
                positive: list[str] = (), unique: list[str] = (),
-               distinct_rows: bool = False) -> pd.DataFrame:
+               distinct_rows: bool = False, within=None) -> pd.DataFrame:
     """Read and validate a CSV file.
 
     Parameters
@@ -77,6 +78,9 @@ def read_table(path: str | os.PathLike, required: list[str],
     distinct_rows : bool
         Refuse a row identical in every column to an earlier one (a line
         pasted twice); see :func:`check_repeated_rows`.
+    within : path-like, optional
+        The folder the file comes from (a campaign folder): the file must lie inside it
+        (:func:`read_csv_strings`).
 
     Returns
     -------
@@ -88,7 +92,7 @@ def read_table(path: str | os.PathLike, required: list[str],
     if os.path.isfile(path):
         check_memory(os.path.getsize(path) * TABLE_BYTES_PER_FILE_BYTE, "reading this table",
                      file=name, hint="split the file or set DPDFIT_MAX_MEMORY_GB")
-    df = read_csv_strings(path, name)
+    df = read_csv_strings(path, name, within=within)
     _check_columns(df, required, name)
     present_opt = [c for c in optional if c in df.columns]
     if numeric is None:
@@ -136,34 +140,24 @@ def require_file(path: str | os.PathLike) -> str:
     return name
 
 
-def read_csv_strings(path, name: str | None = None) -> pd.DataFrame:
-    """The file as a table of strings (InputError naming ``name``, default the path, when
-    absent, empty or not a CSV); the one place a CSV of recordings is parsed."""
+def read_csv_strings(path, name: str | None = None, *, within=None) -> pd.DataFrame:
+    """The file as a table of strings, the one place a CSV of recordings is parsed.
+
+    The file is read by :func:`~dpdfit.recordings.input_files.read_input_bytes` (a regular
+    file, inside the folder ``within`` when it comes from one -- a campaign folder --, at
+    most :func:`~dpdfit.recordings.input_files.max_input_bytes`) and parsed by
+    :func:`~dpdfit.recordings.csv_text.parse_csv_strings` (the header and every row checked).
+    InputError naming ``name`` (default the path) when it is absent, empty or not a CSV;
+    :class:`~dpdfit.errors.RefusedFileError` when it is not a table a lab writes."""
     name = str(path) if name is None else name
-    require_file(path)
-    try:
-        # read once: the bytes are parsed and hashed (provenance) without a second open
-        with open(path, "rb") as fh:
-            raw = fh.read()
-        remember_sha256(path, raw)
-        df = pd.read_csv(io.BytesIO(raw), comment="#", skipinitialspace=True, dtype=str,
-                         keep_default_na=False)
-    except pd.errors.EmptyDataError:
-        raise InputError("file is empty (no header, no data)", file=name) from None
-    except OSError as exc:
-        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"not a readable CSV file ({msg})", file=name) from None
-    df.columns = [str(c).strip() for c in df.columns]
-    return df
+    raw = read_input_bytes(path, within=within, what="file")
+    remember_sha256(path, raw)      # read once: parsed and hashed (provenance) from one read
+    return parse_csv_strings(raw, name)
 
 
 def _check_columns(df: pd.DataFrame, required, name: str) -> None:
-    """Unique column names, every required column (a close misspelling suggested), data rows."""
-    dupes = {c for c in df.columns if list(df.columns).count(c) > 1}
-    if dupes:
-        raise InputError(f"column name(s) appear more than once: {sorted(dupes)}", file=name)
+    """Every required column (a close misspelling suggested), data rows (the names are
+    unique: :func:`read_csv_strings` refuses a name given twice)."""
     for col in required:
         if col not in df.columns:
             close = difflib.get_close_matches(col, df.columns, n=1, cutoff=0.6)
@@ -293,12 +287,14 @@ def _timestamps(column: pd.Series, name: str) -> pd.Series:
     return ts
 
 
-def _calibration_table(path: str | os.PathLike, kind: str) -> tuple[pd.DataFrame, str, str]:
+def _calibration_table(path: str | os.PathLike, kind: str, within=None
+                       ) -> tuple[pd.DataFrame, str, str]:
     """The whole calibration file, validated, and its value and error columns."""
     value_col, err_col = CALIBRATION_COLUMNS[kind]
     required, optional = CAMPAIGN_TABLES[f"calibration_{kind}"]
     df = read_table(path, list(required), list(optional),
-                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True)
+                    ranges={"A": (0.0, 1.0)}, positive=[err_col], distinct_rows=True,
+                    within=within)
     if kind == "phase":
         check_calibration_phases(df, str(path))
     return df, value_col, err_col
@@ -313,9 +309,11 @@ def check_calibration_phases(df: pd.DataFrame, name: str) -> None:
                      lambda k: f"run {k[0]}" if k else "the calibration")
 
 
-def read_calibration_table(path: str | os.PathLike, kind: str) -> pd.DataFrame:
-    """A whole calibration file (every run), validated once (``attrs["source"]``: path)."""
-    df, _, _ = _calibration_table(path, kind)
+def read_calibration_table(path: str | os.PathLike, kind: str, *, within=None
+                           ) -> pd.DataFrame:
+    """A whole calibration file (every run), validated once (``attrs["source"]``: path);
+    ``within``: the folder it must lie in (:func:`read_csv_strings`)."""
+    df, _, _ = _calibration_table(path, kind, within)
     df.attrs["source"] = str(path)
     return df
 

@@ -49,7 +49,7 @@ from pathlib import Path
 from dpdfit.errors import InputError
 from dpdfit.recordings.gate_rates import MIN_GATE_RATE_KHZ
 from dpdfit.recordings.gate_rates import read_gate_rates
-from dpdfit.recordings.tables import require_file
+from dpdfit.recordings.input_files import read_input_bytes
 
 from .losses import DEPHASING_COEFFICIENT
 
@@ -157,19 +157,19 @@ def validate_budget_config(config: dict | None) -> dict:
     return cfg
 
 
-def load_budget_config(path) -> dict:
-    """Read and validate a budget TOML file; returns the full config (defaults filled in)."""
+def load_budget_config(path, *, within=None) -> dict:
+    """Read and validate a budget TOML file (through
+    :func:`~dpdfit.recordings.input_files.read_input_bytes`: a regular file, inside the
+    folder ``within`` when given, size bounded); returns the full config (defaults
+    filled in)."""
     path = Path(path)
-    require_file(path)
+    data = read_input_bytes(path, within=within, what="file")
     try:
-        with open(path, "rb") as fh:
-            raw = tomllib.load(fh)
+        raw = tomllib.loads(data.decode("utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"invalid TOML: {exc}", file=str(path)) from None
     except UnicodeDecodeError:
         raise InputError("not a text (UTF-8 TOML) file", file=str(path)) from None
-    except OSError as exc:
-        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=str(path)) from None
     try:
         return validate_budget_config(raw)
     except InputError as exc:

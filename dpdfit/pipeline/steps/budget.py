@@ -24,7 +24,7 @@ def _budget_config(ctx: Context, alignment):
     """The budget's inputs: ``budget.toml`` (or None: the paper's), the fitted delta, the
     gate rates."""
     path = ctx.folder / "budget.toml"
-    cfg = load_budget_config(path) if path.exists() else None
+    cfg = load_budget_config(path, within=ctx.folder) if path.exists() else None
     if alignment is not None:
         cfg = dict(cfg or {})
         cfg["delta"] = {"value": alignment.delta, "error": alignment.delta_err, "enabled": True}

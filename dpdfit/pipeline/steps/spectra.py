@@ -109,7 +109,7 @@ def _trace_rows(folder, i, r, idx_path, raw) -> list[dict]:
     if not f.exists():
         raise InputError(f"listed trace file '{r['file']}' not found", file=str(idx_path),
                          column="file", row=i + 1)
-    t = trace_tone_powers(load_trace(f), r["fs"], r["fdet"], r["nu"], r["xi0"])
+    t = trace_tone_powers(load_trace(f, within=folder), r["fs"], r["fdet"], r["nu"], r["xi0"])
     rows = []
     for sb in ("red", "blue"):
         tones = getattr(t, sb)
