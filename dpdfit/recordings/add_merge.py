@@ -27,6 +27,8 @@ FILLED = {("spectra", "valid"): "1 (valid, as without the column)",
           ("spectra", "repeat"): "continued per tone",
           ("populations", "n_even"): "n00 + n11"}
 _TONE = ["A", "dpd", "sideband", "n"]
+#: the scans renamed at one setting that the report names
+_SHOWN_RENAMES = 8
 
 
 def _int_label(label) -> int | None:
@@ -138,9 +140,16 @@ def renumber_scans(campaign: dict, kept: dict) -> list[str]:
     for k, a, b in pairs:
         if a != b:
             notes.setdefault(f"A={keys[k][0]:g}, dpd={keys[k][1]:g}", {})[a] = b
-    lines = [f"scan labels continued at {s}: " + ", ".join(f"{a} -> {b}" for a, b in m.items())
-             for s, m in notes.items()]
+    lines = [f"scan labels continued at {s}: " + _renames(m) for s, m in notes.items()]
     return lines[:6] + ([f"... and {len(lines) - 6} more settings"] if len(lines) > 6 else [])
+
+
+def _renames(renamed: dict) -> str:
+    """``a -> b, ...`` of a setting's first :data:`_SHOWN_RENAMES` scans renamed, then how
+    many more (a million rows added are thousands of scans: the report stays readable)."""
+    shown = ", ".join(f"{a} -> {b}" for a, b in list(renamed.items())[:_SHOWN_RENAMES])
+    more = len(renamed) - _SHOWN_RENAMES
+    return shown + (f", ... and {more} more scans" if more > 0 else "")
 
 
 def merge_table(table: str, mine, theirs: pd.DataFrame, rec, campaign_file: str):
