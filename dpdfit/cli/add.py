@@ -37,7 +37,11 @@ def add_add_command(subparsers) -> argparse.ArgumentParser:
                     "of the tables) or an import mapping of ARTIQ results files, read as "
                     "'dpdfit import' reads it.  Scan labels and spectra repeats continue, a "
                     "calibration run already there is skipped, and campaign.json's new key "
-                    "'added' records where each added row came from and when.  CAMPAIGN is "
+                    "'added' records where each added row came from and when.  Of CAMPAIGN's "
+                    "other files only those of the campaign layout are copied (README.md, "
+                    "budget.toml, traces.csv and the traces it names), each a regular file "
+                    "inside CAMPAIGN; any other is left out and named in the report, and a "
+                    "link out of CAMPAIGN or NEW is refused.  CAMPAIGN is "
                     "never written; recordings of another campaign (nu_hz, predistortion "
                     "table, ion setup) are refused.")
     c.add_argument("campaign", type=Path, metavar="CAMPAIGN", help="the campaign folder")

@@ -56,8 +56,8 @@ def cmd_fidelity(args) -> int:
     tab = _gate_table(args.populations, args.parity, args.interval, args.gate_rates)
     records = tab.to_dict(orient="records")
     if args.output:
-        from dpdfit.recordings.outputs import atomic_write_text
-        atomic_write_text(args.output, tab.to_csv(index=False, float_format="%.10g"))
+        from dpdfit.recordings.outputs import atomic_write_text, csv_table_text
+        atomic_write_text(args.output, csv_table_text(tab, args.output, float_format="%.10g"))
     if args.json:
         print(json.dumps(to_jsonable(records), indent=2))
     else:

@@ -19,7 +19,7 @@ import pandas as pd
 
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.fits.alignment import AlignmentFit
-from dpdfit.recordings.outputs import check_output_folder, staged_outputs
+from dpdfit.recordings.outputs import check_output_folder, csv_table_text, staged_outputs
 from dpdfit.report.figure_io import DPI
 from dpdfit.report.summary import summary_markdown
 from dpdfit.report.sweep_plots import sweep_figures
@@ -72,7 +72,7 @@ def write_outputs(files: dict, summary: dict, out: Path, folder: Path, formula: 
             if isinstance(obj, tuple) and obj[0] == "csv":
                 _, df, meta = obj
                 text = "".join(f"# {k}: {json.dumps(to_jsonable(v))}\n" for k, v in meta.items())
-                path.write_text(text + df.to_csv(index=False, float_format="%.10g"))
+                path.write_text(text + csv_table_text(df, out / name, float_format="%.10g"))
             elif isinstance(obj, tuple):
                 path.write_text(json_text(obj[1]))
             else:

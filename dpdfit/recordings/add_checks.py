@@ -20,6 +20,7 @@ row (or key) of NEW:
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -116,7 +117,8 @@ def check_output(out, campaign: Path, new: Path, new_is_folder: bool) -> None:
     if out_path.exists() or out_path.is_symlink():
         raise InputError("exists: dpdfit add writes a new campaign folder and never "
                          "writes into an existing one; choose a new name", file=str(out))
-    o, c, n = out_path.resolve(), campaign.resolve(), new.resolve()
+    # realpath, not Path.resolve: a link loop is the readers' to refuse, not a crash here
+    o, c, n = (Path(os.path.realpath(p)) for p in (out_path, campaign, new))
     if o == c or c in o.parents:
         raise InputError(f"lies inside the campaign folder {campaign}, which dpdfit add "
                          "never writes into; choose a folder outside it", file=str(out))

@@ -7,7 +7,9 @@ and imported by :func:`~.campaign_import.import_campaign`, exactly as ``dpdfit i
 reads it).  Every table comes back as text (the values as written, so that nothing is
 re-rounded) with its rows' ``source_file`` and ``source_rid``; :class:`NewRecordings`
 also keeps NEW's campaign constants and, per source file, its SHA-256, rid and start
-time, and names any row in a message (:meth:`NewRecordings.where`).
+time, and names any row in a message (:meth:`NewRecordings.where`).  Each file of a
+folder NEW is checked before it is read (:mod:`.input_files`): a regular file inside
+NEW (a link leading out of NEW is refused, never read), within the size bound.
 
 :func:`read_text_table` reads a campaign table as the readers do (``#`` comment lines
 skipped, spaces after a comma ignored, empty cells empty) but keeps every value as its
@@ -16,7 +18,6 @@ text; :func:`text_column` turns imported values into such text.
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,9 +29,10 @@ from dpdfit.errors import InputError
 
 from .campaign_import import import_campaign
 from .columns import CAMPAIGN_TABLES
+from .input_files import check_inside, open_input, read_input_json
 from .mapping import read_mapping
 from .mapping_lines import KeyLines
-from .outputs import sha256_file
+from .outputs import file_sha256
 from .tables import read_csv_strings
 
 __all__ = ["NewRecordings", "read_new_recordings", "read_text_table", "text_column",
@@ -76,22 +78,27 @@ class NewRecordings:
         return f"[campaign] {key}" + (f" (line {line})" if line else "")
 
 
-def read_text_table(path: str | os.PathLike) -> pd.DataFrame:
-    """A CSV table with every value as its text (module doc); InputError naming the
-    file when it cannot be read.  A file with a header and no rows is an empty table."""
-    name = str(path)
-    df = read_csv_strings(path, name)
-    dupes = sorted({c for c in df.columns if list(df.columns).count(c) > 1})
-    if dupes:
-        raise InputError(f"column name(s) appear more than once: {dupes}", file=name)
-    return df.apply(lambda c: c.str.strip()) if len(df) else df
+def read_text_table(path: str | os.PathLike, within=None) -> pd.DataFrame:
+    """A CSV table with every value as its text (module doc), read by
+    :func:`~.tables.read_csv_strings` (inside the folder ``within`` when given; its header
+    and rows checked); InputError naming the file when it cannot be read.  A file with a
+    header and no rows is an empty table."""
+    df = read_csv_strings(path, str(path), within=within)
+    for c in df.columns:
+        # spaces before a comma: stripped where a cell has them (each distinct value is
+        # looked at once; stripping every cell of a million rows takes seconds)
+        if any(isinstance(v, str) and v != v.strip() for v in df[c].unique()):
+            df[c] = df[c].str.strip()
+    return df
 
 
-def leading_comments(path: str | os.PathLike) -> str:
-    """The ``#`` lines at the top of a CSV file (kept on top when rows are appended)."""
+def leading_comments(path: str | os.PathLike, within=None) -> str:
+    """The ``#`` lines at the top of a CSV file (kept on top when rows are appended); the
+    file checked as :func:`~.input_files.open_input` checks it (inside ``within``)."""
     out = []
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for line in fh:
+    with open_input(path, within=within, what="table") as fh:
+        for raw in fh:
+            line = raw.decode("utf-8", errors="replace")
             if not line.startswith("#"):
                 break
             out.append(line if line.endswith("\n") else line + "\n")
@@ -120,6 +127,7 @@ def read_new_recordings(new, *, complete_only=None, progress=None, skip_bad_file
     its results files are."""
     path = Path(new)
     check = check or (lambda rec: None)
+    check_inside(path, path, "NEW")                 # a link loop
     if path.is_dir():
         return _csv_folder(path, check)
     if not path.exists():
@@ -133,18 +141,15 @@ def read_new_recordings(new, *, complete_only=None, progress=None, skip_bad_file
 
 def _csv_folder(path: Path, check) -> NewRecordings:
     for name in ("traces.csv", "traces"):
-        if (path / name).exists():
+        if os.path.lexists(path / name):
             raise InputError(f"{name}: dpdfit add merges the tables, not raw traces; move "
                              "traces.csv and traces/ out of NEW (copy them to the new "
                              "campaign by hand if you want them there)", file=str(path))
     constants, constants_file = {}, None
-    if (path / "campaign.json").is_file():
+    if os.path.lexists(path / "campaign.json"):
         constants_file = str(path / "campaign.json")
-        try:
-            constants = json.loads((path / "campaign.json").read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise InputError(f"campaign.json cannot be read ({exc})", file=constants_file) \
-                from None
+        constants = read_input_json(path / "campaign.json", within=path,
+                                    what="campaign.json")
         if not isinstance(constants, dict):
             raise InputError("campaign.json must hold a JSON object", file=constants_file)
     check(NewRecordings(path=path, kind="csv", tables={}, constants=constants,
@@ -152,16 +157,17 @@ def _csv_folder(path: Path, check) -> NewRecordings:
     tables, sources = {}, []
     for table in CAMPAIGN_TABLES:
         f = path / f"{table}.csv"
-        if not f.is_file():
+        if not os.path.lexists(f):
             continue
-        df = read_text_table(f)
+        df = read_text_table(f, within=path)
         if df.empty:
             continue
         for c in SOURCE_COLUMNS:         # NEW made by dpdfit import keeps its results files
-            if c not in df.columns:
-                df[c] = f.name if c == "source_file" else ""
+            if c not in df.columns:      # one value for every row: a byte per row, not 8
+                df[c] = pd.Categorical.from_codes(np.zeros(len(df), dtype=np.int8),
+                                                  [f.name if c == "source_file" else ""])
         tables[table] = df
-        sources.append({"file": f.name, "sha256": sha256_file(f), "rid": None,
+        sources.append({"file": f.name, "sha256": file_sha256(f), "rid": None,
                         "start_time": None})
     known = {f"{t}.csv" for t in CAMPAIGN_TABLES} | {"campaign.json"}
     ignored = tuple(sorted(p.name for p in path.iterdir() if p.name not in known))

@@ -60,6 +60,7 @@ import functools
 import json
 import os
 import stat
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -405,6 +406,9 @@ def _campaign_json(path: Path, folder: Path):
     except RecursionError:
         raise InputError("campaign.json is nested too deeply to be read as JSON",
                          file=str(path)) from None
+    except ValueError:                # an integer of more digits than Python converts
+        raise InputError("campaign.json holds a number too long to read (more than "
+                         f"{sys.get_int_max_str_digits()} digits)", file=str(path)) from None
 
 
 def _recording_times(raw: dict, path: str) -> dict:

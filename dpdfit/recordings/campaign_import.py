@@ -40,7 +40,7 @@ from .mapped_columns import column_values, fail
 from .mapping import TABLE_COLUMNS, Mapping, SourceSpec, read_mapping
 from .name_patterns import matching_keys
 from .units import COLUMN_KINDS
-from .outputs import staged_folder
+from .outputs import staged_folder, write_csv_table
 
 __all__ = ["ImportedCampaign", "import_campaign", "GATE_TABLES", "COUNT_COLUMNS"]
 
@@ -89,7 +89,7 @@ class ImportedCampaign:
                              "folder and never overwrites one", file=str(folder))
         with staged_folder(folder) as tmp:
             for name, df in self.tables.items():
-                df.to_csv(tmp / f"{name}.csv", index=False)
+                write_csv_table(tmp / f"{name}.csv", df, name=folder / f"{name}.csv")
             (tmp / "campaign.json").write_text(json.dumps(self.meta, indent=2) + "\n",
                                                encoding="utf-8")
             self._check(tmp)

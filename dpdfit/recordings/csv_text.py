@@ -37,19 +37,17 @@ import pandas as pd
 from dpdfit.core.defaults import MAX_CSV_COLUMNS
 from dpdfit.errors import InputError, RefusedFileError
 
+from .formula_cells import FORMULA_STARTS, first_formula_cell, starts_like_formula
+
 __all__ = ["parse_csv_strings", "header_line", "header_names", "FORMULA_STARTS"]
 
-#: the first characters of a cell a spreadsheet runs as a formula (OWASP): after spaces
-#: ``= + - @``; a tab or a carriage return at the very start
-FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
-_FORMULA = re.compile(r"^(?:[\t\r]| *[=+\-@])")
 #: a number as a lab writes it (ASCII; ``float`` accepts all of these)
 _NUMBER = (rb"(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+\-]?\d+)?"
            rb"|[iI][nN][fF](?:[iI][nN][iI][tT][yY])?|[nN][aA][nN])")
 #: in the raw bytes (after a line break or comma; spaces and a quote aside), a cell that
 #: may be a formula: it starts with ``= @``, a tab or a carriage return (not a line's
 #: end), or with a sign not followed by a number that ends the cell.  Every cell
-#: :func:`_check_formulas` refuses starts so: a file without a match (nearly every honest
+#: :func:`_check_formulas` refuses (:func:`~.formula_cells.runs_as_formula`) starts so: a file without a match (nearly every honest
 #: one) is not looked at cell by cell, which is slower still (the scan adds a third to
 #: the reading of a table of 10^6 rows of negative numbers)
 _MAYBE_FORMULA = re.compile(rb'[,\n][ ]*"?[ ]*(?:[=@\t]|\r(?!\n)|[+\-](?!' + _NUMBER
@@ -127,7 +125,7 @@ def _names(header: pd.Series, name: str) -> list[str]:
     names, seen = [], {}
     for i, text in enumerate(header.tolist()):
         text = "" if not isinstance(text, str) else text
-        if _FORMULA.match(text):
+        if starts_like_formula(text):          # a name is refused even as a number
             raise RefusedFileError(f"the header's column {i + 1} starts like a spreadsheet "
                                    "formula: dpdfit does not read such a name (a "
                                    "spreadsheet opening its outputs would run it)",
@@ -142,27 +140,15 @@ def _names(header: pd.Series, name: str) -> list[str]:
     return names
 
 
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def _check_formulas(df: pd.DataFrame, raw: bytes, name: str) -> None:
-    """Refuse the first text cell (column by column, then row) a spreadsheet would run."""
+    """Refuse the first text cell (column by column, then row) a spreadsheet would run
+    (:func:`~.formula_cells.runs_as_formula`)."""
     if not _MAYBE_FORMULA.search(raw):        # a data cell follows a line break or comma
         return
     for col in df.columns:
-        cells = df[col]
-        suspect = cells.str.match(_FORMULA, na=False).to_numpy()
-        if not suspect.any():
-            continue
-        text = ~cells[suspect].map(_is_number).to_numpy(dtype=bool)
-        if text.any():
-            i = int(cells.index[suspect][text.argmax()])
-            first = str(cells.iloc[i]).lstrip(" ")[:1]
+        i = first_formula_cell(df[col])
+        if i is not None:
+            first = str(df[col].iloc[i]).lstrip(" ")[:1]
             raise RefusedFileError(
                 f"the cell starts with {first!r} and is not a number: a spreadsheet would "
                 "run it as a formula, so dpdfit does not read it (its outputs are opened "

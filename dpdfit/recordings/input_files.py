@@ -27,13 +27,14 @@ import errno
 import json
 import os
 import stat
+import sys
 from pathlib import Path
 
 from dpdfit.core.defaults import MAX_INPUT_BYTES, MAX_INPUT_BYTES_VARIABLE, MAX_JSON_BYTES
 from dpdfit.errors import InputError
 
 __all__ = ["max_input_bytes", "format_bytes", "check_inside", "checked_input", "open_input",
-           "read_input_bytes", "read_input_text", "read_input_json"]
+           "read_input_bytes", "read_input_text", "read_input_json", "copy_input_file"]
 
 
 def max_input_bytes() -> int:
@@ -203,3 +204,30 @@ def read_input_json(path, *, within=None, what: str = "JSON file",
         raise InputError(f"is not JSON ({exc.msg}, line {exc.lineno})", file=name) from None
     except RecursionError:
         raise InputError("is nested too deeply to be read as JSON", file=name) from None
+    except ValueError:                # an integer of more digits than Python converts
+        raise InputError("holds a number too long to read (more than "
+                         f"{sys.get_int_max_str_digits()} digits)", file=name) from None
+
+
+def copy_input_file(path, dest, *, within=None, what: str = "file",
+                    limit: int | None = None) -> int:
+    """Copy the input file ``path`` (checked by :func:`open_input`) to a new regular file
+    ``dest``, written fresh (never a link, nor a copy of one), in chunks: at most
+    ``limit`` bytes, an InputError naming ``path`` when it holds more (it grew while it
+    was copied).  Returns the bytes copied."""
+    limit = max_input_bytes() if limit is None else int(limit)
+    with open_input(path, within=within, what=what, limit=limit) as src, \
+            open(dest, "xb") as out:
+        n = 0
+        while True:
+            try:
+                chunk = src.read(min(1 << 20, limit + 1 - n))
+            except OSError as exc:
+                raise InputError(f"cannot be read ({exc.strerror or exc})",
+                                 file=str(path)) from None
+            if not chunk:
+                return n
+            n += len(chunk)
+            if n > limit:
+                raise _too_large(n, limit, str(path), False)
+            out.write(chunk)

@@ -1,4 +1,4 @@
-"""Output helpers at the edge of the package: atomic writes and file hashes.
+"""Output helpers at the edge of the package: atomic writes, output tables and file hashes.
 
 Nothing dpdfit writes is ever half-written: every output goes to a temporary
 file in the destination directory and is moved into place with
@@ -7,6 +7,15 @@ together and only moved once all of them were written, so a failure leaves no
 partial output behind.  Inputs are never overwritten: callers pass the input
 paths and :func:`refuse_overwriting_inputs` raises if an output would land on
 one of them.
+
+Every output table is written as CSV text by :func:`csv_table_text` (or
+:func:`write_csv_table`): a text cell that a spreadsheet would run as a formula --
+one starting with ``=``, ``+``, ``-``, ``@`` (spaces before them aside), a tab or a
+carriage return, and not a number (``-1.5`` is a number;
+:mod:`~dpdfit.recordings.formula_cells`) -- is refused, naming the table, column and row
+(:func:`refuse_formula_cells`), instead of being written for a lab to open.  Such a
+cell can only come from a file from elsewhere (a mapping's ``format``, an extra column
+of a campaign table), which is refused on input too; this is the last guard.
 """
 
 from __future__ import annotations
@@ -25,14 +34,15 @@ import threading
 from pathlib import Path
 from typing import Iterable, Iterator
 
-
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
+from dpdfit.recordings.formula_cells import FORMULA_STARTS, first_formula_cell, runs_as_formula
 
 __all__ = ["read_csv_header", "write_csv_with_header", "sha256_file", "file_sha256",
            "remember_sha256", "staged_folder", "folder_made", "refuse_overwriting_inputs",
            "staged_outputs", "Stage", "check_output_folder", "check_output_file",
-           "atomic_write_text", "atomic_write_json"]
+           "atomic_write_text", "atomic_write_json", "FORMULA_STARTS",
+           "refuse_formula_cells", "csv_table_text", "write_csv_table"]
 
 
 def sha256_file(path: str | os.PathLike) -> str:
@@ -354,6 +364,50 @@ def atomic_write_json(path: str | os.PathLike, obj) -> None:
     atomic_write_text(path, json.dumps(to_jsonable(obj), indent=2) + "\n")
 
 
+def refuse_formula_cells(df, table) -> None:
+    """Raise :class:`InputError` at the first text cell of ``df`` (its column names
+    included) that a spreadsheet would run as a formula
+    (:func:`~.formula_cells.runs_as_formula`: ``-1.5``, ``+3e-4`` are numbers, written as
+    they are).  The message names ``table`` (the output file), the column and the row
+    (rows counted from 1, the first data line)."""
+    for c in df.columns:
+        if runs_as_formula(c):
+            raise _formula(table, c, None, c)
+    for j, c in enumerate(df.columns):
+        i = first_formula_cell(df.iloc[:, j])
+        if i is not None:
+            raise _formula(table, c, i + 1, df.iloc[i, j])
+
+
+def _formula(table, column, row, value) -> InputError:
+    shown = value if len(value) <= 40 else value[:40] + "..."
+    what = "column name" if row is None else "text cell"
+    return InputError(f"{what} {shown!r} would be run as a formula by a spreadsheet: "
+                      "dpdfit writes no text cell starting with =, +, -, @, a tab or a "
+                      "carriage return", file=str(table), column=str(column), row=row)
+
+
+def csv_table_text(df, table, **to_csv) -> str:
+    """``df`` as CSV text (no index; ``to_csv``: further options of
+    :meth:`pandas.DataFrame.to_csv`), after :func:`refuse_formula_cells`; ``table``
+    names the output in a refusal."""
+    refuse_formula_cells(df, table)
+    return df.to_csv(index=False, **to_csv)
+
+
+def write_csv_table(path: str | os.PathLike, df, *, name=None, head: str = "",
+                    header: bool = True, mode: str = "w", **to_csv) -> None:
+    """Write ``df`` as CSV to ``path`` (not atomically: a file of a staged folder or
+    stage), after :func:`refuse_formula_cells` naming ``name`` (default ``path``; the
+    final path of a staged file), with the text ``head`` on top; pandas writes the rows
+    in chunks, so no copy of the whole text is made.  ``mode="a"`` with
+    ``header=False`` appends rows."""
+    refuse_formula_cells(df, path if name is None else name)
+    with open(path, mode, encoding="utf-8", newline="") as fh:
+        fh.write(head)
+        df.to_csv(fh, index=False, header=header, **to_csv)
+
+
 def write_csv_with_header(path: str | os.PathLike, df, meta: dict) -> None:
     """Write a pandas table as CSV with ``# key: <json>`` provenance lines on top, atomically.
 
@@ -361,7 +415,7 @@ def write_csv_with_header(path: str | os.PathLike, df, meta: dict) -> None:
     ``pandas.read_csv(path, comment="#")`` for the table alone).
     """
     header = "".join(f"# {k}: {json.dumps(to_jsonable(v))}\n" for k, v in meta.items())
-    atomic_write_text(path, header + df.to_csv(index=False, float_format="%.12g"))
+    atomic_write_text(path, header + csv_table_text(df, path, float_format="%.12g"))
 
 
 def read_csv_header(path: str | os.PathLike) -> dict:

@@ -40,7 +40,7 @@ import pandas as pd
 
 from dpdfit.core.defaults import MAX_SCHEDULE_ROWS
 from dpdfit.errors import InputError
-from dpdfit.recordings.outputs import atomic_write_text
+from dpdfit.recordings.outputs import atomic_write_text, csv_table_text
 from dpdfit.recordings.tables import read_table
 
 __all__ = ["SCHEDULE_COLUMNS", "SCHEDULE_KINDS", "RUN_KINDS", "SCAN_KINDS", "read_schedule",
@@ -195,4 +195,4 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
 def write_schedule(schedule: pd.DataFrame, path: str | os.PathLike) -> None:
     """Write a schedule (checked first) to ``path`` atomically; empty cells stay empty."""
     df = check_schedule(schedule, str(path))
-    atomic_write_text(path, df.to_csv(index=False))     # floats as shortest round trip
+    atomic_write_text(path, csv_table_text(df, path))   # floats as shortest round trip

@@ -196,3 +196,19 @@ def test_scan_labels_continue_property():
             ren = {int(x): int(g) for k, x, g in zip(new_k, new_l, got) if k == key}
             assert len(ren) == len(mine)                       # one label per new scan
             assert [ren[x] for x in mine] == list(range(m + 1, m + 1 + len(mine)))
+
+
+def test_the_report_names_a_few_renamed_scans_per_setting(pair, tmp_path, capsys):
+    """A thousand scans added at one setting: the note names the first eight renamed and
+    counts the others, one short line (a million rows stay a readable report)."""
+    base, _, _ = pair
+    new = tmp_path / "new"
+    new.mkdir()
+    (new / "populations.csv").write_text("A,dpd,scan,n00,n01_10,n11,n_even,shots\n" + "".join(
+        f"0.4,0,{k},139,0,161,300,300\n" for k in range(1, 1001)))
+    assert main(["add", str(base), str(new), "-o", str(tmp_path / "out")]) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines()
+             if "scan labels continued at A=0.4, dpd=0" in line]
+    assert len(notes) == 1
+    assert notes[0].endswith(": 1 -> 2, 2 -> 3, 3 -> 4, 4 -> 5, 5 -> 6, 6 -> 7, 7 -> 8, "
+                             "8 -> 9, ... and 992 more scans")
