@@ -168,7 +168,12 @@ def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None
     limit = max_input_bytes() if limit is None else int(limit)
     with open_input(path, within=within, what=what, limit=limit, json_file=json_file) as fh:
         try:
-            data = fh.read(limit + 1)
+            # at most the size the file has (+1 to see it grow): read(limit + 1) would
+            # reserve the whole bound up front for every file
+            size = os.fstat(fh.fileno()).st_size
+            data = fh.read(min(size, limit) + 1)
+            if len(data) > size:
+                data += fh.read(limit + 1 - len(data))
         except OSError as exc:
             raise InputError(f"cannot be read ({exc.strerror or exc})", file=name) from None
     if len(data) > limit:                     # it grew while it was read

@@ -35,7 +35,7 @@ from dpdfit.errors import ImplausibleValueError, InputError, data_line
 from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, CalibrationData,
                                                 calibration_data, calibration_runs_data)
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
-from dpdfit.recordings.csv_text import parse_csv_strings
+from dpdfit.recordings.csv_text import parse_csv_table
 from dpdfit.recordings.input_files import read_input_bytes
 from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
@@ -92,7 +92,9 @@ def read_table(path: str | os.PathLike, required: list[str],
     if os.path.isfile(path):
         check_memory(os.path.getsize(path) * TABLE_BYTES_PER_FILE_BYTE, "reading this table",
                      file=name, hint="split the file or set DPDFIT_MAX_MEMORY_GB")
-    df = read_csv_strings(path, name, within=within)
+    candidates = (numeric if numeric is not None else
+                  [c for c in list(required) + list(optional) if c not in ("run", "timestamp")])
+    df = read_csv_strings(path, name, within=within, numbers=candidates)
     _check_columns(df, required, name)
     present_opt = [c for c in optional if c in df.columns]
     if numeric is None:
@@ -140,7 +142,8 @@ def require_file(path: str | os.PathLike) -> str:
     return name
 
 
-def read_csv_strings(path, name: str | None = None, *, within=None) -> pd.DataFrame:
+def read_csv_strings(path, name: str | None = None, *, within=None,
+                     numbers=()) -> pd.DataFrame:
     """The file as a table of strings, the one place a CSV of recordings is parsed.
 
     The file is read by :func:`~dpdfit.recordings.input_files.read_input_bytes` (a regular
@@ -148,11 +151,13 @@ def read_csv_strings(path, name: str | None = None, *, within=None) -> pd.DataFr
     most :func:`~dpdfit.recordings.input_files.max_input_bytes`) and parsed by
     :func:`~dpdfit.recordings.csv_text.parse_csv_strings` (the header and every row checked).
     InputError naming ``name`` (default the path) when it is absent, empty or not a CSV;
-    :class:`~dpdfit.errors.RefusedFileError` when it is not a table a lab writes."""
+    :class:`~dpdfit.errors.RefusedFileError` when it is not a table a lab writes.
+    ``numbers``: columns returned as float64 when each of their cells is a finite number
+    (:func:`~dpdfit.recordings.csv_text.parse_csv_table`; strings otherwise)."""
     name = str(path) if name is None else name
     raw = read_input_bytes(path, within=within, what="file")
     remember_sha256(path, raw)      # read once: parsed and hashed (provenance) from one read
-    return parse_csv_strings(raw, name)
+    return parse_csv_table(raw, name, numbers)
 
 
 def _check_columns(df: pd.DataFrame, required, name: str) -> None:
