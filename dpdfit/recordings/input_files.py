@@ -34,7 +34,8 @@ from dpdfit.core.defaults import MAX_INPUT_BYTES, MAX_INPUT_BYTES_VARIABLE, MAX_
 from dpdfit.errors import InputError
 
 __all__ = ["max_input_bytes", "format_bytes", "check_inside", "checked_input", "open_input",
-           "read_input_bytes", "read_input_text", "read_input_json", "copy_input_file"]
+           "read_input_bytes", "read_input_chunks", "read_input_text", "read_input_json",
+           "copy_input_file"]
 
 
 def max_input_bytes() -> int:
@@ -174,6 +175,30 @@ def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None
     if len(data) > limit:                     # it grew while it was read
         raise _too_large(len(data), limit, name, json_file)
     return data
+
+
+def read_input_chunks(path, *, within=None, what: str = "file", limit: int | None = None,
+                      size: int = 1 << 20):
+    """The input file ``path`` (checked by :func:`open_input`) as successive chunks of at
+    most ``size`` bytes, for a reader that may refuse the file part way through (a table
+    with too many rows) without reading the rest; an InputError naming it when it holds
+    more than ``limit`` bytes (it grew while it was read).  The file is closed when the
+    reader stops, early or not."""
+    name = str(path)
+    limit = max_input_bytes() if limit is None else int(limit)
+    with open_input(path, within=within, what=what, limit=limit) as fh:
+        n = 0
+        while True:
+            try:
+                chunk = fh.read(min(int(size), limit + 1 - n))
+            except OSError as exc:
+                raise InputError(f"cannot be read ({exc.strerror or exc})", file=name) from None
+            if not chunk:
+                return
+            n += len(chunk)
+            if n > limit:
+                raise _too_large(n, limit, name, False)
+            yield chunk
 
 
 def read_input_text(path, *, within=None, what: str = "file",
