@@ -184,20 +184,23 @@ def _rows_at_most(path, name: str, within, max_rows: int) -> bytes:
     row): an InputError naming ``name`` as soon as it holds more than ``max_rows`` rows,
     the rest not read.  A line break inside quotes counts as a row here (a table a lab
     writes, a schedule, has none)."""
-    chunks, lines, spanning = [], 0, []
+    chunks, lines, spanning, first_line = [], 0, [], True
     for chunk in read_input_chunks(path, within=within, what="file"):
-        counted = chunk[3:] if not chunks and chunk.startswith(b"\xef\xbb\xbf") else chunk
         chunks.append(chunk)
-        last = counted.rfind(b"\n") + 1
+        last = chunk.rfind(b"\n") + 1
         if last == 0:                       # a line longer than the chunk goes on
-            spanning.append(counted)
+            spanning.append(chunk)
             continue
-        first = counted.find(b"\n") + 1
-        # the line begun in earlier chunks, then the lines wholly in this one
-        lines += _is_row(b"".join([*spanning, counted[:first]]))
-        whole = counted[first:last]
+        first = chunk.find(b"\n") + 1
+        # the line begun in earlier chunks (the file's first without its byte-order
+        # mark), then the lines wholly in this one
+        line = b"".join([*spanning, chunk[:first]])
+        if first_line:
+            line, first_line = line.removeprefix(b"\xef\xbb\xbf"), False
+        lines += _is_row(line)
+        whole = chunk[first:last]
         lines += whole.count(b"\n") - len(_SKIPPED_LINE.findall(whole))
-        spanning = [counted[last:]]
+        spanning = [chunk[last:]]
         if lines > max_rows + 1:            # the header and max_rows rows
             raise InputError(f"has more than {max_rows} rows, the most dpdfit reads from "
                              "this file (the rest of it was not read)", file=name)

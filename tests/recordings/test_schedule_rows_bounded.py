@@ -35,7 +35,7 @@ _LINE = st.one_of(st.just(("row", "1,2")), st.just(("row", " 3 , 4 ")),
                   st.just(("skip", "  \t ")), st.just(("skip", "#")))
 
 
-@settings(max_examples=150, deadline=None,
+@settings(max_examples=300, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(lines=st.lists(_LINE, max_size=40), chunk=st.integers(1, 17),
        crlf=st.booleans(), bom=st.booleans(), lead=st.lists(_LINE.filter(
