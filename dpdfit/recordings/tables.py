@@ -38,7 +38,7 @@ from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, Calibration
                                                 calibration_data, calibration_runs_data)
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.csv_text import parse_csv_strings
-from dpdfit.recordings.input_files import read_input_bytes, read_input_chunks
+from dpdfit.recordings.input_files import max_input_bytes, read_input_bytes, read_input_chunks
 from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
 
@@ -95,7 +95,8 @@ def read_table(path: str | os.PathLike, required: list[str],
         parsed to timezone-aware UTC datetimes and ``run`` as strings.
     """
     name = str(path)
-    if os.path.isfile(path):
+    # a file beyond the input bound is refused for its size by the reader, which says so
+    if os.path.isfile(path) and os.path.getsize(path) <= max_input_bytes():
         check_memory(os.path.getsize(path) * TABLE_BYTES_PER_FILE_BYTE, "reading this table",
                      file=name, hint="split the file or set DPDFIT_MAX_MEMORY_GB")
     df = read_csv_strings(path, name, within=within, max_rows=max_rows)
