@@ -5,6 +5,7 @@ cannot, :func:`unknown_in_binding`)."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
 
@@ -44,9 +45,11 @@ def read_diagnosis(path: str | os.PathLike) -> dict:
     try:
         d = read_input_json(path, what="diagnosis JSON file")
     except InputError as exc:
-        if "is not JSON" not in str(exc):
+        bad = exc.__context__                 # the parser's error, when it is one
+        if not isinstance(bad, json.JSONDecodeError):
             raise
-        raise InputError(f"{exc}; expected the output of 'dpdfit diagnose --json'") from None
+        raise InputError(f"not JSON ({bad.msg}, line {bad.lineno}); expected the output "
+                         "of 'dpdfit diagnose --json'", file=str(path)) from None
     return _check(d, str(path))
 
 
