@@ -164,6 +164,17 @@ def test_a_field_of_another_type_is_refused_with_its_key_path(tmp_path, capsys, 
     _refused(capsys, tmp_path, _written(tmp_path, _with(path, value)), [needle])
 
 
+@pytest.mark.parametrize("where", ["next_measurement.settings.amplitudes", "extra"])
+def test_json_the_comparison_could_not_walk_is_refused_before_any_fit(tmp_path, capsys,
+                                                                      no_fit, where):
+    """500 levels in a key the checks do not read: parsed, it stopped the comparison
+    (to_jsonable) after the whole diagnosis with a RecursionError naming no file."""
+    deep = json.loads("[" * 500 + "]" * 500)
+    d = _with(where, deep) if where != "extra" else {**before(), "extra": deep}
+    _refused(capsys, tmp_path, _written(tmp_path, d),
+             ["nested too deeply", "more than 64 levels"])
+
+
 # ----------------------------------------------------------------------------- silent acceptance
 
 
