@@ -237,5 +237,5 @@ def test_an_earlier_import_with_a_fifo_for_campaign_json_is_not_replaced(tmp_pat
     mapping.write_text(SMALL_MAPPING)
     write_small_lab(tmp_path)
     assert_refused_in_subprocess(["analyze", mapping, "-o", tmp_path / "out"], tmp_path,
-                                 None, ["imported_campaign", "is not a campaign dpdfit "
-                                        "imported"])
+                                 None, ["imported_campaign",
+                                        "is not a campaign dpdfit imported"])

@@ -15,9 +15,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import dpdfit.recordings.tables as tables
 from dpdfit.core.defaults import MAX_SCHEDULE_ROWS
 from dpdfit.errors import InputError
+from dpdfit.recordings import tables
 from dpdfit.recordings.input_files import read_input_chunks
 from dpdfit.recordings.schedule import read_schedule
 from dpdfit.recordings.tables import read_csv_strings
