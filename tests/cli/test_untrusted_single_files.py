@@ -239,3 +239,27 @@ def test_an_earlier_import_with_a_fifo_for_campaign_json_is_not_replaced(tmp_pat
     assert_refused_in_subprocess(["analyze", mapping, "-o", tmp_path / "out"], tmp_path,
                                  None, ["imported_campaign",
                                         "is not a campaign dpdfit imported"])
+
+
+_SWEEP_COLUMNS = ("A,dpd,sideband,P0_dB,P1_dB,P2_dB,P3_dB,R10_dB,R23_dB,dP1_dB,dP2_dB,eta_bar,"
+                  "F_est,eps_est,r_rel")
+
+
+@pytest.mark.parametrize("value, needle", [
+    ("[0.5, 0.6]", "the header's A_corr must be a number in (0, 1], got a list"),
+    ('"0.56"', "the header's A_corr must be a number in (0, 1], got text"),
+    ('{"value": 0.56}', "the header's A_corr must be a number in (0, 1], got an object"),
+    ("-0.5", "the header's A_corr must be a number in (0, 1], got -0.5"),
+    (DEEP_JSON, "a '# key: value' header line is nested too deeply"),
+])
+def test_a_sweep_header_that_dpdfit_does_not_write_is_refused(tmp_path, capsys, value,
+                                                                needle):
+    """The sweep file's ``# A_corr:`` header line is JSON: a value of another kind reached
+    float() in ``thresholds`` (the internal-error line), one nested too deeply the
+    command line's last line of defence (naming no file)."""
+    sweep = tmp_path / "sweep.csv"
+    sweep.write_text(f"# A_corr: {value}\n{_SWEEP_COLUMNS}\n"
+                     + "".join(f"{a},{d},red" + ",1" * 12 + "\n"
+                               for a in (0.2, 0.4, 0.6, 0.8) for d in (0, 1)))
+    assert_refused_in_process(capsys, ["thresholds", sweep], tmp_path, None,
+                              ["sweep.csv", needle])
