@@ -19,6 +19,7 @@ amplitude.  ``eta_bar`` does not depend on the sideband.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -312,7 +313,32 @@ def read_sweep_table(path) -> pd.DataFrame:
                          column="dpd", row=i + 1)
     df["dpd"] = df["dpd"].astype(int)
     try:
-        df.attrs["A_corr"] = read_csv_header(path).get("A_corr")
+        a_corr = read_csv_header(path).get("A_corr")
     except UnicodeDecodeError as exc:
         raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
+    except RecursionError:
+        raise InputError("a '# key: value' header line is nested too deeply to be read as "
+                         "JSON", file=name) from None
+    df.attrs["A_corr"] = _header_a_corr(a_corr, name)
     return df
+
+
+def _header_a_corr(value, name: str) -> float | None:
+    """The header's ``A_corr``: None, or a finite number in (0, 1] as ``dpdfit sweep``
+    writes it; an InputError naming the file for anything else (the header may have been
+    edited, or come from elsewhere)."""
+    if value is None:
+        return None
+    number = None
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        try:
+            number = float(value)
+        except OverflowError:                 # an integer of hundreds of digits
+            number = math.inf
+    if number is None or not (math.isfinite(number) and 0 < number <= 1):
+        what = (f"{number:g}" if number is not None else
+                {str: "text", list: "a list", dict: "an object", bool: "true or false"}
+                .get(type(value), type(value).__name__))
+        raise InputError(f"the header's A_corr must be a number in (0, 1], got {what}",
+                         file=name)
+    return number

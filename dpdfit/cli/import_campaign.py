@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import logging
 import os
 import sys
@@ -17,6 +16,7 @@ import tempfile
 from pathlib import Path
 
 from dpdfit.errors import InputError
+from dpdfit.recordings.input_files import read_input_json
 from dpdfit.recordings.outputs import folder_made
 
 __all__ = ["add_import_command", "cmd_import", "campaign_argument", "is_mapping",
@@ -76,9 +76,11 @@ def _tell(imported, out) -> None:
 
 def _imported_before(folder: Path) -> bool:
     try:
-        return "imported" in json.loads((folder / "campaign.json").read_text())
-    except (OSError, ValueError, TypeError):
+        # a regular file inside the folder: a FIFO put there is refused, not read
+        meta = read_input_json(folder / "campaign.json", within=folder, what="campaign.json")
+    except InputError:
         return False
+    return isinstance(meta, dict) and "imported" in meta
 
 
 def cmd_import(args) -> int:

@@ -19,7 +19,7 @@ from dpdfit.errors import InputError
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
            "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "MAX_INPUT_BYTES",
-           "MAX_INPUT_BYTES_VARIABLE", "MAX_JSON_BYTES", "MAX_CSV_COLUMNS", "INTEGER_MAX",
+           "MAX_INPUT_BYTES_VARIABLE", "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_CSV_COLUMNS", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
            "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
            "PYON_MAX_DEPTH", "MAX_FILES_PER_SOURCE"]
@@ -270,5 +270,10 @@ MAX_INPUT_BYTES_VARIABLE = "DPDFIT_MAX_INPUT_BYTES"
 #: the largest JSON file dpdfit reads (``campaign.json``, an earlier diagnosis's JSON,
 #: ``truth.json``): 64 MiB; a diagnosis's JSON is a few hundred kB
 MAX_JSON_BYTES = 64 * 2**20
+#: the most levels of lists and objects in a JSON file dpdfit reads: a diagnosis's JSON
+#: has seven, ``truth.json`` and ``campaign.json`` fewer; the code that walks a value read
+#: (to write it again, to compare it) goes one call deeper per level, and Python's stack
+#: ends near a thousand
+MAX_JSON_DEPTH = 64
 #: the most columns of a CSV table (a campaign's widest table has about twenty)
 MAX_CSV_COLUMNS = 1000

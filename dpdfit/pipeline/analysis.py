@@ -18,7 +18,9 @@ from pathlib import Path
 import pandas as pd
 
 from dpdfit.core.jsonable import to_jsonable
+from dpdfit.errors import InputError
 from dpdfit.fits.alignment import AlignmentFit
+from dpdfit.recordings.input_files import read_input_json
 from dpdfit.recordings.outputs import check_output_folder, csv_table_text, staged_outputs
 from dpdfit.report.figure_io import DPI
 from dpdfit.report.summary import summary_markdown
@@ -38,8 +40,9 @@ def previous_outputs(out: Path) -> set[str]:
     ``summary.json`` owns nothing (nothing of the user's is ever deleted).
     """
     try:
-        old = json.loads((out / "summary.json").read_text())
-    except (OSError, ValueError):
+        # a regular file inside ``out``: a FIFO or a link out of it owns nothing, unread
+        old = read_input_json(out / "summary.json", within=out, what="summary.json")
+    except InputError:
         return set()
     if not isinstance(old, dict) or "analyses" not in old:
         return set()

@@ -42,8 +42,10 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _VLEN_ELEMENT_BYTES = 64
 _VLEN_SLICE_ELEMENTS = 1 << 16
 # what h5py raises for a damaged file: a broken link table or chunk, a filter that is
-# not installed, an HDF5 type numpy has no match for
-_H5_ERRORS = (OSError, RuntimeError, KeyError, TypeError)
+# not installed, an HDF5 type numpy has no match for, a header whose sizes or versions
+# make no sense (ValueError), and SystemError, which h5py's lock raises when the HDF5
+# library fails inside a call that Python code (a visit's callback) was part of
+_H5_ERRORS = (OSError, RuntimeError, KeyError, TypeError, ValueError, SystemError)
 _RAISE = "raise it with '[import] max_dataset_bytes = N' in the mapping if the file is right"
 
 
@@ -104,6 +106,14 @@ def _size(n: int) -> str:
 
 
 def _one_line(exc: Exception) -> str:
+    # h5py reports an error raised in its own callback (a link name that is not UTF-8,
+    # met while listing) as a SystemError about its lock, which holds the error as cause
+    while isinstance(exc, SystemError) and (exc.__cause__ or exc.__context__) is not None:
+        exc = exc.__cause__ or exc.__context__
+    if isinstance(exc, UnicodeDecodeError):
+        return f"a name that is not UTF-8 text (byte {exc.start + 1})"
+    if isinstance(exc, SystemError):
+        return "the HDF5 library failed on it"
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
@@ -141,7 +151,7 @@ class ResultsFileContents:
                 # no HDF5 file lock: reading never writes, and a lock fails on read-only
                 # mounts and on a file the ARTIQ master still holds
                 self._file = self.h5py.File(self.path, "r", locking=False)
-            except OSError as exc:
+            except _H5_ERRORS as exc:
                 raise InputError(f"not a readable HDF5 file ({_one_line(exc)})",
                                  file=self.name) from None
             if self.links is None:
@@ -181,21 +191,32 @@ class ResultsFileContents:
         if not isinstance(group, h5py.Group):
             self._refuse("'datasets' is a dataset, not a group (ARTIQ keeps one dataset per "
                          "key in the group 'datasets')")
-        out = {}
+        out, failed = {}, []
 
         def visit(name, link):
-            if isinstance(link, h5py.HardLink):
-                cls = group.get(name, getclass=True)
-                out[name] = ("dataset" if cls is h5py.Dataset else
-                             "group" if cls is h5py.Group else "other", None)
-            elif isinstance(link, h5py.SoftLink):
-                out[name] = ("soft", link.path)
-            elif isinstance(link, h5py.ExternalLink):
-                out[name] = ("external", f"'{link.path}' in the file '{link.filename}'")
-            else:
-                out[name] = ("other", None)
+            try:
+                if isinstance(link, h5py.HardLink):
+                    cls = group.get(name, getclass=True)
+                    out[name] = ("dataset" if cls is h5py.Dataset else
+                                 "group" if cls is h5py.Group else "other", None)
+                elif isinstance(link, h5py.SoftLink):
+                    out[name] = ("soft", link.path)
+                elif isinstance(link, h5py.ExternalLink):
+                    out[name] = ("external", f"'{link.path}' in the file '{link.filename}'")
+                else:
+                    out[name] = ("other", None)
+            except _H5_ERRORS as exc:
+                # an error raised inside the visit comes back from HDF5 as a SystemError
+                # that hides it: kept here, and the visit stopped (a value other than None)
+                failed.append((name, exc))
+                return True
+            return None
 
         group.visititems_links(visit)
+        if failed:
+            name, exc = failed[0]
+            self._refuse(f"group 'datasets' cannot be listed (at '{name}': "
+                         f"{_one_line(exc)})")
         return out
 
     def names(self) -> list:

@@ -30,11 +30,13 @@ import stat
 import sys
 from pathlib import Path
 
-from dpdfit.core.defaults import MAX_INPUT_BYTES, MAX_INPUT_BYTES_VARIABLE, MAX_JSON_BYTES
+from dpdfit.core.defaults import (MAX_INPUT_BYTES, MAX_INPUT_BYTES_VARIABLE, MAX_JSON_BYTES,
+                                  MAX_JSON_DEPTH)
 from dpdfit.errors import InputError
 
 __all__ = ["max_input_bytes", "format_bytes", "check_inside", "checked_input", "open_input",
-           "read_input_bytes", "read_input_text", "read_input_json", "copy_input_file"]
+           "read_input_bytes", "read_input_chunks", "read_input_text", "read_input_json",
+           "json_depth", "copy_input_file"]
 
 
 def max_input_bytes() -> int:
@@ -168,17 +170,47 @@ def read_input_bytes(path, *, within=None, what: str = "file", limit: int | None
     limit = max_input_bytes() if limit is None else int(limit)
     with open_input(path, within=within, what=what, limit=limit, json_file=json_file) as fh:
         try:
-            # at most the size the file has (+1 to see it grow): read(limit + 1) would
-            # reserve the whole bound up front for every file
+            # as many bytes as the file holds (one more tells a file that grows): a read of
+            # the bound itself would set aside a gigabyte for a file of a few bytes
             size = os.fstat(fh.fileno()).st_size
-            data = fh.read(min(size, limit) + 1)
-            if len(data) > size:
-                data += fh.read(limit + 1 - len(data))
+            parts = [fh.read(min(size, limit) + 1)]
+            n = len(parts[0])
+            while size < n <= limit:          # it grew: read on, to one byte past the bound
+                part = fh.read(min(1 << 20, limit + 1 - n))
+                if not part:
+                    break
+                parts.append(part)
+                n += len(part)
         except OSError as exc:
             raise InputError(f"cannot be read ({exc.strerror or exc})", file=name) from None
+    data = parts[0] if len(parts) == 1 else b"".join(parts)
     if len(data) > limit:                     # it grew while it was read
         raise _too_large(len(data), limit, name, json_file)
     return data
+
+
+def read_input_chunks(path, *, within=None, what: str = "file", limit: int | None = None,
+                      size: int = 1 << 20):
+    """The input file ``path`` (checked by :func:`open_input`) as successive chunks of at
+    most ``size`` bytes, for a reader that may refuse the file part way through (a table
+    with too many rows) without reading the rest; an InputError naming it when it holds
+    more than ``limit`` bytes (it grew while it was read).  The file is closed when the
+    reader stops, early or not."""
+    name = str(path)
+    limit = max_input_bytes() if limit is None else int(limit)
+    with open_input(path, within=within, what=what, limit=limit) as fh:
+        n = 0
+        while True:
+            try:
+                chunk = fh.read(min(int(size), limit + 1 - n))
+            except OSError as exc:
+                raise InputError(f"cannot be read ({exc.strerror or exc})", file=name) from None
+            if not chunk:
+                return
+            n += len(chunk)
+            if n > limit:
+                raise _too_large(n, limit, name, False)
+            yield chunk
 
 
 def read_input_text(path, *, within=None, what: str = "file",
@@ -192,11 +224,35 @@ def read_input_text(path, *, within=None, what: str = "file",
         raise InputError(f"is not UTF-8 text (byte {exc.start + 1})", file=str(path)) from None
 
 
+def json_depth(value, stop: int | None = None) -> int:
+    """The levels of lists and objects in the JSON value ``value`` (a number or text: 0),
+    counted without recursion; with ``stop``, counting ends at the first level beyond it
+    (the result is then ``stop + 1``)."""
+    deepest, level, todo = 0, 0, [value]
+    while todo:
+        level += 1
+        deeper = []
+        for v in todo:
+            if isinstance(v, dict):
+                deeper.extend(v.values())
+            elif isinstance(v, list):
+                deeper.extend(v)
+            else:
+                continue
+            deepest = level
+        if stop is not None and deepest > stop:
+            return deepest
+        todo = deeper
+    return deepest
+
+
 def read_input_json(path, *, within=None, what: str = "JSON file",
-                    limit: int = MAX_JSON_BYTES):
+                    limit: int = MAX_JSON_BYTES, max_depth: int | None = MAX_JSON_DEPTH):
     """The JSON value of the input file ``path``: read by :func:`read_input_bytes` (at most
     ``limit`` bytes); an InputError naming the file (and the line) when it is not JSON or
-    is nested deeper than the parser recurses."""
+    is nested deeper than ``max_depth`` levels of lists and objects
+    (:data:`~dpdfit.core.defaults.MAX_JSON_DEPTH`; None: as deep as the parser reads),
+    which the code walking the value could not follow."""
     name = str(path)
     data = read_input_bytes(path, within=within, what=what, limit=limit, json_file=True)
     try:
@@ -204,7 +260,7 @@ def read_input_json(path, *, within=None, what: str = "JSON file",
     except UnicodeDecodeError as exc:
         raise InputError(f"is not UTF-8 text (byte {exc.start + 1})", file=name) from None
     try:
-        return json.loads(text)
+        value = json.loads(text)
     except json.JSONDecodeError as exc:
         raise InputError(f"is not JSON ({exc.msg}, line {exc.lineno})", file=name) from None
     except RecursionError:
@@ -212,6 +268,10 @@ def read_input_json(path, *, within=None, what: str = "JSON file",
     except ValueError:                # an integer of more digits than Python converts
         raise InputError("holds a number too long to read (more than "
                          f"{sys.get_int_max_str_digits()} digits)", file=name) from None
+    if max_depth is not None and json_depth(value, max_depth) > max_depth:
+        raise InputError(f"is nested too deeply: lists and objects more than {max_depth} "
+                         f"levels deep, the most dpdfit reads from a {what}", file=name)
+    return value
 
 
 def copy_input_file(path, dest, *, within=None, what: str = "file",

@@ -49,6 +49,7 @@ from dpdfit.errors import InputError
 
 from .columns import CAMPAIGN_TABLES
 from .expressions import Expression, ExpressionError, parse_expression
+from .input_files import read_input_text
 from .mapping_lines import KeyLines, MappingErrors
 from .mapping_values import check_campaign_types, check_constant, column_modifiers, shown
 from .name_patterns import fill, placeholders, repeated_placeholder
@@ -156,12 +157,8 @@ def read_mapping(path, *, partial: bool = False) -> Mapping:
     ``partial``: the mapping of further recordings (``dpdfit add``), which may map any
     subset of the tables (a campaign's mapping needs ``[[calibration_amplitude]]``)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"mapping cannot be read ({exc.strerror})", file=str(path)) from None
-    except UnicodeDecodeError:
-        raise InputError("mapping is not UTF-8 text", file=str(path)) from None
+    # a regular file of at most MAX_INPUT_BYTES: a FIFO or a device is refused, not read
+    text = read_input_text(path, what="mapping")
     doc = _toml(text, str(path))
     err = MappingErrors(str(path), KeyLines(text))
     for k in doc:

@@ -183,12 +183,16 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
     InputError
         One line naming the file, the column and the row: an unknown kind, a negative
         or fractional number of shots, an amplitude outside [0, 1], a flag that is not
-        0 or 1, a point listed twice, a setting that changes within one scan.
+        0 or 1, a point listed twice, a setting that changes within one scan.  The file
+        is read through :func:`~dpdfit.recordings.tables.read_table`: a FIFO or device
+        is refused unread, and a file of more than
+        :data:`~dpdfit.core.defaults.MAX_SCHEDULE_ROWS` rows as soon as its reading
+        passes that many, the rest not read.
     """
     name = str(path)
     df = read_table(path, ["kind", "repeat", "point", "A"],
                     ["dpd", "shots", "phase_rad", "t_us", "lab_s"],
-                    numeric=["repeat", "point", "A"])
+                    numeric=["repeat", "point", "A"], max_rows=MAX_SCHEDULE_ROWS)
     return check_schedule(df, name)
 
 

@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
+
 import numpy as np
 import pandas as pd
 
@@ -36,7 +38,7 @@ from dpdfit.recordings.calibration_runs import (CALIBRATION_COLUMNS, Calibration
                                                 calibration_data, calibration_runs_data)
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.csv_text import parse_csv_table
-from dpdfit.recordings.input_files import read_input_bytes
+from dpdfit.recordings.input_files import max_input_bytes, read_input_bytes, read_input_chunks
 from dpdfit.recordings.outputs import remember_sha256
 from dpdfit.recordings.plausibility import check_phase_span
 
@@ -54,7 +56,8 @@ def read_table(path: str | os.PathLike, required: list[str],
                optional: list[str] = (), *, numeric: list[str] | None = None,
                ranges: dict[str, tuple[float, float]] | None = None,
                positive: list[str] = (), unique: list[str] = (),
-               distinct_rows: bool = False, within=None) -> pd.DataFrame:
+               distinct_rows: bool = False, within=None,
+               max_rows: int | None = None) -> pd.DataFrame:
     """Read and validate a CSV file.
 
     Parameters
@@ -81,6 +84,9 @@ def read_table(path: str | os.PathLike, required: list[str],
     within : path-like, optional
         The folder the file comes from (a campaign folder): the file must lie inside it
         (:func:`read_csv_strings`).
+    max_rows : int, optional
+        The most data rows the file may hold, counted as it is read: a file with more is
+        refused before the rest of it is read (:func:`read_csv_strings`).
 
     Returns
     -------
@@ -89,12 +95,13 @@ def read_table(path: str | os.PathLike, required: list[str],
         parsed to timezone-aware UTC datetimes and ``run`` as strings.
     """
     name = str(path)
-    if os.path.isfile(path):
+    # a file beyond the input bound is refused for its size by the reader, which says so
+    if os.path.isfile(path) and os.path.getsize(path) <= max_input_bytes():
         check_memory(os.path.getsize(path) * TABLE_BYTES_PER_FILE_BYTE, "reading this table",
                      file=name, hint="split the file or set DPDFIT_MAX_MEMORY_GB")
     candidates = (numeric if numeric is not None else
                   [c for c in list(required) + list(optional) if c not in ("run", "timestamp")])
-    df = read_csv_strings(path, name, within=within, numbers=candidates)
+    df = read_csv_strings(path, name, within=within, max_rows=max_rows, numbers=candidates)
     _check_columns(df, required, name)
     present_opt = [c for c in optional if c in df.columns]
     if numeric is None:
@@ -143,21 +150,66 @@ def require_file(path: str | os.PathLike) -> str:
 
 
 def read_csv_strings(path, name: str | None = None, *, within=None,
-                     numbers=()) -> pd.DataFrame:
+                     max_rows: int | None = None, numbers=()) -> pd.DataFrame:
     """The file as a table of strings, the one place a CSV of recordings is parsed.
 
     The file is read by :func:`~dpdfit.recordings.input_files.read_input_bytes` (a regular
     file, inside the folder ``within`` when it comes from one -- a campaign folder --, at
     most :func:`~dpdfit.recordings.input_files.max_input_bytes`) and parsed by
     :func:`~dpdfit.recordings.csv_text.parse_csv_strings` (the header and every row checked).
+    With ``max_rows``, the rows are counted as the file is read (:func:`_rows_at_most`):
+    a file with more is refused before the rest of it is read or anything is parsed.
     InputError naming ``name`` (default the path) when it is absent, empty or not a CSV;
     :class:`~dpdfit.errors.RefusedFileError` when it is not a table a lab writes.
     ``numbers``: columns returned as float64 when each of their cells is a finite number
     (:func:`~dpdfit.recordings.csv_text.parse_csv_table`; strings otherwise)."""
     name = str(path) if name is None else name
-    raw = read_input_bytes(path, within=within, what="file")
+    if max_rows is None:
+        raw = read_input_bytes(path, within=within, what="file")
+    else:
+        raw = _rows_at_most(path, name, within, int(max_rows))
     remember_sha256(path, raw)      # read once: parsed and hashed (provenance) from one read
     return parse_csv_table(raw, name, numbers)
+
+
+#: lines the parser skips (:func:`~dpdfit.recordings.csv_text.parse_csv_strings`): a
+#: ``#`` at column 1, or blank
+_SKIPPED_LINE = re.compile(rb"^(?:#[^\n]*|[ \t\r\x0b\x0c]*)\n", re.MULTILINE)
+
+
+def _is_row(line: bytes) -> bool:
+    """A line (its break included) the parser does not skip."""
+    return not (line.startswith(b"#") or not line.strip())
+
+
+def _rows_at_most(path, name: str, within, max_rows: int) -> bytes:
+    """The bytes of CSV file ``path``, read chunk by chunk
+    (:func:`~dpdfit.recordings.input_files.read_input_chunks`) while its lines are
+    counted as the parser counts rows (comment and blank lines skipped, the header not a
+    row): an InputError naming ``name`` as soon as it holds more than ``max_rows`` rows,
+    the rest not read.  A line break inside quotes counts as a row here (a table a lab
+    writes, a schedule, has none)."""
+    chunks, lines, spanning, first_line = [], 0, [], True
+    for chunk in read_input_chunks(path, within=within, what="file"):
+        chunks.append(chunk)
+        last = chunk.rfind(b"\n") + 1
+        if last == 0:                       # a line longer than the chunk goes on
+            spanning.append(chunk)
+            continue
+        first = chunk.find(b"\n") + 1
+        # the line begun in earlier chunks (the file's first without its byte-order
+        # mark), then the lines wholly in this one
+        line = b"".join([*spanning, chunk[:first]])
+        if first_line:
+            line, first_line = line.removeprefix(b"\xef\xbb\xbf"), False
+        lines += _is_row(line)
+        whole = chunk[first:last]
+        lines += whole.count(b"\n") - len(_SKIPPED_LINE.findall(whole))
+        spanning = [chunk[last:]]
+        if lines > max_rows + 1:            # the header and max_rows rows
+            raise InputError(f"has more than {max_rows} rows, the most dpdfit reads from "
+                             "this file (the rest of it was not read)", file=name)
+    return b"".join(chunks)
 
 
 def _check_columns(df: pd.DataFrame, required, name: str) -> None:

@@ -46,6 +46,7 @@ from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
+from dpdfit.recordings.input_files import read_input_text
 from dpdfit.simulation import injections
 from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.closed_loop import ambiguity, close_loop
@@ -227,7 +228,8 @@ def _read_log(path: Path) -> dict:
     """Finished runs of a run log (JSON lines), keyed by :func:`_job_key`."""
     done = {}
     if path.exists():
-        lines = path.read_text().splitlines()
+        # a regular file of bounded size: a FIFO or a device in its place is refused unread
+        lines = read_input_text(path, what="run log (--log)").splitlines()
         for i, line in enumerate(lines, 1):
             if not line.strip():
                 continue
@@ -235,7 +237,7 @@ def _read_log(path: Path) -> dict:
                 r = json.loads(line)
                 if "error" not in r:              # a failed run is run again
                     done[_job_key(r)] = r
-            except (ValueError, KeyError, TypeError):
+            except (ValueError, KeyError, TypeError, RecursionError):
                 if line.lstrip().startswith("{") and not line.rstrip().endswith("}"):
                     # a record cut by a stop mid-write: that run is simply done again
                     continue

@@ -27,6 +27,7 @@ alternatives) and ``spurious_extra`` (every concealed effect named, and more).
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 
@@ -35,6 +36,7 @@ import numpy as np
 from dpdfit.analyses.diagnosis.diagnose import diagnose
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import DpdfitError, InputError
+from dpdfit.recordings.input_files import read_input_json
 from dpdfit.simulation.dispatch import run_jobs
 
 __all__ = ["read_truth", "truth_effects", "campaign_folders", "run_external_one", "summarise_external",
@@ -45,13 +47,17 @@ __all__ = ["read_truth", "truth_effects", "campaign_folders", "run_external_one"
 def read_truth(path) -> dict:
     """The truth file: campaign id -> object with ``effect`` (InputError naming what is wrong)."""
     path = Path(path)
-    if not path.is_file():
+    if not os.path.lexists(path):
         raise InputError("truth file does not exist", file=str(path))
     try:
-        truth = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON ({exc.msg}, line {exc.lineno})", file=str(path)
-                         ) from None
+        # a regular file, bounded in size and depth (a FIFO or a device refused, not read)
+        truth = read_input_json(path, what="truth file")
+    except InputError as exc:
+        bad = exc.__context__                 # the parser's error, when it is one
+        if not isinstance(bad, json.JSONDecodeError):
+            raise
+        raise InputError(f"not valid JSON ({bad.msg}, line {bad.lineno})",
+                         file=str(path)) from None
     if not isinstance(truth, dict):
         raise InputError("must hold a JSON object: campaign id -> {\"effect\": ...}",
                          file=str(path))

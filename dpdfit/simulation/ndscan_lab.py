@@ -10,8 +10,8 @@ campaigns with them and :mod:`dpdfit.simulation.recorded_artiq` continues one.
 
 from __future__ import annotations
 
+import io
 import itertools
-import json
 from datetime import datetime
 from pathlib import Path
 
@@ -20,11 +20,27 @@ import pandas as pd
 
 from dpdfit.errors import DpdfitError
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
+from dpdfit.recordings.input_files import read_input_bytes, read_input_json
 from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets, stored_in_si,
                                                   write_results_file)
 
-__all__ = ["NdscanLab", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
+__all__ = ["NdscanLab", "read_campaign_table", "read_campaign_json", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
            "time_scan_runs", "count_channels", "write_ndscan_gate_runs"]
+
+
+def read_campaign_table(folder, table: str) -> pd.DataFrame:
+    """The campaign's table ``table`` (``folder/<table>.csv``) as pandas reads it, read
+    through :func:`~dpdfit.recordings.input_files.read_input_bytes`: a regular file inside
+    the folder, size bounded (a FIFO or a link out of the folder refused, not read)."""
+    path = Path(folder, f"{table}.csv")
+    data = read_input_bytes(path, within=folder, what="campaign table")
+    return pd.read_csv(io.BytesIO(data), comment="#")
+
+
+def read_campaign_json(folder) -> dict:
+    """The campaign's ``campaign.json``, read through
+    :func:`~dpdfit.recordings.input_files.read_input_json` (inside the folder)."""
+    return read_input_json(Path(folder, "campaign.json"), within=folder, what="campaign.json")
 
 
 def epoch(iso: str) -> float:
@@ -37,9 +53,8 @@ class NdscanLab:
     the runs written from them into ``out`` (``rid``: the last run's, in order)."""
 
     def __init__(self, campaign_dir, out):
-        folder = Path(campaign_dir)
-        self.t = {n: pd.read_csv(folder / f"{n}.csv", comment="#") for n in CAMPAIGN_TABLES}
-        self.campaign = json.loads((folder / "campaign.json").read_text())
+        self.t = {n: read_campaign_table(campaign_dir, n) for n in CAMPAIGN_TABLES}
+        self.campaign = read_campaign_json(campaign_dir)
         self.out, self.rid = Path(out), 0
 
     def run(self, class_name, start, datasets, arguments=None, metadata=None):

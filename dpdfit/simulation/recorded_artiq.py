@@ -17,7 +17,7 @@ partial=True)``, as ``dpdfit add`` reads it).
 from __future__ import annotations
 
 import itertools
-import json
+import os
 import tomllib
 from datetime import datetime, timezone
 from pathlib import Path
@@ -27,6 +27,7 @@ import pandas as pd
 
 from dpdfit.errors import InputError
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
+from dpdfit.recordings.input_files import read_input_json
 from dpdfit.recordings.outputs import staged_folder
 from dpdfit.recordings.schedule import read_schedule
 from dpdfit.simulation.artiq_results import copy_mapping
@@ -34,6 +35,7 @@ from dpdfit.simulation.artiq_results_file import axis, channel, stored_in_si
 from dpdfit.simulation.campaign import CampaignConfig
 from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_axis, epoch,
+                                          read_campaign_json, read_campaign_table,
                                           time_scan_runs, write_calibration_runs,
                                           write_ndscan_gate_runs, write_spectra_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
@@ -199,11 +201,13 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
 
 
 def read_campaign_tables(folder) -> tuple:
-    """(tables, campaign.json) of a campaign folder (tables it lacks are left out)."""
+    """(tables, campaign.json) of a campaign folder (tables it lacks are left out), each
+    read through the input reader (:func:`~dpdfit.simulation.ndscan_lab.read_campaign_table`):
+    a table that is there but not a regular file inside the folder is refused."""
     folder = Path(folder)
-    tables = {t: pd.read_csv(folder / f"{t}.csv", comment="#") for t in CAMPAIGN_TABLES
-              if (folder / f"{t}.csv").is_file()}
-    return tables, json.loads((folder / "campaign.json").read_text())
+    tables = {t: read_campaign_table(folder, t) for t in CAMPAIGN_TABLES
+              if os.path.lexists(folder / f"{t}.csv")}
+    return tables, read_campaign_json(folder)
 
 
 def _outside(campaign: Path, out: Path) -> None:
@@ -248,18 +252,18 @@ def record_schedule(campaign_dir, schedule, out_dir, progress=None) -> StandInRe
     """
     folder, out = Path(campaign_dir), Path(out_dir)
     truth = folder / "truth.json"
-    if not truth.is_file():
+    if not os.path.lexists(truth):
         raise InputError("has no truth.json: only a simulated campaign can stand in for the "
                          "lab", file=str(folder))
     _outside(folder, out)
     df = schedule if isinstance(schedule, pd.DataFrame) else read_schedule(schedule)
     measurements = schedule_measurements(df)
+    # a regular file inside the campaign, bounded in size and depth (read_input_json)
+    recorded = read_input_json(truth, within=folder, what="truth.json")
     try:
-        cfg = CampaignConfig.from_truth(json.loads(truth.read_text()))
+        cfg = CampaignConfig.from_truth(recorded)
     except InputError as e:
         raise InputError(str(e), file=str(truth)) from None
-    except ValueError as e:
-        raise InputError(f"not JSON: {e}", file=str(truth)) from None
     tables, campaign = read_campaign_tables(folder)
     rec = record_further(cfg, measurements, original=tables, progress=progress)
     check_recorded_as_scheduled(df, rec.tables, str(schedule) if not isinstance(

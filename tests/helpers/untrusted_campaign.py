@@ -140,15 +140,18 @@ def assert_refused_in_process(capsys, argv, inputs: Path, output: Path | None = 
 
 
 def assert_refused_in_subprocess(argv, inputs: Path, output: Path | None = None,
-                                 needles=(), env: dict | None = None) -> tuple[str, float]:
+                                 needles=(), env: dict | None = None,
+                                 stdin=None) -> tuple[str, float]:
     """As :func:`assert_refused_in_process`, in a child process that is killed after
-    :data:`HANG_GUARD_S` (a hang fails the test instead of blocking it)."""
+    :data:`HANG_GUARD_S` (a hang fails the test instead of blocking it); ``stdin``: the
+    child's standard input (e.g. the read end of a pipe held open), else none."""
     before = tree_state(inputs)
     environ = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
     t0 = time.monotonic()
     proc = subprocess.run([sys.executable, "-m", "dpdfit", *map(str, argv)],
                           capture_output=True, text=True, timeout=HANG_GUARD_S,
-                          cwd=inputs, env=environ)
+                          cwd=inputs, env=environ,
+                          stdin=subprocess.DEVNULL if stdin is None else stdin)
     seconds = time.monotonic() - t0
     line = _check_line(proc.returncode, proc.stderr, output, needles)
     assert tree_state(inputs) == before

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import copy
 import math
+import sys
 import tomllib
 from pathlib import Path
 
@@ -170,6 +171,13 @@ def load_budget_config(path, *, within=None) -> dict:
         raise InputError(f"invalid TOML: {exc}", file=str(path)) from None
     except UnicodeDecodeError:
         raise InputError("not a text (UTF-8 TOML) file", file=str(path)) from None
+    except RecursionError:
+        raise InputError("invalid TOML: arrays or tables nested too deeply to read",
+                         file=str(path)) from None
+    except ValueError:
+        # tomllib converts an integer with int(), which refuses more digits than this
+        raise InputError(f"invalid TOML: an integer of more than "
+                         f"{sys.get_int_max_str_digits()} digits", file=str(path)) from None
     try:
         return validate_budget_config(raw)
     except InputError as exc:

@@ -18,6 +18,7 @@ from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
 from dpdfit.fits.calibration.amplitude import AmplitudeCalibration
 from dpdfit.fits.calibration.phase import PhaseCalibration
+from dpdfit.recordings.input_files import read_input_json
 from dpdfit.recordings.tables import require_file
 
 __all__ = ["Calibration", "load_calibration", "check_calibration_dict", "MAX_POWER"]
@@ -87,17 +88,18 @@ class Calibration(Displayable):
 
 
 def load_calibration(path: str | os.PathLike) -> Calibration:
-    """Read a ``calibration.json`` written by ``dpdfit calibrate``."""
+    """Read a ``calibration.json`` written by ``dpdfit calibrate`` (through
+    :func:`~dpdfit.recordings.input_files.read_input_json`)."""
     name = require_file(path)
     try:
-        with open(path, encoding="utf-8") as fh:
-            d = json.load(fh)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=name) from None
-    except UnicodeDecodeError as exc:
-        raise InputError(f"not UTF-8 text (byte {exc.start + 1})", file=name) from None
-    except OSError as exc:
-        raise InputError(f"cannot read the file ({exc.strerror or exc})", file=name) from None
+        # a regular file, bounded in size and depth: a FIFO or a device is refused unread
+        d = read_input_json(path, what="calibration file")
+    except InputError as exc:
+        bad = exc.__context__                 # the parser's error, when it is one
+        if not isinstance(bad, json.JSONDecodeError):
+            raise
+        raise InputError(f"not valid JSON ({bad.msg} at line {bad.lineno})",
+                         file=name) from None
     check_calibration_dict(d, name)
     try:
         return Calibration.from_dict(d, file=name)

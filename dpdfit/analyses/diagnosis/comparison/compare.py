@@ -37,6 +37,7 @@ from dpdfit.analyses.diagnosis.comparison.standing import (alternatives_standing
                                                            evidence_rows)
 from dpdfit.analyses.diagnosis.proposal.next_measurement import describe_recording
 from dpdfit.core.display import Displayable
+from dpdfit.errors import printable
 
 __all__ = ["Comparison", "compare_diagnoses"]
 
@@ -123,9 +124,11 @@ class Comparison(Displayable):
         return {"warnings": [] if not why else [f"no separation to compare: {why}"]}
 
     def report(self) -> str:
-        return "\n".join(["What the recording changed "
-                          f"(previous diagnosis of {self.campaign_before}):"]
-                         + [f"  {x}" for x in self.report_lines()])
+        # the earlier diagnosis's text (a verdict, a reason) may come from elsewhere: each
+        # line printable, so that none can drive the terminal
+        heading = f"What the recording changed (previous diagnosis of {self.campaign_before}):"
+        return "\n".join(printable(line) for line in
+                         [heading, *(f"  {x}" for x in self.report_lines())])
 
     def report_lines(self) -> list[str]:
         """The report's lines (without the heading): verdict, alternatives, separation,
@@ -172,7 +175,7 @@ class Comparison(Displayable):
         if isinstance(s.settings, dict):
             try:
                 line += f" for {describe_recording(s.what, s.settings)}"
-            except (KeyError, TypeError, ValueError):
+            except (KeyError, TypeError, ValueError, OverflowError):
                 pass                      # a hand-edited proposal: the line stands without
         return line
 

@@ -8,12 +8,13 @@ from __future__ import annotations
 import json
 import math
 import os
-from pathlib import Path
 
+from dpdfit.analyses.diagnosis.comparison.diagnosis_fields import check_diagnosis_fields
 from dpdfit.analyses.diagnosis.comparison.refits import binding_refits
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
+from dpdfit.recordings.input_files import read_input_json
 
 __all__ = ['DIAGNOSIS_KEYS', 'read_diagnosis', 'as_diagnosis_dict', 'named_in', 'json_number', 'hypothesis_label', 'refit_request', 'unknown_in_binding']
 
@@ -29,34 +30,27 @@ def _check(d, where: str | None) -> dict:
                 else f"no {', '.join(repr(k) for k in missing)}")
         raise InputError(f"not a dpdfit diagnosis ({what}; expected the output of "
                          f"'dpdfit diagnose --json')", file=where)
-    if (not isinstance(d["verdict"], str) or not isinstance(d["ranking"], list)
-            or not isinstance(d["effects"], list)):
-        raise InputError("not a dpdfit diagnosis ('verdict' must be text, 'ranking' and "
-                         "'effects' lists)", file=where)
+    check_diagnosis_fields(d, where)
     return d
 
 
 def read_diagnosis(path: str | os.PathLike) -> dict:
     """The JSON dict of an earlier diagnosis (``dpdfit diagnose --json`` written to a
-    file); an :class:`~dpdfit.errors.InputError` naming the file when it cannot be read,
-    is not JSON or is not a dpdfit diagnosis."""
-    where = str(path)
-    p = Path(path)
-    if p.is_dir():
-        raise InputError("is a folder, not a diagnosis JSON file", file=where)
+    file); an :class:`~dpdfit.errors.InputError` naming the file when it is not a regular
+    file, is larger than :data:`~dpdfit.core.defaults.MAX_JSON_BYTES`, is not JSON or is
+    not a dpdfit diagnosis (a field the comparison reads of another type:
+    :func:`~dpdfit.analyses.diagnosis.comparison.diagnosis_fields.check_diagnosis_fields`).
+    It is read through :func:`~dpdfit.recordings.input_files.read_input_json`: a FIFO or a
+    device is refused, not read."""
     try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("diagnosis JSON file not found", file=where) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        why = getattr(exc, "strerror", None) or "not UTF-8 text"
-        raise InputError(f"cannot be read ({why})", file=where) from None
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not JSON ({exc.msg}, line {exc.lineno}); expected the output "
-                         "of 'dpdfit diagnose --json'", file=where) from None
-    return _check(d, where)
+        d = read_input_json(path, what="diagnosis JSON file")
+    except InputError as exc:
+        bad = exc.__context__                 # the parser's error, when it is one
+        if not isinstance(bad, json.JSONDecodeError):
+            raise
+        raise InputError(f"not JSON ({bad.msg}, line {bad.lineno}); expected the output "
+                         "of 'dpdfit diagnose --json'", file=str(path)) from None
+    return _check(d, str(path))
 
 
 def as_diagnosis_dict(d) -> dict:
@@ -79,7 +73,7 @@ def json_number(v):
     NaN or text)."""
     try:
         v = float(v)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         return None
     return v if math.isfinite(v) else None
 

@@ -82,7 +82,7 @@ def achieved_separation(before: dict, after: dict) -> float | None:
     try:
         g0 = float(before["rival"]) - float(before["truth"])
         g1 = float(after["rival"]) - float(after["truth"])
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OverflowError):
         return None
     return abs(g1 - g0)
 
@@ -108,7 +108,7 @@ def binding_chi2(proposal: dict | None) -> dict | None:
     b = _binding(proposal)
     try:
         return {r: float(b[r]["chi2"]) for r in _SIDES}
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OverflowError):
         return None
 
 

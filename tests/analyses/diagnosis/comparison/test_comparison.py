@@ -27,65 +27,10 @@ from dpdfit.analyses.diagnosis.result import Diagnosis
 from dpdfit.errors import InputError
 from tests.helpers.cli_refusal import assert_refused
 from tests.helpers.cli_run import run
-
-TRUTH = {"effects": ["stale_calibration"], "forms": ["aom"], "chi2": 100.0,
-         "expected_delta_bic": 27.0}
-RIVAL = {"effects": ["detector_nonlinearity"], "forms": ["linear"], "chi2": 110.0,
-         "expected_delta_bic": 45.0}
-PROPOSAL = {"what": "spectra", "settings": {"amplitudes": [0.85, 0.95], "dpd": [0, 1]},
-            "expected_delta_bic": 27.0, "decisive": True,
-            "separates": ["stale_calibration", "detector_nonlinearity"],
-            "binding": {"truth": TRUTH, "rival": RIVAL}}
-
-
-def _alt(effect, named, replaces, gap=4.0):
-    return {"effect": effect, "named": named, "replaces": replaces, "delta_bic": gap + 1,
-            "delta_bic_tempered": gap, "tempering": 1.5}
-
-
-def _rank(effect, dbic, tempered=None):
-    return {"effect": effect, "delta_bic": dbic, "p_value": 1e-9, "params": {},
-            "params_err": {}, **({} if tempered is None else {"delta_bic_tempered": tempered})}
-
-
-def _diag(verdict, named, alternatives=(), ranking=(), nxt=None, refits=None,
-          campaign="camp"):
-    d = {"campaign": campaign, "verdict": verdict,
-         "effects": [{"effect": e, "form": "catalog", "fidelity_cost": 1e-3,
-                      "fidelity_cost_err": 1e-4, "sizes": {}} for e in named],
-         "ranking": list(ranking), "alternatives": list(alternatives), "next_measurement": nxt}
-    if refits is not None:
-        d["refits"] = refits
-    return d
-
-
-def _before():
-    return _diag("stale_calibration", ["stale_calibration"],
-                 [_alt("detector_nonlinearity", ["detector_nonlinearity"], "stale_calibration"),
-                  _alt("dephasing", ["stale_calibration", "dephasing"], None),
-                  _alt("spam_offset", ["spam_offset"], "stale_calibration")],
-                 [_rank("stale_calibration", -80.0, -40.0),
-                  _rank("detector_nonlinearity", -75.0, -37.0),
-                  _rank("spam_offset", -60.0, -33.0), _rank("dephasing", -20.0)],
-                 nxt=PROPOSAL, campaign="before")
-
-
-def _refits(truth_chi2, rival_chi2):
-    return [{"effects": RIVAL["effects"], "forms": RIVAL["forms"], "chi2": rival_chi2},
-            {"effects": TRUTH["effects"], "forms": TRUTH["forms"], "chi2": truth_chi2}]
-
-
-def _after(nxt=None, refits=None):
-    return _diag("stale_calibration", ["stale_calibration", "dephasing"],
-                 [_alt("spam_offset", ["spam_offset", "dephasing"], "stale_calibration", 6.0),
-                  _alt("motional_heating", ["stale_calibration", "dephasing",
-                                            "motional_heating"], None)],
-                 [_rank("stale_calibration", -150.0, -90.0),
-                  _rank("spam_offset", -120.0, -80.0),
-                  _rank("detector_nonlinearity", -60.0, -30.0),
-                  _rank("dephasing", -25.0, -12.0), _rank("motional_heating", -15.0)],
-                 nxt=nxt, refits=_refits(200.0, 240.0) if refits is None else refits,
-                 campaign="after")
+from tests.helpers.diagnosis_dicts import (PROPOSAL, RIVAL, TRUTH, after as _after,
+                                           alternative as _alt, before as _before,
+                                           diagnosis as _diag, ranked as _rank,
+                                           refit_entries as _refits)
 
 
 def test_alternatives_are_settled_one_way_or_the_other_or_stay_open():
