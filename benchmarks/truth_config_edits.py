@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """How ``dpdfit write-artiq-results --schedule`` answers single-field edits of a campaign's truth.json.
 
-    python benchmarks/truth_config_edits.py [--limit N] [--json PATH]
+    python benchmarks/truth_config_edits.py [--limit N] [--key PREFIX] [--json PATH]
 
 A small simulated campaign whose truth.json holds a value of every kind its config can
 (``tests/helpers/truth_edits.py``: ``config_of_every_kind``) and a schedule of an
@@ -42,16 +42,14 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+import numpy as np
+import pandas as pd
+from record import add_json_option, summary_line, write_record
 
-from record import add_json_option, summary_line, write_record  # noqa: E402
-
-from dpdfit.cli.main import main  # noqa: E402
-from dpdfit.recordings.schedule import write_schedule  # noqa: E402
-from dpdfit.simulation.campaign import simulate_campaign  # noqa: E402
-from tests.helpers.truth_edits import (config_of_every_kind, path_text,  # noqa: E402
-                                       single_field_edits)
+from dpdfit.cli.main import main
+from dpdfit.recordings.schedule import write_schedule
+from dpdfit.simulation.campaign import simulate_campaign
+from tests.helpers.truth_edits import config_of_every_kind, path_text, single_field_edits
 
 #: a guard against a hang: a refusal takes a fraction of a second, a run a few seconds
 TIMEOUT_S = 120.0
@@ -63,6 +61,8 @@ def _arguments():
     ap = add_json_option(argparse.ArgumentParser(description=summary_line(__doc__)))
     ap.add_argument("--limit", type=int, default=None,
                     help="only the first N edits (a quick look)")
+    ap.add_argument("--key", default="", metavar="PREFIX",
+                    help="only the edits of keys starting with PREFIX (e.g. injected)")
     return ap.parse_args()
 
 
@@ -139,7 +139,8 @@ def main_() -> None:
         code, err, _ = _run(argv, err_path)
         assert code == 0, err                             # the campaign as simulated
         shutil.rmtree(out)
-        edits = single_field_edits(truth["config"])[:args.limit]
+        edits = [e for e in single_field_edits(truth["config"])
+                 if path_text(e[0]).startswith(args.key)][:args.limit]
         rows, tally, t_start = [], Counter(), time.monotonic()
         for path, name, config in edits:
             truth_path.write_text(json.dumps({**truth, "config": config}, indent=2))
