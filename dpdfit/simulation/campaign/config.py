@@ -271,8 +271,6 @@ _DEFAULT = CampaignConfig()
 # What truth.json's config may hold: one kind per field (dpdfit.simulation.campaign.
 # truth_values), with the physically possible range, and the resources the simulator
 # takes bounded (dpdfit.core.defaults).  A field's default is always inside.
-_POSITIVE = Number(0.0, math.inf, lo_open=True, hi_open=True)
-_NONNEGATIVE = Number(0.0, math.inf, hi_open=True)
 _FINITE = Number(-math.inf, math.inf, lo_open=True, hi_open=True)
 _PROBABILITY = Number(0.0, 1.0)
 #: an amplitude of a recording (normalised RF amplitude; 0 drives nothing)
