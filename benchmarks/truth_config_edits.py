@@ -4,7 +4,7 @@
     python benchmarks/truth_config_edits.py [--limit N] [--key PREFIX] [--json PATH]
 
 A small simulated campaign whose truth.json holds a value of every kind its config can
-(``tests/helpers/truth_edits.py``: ``config_of_every_kind``) and a schedule of an
+(:func:`dpdfit.simulation.truth_edits.config_of_every_kind`) and a schedule of an
 amplitude run, spectra at two amplitudes and a population scan.  Every single-field
 edit of its truth.json ``config`` (each key, nested key and first and last list item,
 replaced by each value of ``REPLACEMENTS``: text, a list, null, -1, 0, 1e308, NaN,
@@ -49,7 +49,7 @@ from record import add_json_option, summary_line, write_record
 from dpdfit.cli.main import main
 from dpdfit.recordings.schedule import write_schedule
 from dpdfit.simulation.campaign import simulate_campaign
-from tests.helpers.truth_edits import config_of_every_kind, path_text, single_field_edits
+from dpdfit.simulation.truth_edits import config_of_every_kind, path_text, single_field_edits
 
 #: a guard against a hang: a refusal takes a fraction of a second, a run a few seconds
 TIMEOUT_S = 120.0

@@ -26,7 +26,7 @@ from tests.helpers.bundled_data import CAMPAIGN
 from tests.helpers.further_campaign import FURTHER
 from tests.helpers.further_campaign import small_config as further_small_config
 from tests.helpers.standin import SMALL
-from tests.helpers.truth_edits import (REPLACEMENTS, config_of_every_kind, edited, path_text,
+from dpdfit.simulation.truth_edits import (REPLACEMENTS, config_of_every_kind, edited, path_text,
                                        single_field_edits, value_paths)
 
 

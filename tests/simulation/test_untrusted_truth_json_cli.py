@@ -15,7 +15,7 @@ import dpdfit.simulation.recorded_artiq as recorded_artiq
 from dpdfit.recordings.schedule import write_schedule
 from dpdfit.simulation.campaign import simulate_campaign
 from tests.helpers.standin import SMALL
-from tests.helpers.truth_edits import edited
+from dpdfit.simulation.truth_edits import edited
 from tests.helpers.untrusted_campaign import (assert_refused_in_process,
                                               assert_refused_in_subprocess)
 

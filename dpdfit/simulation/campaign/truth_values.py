@@ -29,7 +29,7 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.simulation import injections
 
-__all__ = ["BadValue", "shown", "Number", "Integer", "Text", "Timestamp", "ListOf", "Fixed",
+__all__ = ["BadValue", "shown", "Kind", "Number", "Integer", "Text", "Timestamp", "ListOf", "Fixed",
            "Tagged", "Record", "Modulus", "Effects", "Injected"]
 
 #: longest piece of a text value quoted in a message
@@ -97,8 +97,22 @@ def _number(v, key: str, expected: str) -> float:
         raise BadValue(key, expected, v) from None
 
 
+class Kind:
+    """One kind of value of truth.json's config (the module doc): what :meth:`read` takes."""
+
+    def expected(self) -> str:
+        """What a value of this kind must be, as a message says it (``an integer in
+        [2, 10001]``)."""
+        raise NotImplementedError
+
+    def read(self, v, key: str):
+        """The config's value of the JSON value ``v`` at the key path ``key``; BadValue
+        naming ``key`` when ``v`` is not of this kind."""
+        raise NotImplementedError
+
+
 @dataclass(frozen=True)
-class Number:
+class Number(Kind):
     """A number in ``[lo, hi]`` (an end open when ``lo_open``/``hi_open``; ``hi`` may be
     infinite: ``Infinity`` is then taken unless open); NaN never.  Read as a float."""
 
@@ -126,7 +140,7 @@ class Number:
 
 
 @dataclass(frozen=True)
-class Integer:
+class Integer(Kind):
     """An integer in ``[lo, hi]`` (a JSON number without a fraction: ``5`` or ``5.0``; a
     flag is not an integer).  Read as an int."""
 
@@ -146,7 +160,7 @@ class Integer:
 
 
 @dataclass(frozen=True)
-class Text:
+class Text(Kind):
     """One of the texts ``choices``."""
 
     choices: tuple
@@ -161,7 +175,7 @@ class Text:
 
 
 @dataclass(frozen=True)
-class Timestamp:
+class Timestamp(Kind):
     """A date and time in ISO 8601 (:meth:`datetime.datetime.fromisoformat`) in the years
     ``first_year`` to ``last_year``: the campaign's recordings are dated days and hours
     after it, within the calendar."""
@@ -184,7 +198,7 @@ class Timestamp:
 
 
 @dataclass(frozen=True)
-class ListOf:
+class ListOf(Kind):
     """A list of ``min_items`` to ``max_items`` values of the kind ``item``, ``distinct``
     when asked, holding every value of ``holding``.  Read as a tuple."""
 
@@ -216,7 +230,7 @@ class ListOf:
 
 
 @dataclass(frozen=True)
-class Fixed:
+class Fixed(Kind):
     """A list of exactly the named values ``[name, ...]``, each of its kind.  Read as a
     tuple."""
 
@@ -233,7 +247,7 @@ class Fixed:
 
 
 @dataclass(frozen=True)
-class Tagged:
+class Tagged(Kind):
     """A list whose first value, a text, names its shape: ``shapes`` maps each such tag to
     the :class:`Fixed` of the values after it.  Read as a tuple (the tag first)."""
 
@@ -255,7 +269,7 @@ class Tagged:
 
 
 @dataclass(frozen=True)
-class Record:
+class Record(Kind):
     """An object of some of the fields of the frozen dataclass ``cls`` (a noise model),
     each of its kind in ``fields``; the fields it leaves out keep their defaults."""
 
@@ -277,7 +291,7 @@ class Record:
 
 
 @dataclass(frozen=True)
-class Modulus:
+class Modulus(Kind):
     """A complex parameter of which truth.json keeps the modulus (10 significant digits):
     the modulus, a :class:`Number` in ``[lo, hi]``, with the phase of ``default``; the
     modulus of ``default`` as written gives ``default`` itself."""
@@ -297,7 +311,7 @@ class Modulus:
 
 
 @dataclass(frozen=True)
-class Effects:
+class Effects(Kind):
     """The effects ``--effects`` named: an object of ``NAME`` (a registered effect's
     strength) or ``NAME.PARAM`` (one of its parameters) to a finite number.  ``key_check``
     parses a key (an :class:`~dpdfit.errors.InputError` saying why it is not one)."""
@@ -323,7 +337,7 @@ class Effects:
 
 
 @dataclass(frozen=True)
-class Injected:
+class Injected(Kind):
     """Effects of the diagnosis's registry injected with their values:
     ``[[effect, [[parameter, value], ...]], ...]``, each effect registered, each
     parameter one its injection takes (once), each value of the kind ``value``, or of

@@ -1,5 +1,10 @@
 """Single-field edits of a campaign's ``truth.json`` config, as a damaged or crafted file has them.
 
+What the tests of the config's contract
+(:data:`~dpdfit.simulation.campaign.config.TRUTH_CONTRACT`) and
+``benchmarks/truth_config_edits.py`` share: the edits, and a small campaign whose
+truth.json holds a value of every kind.
+
 :func:`value_paths` lists the places of a config that hold a value: every key, every key
 of a nested object, and the first and last item of every list, at every depth (a path
 is a tuple of keys and list indices).  :func:`edited` replaces the value at one path;
@@ -11,7 +16,9 @@ as a message names it (``scan_shots[0][1]``, ``photodiode.p_full``).
 from __future__ import annotations
 
 import copy
-import dataclasses
+
+__all__ = ["REPLACEMENTS", "value_paths", "edited", "path_text", "single_field_edits",
+           "config_of_every_kind"]
 
 #: what a single-field edit puts in place of a value: another kind (text, a list, null,
 #: a flag, an object, a list nested deeper), or a number no campaign has (-1, 0, 1e308,
@@ -76,13 +83,17 @@ def single_field_edits(config: dict) -> list[tuple[tuple, str, dict]]:
 
 def config_of_every_kind():
     """``(config, effects)`` of a small campaign whose truth.json holds a value of every
-    kind its config can: the stand-in tests' campaign (:data:`~tests.helpers.standin.SMALL`)
-    with further recordings of every kind (a new gate setting among them) and two effects
-    named by ``--effects`` (one with a second parameter).  Simulated by
+    kind its config can: direct spectra, two gate amplitudes, two scans, a calibration run
+    after the recordings, further recordings of every kind (a new gate setting among them)
+    and two effects named by ``--effects`` (one with a second parameter).  Simulated by
     ``simulate_campaign(folder, config=config, effects=effects)`` in a few seconds."""
-    from dpdfit.simulation.campaign import parse_effects
-    from tests.helpers.standin import SMALL
+    from dpdfit.simulation.campaign import CampaignConfig, parse_effects
     further = (("phase_run",), ("amplitude_run",), ("scan", 0.4, 1, 200, 0),
                ("scan", 0.5, 0, 100, 100), ("time_scan", 0.6, 0, 100, 4))
-    config = dataclasses.replace(SMALL, injected=(), effects={}, further=further)
+    config = CampaignConfig(seed=11, spectra_mode="direct", n_amp_runs=5, amp_span_days=6.0,
+                            runs_after_recordings=1, n_phase_runs=2, phase_span_hours=1.0,
+                            cal_points=51, trace_amplitudes=(0.2, 0.4, 0.6, 0.8),
+                            bundled_traces=(), gate_amplitudes=(0.4, 0.6),
+                            scan_shots=((300, 300), (300, 200)), time_scan_A=0.6,
+                            time_scan_points=7, further=further)
     return config, parse_effects("spam_offset=0.002,aom_memory=50,aom_memory.f_off=2")
