@@ -285,7 +285,8 @@ MAX_CSV_COLUMNS = 1000
 # allocates and loops by these numbers, so each is bounded far beyond what a campaign holds,
 # and a crafted truth.json is refused before anything is simulated.
 #: samples of one simulated heterodyne trace: 2^24, 17 ms at 1 GS/s (the bundled traces
-#: have 2^21); the simulator holds a few complex copies of a trace, about 1 GB at the bound
+#: have 2^21); the simulator holds a few complex copies of a trace: one trace of 2^24
+#: samples raised the peak memory by 1.0 GiB (0.13 GiB at 2^21)
 MAX_TRACE_SAMPLES = 2**24
 #: calibration runs of one kind in a simulated campaign (the bundled campaign has 34
 #: amplitude runs and 6 phase runs, benchmarks/scale.py's 64x campaign 2176 and 384)
