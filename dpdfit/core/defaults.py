@@ -22,7 +22,9 @@ __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_OR
            "MAX_INPUT_BYTES_VARIABLE", "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_CSV_COLUMNS", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
            "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
-           "PYON_MAX_DEPTH", "MAX_FILES_PER_SOURCE"]
+           "PYON_MAX_DEPTH", "MAX_FILES_PER_SOURCE", "MAX_TRACE_SAMPLES", "MAX_SIMULATED_RUNS",
+           "MAX_SIMULATED_POINTS", "MAX_SIMULATED_ROWS", "MAX_TABLE_POINTS",
+           "MAX_SIMULATED_SETTINGS", "MAX_SHOTS", "MAX_CAMPAIGN_DAYS"]
 
 #: sideband detuning nu of the gate tones from the carrier, Hz (S4)
 NU_HZ = 1.84e6
@@ -277,3 +279,30 @@ MAX_JSON_BYTES = 64 * 2**20
 MAX_JSON_DEPTH = 64
 #: the most columns of a CSV table (a campaign's widest table has about twenty)
 MAX_CSV_COLUMNS = 1000
+
+# What a simulated campaign's config may hold (its truth.json, read back when the simulator
+# stands in for the lab: dpdfit.simulation.campaign.config.TRUTH_CONTRACT).  The simulator
+# allocates and loops by these numbers, so each is bounded far beyond what a campaign holds,
+# and a crafted truth.json is refused before anything is simulated.
+#: samples of one simulated heterodyne trace: 2^24, 17 ms at 1 GS/s (the bundled traces
+#: have 2^21); the simulator holds a few complex copies of a trace: one trace of 2^24
+#: samples raised the peak memory by 1.0 GiB (0.13 GiB at 2^21)
+MAX_TRACE_SAMPLES = 2**24
+#: calibration runs of one kind in a simulated campaign (the bundled campaign has 34
+#: amplitude runs and 6 phase runs, benchmarks/scale.py's 64x campaign 2176 and 384)
+MAX_SIMULATED_RUNS = 100_000
+#: points of one simulated calibration run or time scan (the bundled runs have 201)
+MAX_SIMULATED_POINTS = 10_001
+#: rows of a simulated campaign's calibration tables together (its runs times their
+#: points: 8040 in the bundled campaign, 0.5 million in the 64x one), each a few hundred
+#: bytes on the way to its CSV text
+MAX_SIMULATED_ROWS = 10**7
+#: points of a simulated predistortion table (:attr:`ErrorModel.table_points`: 4096)
+MAX_TABLE_POINTS = 2**20
+#: gate settings, scans per setting and bundled traces of a simulated campaign (a campaign
+#: has a few of each; each scan of each setting is one run of the gate engine)
+MAX_SIMULATED_SETTINGS = 1000
+#: shots of one point of a simulated scan: 10^9, months of a lab at ~100 shots/s
+MAX_SHOTS = 10**9
+#: days a simulated campaign spans (its calibration runs, a stale table): ten years
+MAX_CAMPAIGN_DAYS = 3650.0

@@ -260,10 +260,7 @@ def record_schedule(campaign_dir, schedule, out_dir, progress=None) -> StandInRe
     measurements = schedule_measurements(df)
     # a regular file inside the campaign, bounded in size and depth (read_input_json)
     recorded = read_input_json(truth, within=folder, what="truth.json")
-    try:
-        cfg = CampaignConfig.from_truth(recorded)
-    except InputError as e:
-        raise InputError(str(e), file=str(truth)) from None
+    cfg = CampaignConfig.from_truth(recorded, file=str(truth))     # checked before it runs
     tables, campaign = read_campaign_tables(folder)
     rec = record_further(cfg, measurements, original=tables, progress=progress)
     check_recorded_as_scheduled(df, rec.tables, str(schedule) if not isinstance(

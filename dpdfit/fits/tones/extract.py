@@ -94,7 +94,7 @@ from dpdfit.fits.tones.periodogram import FLATTOP_ENBW_BINS, MAIN_LOBE_BINS, fla
 from dpdfit.fits.tones.results import SidebandTones, ToneMap, TraceSpectrum
 from dpdfit.recordings.traces import as_trace
 
-__all__ = ["trace_tone_powers", "NOISE_BAND_MARGIN", "AT_NOISE_FLOOR"]
+__all__ = ["trace_tone_powers", "check_trace_layout", "NOISE_BAND_MARGIN", "AT_NOISE_FLOOR"]
 
 #: The noise-floor band extends this many harmonic spacings xi0 beyond the
 #: outermost requested tone.
@@ -196,6 +196,31 @@ def _check_tone_layout(expected: dict, df: float, s: _Settings) -> tuple[list, f
                 f"at {format_hz(f2)} are {format_hz(f2 - f1)} apart, not more than the "
                 f"{margin_txt}")
     return tones, margin
+
+
+def _layout(N: int, s: _Settings) -> tuple:
+    """``(signs, expected, tones, margin)`` of a trace of ``N`` samples: the sign of each
+    sideband, the expected frequency of each requested tone, the tones sorted and their
+    margin; InputError when the trace cannot resolve them (resolution, margins)."""
+    _check_resolution(N, s)
+    blue_sign = -1 if s.swap_sidebands else 1
+    signs = {"red": -blue_sign, "blue": blue_sign}
+    expected = {sb: {n: s.f_det + signs[sb] * (s.nu + n * s.xi0) for n in s.harmonics}
+                for sb in _SIDEBANDS}
+    tones, margin = _check_tone_layout(expected, s.fs / N, s)
+    return signs, expected, tones, margin
+
+
+def check_trace_layout(n_samples: int, fs: float, f_det: float, nu: float, xi0: float,
+                       harmonics: Iterable[int] = (0, 1, 2, 3), gate: Iterable[int] = (1, 2),
+                       *, search_hz: float = 5e3, swap_sidebands: bool = False) -> None:
+    """The checks of :func:`trace_tone_powers` that need no samples: its InputError when a
+    trace of ``n_samples`` at these settings could not be read (bad parameters, too short
+    to resolve ``xi0``, a sample rate too low, red tones at or below 0 Hz, colliding
+    tones), before such a trace is made."""
+    s = _settings(fs, f_det, nu, xi0, harmonics, gate, search_hz, 1e3, 20.0, 10.0,
+                  swap_sidebands)
+    _layout(int(n_samples), s)
 
 
 def _band_spectrum(x: np.ndarray, df: float, f_det: float, half: float, tones: list,
@@ -377,12 +402,7 @@ def trace_tone_powers(trace, fs: float, f_det: float, nu: float, xi0: float,
     x = as_trace(trace)
     N = x.size
     df = s.fs / N
-    _check_resolution(N, s)
-    blue_sign = -1 if s.swap_sidebands else 1
-    signs = {"red": -blue_sign, "blue": blue_sign}
-    expected = {sb: {n: s.f_det + signs[sb] * (s.nu + n * s.xi0) for n in s.harmonics}
-                for sb in _SIDEBANDS}
-    tones, margin = _check_tone_layout(expected, df, s)
+    signs, expected, tones, margin = _layout(N, s)
     half = max(abs(f - s.f_det) for f, _, _ in tones) + NOISE_BAND_MARGIN * s.xi0
     band = _band_spectrum(x, df, s.f_det, half, tones, margin)
     floor_dB, noise_band, n_noise = _noise_floor(band, N, s.f_det, half, tones, s.search_hz)

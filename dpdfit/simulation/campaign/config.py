@@ -14,20 +14,30 @@ its own parameters: :attr:`CampaignConfig.stale_days` and
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.core.defaults import (AMPLITUDE_ORDER, ERROR_MODEL, ETA_LD, ETA_REF, NU_HZ,
-                                  XI0_SPECTRA_HZ)
+from dpdfit.core.defaults import (AMPLITUDE_ORDER, ERROR_MODEL, ETA_LD, ETA_REF, INTEGER_MAX,
+                                  MAX_CAMPAIGN_DAYS, MAX_SCHEDULE_ROWS, MAX_SHOTS,
+                                  MAX_SIMULATED_POINTS, MAX_SIMULATED_ROWS, MAX_SIMULATED_RUNS,
+                                  MAX_SIMULATED_SETTINGS, MAX_TABLE_POINTS, MAX_TRACE_SAMPLES,
+                                  NU_HZ, XI0_SPECTRA_HZ)
 from dpdfit.errors import InputError
+from dpdfit.fits.tones.extract import check_trace_layout
+from dpdfit.models.waveforms import MAX_PRODUCT_ORDER, cardioid
 from dpdfit.simulation import injections
 from dpdfit.simulation.aom_truth import A_CORR, PHI_1, HeterodyneNoise, PhotodiodeNoise
 
+from .truth_values import (BadValue, Effects, Fixed, Injected, Integer, ListOf, Modulus, Number,
+                           Record, Tagged, Text, Timestamp)
+
 __all__ = ["SIMULATOR_EFFECTS", "DEFAULT_SEED", "RETIRED_TRUTH_KEYS", "parse_effects",
-           "CampaignConfig", "rng_for"]
+           "CampaignConfig", "TRUTH_CONTRACT", "TRUTH_RELATIONS", "rng_for"]
 
 #: Seed of the bundled campaign (``datasets/synthetic_campaign``): ``ERROR_MODEL.seed``.
 DEFAULT_SEED = ERROR_MODEL.seed
@@ -187,7 +197,7 @@ class CampaignConfig:
     further: tuple = ()
 
     @classmethod
-    def from_truth(cls, truth: dict) -> "CampaignConfig":
+    def from_truth(cls, truth: dict, file: str = "truth.json") -> "CampaignConfig":
         """The config a campaign's ``truth.json`` records (its ``config``, or that dict itself).
 
         The inverse of what the simulator writes: nested noise models, tuples (nested
@@ -196,22 +206,33 @@ class CampaignConfig:
         significant digits and of a complex parameter (the heterodyne ``leak``) only its
         modulus, so the config is the recorded one to that precision (a leak of the
         default modulus is the default leak; another keeps the default's phase):
-        written again, it gives the same ``config`` of truth.json.  A key the simulator
-        does not know, or a retired one that is not 0, is refused (InputError).
+        written again, it gives the same ``config`` of truth.json.
+
+        Every value is checked against :data:`TRUTH_CONTRACT` (its kind and range) and the
+        values together against :data:`TRUTH_RELATIONS`, before anything is simulated; a
+        key the simulator does not know, or a retired one that is not 0, is refused too.
+        Each refusal is one InputError naming ``file`` and the key (``scan_shots[0][1]``).
         """
-        d = dict(truth.get("config", truth)) if isinstance(truth, dict) else None
-        if d is None:
-            raise InputError("truth.json: its config is not a JSON object")
+        d = truth.get("config", truth) if isinstance(truth, dict) else None
+        if not isinstance(d, dict):
+            raise InputError("its config is not a JSON object", file=file)
+        d = dict(d)
         for k in RETIRED_TRUTH_KEYS:
-            if d.pop(k, 0.0) not in (0, 0.0):
-                raise InputError(f"truth.json: config key '{k}' is not 0: this simulator "
-                                 "injects effects only through 'injected'")
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        unknown = sorted(set(d) - set(fields))
+            v = d.pop(k, 0.0)
+            if isinstance(v, bool) or v not in (0, 0.0):
+                raise InputError(f"config key '{k}' is not 0: this simulator injects effects "
+                                 "only through 'injected'", file=file)
+        unknown = sorted(set(d) - set(TRUTH_CONTRACT), key=str)
         if unknown:
-            raise InputError(f"truth.json: unknown config key '{unknown[0]}'")
-        default = cls()
-        kw = {k: _from_json(getattr(default, k), v, k) for k, v in d.items()}
+            raise InputError(f"unknown config key {_quoted(unknown[0])}", file=file)
+        try:
+            kw = {k: TRUTH_CONTRACT[k].read(v, k) for k, v in d.items()}
+            values = {f.name: kw.get(f.name, getattr(_DEFAULT, f.name))
+                      for f in dataclasses.fields(cls)}
+            for relation in TRUTH_RELATIONS:
+                relation.check(values)
+        except BadValue as exc:
+            raise InputError(str(exc), file=file) from None
         return cls(**kw)
 
     def inject(self, effects: dict) -> "CampaignConfig":
@@ -238,29 +259,194 @@ class CampaignConfig:
         return dataclasses.replace(cfg, effects=dict(effects))
 
 
-def _tuples(v):
-    return tuple(_tuples(x) for x in v) if isinstance(v, list) else v
+def _quoted(key) -> str:
+    """A key of truth.json's config as a message quotes it (its first characters)."""
+    text = str(key)
+    return repr(text if len(text) <= 40 else text[:40] + "...")
 
 
-def _from_json(default, v, key: str):
-    """A config value from its truth.json form, shaped as the field's ``default``."""
-    if dataclasses.is_dataclass(default):
-        if not isinstance(v, dict) or set(v) - {f.name for f in dataclasses.fields(default)}:
-            raise InputError(f"truth.json: config key '{key}' is not a {type(default).__name__}")
-        return dataclasses.replace(default, **{k: _from_json(getattr(default, k), x, f"{key}.{k}")
-                                               for k, x in v.items()})
-    if isinstance(default, complex):
-        # truth.json keeps the modulus only (10 digits): the default's phase
-        if float(f"{abs(default):.10g}") == v:
-            return default
-        return complex(v * np.exp(1j * np.angle(default)))
-    if isinstance(default, tuple):
-        if not isinstance(v, list):
-            raise InputError(f"truth.json: config key '{key}' is not a list")
-        return _tuples(v)
-    if isinstance(default, dict) and not isinstance(v, dict):
-        raise InputError(f"truth.json: config key '{key}' is not an object")
-    return v
+_DEFAULT = CampaignConfig()
+
+
+# What truth.json's config may hold: one kind per field (dpdfit.simulation.campaign.
+# truth_values), with the physically possible range, and the resources the simulator
+# takes bounded (dpdfit.core.defaults).  A field's default is always inside.
+_FINITE = Number(-math.inf, math.inf, lo_open=True, hi_open=True)
+_PROBABILITY = Number(0.0, 1.0)
+#: an amplitude of a recording (normalised RF amplitude; 0 drives nothing)
+_AMPLITUDE = Number(0.0, 1.0, lo_open=True)
+_FLAG = Integer(0, 1)
+#: a time scale of a drift, in its unit (days or hours): a second to a thousand years
+_TIME_SCALE = Number(1e-5, 4e5)
+#: a harmonic of the gate tones, within the mixing products the simulator's record keeps
+_HARMONIC = Integer(-MAX_PRODUCT_ORDER, MAX_PRODUCT_ORDER)
+#: the drive's own tones (Cardioid(1,2)): every list of harmonics holds them
+_GATE_TONES = tuple(cardioid().n)
+_SHOTS = Integer(1, MAX_SHOTS)
+_A_CORR = Number(0.02, 2 / math.pi, hi_open=True, hi_text="2/pi")
+
+#: the kind and range of each field of :class:`CampaignConfig` in truth.json's config
+TRUTH_CONTRACT = {
+    "seed": Integer(0, INTEGER_MAX),
+    "start": Timestamp(1900, 2999),
+    # the AOM: a compressing amplifier has A_corr in (0, 2/pi) (BraggAOM; its gain is
+    # solved for A_corr above 0.0128); drifts are small, their time scales positive
+    "A_corr_mean": _A_CORR,
+    "A_corr_sigma": Number(0.0, 0.05),
+    "A_corr_tau_days": _TIME_SCALE,
+    "phi1_mean": Number(-math.pi, math.pi, lo_text="-pi", hi_text="pi"),
+    "phi1_sigma": Number(0.0, 0.5),
+    "phi1_tau_hours": _TIME_SCALE,
+    "eta_ref": Number(0.0, 1.0, lo_open=True),
+    "n_amp_runs": Integer(2, MAX_SIMULATED_RUNS),
+    "amp_span_days": Number(0.0, MAX_CAMPAIGN_DAYS),
+    "n_phase_runs": Integer(1, MAX_SIMULATED_RUNS),
+    "phase_span_hours": Number(0.0, 24 * MAX_CAMPAIGN_DAYS),
+    "cal_points": Integer(2, MAX_SIMULATED_POINTS),
+    "photodiode": Record(PhotodiodeNoise, {
+        "p_full": Number(1e-9, 1e9), "sigma_0": Number(1e-12, 1e9), "rel": Number(0.0, 1.0)}),
+    "heterodyne_phase": Record(HeterodyneNoise, {
+        "sigma_iq": Number(1e-12, 1.0), "leak": Modulus(HeterodyneNoise.leak, 0.0, 1.0),
+        "s_lock": _PROBABILITY, "excess": Number(1.0, 1e6)}),
+    "lut_points": Integer(2, MAX_TABLE_POINTS),
+    "order": Integer(1, 20),
+    "stale_days": Number(0.0, MAX_CAMPAIGN_DAYS),
+    "table_drift": Number(-0.5, 0.5),
+    # the heterodyne traces (relations below: the tones fit the record and the band)
+    "fs": Number(1e6, 1e11),
+    "n_samples": Integer(1, MAX_TRACE_SAMPLES),
+    "f_det": Number(0.0, 1e10),
+    "nu": Number(1e4, 1e9),
+    "xi0_spec": Number(1e2, 1e7),
+    "trace_amplitudes": ListOf(_AMPLITUDE, 1, MAX_SCHEDULE_ROWS),
+    "trace_noise_rms": Number(1e-9, 1e3),
+    "power_jitter_db": Number(0.0, 3.0),
+    "bundled_traces": ListOf(Fixed(("A", "dpd"), (_AMPLITUDE, _FLAG)), 0,
+                             MAX_SIMULATED_SETTINGS),
+    "spectra_harmonics": ListOf(_HARMONIC, 1, 2 * MAX_PRODUCT_ORDER + 1, distinct=True,
+                                holding=_GATE_TONES),
+    "spectra_mode": Text(("traces", "direct")),
+    # the gates (the engine's physical inputs: ErrorModel's ranges)
+    "gate_amplitudes": ListOf(_AMPLITUDE, 1, MAX_SIMULATED_SETTINGS, distinct=True),
+    "eta_ld": Number(0.0, 1.0, lo_open=True),
+    "nbar": Number(0.0, 10.0),
+    "alpha_khz": Number(1e-3, 1e3),
+    "xi0_rel_err": Number(0.0, 0.1),
+    "T2": Number(1e-6, math.inf, hi_open=True),       # the engine's rate 1/T2 is finite
+    "ndot": Number(0.0, 1e4),
+    "p_prep": _PROBABILITY,
+    "p_det": _PROBABILITY,
+    "scan_shots": ListOf(Fixed(("population shots", "parity shots"), (_SHOTS, _SHOTS)), 1,
+                         MAX_SIMULATED_SETTINGS),
+    "time_scan_A": _AMPLITUDE,
+    "time_scan_points": Integer(2, MAX_SIMULATED_POINTS),
+    "time_scan_max": Number(0.0, 10.0, lo_open=True),
+    "harmonics_gate": ListOf(_HARMONIC, 1, 2 * MAX_PRODUCT_ORDER + 1, distinct=True,
+                             holding=_GATE_TONES),
+    "effects": Effects(lambda name: _effect_param(name), _FINITE),
+    "runs_after_recordings": Integer(0, MAX_SIMULATED_RUNS - 1),
+    "recording_hours": Fixed(("spectra hours", "gates hours"),
+                             (Number(0.0, 24 * MAX_CAMPAIGN_DAYS),) * 2),
+    # an injected value is finite; a probability (the unit the effect declares) in [0, 1]
+    "injected": Injected(MAX_SIMULATED_SETTINGS, _FINITE, {"probability": _PROBABILITY}),
+    "further": ListOf(Tagged({
+        "amplitude_run": Fixed((), ()), "phase_run": Fixed((), ()),
+        "scan": Fixed(("A", "dpd", "population shots", "parity shots"),
+                      (_AMPLITUDE, _FLAG, Integer(0, MAX_SHOTS), Integer(0, MAX_SHOTS))),
+        "time_scan": Fixed(("A", "dpd", "shots", "points"),
+                           (_AMPLITUDE, _FLAG, _SHOTS, Integer(2, MAX_SIMULATED_POINTS)))}),
+        0, MAX_SCHEDULE_ROWS),
+}
+
+
+@dataclass(frozen=True)
+class _Relation:
+    """What the values of several fields must satisfy together: ``reason(values)`` is
+    None when they do, else why not."""
+
+    keys: tuple
+    reason: Callable
+
+    def check(self, values: dict) -> None:
+        why = self.reason(values)
+        if why:
+            raise BadValue.together(self.keys, why)
+
+
+def _calibration_rows(v: dict) -> str | None:
+    runs = v["n_amp_runs"] + v["n_phase_runs"] + sum(
+        1 for item in v["further"] if item[0] in ("amplitude_run", "phase_run"))
+    if runs * v["cal_points"] > MAX_SIMULATED_ROWS:
+        return (f"{runs} calibration runs of cal_points = {v['cal_points']} points are "
+                f"{runs * v['cal_points']} rows, more than the {MAX_SIMULATED_ROWS:.0e} the "
+                "simulator makes")
+    return None
+
+
+def _drift_range(v: dict) -> str | None:
+    # a compressing amplifier's A_corr (BraggAOM) for the drifting runs, 6 standard
+    # deviations out (a draw beyond: 1 in 10^9), and for the table's calibration, one run
+    # moved by table_drift, 4 out (1 in 30000)
+    lo, hi = _A_CORR.lo, _A_CORR.hi
+    mean, sigma, table = v["A_corr_mean"], v["A_corr_sigma"], 1.0 + v["table_drift"]
+    for what, low, high in (("A_corr_mean +- 6 A_corr_sigma", mean - 6 * sigma,
+                             mean + 6 * sigma),
+                            ("A_corr_mean (1 + table_drift) +- 4 A_corr_sigma",
+                             mean * table - 4 * sigma, mean * table + 4 * sigma)):
+        if low <= lo or high >= hi:
+            return (f"{what} must stay in ({lo:g}, 2/pi), a compressing amplifier's "
+                    f"A_corr, not {low:.4g} .. {high:.4g}")
+    return None
+
+
+def _tone_ratio(v: dict) -> str | None:
+    # the gate engine's record puts every tone on an FFT bin (sample_grid: nu/xi0 a ratio
+    # of integers, denominator <= 64) and the highest harmonic's red tone above 0 Hz
+    ratio = v["nu"] / v["xi0_spec"]
+    exact = Fraction(ratio).limit_denominator(64)
+    if not MAX_PRODUCT_ORDER < ratio <= 1000 or abs(float(exact) - ratio) > 1e-9 * ratio:
+        return (f"nu/xi0_spec must be a ratio of integers with denominator <= 64 in "
+                f"({MAX_PRODUCT_ORDER}, 1000], not {ratio:.10g}")
+    return None
+
+
+def _record_length(v: dict) -> str | None:
+    # one gate period of the drive (fs/xi0_spec samples) fits a trace; the traces are
+    # read as a lab's would be (check_trace_layout: resolution, band, tones apart)
+    period = v["fs"] / v["xi0_spec"]
+    if period > v["n_samples"]:
+        return (f"a trace of n_samples = {v['n_samples']} must hold a gate period of "
+                f"fs/xi0_spec = {period:.6g} samples")
+    if v["spectra_mode"] == "traces":
+        try:
+            check_trace_layout(v["n_samples"], v["fs"], v["f_det"], v["nu"], v["xi0_spec"],
+                               v["spectra_harmonics"])
+        except InputError as exc:
+            return f"its traces could not be read: {exc}"
+    return None
+
+
+#: what the values of several fields must satisfy together (checked after each value)
+TRUTH_RELATIONS = (
+    _Relation(("runs_after_recordings", "n_amp_runs"),
+              lambda v: None if v["runs_after_recordings"] < v["n_amp_runs"] else
+              "the gate day's amplitude run is one of the n_amp_runs: runs_after_recordings "
+              f"must be below n_amp_runs, not {v['runs_after_recordings']} of "
+              f"{v['n_amp_runs']}"),
+    _Relation(("n_amp_runs", "n_phase_runs", "cal_points", "further"), _calibration_rows),
+    _Relation(("cal_points", "order"),
+              lambda v: None if v["cal_points"] > v["order"] + 1 else
+              f"a calibration run of cal_points = {v['cal_points']} points cannot fit an "
+              f"amplitude polynomial of order {v['order']} (more than order + 1 points)"),
+    _Relation(("time_scan_A", "gate_amplitudes"),
+              lambda v: None if v["time_scan_A"] in v["gate_amplitudes"] else
+              f"the time scans are at a gate setting: time_scan_A = {v['time_scan_A']:g} "
+              "must be one of gate_amplitudes"),
+    _Relation(("A_corr_mean", "A_corr_sigma", "table_drift"), _drift_range),
+    _Relation(("nu", "xi0_spec"), _tone_ratio),
+    _Relation(("fs", "xi0_spec", "n_samples", "f_det", "nu", "spectra_harmonics",
+               "spectra_mode"), _record_length),
+)
 
 
 def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:
