@@ -157,7 +157,11 @@ def _checked(key: str, value):
         return int(value)
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise InputError(f"error_model key '{key}' must be a number, got {value!r}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:             # an integer beyond the float range (JSON allows it)
+        raise InputError(f"error_model key '{key}' must be a finite number, got an integer "
+                         f"of {len(str(abs(int(value))))} digits") from None
     if math.isnan(value) or value < 0 or (key == "T2_s" and value == 0):
         raise InputError(f"error_model key '{key}' must be "
                          f"{'> 0' if key == 'T2_s' else '>= 0'}, got {value}")

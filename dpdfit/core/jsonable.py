@@ -12,7 +12,16 @@ import math
 
 import numpy as np
 
-__all__ = ["to_jsonable"]
+__all__ = ["to_jsonable", "json_kind"]
+
+_JSON_KINDS = ((bool, "boolean"), (dict, "object"), (list, "list"), (str, "string"),
+               ((int, float), "number"), (type(None), "null"))
+
+
+def json_kind(value) -> str:
+    """How JSON names the kind of a parsed value (a refusal names the kind, never a
+    Python repr): object, list, string, number, boolean or null."""
+    return next((k for t, k in _JSON_KINDS if isinstance(value, t)), type(value).__name__)
 
 
 def to_jsonable(obj, *, finite_only: bool = True):

@@ -198,14 +198,15 @@ def merge_table(table: str, mine, theirs: pd.DataFrame, rec, campaign_file: str)
 
 def _check_required(required, mine, theirs, rec, table: str, campaign_file: str) -> None:
     """Refuse a table of NEW, or the campaign's, without a column its reader needs in
-    every row (the merge labels rows by some of them)."""
-    if mine is not None and not mine.empty:
+    every row (the merge labels rows by some of them).  The campaign's table counts from
+    its header: one with a header and no rows still names the columns rows are added to."""
+    if mine is not None and len(mine.columns):
         for c in required:
             if c not in mine.columns:
                 raise InputError("required column is missing: rows cannot be added to "
                                  "this table", file=campaign_file, column=c)
     for c in required:
-        if c not in theirs.columns and (mine is None or mine.empty):
+        if c not in theirs.columns and (mine is None or not len(mine.columns)):
             raise InputError(f"NEW's {table} has no column '{c}', which its reader needs in "
                              "every row", file=_file(rec, table))
 

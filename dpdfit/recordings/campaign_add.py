@@ -175,7 +175,12 @@ class AddedCampaign(Displayable):
 
     def _read_back(self, tmp: Path) -> None:
         camp = CampaignFolder(tmp)
-        for t in self._parts:
+        # the recording times are checked against the amplitude runs: a copied table is
+        # read first, so that a refusal of its rows names the campaign's file and row
+        copied = [t for t in ("calibration_amplitude",) if t not in self._parts
+                  and camp.raw_meta.keys() & {"spectra_recorded", "gates_recorded"}
+                  and camp.has(f"{t}.csv")]
+        for t in [*self._parts, *copied]:
             try:
                 getattr(camp, READERS[t])
             except InputError as exc:
@@ -212,6 +217,9 @@ class AddedCampaign(Displayable):
     def _traced(self, exc: InputError, table: str) -> InputError:
         """The readers' refusal of the merged ``table``, naming CAMPAIGN's or NEW's row."""
         msg, origin = _message(exc), self._origin.get(table)
+        if table not in self._parts:        # copied unchanged: the campaign's own rows
+            return InputError(msg, file=str(self.campaign / f"{table}.csv"),
+                              column=exc.column, row=exc.row)
         n0 = self._rows(table) - (0 if origin is None else len(origin))
         if exc.row is None:
             return InputError(f"{table}.csv with the recordings added: {msg}",

@@ -57,17 +57,16 @@ from __future__ import annotations
 import datetime
 import errno
 import functools
-import json
 import os
 import stat
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import (AMPLITUDE_ORDER, ETA_LD, ETA_REF, MAX_JSON_BYTES, NBAR,
+from dpdfit.core.defaults import (AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR,
                                   NU_HZ, XI0_SPECTRA_HZ)
+from dpdfit.core.jsonable import json_kind
 from dpdfit.errors import ImplausibleValueError, InputError, RefusedFileError
 
 from .columns import CAMPAIGN_TABLES, missing_column_lines
@@ -75,7 +74,7 @@ from .counts import read_parity, read_populations, read_time_scans
 from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
-from .input_files import check_inside, open_input, read_input_bytes
+from .input_files import check_inside, open_input, read_input_json
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
 from .traces import check_trace_file
@@ -168,6 +167,9 @@ class CampaignFolder:
         self.meta["order"] = int(self.meta["order"])
         if not isinstance(raw.get("predistortion_table") or {}, dict):
             raise InputError("key 'predistortion_table' must be a JSON object", file=str(p))
+        self._table_run = _run_name(raw.get("predistortion_table") or {},
+                                    "predistortion_table.amplitude_run", str(p))
+        self._phase_run = _run_name(raw, "phase_run_for_model", str(p))
         self._recorded = _recording_times(raw, str(p))
 
     @functools.cached_property
@@ -227,14 +229,12 @@ class CampaignFolder:
     @property
     def table_run(self) -> str:
         """Amplitude run behind the predistortion table (``latest`` if not named)."""
-        run = (self.raw_meta.get("predistortion_table") or {}).get("amplitude_run")
-        return "latest" if run is None else str(run)
+        return self._table_run
 
     @property
     def phase_run(self) -> str:
         """The phase run the model uses (``phase_run_for_model``; ``latest`` if not named)."""
-        run = self.raw_meta.get("phase_run_for_model")
-        return "latest" if run is None else str(run)
+        return self._phase_run
 
     # -------------------------------------------------------------- calibration
     @functools.cached_property
@@ -392,23 +392,24 @@ class CampaignFolder:
 
 def _campaign_json(path: Path, folder: Path):
     """The JSON value of ``campaign.json`` (read inside ``folder``, at most
-    :data:`~dpdfit.core.defaults.MAX_JSON_BYTES`); an InputError naming it otherwise."""
-    data = read_input_bytes(path, within=folder, what="campaign.json", limit=MAX_JSON_BYTES,
-                            json_file=True)
-    try:
-        return json.loads(data.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise InputError("campaign.json cannot be read (not UTF-8 text)",
-                         file=str(path)) from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"campaign.json is not valid JSON ({exc.msg}, line {exc.lineno})",
-                         file=str(path)) from None
-    except RecursionError:
-        raise InputError("campaign.json is nested too deeply to be read as JSON",
-                         file=str(path)) from None
-    except ValueError:                # an integer of more digits than Python converts
-        raise InputError("campaign.json holds a number too long to read (more than "
-                         f"{sys.get_int_max_str_digits()} digits)", file=str(path)) from None
+    :data:`~dpdfit.core.defaults.MAX_JSON_BYTES` and
+    :data:`~dpdfit.core.defaults.MAX_JSON_DEPTH` levels deep); an InputError naming it
+    otherwise."""
+    return read_input_json(path, within=folder, what="campaign.json",
+                           not_json="campaign.json is not valid JSON")
+
+
+def _run_name(raw: dict, key: str, path: str) -> str:
+    """The run label under ``key`` (dotted: the last part is looked up in ``raw``):
+    ``latest`` when absent or null, else a string or a whole number as the run column
+    holds it; any other JSON value is refused naming the key (never looked up as a run)."""
+    v = raw.get(key.rpartition(".")[2])
+    if v is None:
+        return "latest"
+    if isinstance(v, str) or (isinstance(v, int) and not isinstance(v, bool)):
+        return str(v)
+    raise InputError(f"key '{key}' must be a run label (a string such as \"latest\" or "
+                     f"\"R001\"), got a JSON {json_kind(v)}", file=path)
 
 
 def _recording_times(raw: dict, path: str) -> dict:

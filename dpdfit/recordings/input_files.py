@@ -247,12 +247,15 @@ def json_depth(value, stop: int | None = None) -> int:
 
 
 def read_input_json(path, *, within=None, what: str = "JSON file",
-                    limit: int = MAX_JSON_BYTES, max_depth: int | None = MAX_JSON_DEPTH):
+                    limit: int = MAX_JSON_BYTES, max_depth: int | None = MAX_JSON_DEPTH,
+                    not_json: str = "is not JSON"):
     """The JSON value of the input file ``path``: read by :func:`read_input_bytes` (at most
     ``limit`` bytes); an InputError naming the file (and the line) when it is not JSON or
     is nested deeper than ``max_depth`` levels of lists and objects
     (:data:`~dpdfit.core.defaults.MAX_JSON_DEPTH`; None: as deep as the parser reads),
-    which the code walking the value could not follow."""
+    which the code walking the value could not follow.  ``not_json``: how the refusal of
+    text the parser rejects begins (a reader keeps the wording its users know), followed
+    by the parser's reason and line."""
     name = str(path)
     data = read_input_bytes(path, within=within, what=what, limit=limit, json_file=True)
     try:
@@ -262,7 +265,7 @@ def read_input_json(path, *, within=None, what: str = "JSON file",
     try:
         value = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise InputError(f"is not JSON ({exc.msg}, line {exc.lineno})", file=name) from None
+        raise InputError(f"{not_json} ({exc.msg}, line {exc.lineno})", file=name) from None
     except RecursionError:
         raise InputError("is nested too deeply to be read as JSON", file=name) from None
     except ValueError:                # an integer of more digits than Python converts

@@ -17,6 +17,7 @@ import json
 
 import numpy as np
 
+from dpdfit.core.jsonable import json_kind
 from dpdfit.errors import InputError
 
 from .hdf5_contents import ResultsFileContents, one_value, short_repr
@@ -27,14 +28,6 @@ __all__ = ["find_ndscan_roots", "read_scan"]
 
 _SCHEMA_KEY = "ndscan_schema_revision"
 
-_JSON_KINDS = ((bool, "boolean"), (dict, "object"), (list, "list"), (str, "string"),
-               ((int, float), "number"), (type(None), "null"))
-
-
-def _json_kind(value) -> str:
-    return next(k for t, k in _JSON_KINDS if isinstance(value, t))
-
-
 def _json(datasets, key: str, name: str, kind: type):
     """The JSON value of dataset ``key``: a list or an object (``kind``), as ndscan writes."""
     if key not in datasets:
@@ -44,7 +37,7 @@ def _json(datasets, key: str, name: str, kind: type):
     except (TypeError, ValueError, RecursionError) as exc:
         raise InputError(f"dataset '{key}' is not JSON ({exc})", file=name) from None
     if not isinstance(value, kind):
-        raise InputError(f"dataset '{key}' is a JSON {_json_kind(value)} where ndscan writes "
+        raise InputError(f"dataset '{key}' is a JSON {json_kind(value)} where ndscan writes "
                          f"{'a list' if kind is list else 'an object'}", file=name)
     return value
 
@@ -54,7 +47,7 @@ def _entry(value, where: str, name: str, key: str | None = None) -> dict:
     if key is not None:
         value, where = value.get(key, {}), f"{where} '{key}'"
     if not isinstance(value, dict):
-        raise InputError(f"{where} is a JSON {_json_kind(value)}, not an object", file=name)
+        raise InputError(f"{where} is a JSON {json_kind(value)}, not an object", file=name)
     return value
 
 
@@ -62,7 +55,7 @@ def _fields(spec: dict, kind, description, where: str, name: str) -> dict:
     """The checked unit, scale, type and description of an axis or a channel."""
     unit = spec.get("unit", "") or ""
     if not isinstance(unit, str):
-        raise InputError(f"{where}: its unit is not text but a JSON {_json_kind(unit)}",
+        raise InputError(f"{where}: its unit is not text but a JSON {json_kind(unit)}",
                          file=name)
     scale = spec_scale(spec)
     if isinstance(scale, bool) or not isinstance(scale, (int, float)):

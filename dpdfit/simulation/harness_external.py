@@ -26,7 +26,6 @@ alternatives) and ``spurious_extra`` (every concealed effect named, and more).
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from pathlib import Path
@@ -49,15 +48,8 @@ def read_truth(path) -> dict:
     path = Path(path)
     if not os.path.lexists(path):
         raise InputError("truth file does not exist", file=str(path))
-    try:
-        # a regular file, bounded in size and depth (a FIFO or a device refused, not read)
-        truth = read_input_json(path, what="truth file")
-    except InputError as exc:
-        bad = exc.__context__                 # the parser's error, when it is one
-        if not isinstance(bad, json.JSONDecodeError):
-            raise
-        raise InputError(f"not valid JSON ({bad.msg}, line {bad.lineno})",
-                         file=str(path)) from None
+    # a regular file, bounded in size and depth (a FIFO or a device refused, not read)
+    truth = read_input_json(path, what="truth file", not_json="not valid JSON")
     if not isinstance(truth, dict):
         raise InputError("must hold a JSON object: campaign id -> {\"effect\": ...}",
                          file=str(path))

@@ -18,29 +18,63 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from dpdfit.errors import DpdfitError
+from dpdfit.errors import DpdfitError, InputError
+from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
-from dpdfit.recordings.input_files import read_input_bytes, read_input_json
+from dpdfit.recordings.csv_text import parse_csv_strings
+from dpdfit.recordings.input_files import read_input_bytes
+from dpdfit.recordings.mapping_values import check_campaign_types
 from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets, stored_in_si,
                                                   write_results_file)
 
-__all__ = ["NdscanLab", "read_campaign_table", "read_campaign_json", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
+__all__ = ["NdscanLab", "read_campaign_table", "read_campaign_json", "campaign_meta", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
            "time_scan_runs", "count_channels", "write_ndscan_gate_runs"]
 
 
 def read_campaign_table(folder, table: str) -> pd.DataFrame:
     """The campaign's table ``table`` (``folder/<table>.csv``) as pandas reads it, read
     through :func:`~dpdfit.recordings.input_files.read_input_bytes`: a regular file inside
-    the folder, size bounded (a FIFO or a link out of the folder refused, not read)."""
+    the folder, size bounded (a FIFO or a link out of the folder refused, not read).
+
+    Its header and every row are checked first by the parser every campaign table goes
+    through (:func:`~dpdfit.recordings.csv_text.parse_csv_strings`: a row wider than the
+    header, a repeated column name, a NUL, text that is not UTF-8 or a cell a spreadsheet
+    would run are refused naming the file, column and row); pandas then reads the same
+    bytes with the types it infers, as the simulator wrote them."""
     path = Path(folder, f"{table}.csv")
     data = read_input_bytes(path, within=folder, what="campaign table")
+    parse_csv_strings(data, str(path))
     return pd.read_csv(io.BytesIO(data), comment="#")
 
 
 def read_campaign_json(folder) -> dict:
-    """The campaign's ``campaign.json``, read through
-    :func:`~dpdfit.recordings.input_files.read_input_json` (inside the folder)."""
-    return read_input_json(Path(folder, "campaign.json"), within=folder, what="campaign.json")
+    """The campaign's ``campaign.json`` as :class:`~dpdfit.recordings.campaign_folder.
+    CampaignFolder` reads and checks it (inside the folder, bounded; its numbers, times
+    and run labels), its other keys checked by the types a mapping's ``[campaign]`` takes
+    (:func:`~dpdfit.recordings.mapping_values.check_campaign_types`): the new
+    recordings' mapping carries them.  An InputError naming the key otherwise."""
+    return campaign_meta(CampaignFolder(folder))
+
+
+def campaign_meta(folder: CampaignFolder) -> dict:
+    """The campaign.json of ``folder`` as :func:`read_campaign_json` checks it."""
+    check_campaign_types(folder.raw_meta, _FirstRefusal(str(folder.file("campaign.json"))))
+    return folder.raw_meta
+
+
+class _FirstRefusal:
+    """The error sink :func:`check_campaign_types` reports to, raising the first refusal
+    as one line naming campaign.json (a mapping collects them; a campaign.json is one
+    file, refused at its first wrong key)."""
+
+    def __init__(self, path: str):
+        self.path = path
+
+    def bad(self, key: str, message: str, *where) -> None:
+        key = key.removeprefix("campaign.")
+        # the error model's own refusal names its key already ("error_model key 'T2_s' ...")
+        text = message if message.startswith(key) else f"key '{key}' {message}"
+        raise InputError(text, file=self.path)
 
 
 def epoch(iso: str) -> float:

@@ -27,6 +27,8 @@ import pandas as pd
 
 from dpdfit.errors import InputError
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
+from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.recordings.imported_check import READERS
 from dpdfit.recordings.input_files import read_input_json
 from dpdfit.recordings.outputs import staged_folder
 from dpdfit.recordings.schedule import read_schedule
@@ -35,7 +37,7 @@ from dpdfit.simulation.artiq_results_file import axis, channel, stored_in_si
 from dpdfit.simulation.campaign import CampaignConfig
 from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_axis, epoch,
-                                          read_campaign_json, read_campaign_table,
+                                          campaign_meta, read_campaign_table,
                                           time_scan_runs, write_calibration_runs,
                                           write_ndscan_gate_runs, write_spectra_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
@@ -201,13 +203,22 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
 
 
 def read_campaign_tables(folder) -> tuple:
-    """(tables, campaign.json) of a campaign folder (tables it lacks are left out), each
-    read through the input reader (:func:`~dpdfit.simulation.ndscan_lab.read_campaign_table`):
-    a table that is there but not a regular file inside the folder is refused."""
+    """(tables, campaign.json) of a campaign folder (tables it lacks are left out).
+
+    The folder is first read as ``dpdfit analyze`` reads it
+    (:class:`~dpdfit.recordings.campaign_folder.CampaignFolder`: campaign.json, then every
+    row of each table present, its values and ranges), so that a damaged table is
+    refused naming its file, column and row before anything is simulated; each table is
+    then returned as pandas reads it (:func:`~dpdfit.simulation.ndscan_lab.
+    read_campaign_table`), as the simulator wrote it."""
     folder = Path(folder)
-    tables = {t: read_campaign_table(folder, t) for t in CAMPAIGN_TABLES
-              if os.path.lexists(folder / f"{t}.csv")}
-    return tables, read_campaign_json(folder)
+    camp = CampaignFolder(folder)
+    present = [t for t in CAMPAIGN_TABLES if os.path.lexists(folder / f"{t}.csv")]
+    for t in present:
+        getattr(camp, READERS[t])
+    camp.recording_times
+    tables = {t: read_campaign_table(folder, t) for t in present}
+    return tables, campaign_meta(camp)
 
 
 def _outside(campaign: Path, out: Path) -> None:

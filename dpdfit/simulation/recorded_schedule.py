@@ -249,8 +249,12 @@ def _first_difference(drawn: pd.DataFrame, have: pd.DataFrame):
         a, b = drawn[c].to_numpy(), have[c].to_numpy()
         if a.dtype.kind in "fc" or b.dtype.kind == "f":
             atol = _DB_ATOL if c.lower().endswith("_db") else 0.0
-            same = np.isclose(a.astype(float), b.astype(float), rtol=_REPLAY_RTOL, atol=atol)
-            same |= np.isnan(a.astype(float)) & np.isnan(b.astype(float))
+            # an edited cell may hold text where truth.json generates a number: it differs
+            bf = pd.to_numeric(pd.Series(b), errors="coerce").to_numpy(float)
+            text = np.isnan(bf) & (pd.notna(b) if b.dtype.kind == "O" else False)
+            af = pd.to_numeric(pd.Series(a), errors="coerce").to_numpy(float)
+            same = np.isclose(af, bf, rtol=_REPLAY_RTOL, atol=atol)
+            same |= np.isnan(af) & np.isnan(bf) & ~text
         else:
             same = np.asarray([str(x) == str(y) for x, y in zip(a, b)])
         if not same.all():

@@ -69,7 +69,8 @@ def test_a_key_that_is_no_error_model_key_is_refused_in_one_line(key, near):
 
 @pytest.mark.parametrize("key, value", [("p_prep", "0.003"), ("p_det", -1e-5), ("p_det", 1.5),
                                         ("T2_s", 0.0), ("nbar", float("nan")), ("seed", 1.5),
-                                        ("parity_phases", 0), ("power_jitter_db", True)])
+                                        ("parity_phases", 0), ("power_jitter_db", True),
+                                        ("T2_s", 10 ** 400), ("nbar", -(10 ** 400))])
 def test_bad_value_is_refused_by_name(key, value):
     with pytest.raises(InputError, match=f"'{key}'"):
         if key in ErrorModel.CAMPAIGN_KEYS:

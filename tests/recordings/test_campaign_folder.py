@@ -66,12 +66,28 @@ def test_time_scans_without_n01_10_are_accepted_and_checked(tmp_path):
     (lambda f: (f / "campaign.json").unlink(), "campaign.json missing"),
     (lambda f: (f / "campaign.json").write_text("{"), "not valid JSON"),
     (lambda f: (f / "campaign.json").write_text('{"order": "eight"}'), "'order' must be a number"),
+    (lambda f: (f / "campaign.json").write_text("[" * 100 + "]" * 100), "nested too deeply"),
+    (lambda f: (f / "campaign.json").write_text('{"predistortion_table": {"amplitude_run": '
+                                                '[["aom"]]}}'),
+     "key 'predistortion_table.amplitude_run' must be a run label .* got a JSON list"),
+    (lambda f: (f / "campaign.json").write_text('{"phase_run_for_model": {}}'),
+     "key 'phase_run_for_model' must be a run label .* got a JSON object"),
 ])
 def test_bad_campaign_json_is_one_line(tmp_path, edit, match):
     folder = _minimal(tmp_path)
     edit(folder)
     with pytest.raises(InputError, match=match):
         CampaignFolder(folder)
+
+
+def test_run_labels_of_campaign_json_are_taken_as_the_run_column_holds_them(tmp_path):
+    folder = _minimal(tmp_path)
+    meta = json.loads((folder / "campaign.json").read_text())
+    for value, label in ((None, "latest"), ("R003", "R003"), (3, "3")):
+        meta.update(phase_run_for_model=value, predistortion_table={"amplitude_run": value})
+        (folder / "campaign.json").write_text(json.dumps(meta))
+        camp = CampaignFolder(folder)
+        assert (camp.table_run, camp.phase_run) == (label, label)
 
 
 def test_bad_spectra_rows_are_named(tmp_path):

@@ -9,7 +9,6 @@ the JSON (:meth:`Calibration.to_dict`) and reads it back
 from __future__ import annotations
 
 import datetime as _dt
-import json
 import os
 from dataclasses import dataclass, field
 
@@ -91,15 +90,8 @@ def load_calibration(path: str | os.PathLike) -> Calibration:
     """Read a ``calibration.json`` written by ``dpdfit calibrate`` (through
     :func:`~dpdfit.recordings.input_files.read_input_json`)."""
     name = require_file(path)
-    try:
-        # a regular file, bounded in size and depth: a FIFO or a device is refused unread
-        d = read_input_json(path, what="calibration file")
-    except InputError as exc:
-        bad = exc.__context__                 # the parser's error, when it is one
-        if not isinstance(bad, json.JSONDecodeError):
-            raise
-        raise InputError(f"not valid JSON ({bad.msg} at line {bad.lineno})",
-                         file=name) from None
+    # a regular file, bounded in size and depth: a FIFO or a device is refused unread
+    d = read_input_json(path, what="calibration file", not_json="not valid JSON")
     check_calibration_dict(d, name)
     try:
         return Calibration.from_dict(d, file=name)

@@ -44,7 +44,7 @@ from dpdfit.analyses.diagnosis.observables.calibration_drift import (RunsAfter, 
 from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS, debias_tones
 from dpdfit.analyses.diagnosis.observables.tone_grid import tone_grid
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
-from dpdfit.errors import InputError
+from dpdfit.errors import FitError, InputError
 from dpdfit.fits.calibration import calibrate_amplitude, calibrate_phase
 from dpdfit.fits.counts import fit_parity
 from dpdfit.fits.photodiode import (model_run_with_noise, phase_run_with_noise,
@@ -222,9 +222,14 @@ def _gates(cf: CampaignFolder):
         # contrast per scan, averaged: each scan's power error also moves its
         # fringe phase, so a count-level merge would wash the contrast out
         cs, es = [], []
-        for _, sc in sel.groupby("scan"):
-            f = fit_parity(sc["phase_rad"].to_numpy(), sc["n_even"].to_numpy(),
-                           sc["shots"].to_numpy())
+        for label, sc in sel.groupby("scan"):
+            try:
+                f = fit_parity(sc["phase_rad"].to_numpy(), sc["n_even"].to_numpy(),
+                               sc["shots"].to_numpy())
+            except (InputError, FitError) as exc:   # one scan's design, named where written
+                raise InputError(f"setting A={A:g}, dpd={int(d)}, scan {label}: {exc}",
+                                 file=str(cf.file("parity.csv")), column="scan",
+                                 row=int(sc.index[0]) + 1) from None
             cs.append(f.A)
             es.append(f.A_err)
         xi = float(r["xi0_khz"].iloc[0]) * 1e3
