@@ -57,7 +57,9 @@ from hypothesis import strategies as st
 import tests.helpers.prop_mutations  # noqa: F401 - registers and loads the hypothesis profiles
 from dpdfit.cli.main import INTERNAL_ERROR, OUT_OF_MEMORY, TOO_DEEP
 from dpdfit.recordings.schedule import write_schedule
-from tests.helpers.file_hazards import BOUND_ENV, Hazard, hazards, outside, put
+from tests.helpers.bundled_data import CAMPAIGN
+from tests.helpers.file_hazards import (BOUND_ENV, Hazard, hazards, outside, put,
+                                        wrong_type_targets)
 from tests.helpers.forked_command import run_forked
 from tests.helpers.tree_snapshot import differences, snapshot
 from tests.helpers.untrusted_campaign import SECRET, TABLES, small_campaign
@@ -68,8 +70,7 @@ pytestmark = pytest.mark.skipif(not hasattr(os, "fork") or not hasattr(os, "mkfi
 
 #: the examples of a test whose inputs a command may take, or fail on in part, only after
 #: seconds of fits (``analyze`` runs every analysis on a count that is nan; an earlier
-#: diagnosis taken is diagnosed again): half, a third of the profile's
-HALF = settings(max_examples=max(5, settings.default.max_examples // 2))
+#: diagnosis taken is diagnosed again): a third of the profile's
 THIRD = settings(max_examples=max(5, settings.default.max_examples // 3))
 LAST_LINE = tuple(f"dpdfit: error: {s}" for s in (INTERNAL_ERROR, OUT_OF_MEMORY, TOO_DEEP))
 CSV_TABLES = tuple(t for t in TABLES if t.endswith(".csv"))
@@ -168,12 +169,12 @@ BUDGET = ("[state_preparation]\nrabi_amplitude = 0.995\nrabi_amplitude_err = 0.0
 #: campaign.json's keys ``analyze`` reads (a wrong type in another key is not read: the
 #: command runs every analysis, seconds for nothing)
 CAMPAIGN_KEYS = ("nu_hz", "xi0_spectra_hz", "nbar_assumed", "eta_ref", "order",
-                 "predistortion_table", "phase_run_for_model", "spectra_recorded",
-                 "gates_recorded")
+                 "predistortion_table.amplitude_run", "phase_run_for_model",
+                 "spectra_recorded", "gates_recorded")
 #: ... the diagnosis reads
 DIAGNOSIS_KEYS = CAMPAIGN_KEYS + ("error_model",)
-#: ... ``add`` reads (the keys that tell one campaign's setup from another's)
-ADD_KEYS = DIAGNOSIS_KEYS + ("f_det_hz", "eta_ld", "parity_phases")
+#: ... ``add`` reads (with the keys that tell one campaign's setup from another's)
+ADD_KEYS = DIAGNOSIS_KEYS + ("f_det_hz", "eta_ld", "parity_phases", "predistortion_table")
 
 #: an earlier diagnosis (``dpdfit diagnose --json``), with the keys a comparison reads:
 #: its proposal's binding pair is refitted
@@ -196,19 +197,9 @@ PREVIOUS = {
 }
 
 
-def _key_index(obj, path) -> int:
+def _aiming_at(obj, path, keys=None) -> int:
     """The ``at`` of a ``"wrong type"`` hazard that aims at ``path`` of ``obj``."""
-    paths = []
-
-    def walk(o, prefix):
-        items = (o.items() if isinstance(o, dict) else
-                 enumerate(o[:3]) if isinstance(o, list) else [])
-        for k, v in items:
-            if v is not None:
-                paths.append(prefix + (k,))
-            walk(v, prefix + (k,))
-    walk(obj, ())
-    return paths.index(tuple(path))
+    return wrong_type_targets(obj, keys).index(tuple(path))
 
 
 def _listed_trace(root: Path) -> None:
@@ -292,8 +283,15 @@ ANALYZE = {
 }
 
 
-@HALF
+#: the bundled campaign.json's predistortion table run given as a list
+_TABLE_RUN_A_LIST = Hazard("wrong type", _aiming_at(
+    json.loads((CAMPAIGN / "campaign.json").read_text()),
+    ("predistortion_table", "amplitude_run"), CAMPAIGN_KEYS), 0)
+
+
+@THIRD
 @given(case=cases(ANALYZE))
+@example(case=("campaign.json", _TABLE_RUN_A_LIST))
 @example(case=("spectra.csv", Hazard("link to a secret outside")))
 @example(case=("spectra.csv", Hazard("FIFO")))
 @example(case=("budget.toml (absent)", Hazard("link to a secret outside")))
@@ -325,7 +323,7 @@ def test_diagnose_a_campaign_folder(simulated, case):
 
 
 COMPARE = {"the previous diagnosis": Role("previous.json", "json", named=True)}
-_FORM = _key_index(PREVIOUS, ("next_measurement", "binding", "truth", "forms", 0))
+_FORM = _aiming_at(PREVIOUS, ("next_measurement", "binding", "truth", "forms", 0))
 
 
 @THIRD
@@ -333,7 +331,7 @@ _FORM = _key_index(PREVIOUS, ("next_measurement", "binding", "truth", "forms", 0
 @example(case=("the previous diagnosis", Hazard("FIFO")))
 @example(case=("the previous diagnosis", Hazard("wrong type", _FORM, 0)))   # a form a list
 @example(case=("the previous diagnosis",
-               Hazard("wrong type", _key_index(PREVIOUS, ("effects",)), 0)))  # effects: 7
+               Hazard("wrong type", _aiming_at(PREVIOUS, ("effects",)), 0)))  # effects: 7
 @example(case=("the previous diagnosis", Hazard("sparse file beyond the bound", 0, 3 << 30)))
 def test_diagnose_compare_a_previous_diagnosis(simulated, case):
     role, hazard = case
@@ -373,6 +371,8 @@ _N00 = 3 * 2      # NEW populations.csv: row 1 of 2, its 4th numeric cell (n00)
 @example(case=("NEW populations.csv", Hazard("number nan, empty or 1e400", _N00, "nan")))
 @example(case=("NEW parity.csv", Hazard("formula cell", 0, "=cmd|' /C calc'!A0")))
 @example(case=("CAMPAIGN", Hazard("symbolic link loop")))
+@example(case=("CAMPAIGN populations.csv", Hazard("cut inside a line", 7)))    # no 'scan'
+@example(case=("NEW", Hazard("symbolic link loop")))
 def test_add_recordings_to_a_campaign(simulated, case):
     role, hazard = case
     run_case(simulated, ADD[role], hazard,
@@ -394,6 +394,9 @@ WRITE = {
 @given(case=cases(WRITE))
 @example(case=("the schedule", Hazard("FIFO")))
 @example(case=("the schedule", Hazard("formula cell", 0, "@SUM(1+1)*cmd|' /C calc'!A0")))
+@example(case=("calibration_amplitude.csv", Hazard("row wider than its header", 7)))
+@example(case=("gate_rates.csv", Hazard("formula cell", 7, "=cmd|' /C calc'!A0")))
+@example(case=("truth.json", Hazard("link to a secret outside")))
 def test_write_artiq_results_of_a_schedule(simulated, case):
     pytest.importorskip("h5py")
     role, hazard = case

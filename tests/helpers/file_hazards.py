@@ -50,6 +50,7 @@ __all__ = [
     "hazards",
     "outside",
     "put",
+    "wrong_type_targets",
 ]
 
 #: the size bound set for one run: above every honest input of the tests, far below the
@@ -164,8 +165,8 @@ def outside(root: Path) -> Path:
 def put(path: Path, hazard: Hazard, kind: str, secrets: Path, keys=None) -> None:
     """``hazard`` in the place, or in the contents, of the file (or folder) ``path``, of
     ``kind`` (:func:`hazards`); ``secrets``: the folder of :func:`outside`; ``keys``: the
-    top-level keys of a JSON file whose values a ``"wrong type"`` may replace (default:
-    any key)."""
+    keys of a JSON file (dotted: ``"predistortion_table.order"``) whose values, and the
+    values under them, a ``"wrong type"`` may replace (default: any key)."""
     path = Path(path)
     if hazard.name in _PLACED:
         _clear(path)
@@ -337,18 +338,32 @@ def _key_paths(obj, prefix=()):
     return out
 
 
+def _aimed(path: tuple, keys) -> bool:
+    """Whether a ``"wrong type"`` may aim at ``path``: any path without ``keys``, else a
+    path that is one of the dotted ``keys`` or lies under one."""
+    dotted = ".".join(map(str, path))
+    return keys is None or any(dotted == k or dotted.startswith(k + ".") for k in keys)
+
+
+def wrong_type_targets(obj, keys=None) -> list:
+    """The key paths a ``"wrong type"`` aims at in the JSON value ``obj``, in the order
+    its ``at`` counts them (with ``keys`` as :func:`put` takes them): a test that wants
+    one names it by ``wrong_type_targets(obj).index(path)``."""
+    return [p for p, v in _key_paths(obj) if v is not None and _aimed(p, keys)]
+
+
 def _wrong_type(data: bytes, h: Hazard, keys=None) -> bytes:
     obj = json.loads(data)
-    paths = [(p, v) for p, v in _key_paths(obj)
-             if v is not None and (keys is None or p[0] in keys)]
+    paths = wrong_type_targets(obj, keys)
     if not paths:
         return json.dumps(7).encode()
-    path, value = paths[h.at % len(paths)]
-    wrong = _WRONG[float if isinstance(value, float) else
-                   bool if isinstance(value, bool) else type(value)]
+    path = paths[h.at % len(paths)]
     parent = obj
     for k in path[:-1]:
         parent = parent[k]
+    value = parent[path[-1]]
+    wrong = _WRONG[float if isinstance(value, float) else
+                   bool if isinstance(value, bool) else type(value)]
     parent[path[-1]] = wrong[int(h.value) % len(wrong)]
     return json.dumps(obj, indent=1).encode()
 
