@@ -12,7 +12,8 @@ would see: the command's lines, its log messages and warnings), its address spac
 bounded (:data:`MEMORY_HEADROOM` beyond what the test process holds), the files it
 writes bounded (:data:`FILE_BOUND`: a command copying ``/dev/zero`` is killed by
 ``SIGXFSZ`` instead of filling the disk; no core dump) and extra environment variables
-set, and kills it after ``timeout`` seconds.
+set, and kills it after ``timeout`` seconds (default the hang guard of
+:mod:`tests.helpers.untrusted_campaign`).
 """
 
 from __future__ import annotations
@@ -27,9 +28,8 @@ import time
 import traceback
 from dataclasses import dataclass
 
-#: a guard against a hang, not a speed test: a refusal takes a fraction of a second, the
-#: longest command the tests run on an honest input (a diagnosis) a few seconds
-HANG_GUARD_S = 30.0
+from tests.helpers.untrusted_campaign import HANG_GUARD_S
+
 #: the address space a child may take beyond the test process's own: far more than any
 #: command needs on the tests' small inputs, far less than an unbounded read would take
 MEMORY_HEADROOM = 3 << 29
@@ -38,7 +38,7 @@ FILE_BOUND = 1 << 28
 #: the exit status of a child in which an exception escaped ``main`` (a traceback)
 ESCAPED = 70
 
-__all__ = ["ESCAPED", "FILE_BOUND", "HANG_GUARD_S", "MEMORY_HEADROOM", "Ran", "run_forked"]
+__all__ = ["ESCAPED", "FILE_BOUND", "MEMORY_HEADROOM", "Ran", "run_forked"]
 
 
 @dataclass(frozen=True)
