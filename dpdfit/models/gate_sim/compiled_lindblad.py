@@ -32,10 +32,34 @@ from scipy.integrate import DOP853
 
 __all__ = ["lindblad_rhs", "dop853_lindblad", "TABLEAU"]
 
-#: scipy's DOP853 tableau (public class attributes), as contiguous arrays
-TABLEAU = tuple(np.ascontiguousarray(x, dtype=float) for x in (
-    DOP853.A, DOP853.B, DOP853.C, DOP853.E3, DOP853.E5, DOP853.D, DOP853.A_EXTRA,
-    DOP853.C_EXTRA))
+def _stage_tables():
+    """scipy's DOP853 tableau (public class attributes) as the compiled loop reads it:
+    for every stage ``s`` after the first -- the twelve of a step, the new state (the
+    weights ``B``), the dense output's three -- the rows and coefficients of its nonzero
+    terms and its time fraction; then the two error estimators and the interpolant's
+    ``D``."""
+    A, B, C = DOP853.A, DOP853.B, DOP853.C
+    n_st = B.size
+    n_ext = n_st + 1 + DOP853.A_EXTRA.shape[0]      # and the new state's derivative
+    rows = np.zeros((n_ext, n_ext), dtype=np.int64)
+    coefs = np.zeros((n_ext, n_ext))
+    counts = np.zeros(n_ext, dtype=np.int64)
+    frac = np.zeros(n_ext)
+    for s in range(1, n_ext):
+        row = (A[s, :s] if s < n_st else B if s == n_st
+               else DOP853.A_EXTRA[s - n_st - 1, :s])
+        nz = np.flatnonzero(row)
+        rows[s, :nz.size], coefs[s, :nz.size], counts[s] = nz, row[nz], nz.size
+        frac[s] = C[s] if s < n_st else 1.0 if s == n_st else DOP853.C_EXTRA[s - n_st - 1]
+    return (rows, coefs, counts, frac, np.ascontiguousarray(DOP853.E3, dtype=float),
+            np.ascontiguousarray(DOP853.E5, dtype=float),
+            np.ascontiguousarray(DOP853.D, dtype=float))
+
+
+#: the tableau of scipy's DOP853, as :func:`_stage_tables` arranges it
+TABLEAU = _stage_tables()
+#: stages of a step (the last one's state is the step's result)
+_N_STAGES = int(DOP853.B.size)
 
 _SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
 _ERROR_EXPONENT = -1.0 / 8.0          # DOP853's error estimator is of order 7
@@ -81,18 +105,24 @@ def lindblad_rhs(tau, y, out, d, N, b, cc, w, beta_at, gam_at, diag, heat, sq, A
                         src = (ip * N + k + 1) * DN
                         for J in range(DN):
                             A[row + J] += c * y[src + J]
-    # -i [H, rho] = A + A^dag, plus the dissipator
+    # -i [H, rho] = A + A^dag, plus the dissipator's diagonal
     for r in range(DN):
-        k = r % N
         for s in range(DN):
-            l = s % N
-            v = A[r * DN + s] + np.conj(A[s * DN + r]) + diag[r * DN + s] * y[r * DN + s]
-            if heat != 0.0:
-                if k <= N - 2 and l <= N - 2:          # a rho a^dag
-                    v += heat * sq[k + 1] * sq[l + 1] * y[(r + 1) * DN + s + 1]
-                if k >= 1 and l >= 1:                  # a^dag rho a
-                    v += heat * sq[k] * sq[l] * y[(r - 1) * DN + s - 1]
-            out[r * DN + s] = v
+            out[r * DN + s] = (A[r * DN + s] + np.conj(A[s * DN + r])
+                               + diag[r * DN + s] * y[r * DN + s])
+    if heat != 0.0:
+        # the heating jumps a rho a^dag and a^dag rho a, on rows and columns of the same
+        # spin label (k, l the Fock levels of row r and column s)
+        for r in range(DN):
+            k = r % N
+            for s in range(DN):
+                l = s % N
+                v = 0j
+                if k <= N - 2 and l <= N - 2:
+                    v += sq[k + 1] * sq[l + 1] * y[(r + 1) * DN + s + 1]
+                if k >= 1 and l >= 1:
+                    v += sq[k] * sq[l] * y[(r - 1) * DN + s - 1]
+                out[r * DN + s] += heat * v
 
 
 @njit(cache=True)
@@ -112,60 +142,51 @@ def _rms(x):
 
 
 @njit(cache=True)
-def _combine(y, K, rows, coefs, h, out):
-    """``out = y + h sum_r coefs[r] K[rows[r]]`` on the float view (the stage sums)."""
+def _f(t, y, out, drv):
+    """The right-hand side on float views; ``drv``: :func:`lindblad_rhs`'s arguments
+    after ``out`` (a tuple)."""
+    d, N, b, cc, w, beta_at, gam_at, diag, heat, sq, scratch = drv
+    lindblad_rhs(t, y.view(np.complex128), out.view(np.complex128), d, N, b, cc, w,
+                 beta_at, gam_at, diag, heat, sq, scratch)
+
+
+@njit(cache=True)
+def _stage(s, t, h, y, K, tab, drv, out):
+    """Stage ``s`` of the step from ``(t, y)`` of size ``h``: ``out = y + h sum_r a_sr
+    K[r]`` (float views, the tableau's nonzero terms), then ``K[s] = f(t + c_s h, out)``
+    (for ``s`` the step's last stage ``out`` is the new state)."""
+    rows, coefs, counts, frac = tab[0], tab[1], tab[2], tab[3]
     m = y.size
-    r0 = rows[0]
-    a0 = coefs[0]
+    c = counts[s]
+    r0 = rows[s, 0]
     for q in range(m):
-        out[q] = a0 * K[r0, q]
-    for r in range(1, rows.size):
-        rr = rows[r]
-        a = coefs[r]
+        out[q] = coefs[s, 0] * K[r0, q]
+    for r in range(1, c):
+        rr = rows[s, r]
+        a = coefs[s, r]
         for q in range(m):
             out[q] += a * K[rr, q]
     for q in range(m):
         out[q] = y[q] + h * out[q]
+    _f(t + frac[s] * h, out, K[s], drv)
 
 
 @njit(cache=True)
-def dop853_lindblad(y0, ts, rtol, atol, d, N, b, cc, w, beta_at, gam_at, diag, heat,
-                    A_tab, B_tab, C_tab, E3, E5, D_tab, A_ext, C_ext):
-    """States at the increasing times ``ts`` (all > 0) from ``y0`` at 0, the largest
-    top-level population after any step, and the right-hand sides evaluated:
-    ``(ys (len(ts), n), top, nfev)``; ``nfev = -1``: the step size fell below its
-    minimum (scipy's "too small step"); ``-2``: the last time was not reached.
+def _weighted(K, coefs, out):
+    """``out = sum_r coefs[r] K[r]`` over the first ``len(coefs)`` rows."""
+    m = out.size
+    for q in range(m):
+        out[q] = coefs[0] * K[0, q]
+    for r in range(1, coefs.size):
+        a = coefs[r]
+        if a != 0.0:
+            for q in range(m):
+                out[q] += a * K[r, q]
 
-    The Runge-Kutta sums run on the states' float views (real coefficients)."""
-    n = y0.size
-    m = 2 * n
-    sq = np.sqrt(np.arange(N).astype(np.float64))
-    scratch = np.empty(n, dtype=np.complex128)
-    n_stages = B_tab.size
-    n_ext = n_stages + 4
-    # the nonzero coefficients of every stage sum: rows (n_ext + 1, n_ext), counts
-    tab_rows = np.zeros((n_ext + 1, n_ext), dtype=np.int64)
-    tab_coef = np.zeros((n_ext + 1, n_ext))
-    tab_cnt = np.zeros(n_ext + 1, dtype=np.int64)
-    for s in range(1, n_ext):
-        for r in range(s):
-            a = A_tab[s, r] if s < n_stages else (B_tab[r] if s == n_stages
-                                                   else A_ext[s - n_stages - 1, r])
-            if s == n_stages and r >= n_stages:
-                a = 0.0
-            if a != 0.0:
-                tab_rows[s, tab_cnt[s]] = r
-                tab_coef[s, tab_cnt[s]] = a
-                tab_cnt[s] += 1
-    K = np.empty((n_ext, m))
-    ys = np.empty((ts.size, n), dtype=np.complex128)
-    t_bound = ts[-1]
-    y = y0.copy().view(np.float64)
-    f = np.empty(m)
-    lindblad_rhs(0.0, y.view(np.complex128), f.view(np.complex128), d, N, b, cc, w,
-                 beta_at, gam_at, diag, heat, sq, scratch)
-    nfev = 1
-    # scipy's select_initial_step (error estimator order 7)
+
+@njit(cache=True)
+def _initial_step(y, f, t_bound, rtol, atol, drv):
+    """scipy's ``select_initial_step`` (error estimator of order 7)."""
     yc = y.view(np.complex128)
     fc = f.view(np.complex128)
     scale = atol + np.abs(yc) * rtol
@@ -173,141 +194,141 @@ def dop853_lindblad(y0, ts, rtol, atol, d, N, b, cc, w, beta_at, gam_at, diag, h
     d1 = _rms(fc / scale)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, t_bound)
-    f1 = np.empty(n, dtype=np.complex128)
-    lindblad_rhs(h0, yc + h0 * fc, f1, d, N, b, cc, w, beta_at, gam_at, diag, heat, sq,
-                 scratch)
-    nfev += 1
-    d2 = _rms((f1 - fc) / scale) / h0
+    f1 = np.empty_like(f)
+    _f(h0, (yc + h0 * fc).view(np.float64), f1, drv)
+    d2 = _rms((f1.view(np.complex128) - fc) / scale) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
         h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    h_abs = min(100 * h0, h1, t_bound)
-    top = _top(yc, d, N)
+    return min(100 * h0, h1, t_bound)
+
+
+@njit(cache=True)
+def _error_norm(y, y_new, K, h, rtol, atol, tab, err5, err3):
+    """scipy's ``DOP853._estimate_error_norm``: the two estimators' sums (float views),
+    then their squares scaled by ``atol + rtol max(|y|, |y_new|)``."""
+    _weighted(K, tab[5], err5)
+    _weighted(K, tab[4], err3)
+    e5 = 0.0
+    e3 = 0.0
+    for q in range(y.size // 2):
+        ya = math.hypot(y[2 * q], y[2 * q + 1])
+        yb = math.hypot(y_new[2 * q], y_new[2 * q + 1])
+        sc = atol + max(ya, yb) * rtol
+        sc2 = sc * sc
+        e5 += (err5[2 * q] ** 2 + err5[2 * q + 1] ** 2) / sc2
+        e3 += (err3[2 * q] ** 2 + err3[2 * q + 1] ** 2) / sc2
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * (y.size // 2))
+
+
+@njit(cache=True)
+def _step(t, y, f, h_abs, t_bound, rtol, atol, K, tab, drv, dy, y_new, err5, err3):
+    """One accepted step of scipy's ``RungeKutta._step_impl`` from ``(t, y)``, ``f`` its
+    derivative: ``(t_new, h, next h_abs, attempts)`` with ``y_new`` and ``K`` filled;
+    ``h = 0`` when the step fell below its minimum."""
+    min_step = 10 * abs(np.nextafter(t, np.inf) - t)
+    h_abs = max(h_abs, min_step)
+    rejected = False
+    attempts = 0
+    K[0, :] = f
+    while True:
+        if h_abs < min_step:
+            return t, 0.0, h_abs, attempts
+        attempts += 1
+        t_new = min(t + h_abs, t_bound)
+        h = t_new - t
+        h_abs = abs(h)
+        for s in range(1, _N_STAGES):
+            _stage(s, t, h, y, K, tab, drv, dy)
+        _stage(_N_STAGES, t, h, y, K, tab, drv, y_new)
+        err = _error_norm(y, y_new, K, h, rtol, atol, tab, err5, err3)
+        if err < 1:
+            factor = _MAX_FACTOR if err == 0 else min(_MAX_FACTOR,
+                                                      _SAFETY * err ** _ERROR_EXPONENT)
+            if rejected:
+                factor = min(1.0, factor)
+            return t_new, h, h_abs * factor, attempts
+        h_abs *= max(_MIN_FACTOR, _SAFETY * err ** _ERROR_EXPONENT)
+        rejected = True
+
+
+@njit(cache=True)
+def _dense(ts, t_old, h, y_old, f_old, y, f, K, tab, drv, dy, F, out):
+    """scipy's DOP853 dense output over the last step (three more stages, a degree-7
+    interpolant), evaluated at the times ``ts`` into the float rows ``out``."""
+    for s in range(_N_STAGES + 1, K.shape[0]):
+        _stage(s, t_old, h, y_old, K, tab, drv, dy)
+    m = y.size
+    for q in range(m):
+        delta = y[q] - y_old[q]
+        F[0, q] = delta
+        F[1, q] = h * f_old[q] - delta
+        F[2, q] = 2 * delta - h * (f[q] + f_old[q])
+    D = tab[6]
+    for p in range(D.shape[0]):
+        _weighted(K, D[p], F[3 + p])
+        for q in range(m):
+            F[3 + p, q] *= h
+    for jj in range(ts.size):
+        x = (ts[jj] - t_old) / h
+        for q in range(m):
+            v = 0.0
+            for k7 in range(F.shape[0]):
+                v += F[F.shape[0] - 1 - k7, q]
+                v *= x if k7 % 2 == 0 else 1 - x
+            out[jj, q] = v + y_old[q]
+
+
+@njit(cache=True)
+def dop853_lindblad(y0, ts, rtol, atol, d, N, b, cc, w, beta_at, gam_at, diag, heat, tab):
+    """States at the increasing times ``ts`` (all > 0) from ``y0`` at 0, the largest
+    top-level population after any step, and the right-hand sides evaluated:
+    ``(ys (len(ts), n), top, nfev)``; ``nfev = -1``: the step size fell below its
+    minimum (scipy's "too small step"); ``-2``: the last time was not reached.
+    ``tab``: :data:`TABLEAU`."""
+    n = y0.size
+    m = 2 * n
+    drv = (d, N, b, cc, w, beta_at, gam_at, diag, heat,
+           np.sqrt(np.arange(N).astype(np.float64)), np.empty(n, dtype=np.complex128))
+    K = np.empty((tab[0].shape[0], m))
+    ys = np.empty((ts.size, n), dtype=np.complex128)
+    out = ys.view(np.float64)
+    y = y0.copy().view(np.float64)
+    f = np.empty(m)
+    _f(0.0, y, f, drv)
+    h_abs = _initial_step(y, f, ts[-1], rtol, atol, drv)
+    nfev = 2
+    top = _top(y.view(np.complex128), d, N)
+    dy, y_new, y_old, f_old = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    err5, err3 = np.empty(m), np.empty(m)
+    F = np.empty((tab[6].shape[0] + 3, m))
     t = 0.0
     i = 0
-    dy = np.empty(m)
-    y_new = np.empty(m)
-    y_old = np.empty(m)
-    f_old = np.empty(m)
-    F = np.empty((7, m))
     while i < ts.size:
-        min_step = 10 * abs(np.nextafter(t, np.inf) - t)
-        if h_abs < min_step:
-            h_abs = min_step
-        accepted = False
-        rejected = False
-        h = 0.0
-        t_new = t
-        while not accepted:
-            if h_abs < min_step:
-                return ys, top, -1
-            h = h_abs
-            t_new = t + h
-            if t_new - t_bound > 0:
-                t_new = t_bound
-            h = t_new - t
-            h_abs = abs(h)
-            # scipy's rk_step
-            K[0, :] = f
-            for s in range(1, n_stages):
-                c = tab_cnt[s]
-                _combine(y, K, tab_rows[s, :c], tab_coef[s, :c], h, dy)
-                lindblad_rhs(t + C_tab[s] * h, dy.view(np.complex128),
-                             K[s].view(np.complex128), d, N, b, cc, w, beta_at, gam_at,
-                             diag, heat, sq, scratch)
-            c = tab_cnt[n_stages]
-            _combine(y, K, tab_rows[n_stages, :c], tab_coef[n_stages, :c], h, y_new)
-            lindblad_rhs(t + h, y_new.view(np.complex128), K[n_stages].view(np.complex128),
-                         d, N, b, cc, w, beta_at, gam_at, diag, heat, sq, scratch)
-            nfev += n_stages
-            # scipy's DOP853._estimate_error_norm
-            e5 = 0.0
-            e3 = 0.0
-            for q in range(n):
-                ya = math.hypot(y[2 * q], y[2 * q + 1])
-                yb = math.hypot(y_new[2 * q], y_new[2 * q + 1])
-                sc = atol + max(ya, yb) * rtol
-                x5r = 0.0
-                x5i = 0.0
-                x3r = 0.0
-                x3i = 0.0
-                for r in range(n_stages + 1):
-                    kr = K[r, 2 * q]
-                    ki = K[r, 2 * q + 1]
-                    x5r += kr * E5[r]
-                    x5i += ki * E5[r]
-                    x3r += kr * E3[r]
-                    x3i += ki * E3[r]
-                e5 += (x5r * x5r + x5i * x5i) / (sc * sc)
-                e3 += (x3r * x3r + x3i * x3i) / (sc * sc)
-            if e5 == 0.0 and e3 == 0.0:
-                err = 0.0
-            else:
-                err = abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
-            if err < 1:
-                if err == 0:
-                    factor = _MAX_FACTOR
-                else:
-                    factor = min(_MAX_FACTOR, _SAFETY * err ** _ERROR_EXPONENT)
-                if rejected:
-                    factor = min(1.0, factor)
-                h_abs *= factor
-                accepted = True
-            else:
-                h_abs *= max(_MIN_FACTOR, _SAFETY * err ** _ERROR_EXPONENT)
-                rejected = True
         t_old = t
+        t, h, h_abs, attempts = _step(t, y, f, h_abs, ts[-1], rtol, atol, K, tab, drv, dy,
+                                      y_new, err5, err3)
+        if h == 0.0:
+            return ys, top, -1
+        nfev += _N_STAGES * attempts
         y_old[:] = y
         f_old[:] = f
-        t = t_new
         y[:] = y_new
-        f[:] = K[n_stages]
-        finished = t - t_bound >= 0
+        f[:] = K[_N_STAGES]
         j = i
         while j < ts.size and ts[j] <= t:
             j += 1
         if j > i:
             if ts[j - 1] == t and j - i == 1:
-                ys[i] = y.view(np.complex128)
+                out[i] = y
             else:
-                # scipy's DOP853 dense output: three more stages, a degree-7 interpolant
-                for s in range(n_stages + 1, n_ext):
-                    c = tab_cnt[s]
-                    _combine(y_old, K, tab_rows[s, :c], tab_coef[s, :c], h, dy)
-                    lindblad_rhs(t_old + C_ext[s - n_stages - 1] * h, dy.view(np.complex128),
-                                 K[s].view(np.complex128), d, N, b, cc, w, beta_at, gam_at,
-                                 diag, heat, sq, scratch)
+                _dense(ts[i:j], t_old, h, y_old, f_old, y, f, K, tab, drv, dy, F, out[i:j])
                 nfev += 3
-                for q in range(m):
-                    delta = y[q] - y_old[q]
-                    F[0, q] = delta
-                    F[1, q] = h * f_old[q] - delta
-                    F[2, q] = 2 * delta - h * (f[q] + f_old[q])
-                for p in range(4):
-                    for q in range(m):
-                        F[3 + p, q] = 0.0
-                    for r in range(n_ext):
-                        a = D_tab[p, r]
-                        if a != 0.0:
-                            for q in range(m):
-                                F[3 + p, q] += a * K[r, q]
-                    for q in range(m):
-                        F[3 + p, q] *= h
-                out = ys.view(np.float64)
-                for jj in range(i, j):
-                    x = (ts[jj] - t_old) / h
-                    for q in range(m):
-                        v = 0.0
-                        for k7 in range(7):
-                            v += F[6 - k7, q]
-                            if k7 % 2 == 0:
-                                v *= x
-                            else:
-                                v *= 1 - x
-                        out[jj, q] = v + y_old[q]
             i = j
         top = max(top, _top(y.view(np.complex128), d, N))
-        if finished and i < ts.size:
+        if t - ts[-1] >= 0 and i < ts.size:
             return ys, top, -2
     return ys, top, nfev

@@ -282,7 +282,7 @@ def _lindblad_compiled(drive, N, p, tau_out, gamma, heat, rtol, atol, init, gamm
         b, cc, w, beta_at, gam_at = drive.coupling()
         ys, top, nfev = dop853_lindblad(y0, np.ascontiguousarray(ts[later]), float(rtol),
                                         float(atol), d, N, b, cc, w, beta_at, gam_at, diag,
-                                        float(heat), *TABLEAU)
+                                        float(heat), TABLEAU)
         if nfev == -1:
             raise RuntimeError("DOP853 failed: the step size fell below the spacing of "
                                "the times")
