@@ -32,6 +32,7 @@ from scipy.integrate import DOP853
 
 __all__ = ["lindblad_rhs", "dop853_lindblad", "TABLEAU"]
 
+
 def _stage_tables():
     """scipy's DOP853 tableau (public class attributes) as the compiled loop reads it:
     for every stage ``s`` after the first -- the twelve of a step, the new state (the
