@@ -1,4 +1,8 @@
-"""``dpdfit budget``: the error budget of the fidelity offset delta (Table S2)."""
+"""``dpdfit budget``: the error budget of the fidelity offset delta (Table S2).
+
+The analysis is imported when the command runs, so that registering its options
+(``dpdfit --help``) does not load it.
+"""
 
 from __future__ import annotations
 
@@ -6,8 +10,6 @@ import argparse
 import json
 import math
 
-from dpdfit.analyses.budget import (error_budget, gate_rates_khz, load_budget_config,
-                                    validate_budget_config)
 from dpdfit.cli.options import finite_float, unit_interval
 from dpdfit.errors import InputError
 
@@ -24,6 +26,9 @@ def _offset(text: str) -> float:
 
 def cmd_budget(args) -> int:
     """``dpdfit budget``: the error budget (report or JSON)."""
+    # here, not at the top: --help registers the options without loading the analysis
+    from dpdfit.analyses.budget import (error_budget, gate_rates_khz, load_budget_config,
+                                        validate_budget_config)
     cfg = load_budget_config(args.config) if args.config else validate_budget_config(None)
     if args.delta is not None:
         cfg["delta"]["value"] = float(args.delta)

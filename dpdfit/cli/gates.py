@@ -3,6 +3,9 @@
 ``fidelity`` infers Bell fidelities from raw population and parity counts;
 ``align`` fits the scale ``alpha`` and offset ``delta`` that put the
 photodiode curves of a sweep onto the gate data.
+
+The fits and readers are imported by the functions that run the commands, so that
+registering the commands' options (``dpdfit --help``) does not load them.
 """
 
 from __future__ import annotations
@@ -15,7 +18,6 @@ from dpdfit.cli.options import positive_float
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.recordings.outputs import refuse_overwriting_inputs
-from dpdfit.recordings.tables import read_table
 
 __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_align"]
 
@@ -24,6 +26,7 @@ __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_ali
 
 
 def _gate_table(pop_path, par_path, interval, rates_path=None):
+    # here, not at the top: --help registers the options without loading the fits
     from dpdfit.fits.counts import gate_fidelities
     from dpdfit.recordings.counts import read_parity, read_populations
     from dpdfit.recordings.gate_rates import read_gate_rates
@@ -111,8 +114,10 @@ def _sigma_db(text: str) -> float:
 def cmd_align(args) -> int:
     """``dpdfit align``: fit the scale ``alpha`` (kHz) and offset ``delta`` that put a
     sweep's photodiode curves onto the gate table (report or JSON, ``--plot`` the figures)."""
+    # here, not at the top: --help registers the options without loading the fits
     from dpdfit.analyses.sweep import read_sweep_table
     from dpdfit.fits.alignment import align
+    from dpdfit.recordings.tables import read_table
     # xi0_err_khz is optional, as in gate_rates.csv: 'fidelity' leaves it out without it
     gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "F", "F_err"], ["xi0_err_khz"],
                       numeric=["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],

@@ -1,23 +1,28 @@
-"""``dpdfit propagate``: posterior and drift of the AOM calibration propagated into F_est."""
+"""``dpdfit propagate``: posterior and drift of the AOM calibration propagated into F_est.
+
+The analysis is imported when the command runs, so that registering its options
+(``dpdfit --help``) does not load it.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 
-from dpdfit.analyses.propagation import propagate, threshold_distribution
 from dpdfit.cli.options import fraction, int_at_least, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.fits.calibration import calibrate_phase
-from dpdfit.recordings.tables import read_calibration, read_calibration_table
 
 __all__ = ["add_propagate_command", "cmd_propagate"]
 
 
 def cmd_propagate(args) -> int:
     """``dpdfit propagate``: drift propagation into F_est (report or JSON)."""
+    # here, not at the top: --help registers the options without loading the analysis
+    from dpdfit.analyses.propagation import propagate, threshold_distribution
+    from dpdfit.fits.calibration import calibrate_phase
+    from dpdfit.recordings.tables import read_calibration, read_calibration_table
     df = read_calibration_table(args.calibration_runs, "amplitude")
     phase = None
     if args.phase:
