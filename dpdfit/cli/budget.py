@@ -10,6 +10,7 @@ import argparse
 import json
 import math
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import finite_float, unit_interval
 from dpdfit.errors import InputError
 
@@ -51,7 +52,7 @@ def add_budget_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit budget [--config F] [--delta D --delta-err E] [--gate-rates CSV]
     [--json]`` on an argparse sub-parsers object (``func=cmd_budget``)."""
     s = subparsers.add_parser(
-        "budget", help="error budget of the fidelity offset delta (Table S2)",
+        "budget", help=SUMMARIES["budget"],
         description="Infidelity contributions of state preparation, dephasing, heating and "
                     "detection with Monte-Carlo uncertainties, compared with the fitted "
                     "offset delta (Supplement S10, Table S2).")

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.version import __version__
@@ -67,7 +68,7 @@ def cmd_polyfit(args) -> int:
 
 def add_polyfit_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit polyfit`` on an argparse sub-parsers object."""
-    q = subparsers.add_parser("polyfit", help="weighted polynomial least squares on a CSV file")
+    q = subparsers.add_parser("polyfit", help=SUMMARIES["polyfit"])
     q.add_argument("file", help="CSV file")
     q.add_argument("--x", required=True, help="column of the abscissa")
     q.add_argument("--y", required=True, help="column of the ordinate")
@@ -209,7 +210,7 @@ def cmd_calibrate(args) -> int:
 def add_calibrate_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit calibrate`` on an argparse sub-parsers object."""
     c = subparsers.add_parser("calibrate",
-                              help="fit the AOM amplitude (and phase) transfer functions")
+                              help=SUMMARIES["calibrate"])
     c.add_argument("--amplitude", required=True, metavar="AMP.csv",
                    help="columns A, power[, power_err, run, timestamp]")
     c.add_argument("--phase", metavar="PHASE.csv",
@@ -299,7 +300,7 @@ def cmd_lut(args) -> int:
 
 def add_lut_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit lut`` on an argparse sub-parsers object."""
-    t = subparsers.add_parser("lut", help="export the predistortion table (CSV + .npy + .json)")
+    t = subparsers.add_parser("lut", help=SUMMARIES["lut"])
     t.add_argument("calibration", help="calibration.json written by 'dpdfit calibrate'")
     t.add_argument("--points", type=int, default=1001, help="number of table points (1001)")
     t.add_argument("-o", "--output", required=True, help="output .csv (writes .npy/.json beside)")

@@ -12,6 +12,7 @@ import json
 import sys
 from pathlib import Path
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.defaults import DIAGNOSIS_PAIRS
 from dpdfit.core.jsonable import to_jsonable
@@ -92,7 +93,7 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR] [--pairs 3]
     [--compare PREVIOUS_JSON]``."""
     s = subparsers.add_parser(
-        "diagnose", help="locate simulation/recording mismatches and name the missing physics",
+        "diagnose", help=SUMMARIES["diagnose"],
         description="Standardised residuals of every observable against the simulation built "
                     "from the campaign's own calibration; deviation search with Bonferroni "
                     "correction; every form of each catalog effect fitted and ranked by BIC "

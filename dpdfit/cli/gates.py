@@ -14,6 +14,7 @@ import argparse
 import json
 import sys
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import positive_float
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.core.jsonable import to_jsonable
@@ -83,7 +84,7 @@ def cmd_fidelity(args) -> int:
 def add_fidelity_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit fidelity`` on an argparse sub-parsers object."""
     f = subparsers.add_parser("fidelity",
-                              help="Bell fidelities from raw population and parity counts (S7)")
+                              help=SUMMARIES["fidelity"])
     f.add_argument("--populations", required=True, metavar="POP.csv",
                    help="A, dpd, scan, n_even, shots (or n00, n01_10, n11, shots)")
     f.add_argument("--parity", required=True, metavar="PARITY.csv",
@@ -141,7 +142,7 @@ def cmd_align(args) -> int:
 def add_align_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit align`` on an argparse sub-parsers object."""
     al = subparsers.add_parser(
-        "align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
+        "align", help=SUMMARIES["align"])
     al.add_argument("--gate", required=True,
                     help="A, dpd, xi0_khz, F, F_err (+ xi0_err_khz), e.g. from 'fidelity -o'")
     al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import nonneg_int, positive_int
 from dpdfit.core.defaults import (HARNESS_NULLS, HARNESS_PAIRS, HARNESS_PER_EFFECT,
                                   HARNESS_PER_FORM, HARNESS_SEED, HARNESS_TRIPLES)
@@ -66,7 +67,7 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit harness [--per-effect 20] [--nulls 20] [--workers N]
     [--scheduler ADDR] [--json]`` on an argparse sub-parsers object (``func=cmd_harness``)."""
     s = subparsers.add_parser(
-        "harness", help="injection-recovery harness of the diagnosis (parallel)",
+        "harness", help=SUMMARIES["harness"],
         description="Simulate campaigns with each catalog effect concealed at realistic "
                     "strengths (and pairs and triples of them, and null campaigns), diagnose "
                     "each, and report the confusion matrix, false-alarm rate, recovery of "

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import fraction, int_at_least, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.core.jsonable import to_jsonable
@@ -64,7 +65,7 @@ def add_propagate_command(subparsers) -> argparse.ArgumentParser:
     code and raises :class:`~dpdfit.errors.DpdfitError` on bad input.
     """
     s = subparsers.add_parser(
-        "propagate", help="posterior + drift of the AOM calibration propagated into F_est",
+        "propagate", help=SUMMARIES["propagate"],
         description="Posterior (emcee) of the latest calibration run, run-to-run drift from "
                     "all runs, propagated through the Cardioid forward model at one amplitude "
                     "for both DPD flags: quantiles of F_est, R10 and eta_bar.")

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import fraction, nonneg_float, positive_float
 from dpdfit.core.defaults import ETA_REF, FORMULA, FORMULAS, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.core.version import __version__
@@ -100,7 +101,7 @@ def cmd_sweep(args) -> int:
 
 def add_sweep_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit sweep`` on an argparse sub-parsers object."""
-    w = subparsers.add_parser("sweep", help="amplitude sweep: spectra, F_est, eta_bar, r_rel (S6)")
+    w = subparsers.add_parser("sweep", help=SUMMARIES["sweep"])
     w.add_argument("calibration", help="calibration.json")
     w.add_argument("--amplitudes", metavar="START:STOP:N",
                    help="inclusive amplitude grid (default 0.05:1:100)")
@@ -171,7 +172,7 @@ def cmd_estimate(args) -> int:
 def add_estimate_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit estimate`` on an argparse sub-parsers object."""
     e = subparsers.add_parser("estimate",
-                              help="fidelity estimate from tone powers of one sideband (S5)")
+                              help=SUMMARIES["estimate"])
     e.add_argument("--powers-db", required=True, metavar="n:dB,...",
                    help='tone powers, e.g. "0:-40,1:0,2:0,3:-30"')
     e.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
@@ -205,7 +206,7 @@ def cmd_im_table(args) -> int:
 
 def add_im_table_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit im-table`` on an argparse sub-parsers object."""
-    m = subparsers.add_parser("im-table", help="required gate-to-IM power ratios (Table S1)")
+    m = subparsers.add_parser("im-table", help=SUMMARIES["im-table"])
     m.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
     m.add_argument("--formula", choices=FORMULAS, default=FORMULA)
     m.add_argument("--as-printed", action="store_true",
@@ -240,7 +241,7 @@ def cmd_thresholds(args) -> int:
 def add_thresholds_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit thresholds`` on an argparse sub-parsers object."""
     h = subparsers.add_parser("thresholds",
-                              help="eta_bar_corr and threshold efficiencies of a sweep")
+                              help=SUMMARIES["thresholds"])
     h.add_argument("sweep", help="sweep.csv written by 'dpdfit sweep'")
     h.add_argument("--A-corr", type=fraction, dest="A_corr",
                    help="A_corr if the sweep file's header lacks it")

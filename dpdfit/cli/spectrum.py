@@ -14,6 +14,7 @@ import argparse
 import json
 import sys
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import finite_float, nonneg_float, positive_float
 from dpdfit.core.defaults import FORMULA, FORMULAS, NBAR
 from dpdfit.core.jsonable import to_jsonable
@@ -108,7 +109,7 @@ def add_spectrum_command(subparsers) -> argparse.ArgumentParser:
     :class:`~dpdfit.errors.DpdfitError` on bad input.
     """
     s = subparsers.add_parser(
-        "spectrum", help="tone powers and IM ratios from a heterodyne photodiode trace",
+        "spectrum", help=SUMMARIES["spectrum"],
         description="Gate and intermodulation tone powers (dB re a unit-amplitude sinusoid) "
                     "from a flat-top periodogram of a heterodyne beat trace (Supplement S4).")
     s.add_argument("trace", help=".npy (1-D), .npz (keys trace[, scale]) or one-column .csv")

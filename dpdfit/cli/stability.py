@@ -10,6 +10,7 @@ import argparse
 import json
 import sys
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.jsonable import to_jsonable
@@ -68,7 +69,7 @@ def add_stability_command(subparsers) -> argparse.ArgumentParser:
     :class:`~dpdfit.errors.DpdfitError` on bad input.
     """
     s = subparsers.add_parser(
-        "stability", help="stability of a multi-run calibration over time (Figs. S1, S2)",
+        "stability", help=SUMMARIES["stability"],
         description="Fit every run of a multi-run calibration file and report the time "
                     "series of y(1) = A_corr or phi(1), its mean and scatter, a drift test "
                     "and the Allan deviation (Supplement S2).")
