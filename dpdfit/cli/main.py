@@ -28,7 +28,6 @@ from dpdfit.cli.help_texts import OVERVIEW_EXAMPLES, OVERVIEW_NOTE, SUMMARIES, d
 from dpdfit.cli.logs import cli_logging
 from dpdfit.core.version import __version__
 from dpdfit.errors import DpdfitError, printable
-from dpdfit.recordings.outputs import check_output_file, check_output_folder, staged_outputs
 
 __all__ = ["main", "build_parser", "check_outputs", "COMMANDS", "DESCRIPTION", "EPILOG",
            "INTERNAL_ERROR", "OUT_OF_MEMORY", "TOO_DEEP"]
@@ -119,6 +118,8 @@ def check_outputs(args) -> None:
     ``-o``/``--output`` and ``--log`` must be writable files (``analyze -o`` a
     results folder), ``--plot`` and ``simulate-campaign``'s folder writable folders.
     """
+    # here, not at the top: dpdfit --help starts without numpy (which the outputs need)
+    from dpdfit.recordings.outputs import check_output_file, check_output_folder
     folders = {"plot": "--plot folder"}
     if args.command == "analyze":
         folders["output"] = "results folder (-o)"
@@ -136,6 +137,8 @@ def check_outputs(args) -> None:
 
 def _run(args) -> int:
     """The command; one with ``--plot`` publishes its output file and figures together."""
+    # here, not at the top: dpdfit --help starts without numpy (which the outputs need)
+    from dpdfit.recordings.outputs import staged_outputs
     if getattr(args, "plot", None) is None:
         return args.func(args)
     with staged_outputs():
