@@ -15,7 +15,7 @@ plus :mod:`dpdfit.core` and :mod:`dpdfit.errors` (import-linter contracts in
     pipeline     ``analyze``: every analysis on a campaign folder, each fit done once
     cli          the ``dpdfit`` command, a thin layer over this API
 
-The public API is re-exported here (``dpdfit.__all__``).
+The public API is re-exported here, lazily (``dpdfit.__all__``).
 """
 
 import logging as _logging
@@ -29,8 +29,8 @@ from dpdfit.core.version import __version__
 # is imported the first time the name is used (``dpdfit.polyfit``, ``from dpdfit import
 # polyfit``).  Hand-written rather than the lazy_loader package: a dict and two functions,
 # with no dependency and no stub file to keep in step.  Type checkers and IDEs read the
-# imports below; tests/package/test_architecture.py checks that they, this table and
-# ``__all__`` name the same things.
+# imports below; tests/package (test_architecture, test_startup_imports) check that they
+# name ``__all__`` and that each name's value is the object they name.
 #: public name -> the module that defines it
 _LAZY = {
     **dict.fromkeys(("DpdfitError", "FitError", "InputError", "NotInvertibleError"),
