@@ -11,7 +11,7 @@ while the diagnosis's ``Problem`` is built, captured in this process with one wo
 and the default gate (Cardioid(1,2), ``nbar = 0.1``, the lab's ``T2`` and heating, the
 engine's default tolerances).  Of the null model's runs four are compared: the two-ion
 branch with the smallest and with the largest Fock space, the two-ion branch with the most
-output times (a time scan), and a one-ion branch.
+output times (a time scan), and the one-ion branch with the largest Fock space.
 
 QuTiP is given the same problem: the Hamiltonian ``K(tau) a^dag + K(tau)^dag a`` in the
 engine's time ``tau = t xi0`` as a ``QobjEvo`` whose coefficients are the engine's
@@ -32,8 +32,8 @@ times and the same ``rtol``/``atol``; QuTiP's default method (``adams``) and ``d
 Finally the null model's seconds: ``dpdfit diagnose DIR --json`` in a fresh process (as
 ``benchmarks/diagnose_speed.py`` runs it) on each ``--null-campaign`` (default: the
 campaign above), its ``timing_seconds["null model"]``, median of ``--null-repeats`` runs
-(0: skipped).  BLAS is single-threaded throughout, as
-in the diagnosis; the 1-minute load average is printed beside every timing.
+(0: skipped).  BLAS is single-threaded throughout, as in the diagnosis; the 1-minute load
+average is printed beside every timing.
 """
 
 from __future__ import annotations
