@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.import_campaign import is_mapping
 
 __all__ = ["add_add_command", "cmd_add"]
@@ -31,7 +32,7 @@ def cmd_add(args) -> int:
 def add_add_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit add`` on an argparse sub-parsers object."""
     c = subparsers.add_parser(
-        "add", help="add further recordings to a copy of a campaign folder",
+        "add", help=SUMMARIES["add"],
         description="Write a new campaign folder: CAMPAIGN's recordings, unchanged, and "
                     "NEW's appended -- NEW a folder of CSV files in the campaign layout (any "
                     "of the tables) or an import mapping of ARTIQ results files, read as "

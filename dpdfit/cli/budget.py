@@ -1,4 +1,8 @@
-"""``dpdfit budget``: the error budget of the fidelity offset delta (Table S2)."""
+"""``dpdfit budget``: the error budget of the fidelity offset delta (Table S2).
+
+The analysis is imported when the command runs, so that registering its options
+(``dpdfit --help``) does not load it.
+"""
 
 from __future__ import annotations
 
@@ -6,8 +10,7 @@ import argparse
 import json
 import math
 
-from dpdfit.analyses.budget import (error_budget, gate_rates_khz, load_budget_config,
-                                    validate_budget_config)
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import finite_float, unit_interval
 from dpdfit.errors import InputError
 
@@ -24,6 +27,9 @@ def _offset(text: str) -> float:
 
 def cmd_budget(args) -> int:
     """``dpdfit budget``: the error budget (report or JSON)."""
+    # here, not at the top: --help registers the options without loading the analysis
+    from dpdfit.analyses.budget import (error_budget, gate_rates_khz, load_budget_config,
+                                        validate_budget_config)
     cfg = load_budget_config(args.config) if args.config else validate_budget_config(None)
     if args.delta is not None:
         cfg["delta"]["value"] = float(args.delta)
@@ -46,7 +52,7 @@ def add_budget_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit budget [--config F] [--delta D --delta-err E] [--gate-rates CSV]
     [--json]`` on an argparse sub-parsers object (``func=cmd_budget``)."""
     s = subparsers.add_parser(
-        "budget", help="error budget of the fidelity offset delta (Table S2)",
+        "budget", help=SUMMARIES["budget"],
         description="Infidelity contributions of state preparation, dephasing, heating and "
                     "detection with Monte-Carlo uncertainties, compared with the fitted "
                     "offset delta (Supplement S10, Table S2).")

@@ -4,6 +4,9 @@
 ``calibrate`` fits the AOM amplitude (and phase) transfer functions of one run
 (or of every run, ``--all-runs``); ``lut`` exports the predistortion table of
 a ``calibration.json`` as CSV, ``.npy`` and ``.json`` with its provenance.
+
+The fits are imported by the functions that run the commands, so that registering the
+commands' options (``dpdfit --help``) does not load them.
 """
 
 from __future__ import annotations
@@ -16,19 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.version import __version__
 from dpdfit.errors import DpdfitError, FitError, InputError, NotInvertibleError
-from dpdfit.fits.calibration import (Calibration, calibrate_amplitude, calibrate_phase,
-                                     load_calibration)
-from dpdfit.fits.calibration.shared import run_record
-from dpdfit.fits.polyfit import parse_powers, polyfit
-from dpdfit.models.transfer import TransferFunction, predistortion_table
 from dpdfit.recordings.outputs import (atomic_write_json, refuse_overwriting_inputs, sha256_file,
                                        staged_outputs, to_jsonable)
-from dpdfit.recordings.calibration_runs import calibration_runs_data
-from dpdfit.recordings.tables import read_calibration, read_calibration_table, read_table
 
 __all__ = ["add_polyfit_command", "add_calibrate_command", "add_lut_command",
            "cmd_polyfit", "cmd_calibrate", "cmd_lut"]
@@ -40,6 +37,9 @@ __all__ = ["add_polyfit_command", "add_calibrate_command", "add_lut_command",
 def cmd_polyfit(args) -> int:
     """``dpdfit polyfit``: weighted polynomial fit of two CSV columns (report with the
     covariance, or JSON; ``-o`` also writes the JSON)."""
+    # here, not at the top: --help registers the options without loading the fits
+    from dpdfit.fits.polyfit import parse_powers, polyfit
+    from dpdfit.recordings.tables import read_table
     cols = [args.x, args.y]
     df = read_table(args.file, cols + ([args.sigma] if args.sigma else []),
                     positive=[args.sigma] if args.sigma else [])
@@ -68,7 +68,7 @@ def cmd_polyfit(args) -> int:
 
 def add_polyfit_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit polyfit`` on an argparse sub-parsers object."""
-    q = subparsers.add_parser("polyfit", help="weighted polynomial least squares on a CSV file")
+    q = subparsers.add_parser("polyfit", help=SUMMARIES["polyfit"])
     q.add_argument("file", help="CSV file")
     q.add_argument("--x", required=True, help="column of the abscissa")
     q.add_argument("--y", required=True, help="column of the ordinate")
@@ -85,6 +85,8 @@ def add_polyfit_command(subparsers) -> argparse.ArgumentParser:
 
 
 def _order_range(spec: str):
+    # here, not at the top: --help registers the options without loading the fits
+    from dpdfit.fits.polyfit import parse_powers
     if spec.lower() in ("none", "off", ""):
         return None
     try:
@@ -98,6 +100,11 @@ def _order_range(spec: str):
 
 def _amplitude_runs(args) -> list[dict]:
     """Fit every amplitude run of ``--amplitude``; print one line per run."""
+    # here, not at the top: --help registers the options without loading the fits
+    from dpdfit.fits.calibration import calibrate_amplitude
+    from dpdfit.fits.calibration.shared import run_record
+    from dpdfit.recordings.calibration_runs import calibration_runs_data
+    from dpdfit.recordings.tables import read_calibration_table
     runs = calibration_runs_data(read_calibration_table(args.amplitude, "amplitude"),
                                  "amplitude")
     out = []
@@ -114,6 +121,11 @@ def _amplitude_runs(args) -> list[dict]:
 
 def _phase_runs(args) -> list[dict]:
     """Fit every phase run of ``--phase``; print one line per run."""
+    # here, not at the top: --help registers the options without loading the fits
+    from dpdfit.fits.calibration import calibrate_phase
+    from dpdfit.fits.calibration.shared import run_record
+    from dpdfit.recordings.calibration_runs import calibration_runs_data
+    from dpdfit.recordings.tables import read_calibration_table
     runs = calibration_runs_data(read_calibration_table(args.phase, "phase"), "phase")
     out = []
     print(f"{'phase run':>12s}  {'timestamp':25s}  {'phi(1)':>10s}  {'stderr':>9s}")
@@ -141,6 +153,8 @@ def _check_invertible(amp, data) -> None:
     A curve that rolls off after peaking above ``A_corr`` is invertible and kept
     (``lut`` reports it, ``lut --strict`` refuses it); see the documentation's calibration guide.
     """
+    # here, not at the top: --help registers the options without loading the fits
+    from dpdfit.models.transfer import TransferFunction
     where = str(data.source) + (f", run {data.run}" if data.run else "")
     try:
         TransferFunction(amp.powers, tuple(amp.coefficients), source=where).invertibility()
@@ -153,6 +167,9 @@ def cmd_calibrate(args) -> int:
     """``dpdfit calibrate``: fit the AOM amplitude (and phase) transfer functions of
     one run, or of every run with ``--all-runs``; writes ``calibration.json`` and the
     Fig. 1 panels when asked, prints the report (or JSON)."""
+    # here, not at the top: --help registers the options without loading the fits
+    from dpdfit.fits.calibration import Calibration, calibrate_amplitude, calibrate_phase
+    from dpdfit.recordings.tables import read_calibration
     inputs = [args.amplitude] + ([args.phase] if args.phase else [])
     refuse_overwriting_inputs([args.output], inputs)
     if args.phase and not args.phase_min_A < args.phase_max_A:
@@ -193,7 +210,7 @@ def cmd_calibrate(args) -> int:
 def add_calibrate_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit calibrate`` on an argparse sub-parsers object."""
     c = subparsers.add_parser("calibrate",
-                              help="fit the AOM amplitude (and phase) transfer functions")
+                              help=SUMMARIES["calibrate"])
     c.add_argument("--amplitude", required=True, metavar="AMP.csv",
                    help="columns A, power[, power_err, run, timestamp]")
     c.add_argument("--phase", metavar="PHASE.csv",
@@ -248,6 +265,9 @@ def _lut_provenance(args, amp, a_star, rolloff) -> dict:
 def cmd_lut(args) -> int:
     """``dpdfit lut``: write the predistortion table of a ``calibration.json`` as CSV,
     ``.npy`` and ``.json`` (its provenance), all three or none."""
+    # here, not at the top: --help registers the options without loading the fits
+    from dpdfit.fits.calibration import load_calibration
+    from dpdfit.models.transfer import TransferFunction, predistortion_table
     out_csv = Path(args.output)
     if out_csv.suffix.lower() != ".csv":
         raise InputError("output must end in .csv (the .npy and .json are written beside it)",
@@ -280,7 +300,7 @@ def cmd_lut(args) -> int:
 
 def add_lut_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit lut`` on an argparse sub-parsers object."""
-    t = subparsers.add_parser("lut", help="export the predistortion table (CSV + .npy + .json)")
+    t = subparsers.add_parser("lut", help=SUMMARIES["lut"])
     t.add_argument("calibration", help="calibration.json written by 'dpdfit calibrate'")
     t.add_argument("--points", type=int, default=1001, help="number of table points (1001)")
     t.add_argument("-o", "--output", required=True, help="output .csv (writes .npy/.json beside)")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import nonneg_int
 from dpdfit.core.defaults import ERROR_MODEL, FORMULA
 
@@ -41,7 +42,7 @@ def _effects_help() -> str:
 def add_simulate_campaign_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit simulate-campaign`` on an argparse sub-parsers object."""
     c = subparsers.add_parser("simulate-campaign",
-                              help="simulate a complete synthetic measurement campaign")
+                              help=SUMMARIES["simulate-campaign"])
     c.add_argument("outdir", help="new folder to write the campaign into")
     c.add_argument("--seed", type=nonneg_int, default=ERROR_MODEL.seed,
                    help=f"random seed ({ERROR_MODEL.seed})")
@@ -84,7 +85,7 @@ def cmd_analyze(args) -> int:
 def add_analyze_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit analyze`` on an argparse sub-parsers object."""
     a = subparsers.add_parser("analyze",
-                              help="run every analysis on a campaign folder (main job)")
+                              help=SUMMARIES["analyze"])
     a.add_argument("folder", help="campaign folder (campaign.json, calibration_*.csv, ...), "
                    "or an import mapping (MAP.toml) of ARTIQ results files")
     a.add_argument("--complete-only", action="store_true",

@@ -1,4 +1,8 @@
-"""``dpdfit diagnose``: locate simulation/recording mismatches and name the missing physics."""
+"""``dpdfit diagnose``: locate simulation/recording mismatches and name the missing physics.
+
+The diagnosis and its figures are imported when the command runs, so that registering
+its options (``dpdfit --help``) does not load them.
+"""
 
 from __future__ import annotations
 
@@ -8,17 +12,12 @@ import json
 import sys
 from pathlib import Path
 
-from dpdfit.analyses.diagnosis.comparison.previous import read_diagnosis, refit_request
-from dpdfit.analyses.diagnosis.diagnose import DEFAULT_PAIRS, diagnose
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import nonneg_int
+from dpdfit.core.defaults import DIAGNOSIS_PAIRS
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.recordings.campaign_folder import check_campaign_folder
 from dpdfit.recordings.outputs import check_output_file, refuse_overwriting_inputs
-from dpdfit.recordings.schedule import write_schedule
-from dpdfit.report.comparison_plots import comparison_figure
-from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
-from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
 
 __all__ = ["add_diagnose_command", "cmd_diagnose"]
 
@@ -26,6 +25,9 @@ __all__ = ["add_diagnose_command", "cmd_diagnose"]
 def cmd_diagnose(args) -> int:
     """``dpdfit diagnose``: the diagnosis's report (or JSON), warnings on stderr; with
     ``--compare``, what the recordings changed against an earlier diagnosis."""
+    # here, not at the top: --help registers the options without loading the diagnosis
+    from dpdfit.analyses.diagnosis.comparison.previous import read_diagnosis, refit_request
+    from dpdfit.analyses.diagnosis.diagnose import diagnose
     from dpdfit.cli.import_campaign import campaign_argument, is_mapping
     # the earlier diagnosis is read and checked first, and the schedule's path: bad input
     # fails before the fits
@@ -43,7 +45,10 @@ def cmd_diagnose(args) -> int:
     comparison = None if previous is None else res.compared_with(previous)
     for w in res.warnings:
         print(f"dpdfit: warning: {w}", file=sys.stderr)
-    if args.plot:
+    if args.plot:  # the figures (matplotlib) only when they are asked for
+        from dpdfit.report.comparison_plots import comparison_figure
+        from dpdfit.report.diagnosis_plots import DIAGNOSIS_DPI, diagnosis_figures
+        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
         use_noninteractive_backend()
         figures = diagnosis_figures(res)
         if comparison is not None:
@@ -62,6 +67,8 @@ def cmd_diagnose(args) -> int:
 def _check_schedule_path(path, campaign) -> None:
     """The schedule file can be written, and not into the campaign (never touched)."""
     from dpdfit.cli.import_campaign import is_mapping
+    # here, not at the top: --help registers the options without loading the campaign reader
+    from dpdfit.recordings.campaign_folder import check_campaign_folder
     if not is_mapping(campaign):           # a link loop or FIFO named before it is resolved
         check_campaign_folder(campaign)
     check_output_file(path, "schedule file")
@@ -77,6 +84,8 @@ def _write_schedule(res, folder, path) -> None:
         why = (res.proposal and res.proposal.reason) or "the diagnosis is not ambiguous"
         print(f"dpdfit: no recording proposed ({why}): no schedule written", file=sys.stderr)
         return
+    # here, not at the top: --help registers the options without loading the schedule writer
+    from dpdfit.recordings.schedule import write_schedule
     write_schedule(res.schedule(folder), path)
 
 
@@ -84,7 +93,7 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit diagnose CAMPAIGN_DIR [--json] [--plot DIR] [--pairs 3]
     [--compare PREVIOUS_JSON]``."""
     s = subparsers.add_parser(
-        "diagnose", help="locate simulation/recording mismatches and name the missing physics",
+        "diagnose", help=SUMMARIES["diagnose"],
         description="Standardised residuals of every observable against the simulation built "
                     "from the campaign's own calibration; deviation search with Bonferroni "
                     "correction; every form of each catalog effect fitted and ranked by BIC "
@@ -108,10 +117,10 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
                         "(verdict, alternatives settled, separation achieved against "
                         "predicted, another recording); --json gains the key 'comparison', "
                         "--plot the figure diagnosis_comparison.png")
-    s.add_argument("--pairs", type=nonneg_int, default=DEFAULT_PAIRS,
+    s.add_argument("--pairs", type=nonneg_int, default=DIAGNOSIS_PAIRS,
                    help="after the first effect, try at most this many other effects (the "
                         "best single ones) as an addition at each step; 0: name one effect "
-                        f"at most ({DEFAULT_PAIRS})")
+                        f"at most ({DIAGNOSIS_PAIRS})")
     s.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
     s.set_defaults(func=cmd_diagnose)

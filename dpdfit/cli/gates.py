@@ -3,6 +3,9 @@
 ``fidelity`` infers Bell fidelities from raw population and parity counts;
 ``align`` fits the scale ``alpha`` and offset ``delta`` that put the
 photodiode curves of a sweep onto the gate data.
+
+The fits and readers are imported by the functions that run the commands, so that
+registering the commands' options (``dpdfit --help``) does not load them.
 """
 
 from __future__ import annotations
@@ -11,11 +14,11 @@ import argparse
 import json
 import sys
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import positive_float
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.recordings.outputs import refuse_overwriting_inputs
-from dpdfit.recordings.tables import read_table
 
 __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_align"]
 
@@ -24,6 +27,7 @@ __all__ = ["add_fidelity_command", "add_align_command", "cmd_fidelity", "cmd_ali
 
 
 def _gate_table(pop_path, par_path, interval, rates_path=None):
+    # here, not at the top: --help registers the options without loading the fits
     from dpdfit.fits.counts import gate_fidelities
     from dpdfit.recordings.counts import read_parity, read_populations
     from dpdfit.recordings.gate_rates import read_gate_rates
@@ -80,7 +84,7 @@ def cmd_fidelity(args) -> int:
 def add_fidelity_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit fidelity`` on an argparse sub-parsers object."""
     f = subparsers.add_parser("fidelity",
-                              help="Bell fidelities from raw population and parity counts (S7)")
+                              help=SUMMARIES["fidelity"])
     f.add_argument("--populations", required=True, metavar="POP.csv",
                    help="A, dpd, scan, n_even, shots (or n00, n01_10, n11, shots)")
     f.add_argument("--parity", required=True, metavar="PARITY.csv",
@@ -111,8 +115,10 @@ def _sigma_db(text: str) -> float:
 def cmd_align(args) -> int:
     """``dpdfit align``: fit the scale ``alpha`` (kHz) and offset ``delta`` that put a
     sweep's photodiode curves onto the gate table (report or JSON, ``--plot`` the figures)."""
+    # here, not at the top: --help registers the options without loading the fits
     from dpdfit.analyses.sweep import read_sweep_table
     from dpdfit.fits.alignment import align
+    from dpdfit.recordings.tables import read_table
     # xi0_err_khz is optional, as in gate_rates.csv: 'fidelity' leaves it out without it
     gate = read_table(args.gate, ["A", "dpd", "xi0_khz", "F", "F_err"], ["xi0_err_khz"],
                       numeric=["A", "dpd", "xi0_khz", "xi0_err_khz", "F", "F_err"],
@@ -136,7 +142,7 @@ def cmd_align(args) -> int:
 def add_align_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit align`` on an argparse sub-parsers object."""
     al = subparsers.add_parser(
-        "align", help="fit alpha (kHz) and delta aligning photodiode curves to gate data")
+        "align", help=SUMMARIES["align"])
     al.add_argument("--gate", required=True,
                     help="A, dpd, xi0_khz, F, F_err (+ xi0_err_khz), e.g. from 'fidelity -o'")
     al.add_argument("--sweep", required=True, help="sweep.csv from 'dpdfit sweep'")

@@ -3,7 +3,8 @@
 Without ``--campaigns`` it runs :func:`dpdfit.simulation.harness.run_harness`
 (simulated campaigns with concealed effects); with ``--campaigns DIR --truth
 FILE`` it diagnoses campaigns written elsewhere
-(:func:`dpdfit.simulation.harness_external.run_external`).
+(:func:`dpdfit.simulation.harness_external.run_external`).  Both are imported when the
+command runs, so that registering its options (``dpdfit --help``) does not load them.
 """
 
 from __future__ import annotations
@@ -11,18 +12,20 @@ from __future__ import annotations
 import argparse
 import json
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import nonneg_int, positive_int
+from dpdfit.core.defaults import (HARNESS_NULLS, HARNESS_PAIRS, HARNESS_PER_EFFECT,
+                                  HARNESS_PER_FORM, HARNESS_SEED, HARNESS_TRIPLES)
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.simulation.harness import (NULLS, PAIRS, PER_EFFECT, PER_FORM, PLAN_SEED,
-                                       TRIPLES, report, run_harness, write_report)
-from dpdfit.simulation.harness_external import report_external, run_external
 
 __all__ = ["add_harness_command", "cmd_harness"]
 
 
 def cmd_harness(args) -> int:
     """``dpdfit harness``: run the harness (or the external mode) and print its summary."""
+    # here, not at the top: --help registers the options without loading the harness
+    from dpdfit.simulation.harness import report, run_harness, write_report
     if args.campaigns or args.truth:
         return _cmd_external(args)
     effects = tuple(args.effects.split(",")) if args.effects else None
@@ -44,6 +47,9 @@ def cmd_harness(args) -> int:
 def _cmd_external(args) -> int:
     """``dpdfit harness --campaigns DIR --truth FILE``: diagnose external campaigns
     (:mod:`dpdfit.simulation.harness_external`)."""
+    # here, not at the top: --help registers the options without loading the harness
+    from dpdfit.simulation.harness import write_report
+    from dpdfit.simulation.harness_external import report_external, run_external
     if not (args.campaigns and args.truth):
         raise InputError("--campaigns DIR and --truth FILE go together")
     s = run_external(args.campaigns, args.truth, args.workers, args.scheduler,
@@ -61,27 +67,28 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit harness [--per-effect 20] [--nulls 20] [--workers N]
     [--scheduler ADDR] [--json]`` on an argparse sub-parsers object (``func=cmd_harness``)."""
     s = subparsers.add_parser(
-        "harness", help="injection-recovery harness of the diagnosis (parallel)",
+        "harness", help=SUMMARIES["harness"],
         description="Simulate campaigns with each catalog effect concealed at realistic "
                     "strengths (and pairs and triples of them, and null campaigns), diagnose "
                     "each, and report the confusion matrix, false-alarm rate, recovery of "
                     "each effect's size (pulls and their coverage) and fit improvement. "
                     "--leave-one-form-out also conceals each effect in each of its forms "
                     "and diagnoses it with that form left out of the catalog.")
-    s.add_argument("--per-effect", type=nonneg_int, default=PER_EFFECT,
-                   help=f"campaigns per effect ({PER_EFFECT})")
-    s.add_argument("--nulls", type=nonneg_int, default=NULLS,
-                   help=f"campaigns with nothing concealed ({NULLS})")
-    s.add_argument("--pairs", type=nonneg_int, default=PAIRS,
-                   help=f"campaigns with two effects concealed at once, random pairs ({PAIRS})")
-    s.add_argument("--triples", type=nonneg_int, default=TRIPLES,
-                   help=f"campaigns with three effects concealed at once ({TRIPLES})")
+    s.add_argument("--per-effect", type=nonneg_int, default=HARNESS_PER_EFFECT,
+                   help=f"campaigns per effect ({HARNESS_PER_EFFECT})")
+    s.add_argument("--nulls", type=nonneg_int, default=HARNESS_NULLS,
+                   help=f"campaigns with nothing concealed ({HARNESS_NULLS})")
+    s.add_argument("--pairs", type=nonneg_int, default=HARNESS_PAIRS,
+                   help="campaigns with two effects concealed at once, random pairs "
+                        f"({HARNESS_PAIRS})")
+    s.add_argument("--triples", type=nonneg_int, default=HARNESS_TRIPLES,
+                   help=f"campaigns with three effects concealed at once ({HARNESS_TRIPLES})")
     s.add_argument("--leave-one-form-out", action="store_true",
                    help="also conceal each effect in each of its forms, diagnosed with that "
                         "form left out of the catalog (--per-form campaigns each)")
-    s.add_argument("--per-form", type=positive_int, default=PER_FORM,
+    s.add_argument("--per-form", type=positive_int, default=HARNESS_PER_FORM,
                    help=f"campaigns per effect and form with --leave-one-form-out "
-                        f"({PER_FORM})")
+                        f"({HARNESS_PER_FORM})")
     s.add_argument("--pairs-left-out", type=nonneg_int, default=0,
                    help="campaigns with two effects at once, each in a form left out of the "
                         "catalog (0)")
@@ -91,8 +98,8 @@ def add_harness_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--workers", type=positive_int, default=None, help="local processes (all cores)")
     s.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address")
     s.add_argument("--effects", help="comma-separated subset of concealed effects")
-    s.add_argument("--seed", type=nonneg_int, default=PLAN_SEED,
-                   help=f"seed of the injection plan ({PLAN_SEED})")
+    s.add_argument("--seed", type=nonneg_int, default=HARNESS_SEED,
+                   help=f"seed of the injection plan ({HARNESS_SEED})")
     s.add_argument("--output", "-o", metavar="FILE.json", help="write the full report (all runs)")
     s.add_argument("--log", metavar="FILE.jsonl",
                    help="append every finished run to this log at once; runs already in it "

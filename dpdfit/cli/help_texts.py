@@ -1,9 +1,13 @@
-"""The one-paragraph description and the example of every ``dpdfit`` command's ``--help``.
+"""The one-line summary, the one-paragraph description and the example of every ``dpdfit``
+command's ``--help``.
 
-:func:`describe` sets them on the sub-parsers after the command modules have
-registered them (a description a module already gives is kept), with
-:class:`argparse.RawDescriptionHelpFormatter` so that the examples keep their
-lines.  The examples run from a clone of the repository (``datasets/``).
+The summaries are the list of ``dpdfit --help``: each command's module registers its
+command with its summary, and :func:`dpdfit.cli.main.build_parser` lists the commands
+that are not being run by name and summary alone.  :func:`describe` sets the
+descriptions and examples on the sub-parsers after the command modules have registered
+them (a description a module already gives is kept), with
+:class:`argparse.RawDescriptionHelpFormatter` so that the examples keep their lines.
+The examples run from a clone of the repository (``datasets/``).
 """
 
 from __future__ import annotations
@@ -11,7 +15,33 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-__all__ = ["DESCRIPTIONS", "EXAMPLES", "OVERVIEW_EXAMPLES", "OVERVIEW_NOTE", "describe"]
+__all__ = ["SUMMARIES", "DESCRIPTIONS", "EXAMPLES", "OVERVIEW_EXAMPLES", "OVERVIEW_NOTE",
+           "describe"]
+
+#: command -> its line in ``dpdfit --help``.
+SUMMARIES = {
+    "polyfit": "weighted polynomial least squares on a CSV file",
+    "calibrate": "fit the AOM amplitude (and phase) transfer functions",
+    "lut": "export the predistortion table (CSV + .npy + .json)",
+    "sweep": "amplitude sweep: spectra, F_est, eta_bar, r_rel (S6)",
+    "estimate": "fidelity estimate from tone powers of one sideband (S5)",
+    "im-table": "required gate-to-IM power ratios (Table S1)",
+    "thresholds": "eta_bar_corr and threshold efficiencies of a sweep",
+    "spectrum": "tone powers and IM ratios from a heterodyne photodiode trace",
+    "stability": "stability of a multi-run calibration over time (Figs. S1, S2)",
+    "propagate": "posterior + drift of the AOM calibration propagated into F_est",
+    "budget": "error budget of the fidelity offset delta (Table S2)",
+    "diagnose": "locate simulation/recording mismatches and name the missing physics",
+    "harness": "injection-recovery harness of the diagnosis (parallel)",
+    "fidelity": "Bell fidelities from raw population and parity counts (S7)",
+    "align": "fit alpha (kHz) and delta aligning photodiode curves to gate data",
+    "simulate-campaign": "simulate a complete synthetic measurement campaign",
+    "import": "import ARTIQ results files (ndscan scans) into a campaign folder",
+    "write-artiq-results": "write a campaign folder as ARTIQ results files "
+                           "(to try dpdfit import)",
+    "add": "add further recordings to a copy of a campaign folder",
+    "analyze": "run every analysis on a campaign folder (main job)",
+}
 
 #: command -> one paragraph (for commands whose module gives none).
 DESCRIPTIONS = {

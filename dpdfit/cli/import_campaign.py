@@ -15,6 +15,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.errors import InputError
 from dpdfit.recordings.input_files import read_input_json
 from dpdfit.recordings.outputs import folder_made
@@ -99,7 +100,7 @@ def cmd_import(args) -> int:
 def add_import_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit import`` on an argparse sub-parsers object."""
     c = subparsers.add_parser(
-        "import", help="import ARTIQ results files (ndscan scans) into a campaign folder",
+        "import", help=SUMMARIES["import"],
         description="Build a campaign folder from a lab's ARTIQ results files, as a TOML "
                     "mapping says (the .toml files in examples/import; the documentation's "
                     "guide page on importing lab recordings).  Every row keeps its source file and rid; "
@@ -155,8 +156,7 @@ def _write_schedule_results(args) -> int:
 def add_write_artiq_results_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit write-artiq-results`` on an argparse sub-parsers object."""
     c = subparsers.add_parser(
-        "write-artiq-results", help="write a campaign folder as ARTIQ results files "
-                                    "(to try dpdfit import)",
+        "write-artiq-results", help=SUMMARIES["write-artiq-results"],
         description="Write a campaign folder's tables as the HDF5 results files an ARTIQ "
                     "master and ndscan write (results/<date>/<hour>/<rid>-<Class>.h5), "
                     "together with OUT_DIR/mapping.toml, which imports them back.  "

@@ -9,29 +9,28 @@ The library's log messages are shown on stderr while a command runs
 
 Each command (or small family of commands) lives in its own module of
 :mod:`dpdfit.cli` with an ``add_<command>_command(subparsers)`` that registers
-it; this module only assembles the parser, in the order of ``dpdfit --help``.
+it; this module only assembles the parser, in the order of ``dpdfit --help``
+(:data:`COMMANDS`).  A command starts at once: :func:`main` imports only the module of
+the command it runs (the others are listed by name and summary), and that module imports
+the library when the command runs, not when its options are registered.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import re
 import sys
+from collections.abc import Collection
 
-from dpdfit.cli.calibration import add_calibrate_command, add_lut_command, add_polyfit_command
-from dpdfit.cli.campaign import add_analyze_command, add_simulate_campaign_command
-from dpdfit.cli.gates import add_align_command, add_fidelity_command
-from dpdfit.cli.help_texts import OVERVIEW_EXAMPLES, OVERVIEW_NOTE, describe
+from dpdfit.cli.help_texts import OVERVIEW_EXAMPLES, OVERVIEW_NOTE, SUMMARIES, describe
 from dpdfit.cli.logs import cli_logging
-from dpdfit.cli.spectral import (add_estimate_command, add_im_table_command, add_sweep_command,
-                                 add_thresholds_command)
 from dpdfit.core.version import __version__
 from dpdfit.errors import DpdfitError, printable
-from dpdfit.recordings.outputs import check_output_file, check_output_folder, staged_outputs
 
-__all__ = ["main", "build_parser", "check_outputs", "DESCRIPTION", "EPILOG", "INTERNAL_ERROR",
-           "OUT_OF_MEMORY", "TOO_DEEP"]
+__all__ = ["main", "build_parser", "check_outputs", "COMMANDS", "DESCRIPTION", "EPILOG",
+           "INTERNAL_ERROR", "OUT_OF_MEMORY", "TOO_DEEP"]
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +40,23 @@ DESCRIPTION = ("dpdfit: analysis of digitally predistorted (DPD) trapped-ion ent
                "fidelities, diagnosis.")
 #: The bottom of ``dpdfit --help``.
 EPILOG = ("examples:\n  " + OVERVIEW_EXAMPLES.replace("\n", "\n  ") + "\n\n" + OVERVIEW_NOTE)
+#: command -> the module that registers it (``add_<command>_command``), in the order of
+#: ``dpdfit --help``
+COMMANDS = {
+    **dict.fromkeys(("polyfit", "calibrate", "lut"), "dpdfit.cli.calibration"),
+    **dict.fromkeys(("sweep", "estimate", "im-table", "thresholds"), "dpdfit.cli.spectral"),
+    "spectrum": "dpdfit.cli.spectrum",
+    "stability": "dpdfit.cli.stability",
+    "propagate": "dpdfit.cli.propagate",
+    "budget": "dpdfit.cli.budget",
+    "diagnose": "dpdfit.cli.diagnose",
+    "harness": "dpdfit.cli.harness",
+    **dict.fromkeys(("fidelity", "align"), "dpdfit.cli.gates"),
+    "simulate-campaign": "dpdfit.cli.campaign",
+    **dict.fromkeys(("import", "write-artiq-results"), "dpdfit.cli.import_campaign"),
+    "add": "dpdfit.cli.add",
+    "analyze": "dpdfit.cli.campaign",
+}
 
 # The last line of defence (:func:`main`): how its messages start, after ``dpdfit: error:``.
 # Each means that no check gave the input a message of its own; tests look for them.
@@ -68,45 +84,32 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"dpdfit: error: {message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``dpdfit`` parser: each command registered by its module in ``dpdfit.cli``."""
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The ``dpdfit`` parser: each command registered by its module in ``dpdfit.cli``.
+
+    With ``commands``, only those are registered with their options; the others are
+    listed by name and summary alone (all that ``dpdfit --help`` and a usage error
+    show), so that their modules are not imported.
+    """
     p = _OneLineParser(
         prog="dpdfit", description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="version", version=f"dpdfit {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
-    add_polyfit_command(sub)
-    add_calibrate_command(sub)
-    add_lut_command(sub)
-    add_sweep_command(sub)
-    add_estimate_command(sub)
-    add_im_table_command(sub)
-    add_thresholds_command(sub)
-
-    from dpdfit.cli.spectrum import add_spectrum_command
-    from dpdfit.cli.stability import add_stability_command
-    from dpdfit.cli.budget import add_budget_command
-    from dpdfit.cli.propagate import add_propagate_command
-    add_spectrum_command(sub)
-    add_stability_command(sub)
-    add_propagate_command(sub)
-    add_budget_command(sub)
-    from dpdfit.cli.diagnose import add_diagnose_command
-    from dpdfit.cli.harness import add_harness_command
-    add_diagnose_command(sub)
-    add_harness_command(sub)
-    add_fidelity_command(sub)
-    add_align_command(sub)
-    add_simulate_campaign_command(sub)
-    from dpdfit.cli.import_campaign import add_import_command, add_write_artiq_results_command
-    add_import_command(sub)
-    add_write_artiq_results_command(sub)
-    from dpdfit.cli.add import add_add_command
-    add_add_command(sub)
-    add_analyze_command(sub)
+    for name, module in COMMANDS.items():
+        if commands is None or name in commands:
+            register = f"add_{name.replace('-', '_')}_command"
+            getattr(importlib.import_module(module), register)(sub)
+        else:
+            sub.add_parser(name, help=SUMMARIES[name])
     describe(sub)
     return p
+
+
+def _command_named(argv: list[str]) -> list[str]:
+    """The command an argument list runs: its first word that is not an option (the
+    ``dpdfit`` parser's own options, ``-h`` and ``--version``, take no value)."""
+    return [str(a) for a in argv if not str(a).startswith("-")][:1]
 
 
 def check_outputs(args) -> None:
@@ -115,6 +118,8 @@ def check_outputs(args) -> None:
     ``-o``/``--output`` and ``--log`` must be writable files (``analyze -o`` a
     results folder), ``--plot`` and ``simulate-campaign``'s folder writable folders.
     """
+    # here, not at the top: dpdfit --help starts without numpy (which the outputs need)
+    from dpdfit.recordings.outputs import check_output_file, check_output_folder
     folders = {"plot": "--plot folder"}
     if args.command == "analyze":
         folders["output"] = "results folder (-o)"
@@ -132,6 +137,8 @@ def check_outputs(args) -> None:
 
 def _run(args) -> int:
     """The command; one with ``--plot`` publishes its output file and figures together."""
+    # here, not at the top: dpdfit --help starts without numpy (which the outputs need)
+    from dpdfit.recordings.outputs import staged_outputs
     if getattr(args, "plot", None) is None:
         return args.func(args)
     with staged_outputs():
@@ -150,7 +157,8 @@ def main(argv: list[str] | None = None) -> int:
     """
     command = "dpdfit"
     try:
-        parser = build_parser()
+        argv = sys.argv[1:] if argv is None else list(argv)
+        parser = build_parser(_command_named(argv))
         try:
             args = parser.parse_args(argv)
         except SystemExit as exc:  # a usage error (one line printed, status 2), --help, --version

@@ -1,23 +1,29 @@
-"""``dpdfit propagate``: posterior and drift of the AOM calibration propagated into F_est."""
+"""``dpdfit propagate``: posterior and drift of the AOM calibration propagated into F_est.
+
+The analysis is imported when the command runs, so that registering its options
+(``dpdfit --help``) does not load it.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 
-from dpdfit.analyses.propagation import propagate, threshold_distribution
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import fraction, int_at_least, nonneg_float, nonneg_int, positive_int
 from dpdfit.core.defaults import AMPLITUDE_ORDER
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.fits.calibration import calibrate_phase
-from dpdfit.recordings.tables import read_calibration, read_calibration_table
 
 __all__ = ["add_propagate_command", "cmd_propagate"]
 
 
 def cmd_propagate(args) -> int:
     """``dpdfit propagate``: drift propagation into F_est (report or JSON)."""
+    # here, not at the top: --help registers the options without loading the analysis
+    from dpdfit.analyses.propagation import propagate, threshold_distribution
+    from dpdfit.fits.calibration import calibrate_phase
+    from dpdfit.recordings.tables import read_calibration, read_calibration_table
     df = read_calibration_table(args.calibration_runs, "amplitude")
     phase = None
     if args.phase:
@@ -59,7 +65,7 @@ def add_propagate_command(subparsers) -> argparse.ArgumentParser:
     code and raises :class:`~dpdfit.errors.DpdfitError` on bad input.
     """
     s = subparsers.add_parser(
-        "propagate", help="posterior + drift of the AOM calibration propagated into F_est",
+        "propagate", help=SUMMARIES["propagate"],
         description="Posterior (emcee) of the latest calibration run, run-to-run drift from "
                     "all runs, propagated through the Cardioid forward model at one amplitude "
                     "for both DPD flags: quantiles of F_est, R10 and eta_bar.")

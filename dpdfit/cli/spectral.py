@@ -4,6 +4,9 @@
 closed-form fidelity estimate from one sideband's tone powers; ``im-table``
 prints the required gate-to-IM power ratios (Table S1); ``thresholds`` reads a
 sweep table back and prints its threshold efficiencies.
+
+The models and analyses are imported by the functions that run the commands, so that
+registering the commands' options (``dpdfit --help``) does not load them.
 """
 
 from __future__ import annotations
@@ -15,20 +18,17 @@ from pathlib import Path
 
 import numpy as np
 
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import fraction, nonneg_float, positive_float
-from dpdfit.core.defaults import ETA_REF, FORMULA, NBAR, NU_HZ, XI0_SPECTRA_HZ
+from dpdfit.core.defaults import ETA_REF, FORMULA, FORMULAS, NBAR, NU_HZ, XI0_SPECTRA_HZ
 from dpdfit.core.version import __version__
 from dpdfit.errors import InputError
-from dpdfit.fits.calibration import load_calibration
-from dpdfit.models.transfer import TransferFunction
 from dpdfit.recordings.outputs import (refuse_overwriting_inputs, sha256_file,
                                        to_jsonable, write_csv_with_header)
 
 __all__ = ["add_sweep_command", "add_estimate_command", "add_im_table_command",
            "add_thresholds_command", "cmd_sweep", "cmd_estimate", "cmd_im_table",
            "cmd_thresholds"]
-
-_FORMULAS = ["exact", "paper"]
 
 
 def _eta_corr_line(th: dict) -> str:
@@ -58,8 +58,11 @@ def cmd_sweep(args) -> int:
     """``dpdfit sweep``: simulate the amplitude sweep of a calibration (spectra, F_est,
     eta_bar, r_rel per amplitude and DPD flag) into a CSV table; prints the threshold
     efficiencies."""
+    # here, not at the top: --help registers the options without loading the models
     from dpdfit.analyses.sweep import (SweepConfig, check_sweep_size, parse_amplitudes,
                                        run_sweep, thresholds)
+    from dpdfit.fits.calibration import load_calibration
+    from dpdfit.models.transfer import TransferFunction
     out = Path(args.output)
     refuse_overwriting_inputs([out], [args.calibration])
     cal = load_calibration(args.calibration)
@@ -98,7 +101,7 @@ def cmd_sweep(args) -> int:
 
 def add_sweep_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit sweep`` on an argparse sub-parsers object."""
-    w = subparsers.add_parser("sweep", help="amplitude sweep: spectra, F_est, eta_bar, r_rel (S6)")
+    w = subparsers.add_parser("sweep", help=SUMMARIES["sweep"])
     w.add_argument("calibration", help="calibration.json")
     w.add_argument("--amplitudes", metavar="START:STOP:N",
                    help="inclusive amplitude grid (default 0.05:1:100)")
@@ -106,7 +109,7 @@ def add_sweep_command(subparsers) -> argparse.ArgumentParser:
     w.add_argument("--am-only", action="store_true", help="forward model without AM-to-PM")
     w.add_argument("--xi0", type=positive_float, default=XI0_SPECTRA_HZ, help="gate detuning, Hz (20e3)")
     w.add_argument("--nu", type=positive_float, default=NU_HZ, help="sideband detuning, Hz (1.84e6)")
-    w.add_argument("--formula", choices=_FORMULAS, default=FORMULA,
+    w.add_argument("--formula", choices=FORMULAS, default=FORMULA,
                    help=f"Bell-fidelity expression (default {FORMULA}; see the documentation's spectra guide)")
     w.add_argument("--eta-ref", type=fraction, default=ETA_REF,
                    help=f"peak diffraction efficiency ({ETA_REF:.2f})")
@@ -148,6 +151,7 @@ def _parse_powers_db(spec: str) -> tuple[tuple, np.ndarray]:
 def cmd_estimate(args) -> int:
     """``dpdfit estimate``: closed-form Bell-fidelity estimate F_est from one
     sideband's tone powers (dB per harmonic); refuses a non-finite estimate."""
+    # here, not at the top: --help registers the options without loading the models
     from dpdfit.models.fidelity import estimate
     harm, P = _parse_powers_db(args.powers_db)
     with np.errstate(all="ignore"):      # a non-finite estimate is refused below
@@ -168,11 +172,11 @@ def cmd_estimate(args) -> int:
 def add_estimate_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit estimate`` on an argparse sub-parsers object."""
     e = subparsers.add_parser("estimate",
-                              help="fidelity estimate from tone powers of one sideband (S5)")
+                              help=SUMMARIES["estimate"])
     e.add_argument("--powers-db", required=True, metavar="n:dB,...",
                    help='tone powers, e.g. "0:-40,1:0,2:0,3:-30"')
     e.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
-    e.add_argument("--formula", choices=_FORMULAS, default=FORMULA)
+    e.add_argument("--formula", choices=FORMULAS, default=FORMULA)
     e.add_argument("--json", action="store_true")
     e.set_defaults(func=cmd_estimate)
     return e
@@ -184,6 +188,7 @@ def add_estimate_command(subparsers) -> argparse.ArgumentParser:
 def cmd_im_table(args) -> int:
     """``dpdfit im-table``: the required gate-to-IM power ratios (dB) per infidelity
     level, for an IM tone at harmonic n = 0 or n = 3 (Table S1; report or JSON)."""
+    # here, not at the top: --help registers the options without loading the models
     from dpdfit.models.im_requirements import im_requirements
     tab = im_requirements(nbar=args.nbar, formula=args.formula, as_printed=args.as_printed)
     if args.json:
@@ -201,9 +206,9 @@ def cmd_im_table(args) -> int:
 
 def add_im_table_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit im-table`` on an argparse sub-parsers object."""
-    m = subparsers.add_parser("im-table", help="required gate-to-IM power ratios (Table S1)")
+    m = subparsers.add_parser("im-table", help=SUMMARIES["im-table"])
     m.add_argument("--nbar", type=nonneg_float, default=NBAR, help=f"thermal phonon number ({NBAR:g})")
-    m.add_argument("--formula", choices=_FORMULAS, default=FORMULA)
+    m.add_argument("--formula", choices=FORMULAS, default=FORMULA)
     m.add_argument("--as-printed", action="store_true",
                    help="use the assumptions that reproduce the printed Table S1")
     m.add_argument("--json", action="store_true")
@@ -217,6 +222,7 @@ def add_im_table_command(subparsers) -> argparse.ArgumentParser:
 def cmd_thresholds(args) -> int:
     """``dpdfit thresholds``: ``eta_bar_corr`` and the threshold efficiencies of a sweep
     table (``A_corr`` from its header, or ``--A-corr``)."""
+    # here, not at the top: --help registers the options without loading the analyses
     from dpdfit.analyses.sweep import read_sweep_table, thresholds
     df = read_sweep_table(args.sweep)
     A_corr = args.A_corr if args.A_corr is not None else df.attrs.get("A_corr")
@@ -235,7 +241,7 @@ def cmd_thresholds(args) -> int:
 def add_thresholds_command(subparsers) -> argparse.ArgumentParser:
     """Register ``dpdfit thresholds`` on an argparse sub-parsers object."""
     h = subparsers.add_parser("thresholds",
-                              help="eta_bar_corr and threshold efficiencies of a sweep")
+                              help=SUMMARIES["thresholds"])
     h.add_argument("sweep", help="sweep.csv written by 'dpdfit sweep'")
     h.add_argument("--A-corr", type=fraction, dest="A_corr",
                    help="A_corr if the sweep file's header lacks it")

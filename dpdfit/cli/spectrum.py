@@ -3,7 +3,9 @@
 Reads the trace (:func:`dpdfit.recordings.traces.load_trace`), extracts the
 tones (:func:`dpdfit.fits.tones.trace_tone_powers`), optionally adds the
 fidelity estimate and the comparison with a reference trace
-(:mod:`dpdfit.analyses.trace_estimate`), and prints a report or the JSON.
+(:mod:`dpdfit.analyses.trace_estimate`), and prints a report or the JSON.  They are
+imported when the command runs, so that registering its options (``dpdfit --help``)
+does not load them.
 """
 
 from __future__ import annotations
@@ -12,15 +14,12 @@ import argparse
 import json
 import sys
 
-from dpdfit.analyses.trace_estimate import delta_powers, trace_estimate
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import finite_float, nonneg_float, positive_float
-from dpdfit.core.defaults import FORMULA, NBAR
+from dpdfit.core.defaults import FORMULA, FORMULAS, NBAR
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.fits.tones import trace_tone_powers
-from dpdfit.models.fidelity import FORMULAS
 from dpdfit.recordings.outputs import atomic_write_json, refuse_overwriting_inputs
-from dpdfit.recordings.traces import load_trace
 
 __all__ = ["cmd_spectrum", "add_spectrum_command"]
 
@@ -62,6 +61,10 @@ def _print_report(res, d: dict, args) -> None:
 
 def cmd_spectrum(args) -> int:
     """``dpdfit spectrum``: tone powers of a heterodyne trace (report or JSON)."""
+    # here, not at the top: --help registers the options without loading the analyses
+    from dpdfit.analyses.trace_estimate import delta_powers, trace_estimate
+    from dpdfit.fits.tones import trace_tone_powers
+    from dpdfit.recordings.traces import load_trace
     if args.output:
         refuse_overwriting_inputs([args.output], [args.trace, args.compare])
     harmonics = _parse_int_list(args.harmonics, "--harmonics")
@@ -106,7 +109,7 @@ def add_spectrum_command(subparsers) -> argparse.ArgumentParser:
     :class:`~dpdfit.errors.DpdfitError` on bad input.
     """
     s = subparsers.add_parser(
-        "spectrum", help="tone powers and IM ratios from a heterodyne photodiode trace",
+        "spectrum", help=SUMMARIES["spectrum"],
         description="Gate and intermodulation tone powers (dB re a unit-amplitude sinusoid) "
                     "from a flat-top periodogram of a heterodyne beat trace (Supplement S4).")
     s.add_argument("trace", help=".npy (1-D), .npz (keys trace[, scale]) or one-column .csv")

@@ -1,4 +1,8 @@
-"""``dpdfit stability``: stability of a multi-run calibration over time (Figs. S1, S2)."""
+"""``dpdfit stability``: stability of a multi-run calibration over time (Figs. S1, S2).
+
+The analysis and its figures are imported when the command runs, so that registering its
+options (``dpdfit --help``) does not load them.
+"""
 
 from __future__ import annotations
 
@@ -6,19 +10,18 @@ import argparse
 import json
 import sys
 
-from dpdfit.analyses.stability import stability
+from dpdfit.cli.help_texts import SUMMARIES
 from dpdfit.cli.options import positive_int, unit_interval
 from dpdfit.core.defaults import AMPLITUDE_ORDER, PHASE_MIN_A, PHASE_ORDER
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.errors import InputError
-from dpdfit.recordings.columns import header_columns
-from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
-from dpdfit.report.stability_plots import stability_figures
 
 __all__ = ["add_stability_command", "cmd_stability"]
 
 
 def _guess_kind(path) -> str:
+    # here, not at the top: --help registers the options without loading the tables
+    from dpdfit.recordings.columns import header_columns
     try:
         cols = header_columns(path)    # the header only; a FIFO or device is not opened
     except InputError:                 # unreadable: let stability() report it properly
@@ -30,6 +33,8 @@ def _guess_kind(path) -> str:
 
 def cmd_stability(args) -> int:
     """``dpdfit stability``: calibration stability over runs (report or JSON)."""
+    # here, not at the top: --help registers the options without loading the analysis
+    from dpdfit.analyses.stability import stability
     kind = args.kind or _guess_kind(args.file)
     try:
         res = stability(args.file, kind=kind, order=args.order, A_min=args.A_min)
@@ -39,7 +44,9 @@ def cmd_stability(args) -> int:
                 raise InputError(f"option {opt}: {exc}") from None
         raise
     written = []
-    if args.plot:
+    if args.plot:  # the figures (matplotlib) only when they are asked for
+        from dpdfit.report.figure_io import save_figures, use_noninteractive_backend
+        from dpdfit.report.stability_plots import stability_figures
         use_noninteractive_backend()
         written = save_figures(stability_figures(res), args.plot)
     if args.json:
@@ -62,7 +69,7 @@ def add_stability_command(subparsers) -> argparse.ArgumentParser:
     :class:`~dpdfit.errors.DpdfitError` on bad input.
     """
     s = subparsers.add_parser(
-        "stability", help="stability of a multi-run calibration over time (Figs. S1, S2)",
+        "stability", help=SUMMARIES["stability"],
         description="Fit every run of a multi-run calibration file and report the time "
                     "series of y(1) = A_corr or phi(1), its mean and scatter, a drift test "
                     "and the Allan deviation (Supplement S2).")

@@ -17,7 +17,9 @@ import numpy as np
 from dpdfit.errors import InputError
 
 __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_ORDER",
-           "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "ErrorModel", "ERROR_MODEL", "LabTimes",
+           "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "FORMULAS", "DIAGNOSIS_PAIRS",
+           "HARNESS_PER_EFFECT", "HARNESS_NULLS", "HARNESS_PAIRS", "HARNESS_TRIPLES",
+           "HARNESS_PER_FORM", "HARNESS_SEED", "ErrorModel", "ERROR_MODEL", "LabTimes",
            "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "MAX_INPUT_BYTES",
            "MAX_INPUT_BYTES_VARIABLE", "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_CSV_COLUMNS", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
@@ -44,6 +46,21 @@ PHASE_ORDER = 5
 PHASE_MIN_A = 0.1
 #: the fidelity-estimate formula used by default ("exact" or "paper")
 FORMULA = "exact"
+#: the fidelity-estimate formulas there are (:func:`dpdfit.models.fidelity.estimate`)
+FORMULAS = ("exact", "paper")
+#: the diagnosis tries at most this many other effects as an addition at each step, the
+#: best single effects first (``dpdfit diagnose --pairs``; 0: one effect only)
+DIAGNOSIS_PAIRS = 8
+#: the default size of the diagnosis harness's plan (``dpdfit harness``): campaigns per
+#: concealed effect, null campaigns, pairs, triples, and (leave-one-form-out mode)
+#: campaigns per form of each effect
+HARNESS_PER_EFFECT = 20
+HARNESS_NULLS = 20
+HARNESS_PAIRS = 0
+HARNESS_TRIPLES = 0
+HARNESS_PER_FORM = 2
+#: the default seed of the harness's injection plan
+HARNESS_SEED = 7
 
 
 # Section and table numbers below count the Supplement of the paper

@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import FORMULA, NBAR
+from dpdfit.core.defaults import FORMULA, FORMULAS, NBAR
 from dpdfit.core.display import Displayable
 from dpdfit.errors import InputError
 
@@ -61,7 +61,6 @@ __all__ = ["phase_space", "gate_phase_space", "calibrate_g", "bell_fidelity",
            "im_signs", "amplitudes_from_powers", "estimate", "Estimate", "FORMULAS",
            "cardioid_populations"]
 
-FORMULAS = ("exact", "paper")
 _TWO_PI = 2 * np.pi
 
 

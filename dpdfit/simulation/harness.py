@@ -43,6 +43,8 @@ from pathlib import Path
 
 from dpdfit.analyses.diagnosis.diagnose import diagnose
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
+from dpdfit.core.defaults import (HARNESS_NULLS, HARNESS_PAIRS, HARNESS_PER_EFFECT,
+                                  HARNESS_PER_FORM, HARNESS_SEED, HARNESS_TRIPLES)
 from dpdfit.core.jsonable import to_jsonable
 from dpdfit.core.progress import job_progress
 from dpdfit.errors import InputError
@@ -63,13 +65,13 @@ __all__ = ["harness_config", "concealed_effects", "PER_EFFECT", "NULLS", "PAIRS"
 
 #: Default size of the plan: campaigns per concealed effect, null campaigns, pairs,
 #: triples, and (leave-one-form-out mode) campaigns per form of each effect.
-PER_EFFECT = 20
-NULLS = 20
-PAIRS = 0
-TRIPLES = 0
-PER_FORM = 2
+PER_EFFECT = HARNESS_PER_EFFECT
+NULLS = HARNESS_NULLS
+PAIRS = HARNESS_PAIRS
+TRIPLES = HARNESS_TRIPLES
+PER_FORM = HARNESS_PER_FORM
 #: Default seed of the injection plan.
-PLAN_SEED = 7
+PLAN_SEED = HARNESS_SEED
 
 
 def concealed_effects() -> tuple:

@@ -15,7 +15,6 @@ and review the diff of ``tests/golden/`` before committing.
 
 from __future__ import annotations
 
-import os
 import warnings
 
 import numpy as np
@@ -44,9 +43,7 @@ from dpdfit.fits.tones.results import SidebandTones, TraceSpectrum
 from dpdfit.models.fidelity import Estimate
 from dpdfit.recordings.tables import read_calibration
 from tests.helpers.bundled_data import AOM, CAMPAIGN
-from tests.helpers.paths import GOLDEN
-
-UPDATE = os.environ.get("DPDFIT_UPDATE_GOLDEN") == "1"
+from tests.helpers.golden import check_golden
 
 #: every public result class of dpdfit
 RESULT_CLASSES = [PolyFitResult, AmplitudeCalibration, PhaseCalibration, Calibration,
@@ -88,17 +85,6 @@ def estimate():
     return dpdfit.estimate(sel["P_dB"].to_numpy())
 
 
-def _check_golden(name: str, text: str) -> None:
-    path = GOLDEN / name
-    if UPDATE:
-        GOLDEN.mkdir(exist_ok=True)
-        path.write_text(text + "\n")
-        return
-    assert path.exists(), f"{path} missing: run with DPDFIT_UPDATE_GOLDEN=1"
-    assert text + "\n" == path.read_text(), (
-        f"rendering differs from {path}; if intended, regenerate with DPDFIT_UPDATE_GOLDEN=1")
-
-
 #: the fixture behind each golden file that is not named as the file
 _GOLDEN_FIXTURE = {"alignment": "bundled_alignment"}
 
@@ -106,8 +92,8 @@ _GOLDEN_FIXTURE = {"alignment": "bundled_alignment"}
 @pytest.mark.parametrize("name", ["amplitude", "poly", "alignment", "parity", "estimate"])
 def test_golden_renderings(name, request):
     result = request.getfixturevalue(_GOLDEN_FIXTURE.get(name, name))
-    _check_golden(f"{name}.txt", repr(result) + "\n\n" + result.display_text())
-    _check_golden(f"{name}.html", result._repr_html_())
+    check_golden(f"{name}.txt", repr(result) + "\n\n" + result.display_text())
+    check_golden(f"{name}.html", result._repr_html_())
 
 
 # -- every public result class ----------------------------------------------------------

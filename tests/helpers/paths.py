@@ -13,5 +13,5 @@ ROOT = Path(__file__).resolve().parents[2]
 TESTS = ROOT / "tests"
 #: files the tests read: real results files, validation campaigns (``tests/data``)
 TEST_DATA = TESTS / "data"
-#: the renderings ``tests/core/test_display.py`` pins (``tests/golden``)
+#: the texts the tests pin (``tests/golden``, :mod:`tests.helpers.golden`)
 GOLDEN = TESTS / "golden"

@@ -69,6 +69,7 @@ from dpdfit.analyses.diagnosis.observables.campaign import Campaign, load_campai
 from dpdfit.analyses.diagnosis.proposal.next_measurement import NextMeasurement
 from dpdfit.analyses.diagnosis.proposal.propose import propose
 from dpdfit.analyses.diagnosis.result import Diagnosis
+from dpdfit.core.defaults import DIAGNOSIS_PAIRS
 from dpdfit.core.progress import progress_bar
 
 __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BIC_DECISIVE",
@@ -76,7 +77,7 @@ __all__ = ["diagnose", "Diagnosis", "Problem", "mismatch_evidence", "ALPHA", "BI
 
 #: at most this many other effects are tried as an addition at each step, the best
 #: single effects first (``dpdfit diagnose --pairs``; 0: one effect only)
-DEFAULT_PAIRS = 8
+DEFAULT_PAIRS = DIAGNOSIS_PAIRS
 
 
 def diagnose(campaign, effects=None, pairs: int = DEFAULT_PAIRS,

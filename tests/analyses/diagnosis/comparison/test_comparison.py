@@ -15,7 +15,7 @@ from types import SimpleNamespace
 
 import pytest
 
-import dpdfit.cli.diagnose as cli_diagnose
+import dpdfit.analyses.diagnosis.diagnose as diagnose_module
 from dpdfit.analyses.diagnosis.comparison.compare import Comparison, compare_diagnoses
 from dpdfit.analyses.diagnosis.decisions.alternatives import Alternative
 from dpdfit.analyses.diagnosis.proposal.next_measurement import NextMeasurement
@@ -247,7 +247,8 @@ def stand_in(monkeypatch):
     def fake(folder, pairs, progress, refit=None):
         seen.append(refit)
         return _minimal_diagnosis()
-    monkeypatch.setattr(cli_diagnose, "diagnose", fake)
+    # the command imports diagnose() when it runs: replaced in its module
+    monkeypatch.setattr(diagnose_module, "diagnose", fake)
     return seen
 
 

@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-import dpdfit.cli.diagnose as cli_diagnose
+import dpdfit.analyses.diagnosis.diagnose as diagnose_module
 from dpdfit.analyses.diagnosis.comparison.compare import compare_diagnoses
 from dpdfit.analyses.diagnosis.comparison.previous import read_diagnosis, refit_request
 from dpdfit.errors import InputError
@@ -40,7 +40,8 @@ def no_fit(monkeypatch):
     def diagnose(*args, **kwargs):
         raise AssertionError("the campaign was diagnosed before the earlier diagnosis "
                              "was checked")
-    monkeypatch.setattr(cli_diagnose, "diagnose", diagnose)
+    # the command imports diagnose() when it runs: replaced in its module
+    monkeypatch.setattr(diagnose_module, "diagnose", diagnose)
 
 
 def _refused(capsys, tmp_path, previous, needles):

@@ -162,13 +162,14 @@ def test_diagnose_schedule_path_refused_before_the_diagnosis(where, tmp_path, ca
     """One line, exit 2, before any fit (the diagnosis is never called), nothing written."""
     import shutil
 
-    from dpdfit.cli import diagnose as cli_diagnose
+    import dpdfit.analyses.diagnosis.diagnose as diagnose_module
     from dpdfit.cli.main import main
     camp = tmp_path / "campaign"
     shutil.copytree(CAMPAIGN, camp)
     path = {"a folder": tmp_path, "inside the campaign": camp / "schedule.csv",
             "an input": camp}[where]
-    monkeypatch.setattr(cli_diagnose, "diagnose", lambda *a, **k: pytest.fail("diagnosed"))
+    # the command imports diagnose() when it runs: replaced in its module
+    monkeypatch.setattr(diagnose_module, "diagnose", lambda *a, **k: pytest.fail("diagnosed"))
     before = sorted(p.name for p in camp.iterdir())
     assert main(["diagnose", str(camp), "--schedule", str(path)]) == 2
     err = capsys.readouterr().err.strip()
