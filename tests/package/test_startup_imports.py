@@ -24,7 +24,7 @@ from tests.helpers.paths import ROOT
 
 #: what neither ``import dpdfit`` nor any ``--help`` may load: the heavy libraries and
 #: the layers that do the work (a command loads them when it runs)
-NOT_AT_START = ("scipy", "pandas", "matplotlib", "dpdfit.fits", "dpdfit.models",
+NOT_AT_START = ("scipy", "pandas", "matplotlib", "numba", "dpdfit.fits", "dpdfit.models",
                 "dpdfit.analyses", "dpdfit.simulation", "dpdfit.report", "dpdfit.pipeline")
 #: the one command whose options need the work: ``simulate-campaign --help`` lists the
 #: effects it can conceal, read from the diagnosis's effect registry

@@ -25,6 +25,7 @@ Modules (each documents the method it implements)
 ``fock``         thermal initial state, Fock-space cutoff
 ``size``         the state's dimensions and memory, checked before an integration
 ``integrators``  Schrodinger and Lindblad equations, DOP853 step loop; decoherence model
+``compiled_lindblad``  the master equation's DOP853 integration compiled (numba)
 ``dephasing``    slow dephasing: a time profile during the gate, decay of the final coherences
 ``evolve``       :func:`evolve`, :func:`evolve_lindblad`: reduced spin states at given times
 ``states``       analysis pulse, outcome/parity probabilities, Bell fidelities, gate target
@@ -37,6 +38,7 @@ Modules (each documents the method it implements)
 from .dephasing import accumulated_dephasing, dephase_coherences
 from .drive import ETA, calibrate_xi0, field_amplitudes
 from .evolve import evolve, evolve_lindblad
+from .integrators import KERNELS, load_compiled_kernel
 from .fock import THERMAL_TAIL, displacement_bound, fock_cutoff, thermal_levels, thermal_weights
 from .results import SampledCounts, SettingProbabilities
 from .size import EngineSize, check_engine_size, engine_size, setting_size
@@ -54,4 +56,5 @@ __all__ = [
     "populations", "parity_even", "SettingProbabilities", "SampledCounts", "simulate_setting",
     "mix_branches", "setting_branches", "thermal_levels", "EngineSize", "engine_size",
     "check_engine_size", "setting_size", "accumulated_dephasing", "dephase_coherences",
+    "KERNELS", "load_compiled_kernel",
 ]

@@ -177,6 +177,17 @@ class Drive:
             rb, cb = np.array([2, 3, 1, 3]), np.array([0, 1, 0, 2])
         self._beta_at, self._gam_at = rb * d + cb, cb * d + rb
 
+    def coupling(self):
+        """``(b, cc, w, beta_at, gam_at)``: what :meth:`minus_iK` is made of, as contiguous
+        arrays for a compiled right-hand side (scaled blue amplitudes, conjugated scaled
+        red ones, ``-2 pi i n``, and the flat indices where ``beta`` and ``gamma`` enter
+        ``K``)."""
+        return (np.ascontiguousarray(self.b, dtype=complex),
+                np.ascontiguousarray(self.cc, dtype=complex),
+                np.ascontiguousarray(self.w, dtype=complex),
+                np.ascontiguousarray(self._beta_at, dtype=np.int64),
+                np.ascontiguousarray(self._gam_at, dtype=np.int64))
+
     def minus_iK(self, tau):
         """``(-i K(tau)/xi0, -i K(tau)^dag/xi0)``: what the master equation applies on the
         left of ``a^dag rho`` and ``a rho`` (:meth:`K`'s entries placed directly: the same

@@ -30,7 +30,7 @@ _MONITOR_TOL = 1e-12     # top-level population allowed along the integration
 
 
 def _integrate(kind, drive, size, auto, p, tau, rtol, atol, initial, gamma, heat, gamma_c,
-               monitor=_MONITOR_TOL, rates=None):
+               monitor=_MONITOR_TOL, rates=None, kernel="compiled"):
     """Integrate, enlarging an automatic ``n_fock`` until the top level stays empty (each
     size checked against the memory limit first)."""
     N = size.n_fock
@@ -40,7 +40,7 @@ def _integrate(kind, drive, size, auto, p, tau, rtol, atol, initial, gamma, heat
             out, top, nfev = integrate_schrodinger(drive, N, p, tau, rtol, atol, initial)
         else:
             out, top, nfev = integrate_lindblad(drive, N, p, tau, gamma, heat, rtol, atol,
-                                                initial, gamma_c, rates)
+                                                initial, gamma_c, rates, kernel)
         if not auto or top < monitor:
             return out, top, nfev, N
         N = int(math.ceil(1.3 * N)) + 4
@@ -49,7 +49,8 @@ def _integrate(kind, drive, size, auto, p, tau, rtol, atol, initial, gamma, heat
 
 
 def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions,
-         gamma=0.0, heat=0.0, initial=0, gamma_c=0.0, fock_tol=None, rates=None):
+         gamma=0.0, heat=0.0, initial=0, gamma_c=0.0, fock_tol=None, rates=None,
+         kernel="compiled"):
     b, c, n = check_tones(b, c, n)
     eta_Omega0 = positive("eta_Omega0", eta_Omega0, allow_zero=True)
     xi0 = positive("xi0", xi0)
@@ -73,7 +74,8 @@ def _run(kind, b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol, n_ions
     drive = Drive(b, c, n, eta_Omega0, xi0, n_ions)
     out, top, nfev, N = _integrate(kind, drive, size, n_fock is None, p, t1 * xi0, rtol, atol,
                                    int(initial), gamma, heat, gamma_c,
-                                   _MONITOR_TOL if fock_tol is None else 10 * fock_tol, rates)
+                                   _MONITOR_TOL if fock_tol is None else 10 * fock_tol, rates,
+                                   kernel)
     rho = np.array(out).reshape((t1.size, drive.dim, drive.dim)) if out else \
         np.zeros((0, drive.dim, drive.dim), dtype=complex)
     rho = 0.5 * (rho + np.conj(np.swapaxes(rho, -1, -2)))
@@ -132,7 +134,7 @@ def evolve(b, c, n, eta_Omega0, xi0, times, nbar, n_fock=None, rtol=1e-9, atol=1
 def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.0,
                     n_fock=None, rtol=1e-9, atol=1e-11, n_ions=2, initial=0,
                     T2_corr=np.inf, return_info=False, fock_tol=None,
-                    dephasing_profile=None):
+                    dephasing_profile=None, kernel="compiled"):
     """Reduced spin density matrices from the Lindblad master equation.
 
     Same model and arguments as :func:`evolve`, plus ::
@@ -158,6 +160,10 @@ def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.
         ``(rate, rate_common, beta, t_ref)``: further dephasing, independent on each ion
         and common to both, that accumulates ``G(t) = rate t_ref (t/t_ref)^beta`` (slow
         noise), as a time-local rate (:mod:`dpdfit.models.gate_sim.dephasing`).
+    kernel : {"compiled", "numpy"}
+        The integrator (:func:`~dpdfit.models.gate_sim.integrators.integrate_lindblad`):
+        compiled (default), or the numpy reference it is tested against; the same
+        DOP853 steps, states equal to rounding.
     """
     T2 = positive("T2", T2, allow_inf=True)
     T2_corr = positive("T2_corr", T2_corr, allow_inf=True)
@@ -168,5 +174,5 @@ def evolve_lindblad(b, c, n, eta_Omega0, xi0, times, nbar, *, T2=np.inf, ndot=0.
     rates = None if dephasing_profile is None else profile_rates(dephasing_profile, xi0f)
     rho, info = _run("lindblad", b, c, n, eta_Omega0, xi0, times, nbar, n_fock, rtol, atol,
                      n_ions, gamma=gamma, heat=ndot / xi0f, initial=initial, gamma_c=gamma_c,
-                     fock_tol=fock_tol, rates=rates)
+                     fock_tol=fock_tol, rates=rates, kernel=kernel)
     return (rho, info) if return_info else rho

@@ -108,6 +108,9 @@ def run_settings(calls, labels, folder=None) -> list:
     # the costliest first (a two-ion branch integrates four times the state of a
     # one-ion branch), so that the cores stay busy to the end
     todo = sorted(jobs.items(), key=lambda kv: -ions[kv[0][0]])
+    if todo:
+        # compiled here once, so that the forked workers inherit it
+        gate_sim.load_compiled_kernel()
     done = dict(zip((k for k, _ in todo), pmap(gate_sim.setting_branches,
                                                 [j for _, j in todo])))
     for k, r in done.items():
