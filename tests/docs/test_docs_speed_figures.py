@@ -77,8 +77,6 @@ ALLOWED = [
      "coherence times of the simulated ions (physics)"),
     ("docs/diagnosis/evidence.md", "`rate_per_s` | 6 | −16.3 /s",
      "bias of a fitted dephasing rate (physics)"),
-    ("docs/diagnosis/evidence.md", "Targets: a median diagnosis of at most 20 s",
-     "targets stated by the project, not measurements"),
     ("docs/diagnosis/how-it-decides.md", "Against a 16× oversampled",
      "oversampling factor of a reference calculation"),
     ("docs/getting-started.md", "a gate rate more than 10x above or below",
