@@ -48,8 +48,9 @@ def read_campaign_table(folder, table: str) -> pd.DataFrame:
 
 
 def read_campaign_json(folder) -> dict:
-    """The campaign's ``campaign.json`` as :class:`~dpdfit.recordings.campaign_folder.
-    CampaignFolder` reads and checks it (inside the folder, bounded; its numbers, times
+    """The campaign's ``campaign.json`` as
+    :class:`~dpdfit.recordings.campaign_folder.CampaignFolder` reads and checks it (inside
+    the folder, bounded; its numbers, times
     and run labels), its other keys checked by the types a mapping's ``[campaign]`` takes
     (:func:`~dpdfit.recordings.mapping_values.check_campaign_types`): the new
     recordings' mapping carries them.  An InputError naming the key otherwise."""

@@ -209,8 +209,9 @@ def read_campaign_tables(folder) -> tuple:
     (:class:`~dpdfit.recordings.campaign_folder.CampaignFolder`: campaign.json, then every
     row of each table present, its values and ranges), so that a damaged table is
     refused naming its file, column and row before anything is simulated; each table is
-    then returned as pandas reads it (:func:`~dpdfit.simulation.ndscan_lab.
-    read_campaign_table`), as the simulator wrote it."""
+    then returned as pandas reads it
+    (:func:`~dpdfit.simulation.ndscan_lab.read_campaign_table`), as the simulator wrote
+    it."""
     folder = Path(folder)
     camp = CampaignFolder(folder)
     present = [t for t in CAMPAIGN_TABLES if os.path.lexists(folder / f"{t}.csv")]

@@ -216,8 +216,9 @@ class Problem:
 
         The tone features, the runs after the recordings, the gates (whitened per
         setting with ``whiten``, the fits; each observable standardised on its own
-        without it, for the deviation search and plots: :meth:`GateResiduals.gate_blocks
-        <dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.gate_blocks>`) and,
+        without it, for the deviation search and plots:
+        :meth:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.gate_blocks`)
+        and,
         ``with_prior``, the priors.  Each side sees its own parameters only.
         """
         tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
