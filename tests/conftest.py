@@ -15,12 +15,27 @@ from tests.helpers.bundled_data import AOM, CAMPAIGN
 
 
 def pytest_collection_modifyitems(config, items):
-    """Run the ``slow`` tests first (a stable sort: the order within each kind is kept).
+    """Run the modules with ``slow`` tests first, each module's slow tests before its
+    others (a stable sort: the order within each kind is kept).
 
     With ``-n 2`` a long test collected late would leave one worker running it alone
     after the other has finished; started first, the long tests are shared out while the
-    many short ones fill the gaps.  The total work is unchanged."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    many short ones fill the gaps.  A module's tests stay together: a module-scoped
+    fixture that slow and other tests share is made once, not again when the module's
+    other tests come round (pytest ends it when the next test is another module's)."""
+    def is_slow(item):
+        return item.get_closest_marker("slow") is not None
+
+    def module(item):
+        return item.nodeid.split("::")[0]
+
+    with_slow = {module(item) for item in items if is_slow(item)}
+    first_seen = {}
+    for item in items:
+        first_seen.setdefault(module(item), len(first_seen))
+    items.sort(key=lambda item: (module(item) not in with_slow,
+                                 first_seen[module(item)] if module(item) in with_slow else 0,
+                                 not is_slow(item)))
 
 
 @pytest.fixture
