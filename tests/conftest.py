@@ -11,6 +11,7 @@ from typing import NamedTuple
 
 import pytest
 
+from tests.helpers.built_once import built_once
 from tests.helpers.bundled_data import AOM, CAMPAIGN
 
 
@@ -78,13 +79,16 @@ class AnalysedCampaign(NamedTuple):
 @pytest.fixture(scope="session")
 def bundled_analysis(tmp_path_factory):
     """``analyze`` on the bundled campaign with everything on (figures, diagnosis), written
-    to a results folder: the suite's most expensive fixture, made once per test process
-    (per xdist worker) and shared.  Tests only read it; one that changes the Analysis or
-    the folder must make its own."""
+    to a results folder: the suite's most expensive fixture, made once per test run (by
+    the first xdist worker that needs it, :func:`~tests.helpers.built_once.built_once`)
+    and shared.  Tests only read it; one that changes the Analysis or the folder must
+    make its own."""
     from dpdfit.pipeline.analyze import analyze
-    out = tmp_path_factory.mktemp("bundled_analysis") / "results"
-    res = analyze(CAMPAIGN, out, plots=True, diagnosis=True, progress=False)
-    return AnalysedCampaign(res, out)
+
+    def build(folder):
+        out = folder / "results"
+        return analyze(CAMPAIGN, out, plots=True, diagnosis=True, progress=False), out
+    return AnalysedCampaign(*built_once(tmp_path_factory, "bundled_analysis", build))
 
 
 @pytest.fixture
