@@ -54,8 +54,8 @@ def generate_trace(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
 @functools.cache
 def _flattop_enbw() -> float:
     """Equivalent noise bandwidth (bins) of the flat-top window of the extraction (a
-    constant, computed once: a window of 65,536 samples per tone readout was 30 % of a
-    harness campaign's spectra, ``benchmarks/simulate_spectra_speed.py``)."""
+    constant, computed once: a window of 65,536 samples at every tone readout was a
+    large part of a harness campaign's spectra, ``benchmarks/simulate_spectra_speed.json``)."""
     from scipy.signal import get_window
     w = get_window("flattop", 1 << 16, fftbins=True)
     return float(w.size * np.sum(w ** 2) / np.sum(w) ** 2)
