@@ -11,16 +11,32 @@ from typing import NamedTuple
 
 import pytest
 
+from tests.helpers.built_once import built_once
 from tests.helpers.bundled_data import AOM, CAMPAIGN
 
 
 def pytest_collection_modifyitems(config, items):
-    """Run the ``slow`` tests first (a stable sort: the order within each kind is kept).
+    """Run the modules with ``slow`` tests first, each module's slow tests before its
+    others (a stable sort: the order within each kind is kept).
 
     With ``-n 2`` a long test collected late would leave one worker running it alone
     after the other has finished; started first, the long tests are shared out while the
-    many short ones fill the gaps.  The total work is unchanged."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    many short ones fill the gaps.  A module's tests stay together: a module-scoped
+    fixture that slow and other tests share is made once, not again when the module's
+    other tests come round (pytest ends it when the next test is another module's)."""
+    def is_slow(item):
+        return item.get_closest_marker("slow") is not None
+
+    def module(item):
+        return item.nodeid.split("::")[0]
+
+    with_slow = {module(item) for item in items if is_slow(item)}
+    first_seen = {}
+    for item in items:
+        first_seen.setdefault(module(item), len(first_seen))
+    items.sort(key=lambda item: (module(item) not in with_slow,
+                                 first_seen[module(item)] if module(item) in with_slow else 0,
+                                 not is_slow(item)))
 
 
 @pytest.fixture
@@ -63,13 +79,16 @@ class AnalysedCampaign(NamedTuple):
 @pytest.fixture(scope="session")
 def bundled_analysis(tmp_path_factory):
     """``analyze`` on the bundled campaign with everything on (figures, diagnosis), written
-    to a results folder: the suite's most expensive fixture, made once per test process
-    (per xdist worker) and shared.  Tests only read it; one that changes the Analysis or
-    the folder must make its own."""
+    to a results folder: the suite's most expensive fixture, made once per test run (by
+    the first xdist worker that needs it, :func:`~tests.helpers.built_once.built_once`)
+    and shared.  Tests only read it; one that changes the Analysis or the folder must
+    make its own."""
     from dpdfit.pipeline.analyze import analyze
-    out = tmp_path_factory.mktemp("bundled_analysis") / "results"
-    res = analyze(CAMPAIGN, out, plots=True, diagnosis=True, progress=False)
-    return AnalysedCampaign(res, out)
+
+    def build(folder):
+        out = folder / "results"
+        return analyze(CAMPAIGN, out, plots=True, diagnosis=True, progress=False), out
+    return AnalysedCampaign(*built_once(tmp_path_factory, "bundled_analysis", build))
 
 
 @pytest.fixture

@@ -23,6 +23,7 @@ from dpdfit.fits.polyfit import polyfit
 from dpdfit.recordings.tables import read_calibration
 from dpdfit.simulation.gate_points import simulated_gate
 from dpdfit.simulation.aom_truth import truth_poly_tf
+from tests.helpers.built_once import built_once
 from tests.helpers.bundled_data import AOM
 
 N_REP = 300
@@ -71,11 +72,13 @@ def _alignment_flags(rng) -> int:
 
 
 @pytest.fixture(scope="module")
-def flag_counts():
-    """Flags of a correct model over N_REP seeded replicates per fit kind."""
-    return {name: f(np.random.default_rng(seed)) for name, f, seed in [
-        ("polyfit", _polyfit_flags, 1601), ("amplitude", _amplitude_flags, 1602),
-        ("phase", _phase_flags, 1603), ("alignment", _alignment_flags, 1604)]}
+def flag_counts(tmp_path_factory):
+    """Flags of a correct model over N_REP seeded replicates per fit kind (counted once
+    per test run: the five tests may run on both xdist workers)."""
+    return built_once(tmp_path_factory, "adequacy_flag_counts", lambda folder: {
+        name: f(np.random.default_rng(seed)) for name, f, seed in [
+            ("polyfit", _polyfit_flags, 1601), ("amplitude", _amplitude_flags, 1602),
+            ("phase", _phase_flags, 1603), ("alignment", _alignment_flags, 1604)]})
 
 
 @pytest.mark.slow

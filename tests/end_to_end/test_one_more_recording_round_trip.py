@@ -23,6 +23,7 @@ from dpdfit.recordings.schedule import read_schedule, write_schedule
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import (MEASUREMENTS, extend_config,
                                                   schedule_measurements)
+from tests.helpers.built_once import built_once
 from tests.helpers.standin import SMALL
 
 pytest.importorskip("h5py")
@@ -61,21 +62,26 @@ def _cli(*args, capsys) -> str:
 
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory):
-    """The small campaign, with its truth.json: the simulator stands in for the lab."""
-    root = tmp_path_factory.mktemp("round_trip")
-    simulate_campaign(root / "campaign", config=SMALL, progress=False)
-    return root
+    """The small campaign, with its truth.json: the simulator stands in for the lab.
+    Built once per test run (the six cases may run on both xdist workers)."""
+    def build(root):
+        simulate_campaign(root / "campaign", config=SMALL, progress=False)
+        return root
+    return built_once(tmp_path_factory, "round_trip_lab", build)
 
 
 @pytest.fixture(scope="module")
-def before(lab):
-    """The campaign's diagnosis, as ``dpdfit diagnose --json`` writes it."""
+def before(lab, tmp_path_factory):
+    """The campaign's diagnosis, as ``dpdfit diagnose --json`` writes it (once per run)."""
     from dpdfit.analyses.diagnosis.diagnose import diagnose
     from dpdfit.core.jsonable import to_jsonable
-    d = to_jsonable(diagnose(lab / "campaign", progress=False).to_dict())
-    path = lab / "before.json"
-    path.write_text(json.dumps(d))
-    return path, d
+
+    def build(folder):
+        d = to_jsonable(diagnose(lab / "campaign", progress=False).to_dict())
+        path = folder / "before.json"
+        path.write_text(json.dumps(d))
+        return path, d
+    return built_once(tmp_path_factory, "round_trip_before", build)
 
 
 def _same_added_rows(campaign, merged, simulated) -> None:

@@ -1,5 +1,6 @@
 """Campaign simulator (small configuration) and the `analyze` main job."""
 
+import dataclasses
 import json
 import shutil
 
@@ -151,9 +152,15 @@ def test_effects_change_the_recordings(tmp_path):
 
 @pytest.mark.slow
 def test_gate_power_offset_reaches_the_time_scans(tmp_path):
-    """A time scan is a gate run: the systematic power offset acts on it too."""
+    """A time scan is a gate run: the systematic power offset acts on it too.
+
+    The harness campaign with one gate setting (at the time scan's amplitude) instead of
+    three: the time scans, the only gate recordings checked, keep their amplitude, points
+    and shots, and the spectra are the harness campaign's; a third of the engine runs."""
     from dpdfit.simulation.harness import harness_config
-    cfg = harness_config(11)
+    full = harness_config(11)
+    cfg = dataclasses.replace(full, gate_amplitudes=(full.time_scan_A,),
+                              scan_shots=full.scan_shots[:1])
     a, b = tmp_path / "a", tmp_path / "b"
     simulate_campaign(a, config=cfg, progress=quiet)
     simulate_campaign(b, config=cfg, effects={"gate_rate_miscalibration": 0.4}, progress=quiet)

@@ -52,13 +52,15 @@ def threshold_distribution(posterior_or_runs, stale_days: float = 0.0, draws: in
                                             n_steps, force, False, fits=fits, drift=drift)
     a, db, _ = predictive_draws(post, drift, stale_days, phase, draws,
                                 np.random.default_rng(None if seed is None else seed + 2))
+    # one model per amplitude serves both flags (it holds both tables' responses)
+    models = [BatchedForwardModel(fit0, phase, float(A), nu, xi0, nbar, formula, eta_ref)
+              for A in amplitudes]
     out = {}
     for dpd, key in ((1, "dpd"), (0, "no_dpd")):
         eps = np.empty((a.shape[0], amplitudes.size))
         eta = np.empty_like(eps)
-        for j, A in enumerate(amplitudes):
-            r = BatchedForwardModel(fit0, phase, float(A), nu, xi0, nbar, formula,
-                                    eta_ref).evaluate(a, dpd, db)
+        for j, model in enumerate(models):
+            r = model.evaluate(a, dpd, db)
             eps[:, j] = 1.0 - r["F_est"]
             eta[:, j] = r["eta_bar"]
         out[key] = {f"{lev:.0e}".replace("e-0", "e-"):

@@ -9,6 +9,7 @@ further recording with streams of its own.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import io
 import zipfile
 
@@ -50,8 +51,11 @@ def generate_trace(cfg: CampaignConfig, aom: BraggAOM, lut, A: float, dpd: int,
     return trace, power
 
 
+@functools.cache
 def _flattop_enbw() -> float:
-    """Equivalent noise bandwidth (bins) of the flat-top window of the extraction."""
+    """Equivalent noise bandwidth (bins) of the flat-top window of the extraction (a
+    constant, computed once: a window of 65,536 samples at every tone readout was a
+    large part of a harness campaign's spectra, ``benchmarks/simulate_spectra_speed.json``)."""
     from scipy.signal import get_window
     w = get_window("flattop", 1 << 16, fftbins=True)
     return float(w.size * np.sum(w ** 2) / np.sum(w) ** 2)

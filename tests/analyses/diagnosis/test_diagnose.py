@@ -1,6 +1,8 @@
 """Discrepancy diagnosis: contract, null campaign, concealed campaign, reduced harness."""
 
+import inspect
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,6 +10,7 @@ import pytest
 from dpdfit.cli.main import main
 from dpdfit.analyses.diagnosis.diagnose import ALPHA, diagnose, mismatch_evidence
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects
+from dpdfit.core.jsonable import to_jsonable
 from dpdfit.simulation import injections
 from dpdfit.simulation.harness import concealed_effects, plan, run_harness, summarise
 from dpdfit.analyses.diagnosis.evidence.deviations import deviating_intervals
@@ -69,10 +72,32 @@ def test_json_contract_keys(bundled):
 
 @pytest.mark.slow
 @pytest.mark.skipif(not CONCEALED_DIR.exists(), reason="bundled concealed campaign missing")
-def test_concealed_campaign_is_named_and_its_parameters_recovered(tmp_path):
+def test_concealed_campaign_is_named_and_its_parameters_recovered(tmp_path, capsys,
+                                                                 monkeypatch):
+    """The command line diagnoses the concealed campaign once: its call is caught on the
+    way (``diagnose`` itself runs), so the Diagnosis checked below is the one
+    ``diagnose(CONCEALED_DIR)`` returns and the JSON the command prints is that Diagnosis's."""
+    import dpdfit.analyses.diagnosis.diagnose as diagnose_module
     truth = json.loads(CONCEALED_TRUTH.read_text())          # read by the test only
     assert not (CONCEALED_DIR / "truth.json").exists()
-    d = diagnose(CONCEALED_DIR)
+    calls = []
+
+    def diagnose_and_keep(campaign, **kw):
+        calls.append((campaign, kw, diagnose(campaign, **kw)))
+        return calls[-1][2]
+
+    # the command imports diagnose() when it runs: caught in its module
+    monkeypatch.setattr(diagnose_module, "diagnose", diagnose_and_keep)
+    code = main(["diagnose", str(CONCEALED_DIR), "--json", "--plot", str(tmp_path)])
+    assert code == 0
+    (campaign, kw, d), = calls
+    # the command's call is diagnose(CONCEALED_DIR) with every default
+    assert Path(campaign).resolve() == CONCEALED_DIR.resolve()
+    defaults = inspect.signature(diagnose).parameters
+    assert kw and all(v == defaults[k].default for k, v in kw.items()), kw
+    # it prints that Diagnosis and draws the before/after plots
+    assert capsys.readouterr().out.strip() == json.dumps(to_jsonable(d.to_dict()), indent=2)
+    assert (tmp_path / "diagnosis_tones.png").stat().st_size > 10_000
     (name, params), = truth["concealed"].items()
     assert d.verdict == name
     assert d.mismatches, "the concealed effect must be located"
@@ -90,10 +115,6 @@ def test_concealed_campaign_is_named_and_its_parameters_recovered(tmp_path):
     for k, v in d.redchi_before.items():
         if v > 2:
             assert d.redchi_after[k] < 1.5, (k, v, d.redchi_after[k])
-    # the CLI writes the same verdict and the before/after plots
-    code = main(["diagnose", str(CONCEALED_DIR), "--json", "--plot", str(tmp_path)])
-    assert code == 0
-    assert (tmp_path / "diagnosis_tones.png").stat().st_size > 10_000
 
 
 def test_cli_refuses_a_folder_that_is_not_a_campaign(tmp_path, capsys):
