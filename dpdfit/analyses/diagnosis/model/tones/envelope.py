@@ -37,6 +37,9 @@ M_SLOW = 128
 #: amplitudes of the harmonic tables G_m(u) on [0, 1], and quadrature nodes per piece
 K_TABLE = 256
 N_QUAD = 16
+#: parts of the static field kept per quadrature (:meth:`ToneModel._static_memo`): a
+#: Jacobian's columns move the amplitude curve and the phase curve one at a time
+_STATIC_MEMO_ENTRIES = 16
 #: harmonics of the drive power's components through a slow memory's kernel (x nu)
 _POWER_M = (0, 2, -2, 4, -4)
 
@@ -95,7 +98,8 @@ class EnvelopeEngine:
         th, w = np.stack(th), np.stack(w)
         u = Eg[:, None] * np.cos(th)
         x = u if table is None else uniform_interp(u, table)
-        quad = {"th": th, "w": w, "x": x, "cos": {m: np.cos(m * th) for m in range(1, 6)}}
+        quad = {"th": th, "w": w, "x": x, "cos": {m: np.cos(m * th) for m in range(1, 6)},
+                "memo": ModelCache(_STATIC_MEMO_ENTRIES, shared=True)}
         cache[key] = quad
         return quad
 
@@ -104,7 +108,7 @@ class EnvelopeEngine:
         doc)."""
         q = self._quadrature(table)
         w, cos = q["w"], q["cos"]
-        g = self._static(q["x"], coef, act)                # both pieces at once
+        g = self._static_memo(q["x"], coef, act, q["memo"])   # both pieces at once
         ms = (1, 3, 5) if memory else (1,)
         G = np.empty((len(ms), self._Eg.size), dtype=complex)
         for j, m in enumerate(ms):
@@ -130,12 +134,12 @@ class EnvelopeEngine:
         gain: its kernel does not enter them) and whether a memory is present."""
         parts = [self.phase_sign, memory, coef[0].dtype.str, coef[0].tobytes(),
                  coef[1].dtype.str, coef[1].tobytes(), None if table is None else table.tobytes()]
+        gains = {id(e): gain for e, _, gain in act.memory_gains()}
         for e, v in act.items:
             if type(e).transfer is not Effect.transfer:
                 parts.append((e.name, tuple(sorted(v.items()))))
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is not None:
-                parts.append((e.name, complex(mem[0])))
+            if id(e) in gains:
+                parts.append((e.name, complex(gains[id(e)])))
         return tuple(parts)
 
     def _slow_parts(self, A, coef, table, act, memory: bool) -> dict:
@@ -192,7 +196,7 @@ class EnvelopeEngine:
     def _bands(self, A, coef, table, act) -> tuple[np.ndarray, np.ndarray]:
         """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
         drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
-        mems = act.memories(np.zeros(1))
+        mems = act.memory_gains()
         parts = self._slow_parts(A, coef, table, act, bool(mems))
         blue, red = parts["blue"], parts["red"]
         if not mems:
@@ -201,11 +205,7 @@ class EnvelopeEngine:
         out_b, out_r = blue.copy(), red.copy()
         # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
         # its own frequencies (every memory present adds its own term), all at once
-        for e, v in act.items:
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is None:
-                continue
-            gain = mem[0]
+        for e, v, gain in mems:
             H = e.power_memory(self, v, self._f_power)[1]            # (5, M_SLOW)
             s = dict(zip(_POWER_M, np.fft.ifft(pc_fft * H[:, None, :], axis=-1)))
             out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
