@@ -53,7 +53,7 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.model.tones.envelope import (K_TABLE, M_SLOW, N_QUAD,
-                                                            EnvelopeEngine)
+                                                            STATIC_MEMO_ENTRIES, EnvelopeEngine)
 from dpdfit.analyses.diagnosis.model.tones.interpolation import (uniform_at, uniform_interp,
                                                                  uniform_place)
 from dpdfit.analyses.diagnosis.observables.campaign import Campaign
@@ -231,12 +231,19 @@ class ToneModel(EnvelopeEngine):
         for e, v in act.items:
             c = e.table_curve(self, v, self._cy)
             if c is not None:
-                yt = np.polynomial.polynomial.polyval(self.xg, c)
-                # inverse by interpolation on the fine grid (monotone part), clamped to
-                # full drive as predistortion_table does for targets >= y(1)
-                top = int(np.argmax(yt))
-                inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
-                return np.where(self.lut_target >= yt[-1], 1.0, inv)
+                # kept per curve: the DPD-on half of every Jacobian column but the table's
+                # own asks for the same table again
+                cache = self.__dict__.setdefault("_table_cache", ModelCache(shared=True))
+                key = _array_key(np.asarray(c))
+                table = cache.get(key)
+                if table is None:
+                    yt = np.polynomial.polynomial.polyval(self.xg, c)
+                    # inverse by interpolation on the fine grid (monotone part), clamped to
+                    # full drive as predistortion_table does for targets >= y(1)
+                    top = int(np.argmax(yt))
+                    inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
+                    table = cache[key] = np.where(self.lut_target >= yt[-1], 1.0, inv)
+                return table
         return self.lut_rf
 
     def _static(self, mag, coef, act: ActiveEffects, where=None):
@@ -250,8 +257,12 @@ class ToneModel(EnvelopeEngine):
         caller keeps them."""
         mag = np.asarray(mag)
         if mag.size > 8 * STATIC_TABLE:
-            grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
-            F = self._static(grid, coef, act)
+            memo = self.__dict__.setdefault("_static_table_cache",
+                                            ModelCache(STATIC_MEMO_ENTRIES, shared=True))
+            grid = memo.get("grid")
+            if grid is None:
+                grid = memo["grid"] = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
+            F = self._static_memo(grid, coef, act, memo)
             if where is None:
                 return uniform_interp(mag, F, F[1:] - F[:-1])
             return uniform_at(where, F, F[1:] - F[:-1])
