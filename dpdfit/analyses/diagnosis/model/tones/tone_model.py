@@ -210,14 +210,16 @@ class ToneModel(EnvelopeEngine):
     def _coefficients(self, p: dict, act: ActiveEffects):
         """Forward-model coefficient vectors with the calibration modes and effects applied."""
         cy, cp = self._cy, self._cp
-        if any(p.get(f"cal_amp{i}", 0.0) for i in range(len(self.amp_modes))):
+        na = len(self.amp_modes)
+        amp_names, phase_names = self.mode_names[:na], self.mode_names[na:]
+        if any(p.get(k, 0.0) for k in amp_names):
             cy = cy.copy()
-            for i, m in enumerate(self.amp_modes):
-                cy[2:2 + m.size] += float(p.get(f"cal_amp{i}", 0.0)) * m
-        if any(p.get(f"cal_phase{i}", 0.0) for i in range(len(self.phase_modes))):
+            for k, m in zip(amp_names, self.amp_modes):
+                cy[2:2 + m.size] += float(p.get(k, 0.0)) * m
+        if any(p.get(k, 0.0) for k in phase_names):
             cp = cp.copy()
-            for i, m in enumerate(self.phase_modes):
-                cp[1:1 + m.size] += float(p.get(f"cal_phase{i}", 0.0)) * m
+            for k, m in zip(phase_names, self.phase_modes):
+                cp[1:1 + m.size] += float(p.get(k, 0.0)) * m
         if p.get("pm_x", 0.0):
             # the AOM's own AM-to-PM (a nuisance without a phase file)
             cp = np.concatenate([cp, np.zeros(max(3 - cp.size, 0))])
