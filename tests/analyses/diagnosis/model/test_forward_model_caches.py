@@ -28,11 +28,20 @@ SLOW = {"aom_memory.gain_a": 0.01, "aom_memory.gain_p": 0.05, "aom_memory.tau1":
         "aom_memory.tau": 0.0, "aom_memory.f_off": 0.0}
 FAST = {"aom_memory.tau": 60.0, "aom_memory.f_off": 2.0, "aom_memory.gain_a": 0.0,
         "aom_memory.gain_p": 0.0}
-#: a fit's walk: a kernel moved at fixed tables, the gain, the modes, back to a point seen
+STALE = {"stale_calibration.st0": 0.4, "stale_calibration.sa0": 0.0,
+         "stale_calibration.kappa": 0.0, "stale_calibration.tau_d": 5.0}
+#: a fit's walk: a kernel moved at fixed tables, the gain, the modes one curve at a time
+#: (amplitude, phase, both), a stale table asked again, back to a point seen
 WALK = [{}, SLOW, {**SLOW, "aom_memory.tau1": 1.5}, {**SLOW, "aom_memory.delay": 50.0},
         {**SLOW, "aom_memory.gain_a": 0.02}, {**SLOW, "cal_amp0": 0.4}, SLOW,
-        FAST, {**FAST, "cal_amp0": 0.3}, {**FAST, "aom_memory.tau": 70.0}, FAST,
+        {**SLOW, "cal_phase0": 0.3}, {**SLOW, "cal_amp0": 0.4, "cal_phase0": 0.3},
+        {**SLOW, "aom_memory.gain_a": 0.02, "aom_memory.tau1": 1.5}, SLOW,
+        FAST, {**FAST, "cal_amp0": 0.3}, {**FAST, "aom_memory.tau": 70.0},
+        {**FAST, "cal_phase0": -0.2}, FAST,
         {"detector_nonlinearity.k": 0.02}, {"cal_amp0": -0.5, "cal_phase0": 0.2},
+        {"detector_nonlinearity.k": 0.02, "cal_amp0": -0.5},
+        STALE, {**STALE, "cal_amp0": 0.2}, {**STALE, "stale_calibration.st0": 0.5}, STALE,
+        {**STALE, **SLOW}, {**STALE, **SLOW, "aom_memory.gain_p": 0.07},
         {"higher_order_im.k5": 0.01}, {"am_pm_omitted.dphi": 0.05}, {}]
 
 
@@ -54,6 +63,25 @@ def test_tone_model_caches_give_what_a_fresh_model_computes(campaign):
             assert np.array_equal(at, fresh.tone_powers_at([0.3, 0.7], p)), p
             g = kept.gate_tones(p, 0.5, 1)
             assert all(np.array_equal(a, b) for a, b in zip(g, fresh.gate_tones(p, 0.5, 1)))
+
+
+def test_tone_residual_blocks_kept_are_those_computed_afresh(campaign):
+    """The tone residuals keep the blocks of the last parameter set (read-only): asked
+    again, and after other sets, they are those of a fresh computation."""
+    from dpdfit.analyses.diagnosis.model.tones.tone_residuals import ToneResiduals
+    tone = ToneModel(campaign)
+
+    def residuals():
+        return ToneResiduals(campaign.P_dB, campaign.A_tones, campaign.sd_dB, 0.05,
+                             np.ones(len(campaign.A_tones))[:, None, None])
+
+    kept = residuals()
+    for p in (SLOW, SLOW, {**SLOW, "cal_amp0": 0.4}, {}, {}, SLOW):
+        got, want = kept.feature_blocks(tone, p), residuals().feature_blocks(ToneModel(campaign), p)
+        assert [lab for lab, _ in got] == [lab for lab, _ in want]
+        assert all(np.array_equal(a, b, equal_nan=True) for (_, a), (_, b) in zip(got, want)), p
+        with pytest.raises(ValueError):
+            got[0][1][0] = 0.0
 
 
 def test_a_slow_memory_kernel_moves_the_tones_at_kept_tables(campaign):

@@ -30,15 +30,28 @@ from dpdfit.analyses.diagnosis.model.tones.interpolation import (cubic_apply, cu
                                                                  uniform_interp)
 from dpdfit.models.waveforms import cardioid, drive_peak, sample_grid
 
-__all__ = ["EnvelopeEngine", "M_SLOW", "K_TABLE", "N_QUAD"]
+__all__ = ["EnvelopeEngine", "M_SLOW", "K_TABLE", "N_QUAD", "STATIC_MEMO_ENTRIES"]
 
 #: samples of the slow envelope per gate period (envelope engine)
 M_SLOW = 128
 #: amplitudes of the harmonic tables G_m(u) on [0, 1], and quadrature nodes per piece
 K_TABLE = 256
 N_QUAD = 16
+#: parts of the static field kept per table of magnitudes (the quadrature's, the
+#: time-domain engine's): a Jacobian's columns move the amplitude curve and the phase
+#: curve one at a time (``ToneModel._static_memo``)
+STATIC_MEMO_ENTRIES = 16
 #: harmonics of the drive power's components through a slow memory's kernel (x nu)
 _POWER_M = (0, 2, -2, 4, -4)
+#: harmonics of the field's bands that a slow memory mixes (x nu)
+_ODD_M = (1, -1, 3, -3, 5, -5)
+#: the products a slow memory adds to the band at +nu (first row) and -nu (second): the
+#: field's band ``_ODD_M[_PAIRS[0][b, j]]`` times the drive power's component
+#: ``_POWER_M[_PAIRS[1][b, j]]`` (their harmonics add up to +-1), summed over j in order
+_PAIRS = (np.array([[0, 1, 2, 3, 4], [1, 0, 3, 2, 5]]),
+          np.array([[0, 1, 2, 3, 4], [0, 2, 1, 4, 3]]))
+#: the harmonic table (row of G: m = 1, 3, 5) of each band of _PAIRS
+_PAIRS_G = np.array([[0, 0, 1, 1, 2], [0, 0, 1, 1, 2]])
 
 
 class EnvelopeEngine:
@@ -66,6 +79,7 @@ class EnvelopeEngine:
         self._rot_powers = {1: rot, -1: np.conj(rot)}
         for k in range(2, 6):
             self._rot_powers[k], self._rot_powers[-k] = rot ** k, np.conj(rot) ** k
+        self._rot_pairs = np.stack([self._rot_powers[m] for m in _ODD_M])[_PAIRS[0]]
         # frequencies of the drive power's components at 0, +-2 nu, +-4 nu (slow memory)
         f_slow = self._k_slow * self.xi0
         self._f_power = np.stack([m * self.nu + f_slow for m in _POWER_M])
@@ -76,7 +90,7 @@ class EnvelopeEngine:
         the nodes' angles ``th``, weights ``w``, drive magnitudes ``x`` and ``cos(m th)``
         (m = 1..5).  It depends on the table only, so it is cached (a fit moves the
         transfer far more often than the table)."""
-        key = None if table is None else table.tobytes()
+        key = self._table_key(table)
         cache = self.__dict__.setdefault("_quad_cache", ModelCache(shared=True))
         quad = cache.get(key)
         if quad is not None:
@@ -95,7 +109,9 @@ class EnvelopeEngine:
         th, w = np.stack(th), np.stack(w)
         u = Eg[:, None] * np.cos(th)
         x = u if table is None else uniform_interp(u, table)
-        quad = {"th": th, "w": w, "x": x, "cos": {m: np.cos(m * th) for m in range(1, 6)}}
+        cos = {m: np.cos(m * th) for m in range(1, 6)}
+        quad = {"th": th, "w": w, "x": x, "cos": cos, "cos_odd": np.stack([cos[1], cos[3], cos[5]]),
+                "memo": ModelCache(STATIC_MEMO_ENTRIES, shared=True)}
         cache[key] = quad
         return quad
 
@@ -103,14 +119,10 @@ class EnvelopeEngine:
         """Tables of ``G_m(u)`` (m = 1[, 3, 5]) of the field over ``u`` on [0, 1] (module
         doc)."""
         q = self._quadrature(table)
-        w, cos = q["w"], q["cos"]
-        g = self._static(q["x"], coef, act)                # both pieces at once
-        ms = (1, 3, 5) if memory else (1,)
-        G = np.empty((len(ms), self._Eg.size), dtype=complex)
-        for j, m in enumerate(ms):
-            part = (4 / np.pi) * np.sum(g * cos[m] * w, axis=-1)
-            G[j] = part[0] + part[1]
-        return G
+        g = self._static_memo(q["x"], coef, act, q["memo"])   # both pieces at once
+        cos = q["cos_odd"] if memory else q["cos_odd"][:1]     # m = 1, 3, 5 at once
+        part = (4 / np.pi) * np.sum(g * cos * q["w"], axis=-1)
+        return part[:, 0] + part[:, 1]
 
     def _power_harmonics(self, table) -> np.ndarray:
         """Tables of ``S_m(u)`` (m = 0, 2, 4) of the drive power over ``u`` on [0, 1]
@@ -129,21 +141,23 @@ class EnvelopeEngine:
         the hooks that act on the static field (an effect's ``transfer``, a memory's
         gain: its kernel does not enter them) and whether a memory is present."""
         parts = [self.phase_sign, memory, coef[0].dtype.str, coef[0].tobytes(),
-                 coef[1].dtype.str, coef[1].tobytes(), None if table is None else table.tobytes()]
+                 coef[1].dtype.str, coef[1].tobytes(), self._table_key(table)]
+        gains = {id(e): gain for e, _, gain in act.memory_gains()}
         for e, v in act.items:
             if type(e).transfer is not Effect.transfer:
                 parts.append((e.name, tuple(sorted(v.items()))))
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is not None:
-                parts.append((e.name, complex(mem[0])))
+            if id(e) in gains:
+                parts.append((e.name, complex(gains[id(e)])))
         return tuple(parts)
 
     def _slow_parts(self, A, coef, table, act, memory: bool) -> dict:
         """The slow signals of the bands that do not depend on a memory's kernel, cached
         (a slow memory's fit moves its kernel's time scales at fixed harmonic tables):
-        ``blue``, ``red`` (memoryless bands) and, with ``memory``, ``gm`` (the field's
-        bands at +-1, 3, 5 nu) and ``pc_fft`` (the spectra of the drive power's
-        components at 0, +-2, +-4 nu, rows in the order of ``_POWER_M``)."""
+        ``bands`` (the memoryless bands at +nu and -nu, shape (2, len(A), M_SLOW)) and, with
+        ``memory``, ``pairs`` (the field's bands at +-1, 3, 5 nu that multiply the drive
+        power's components, in the order of :data:`_PAIRS`) and ``pc_fft`` (the spectra
+        of the drive power's components at 0, +-2, +-4 nu, rows in the order of
+        ``_POWER_M``)."""
         A = np.ascontiguousarray(A, dtype=float)
         key = (A.tobytes(), self._static_key(coef, table, act, memory))
         cache = self.__dict__.setdefault("_slow_cache", ModelCache(shared=True))
@@ -151,22 +165,22 @@ class EnvelopeEngine:
         if out is not None:
             return out
         wts = self._cubic_weights(A)
-        rp = self._rot_powers
         g = cubic_apply(self._harmonics(coef, table, act, memory), wts) / 2
-        blue, red = g[0] * rp[1], g[0] * rp[-1]
-        out = {"blue": blue, "red": red}
         if memory:
-            g3, g5 = g[1], g[2]
-            out["gm"] = {1: blue, -1: red, 3: g3 * rp[3], -3: g3 * rp[-3],
-                         5: g5 * rp[5], -5: g5 * rp[-5]}
-            out["pc_fft"] = self._power_spectra(A, table, wts)
+            # the field's bands at +-m nu (G_m times e^{+-i m arg eps}) as _PAIRS takes
+            # them; the first of each row is the band at +nu (-nu) itself
+            pairs = g[_PAIRS_G] * self._rot_pairs[:, :, None, :]
+            out = {"bands": pairs[:, 0], "pairs": pairs,
+                   "pc_fft": self._power_spectra(A, table, wts)}
+        else:
+            out = {"bands": g[0][None, :, :] * self._rot_pairs[:, 0, None, :]}
         cache[key] = out
         return out
 
     def _power_spectra(self, A, table, wts) -> np.ndarray:
         """Spectra (along the slow time) of the drive power's components at 0, +-2 nu,
         +-4 nu for amplitudes ``A``, cached: they depend on the table only."""
-        key = (A.tobytes(), None if table is None else table.tobytes())
+        key = (A.tobytes(), self._table_key(table))
         cache = self.__dict__.setdefault("_power_cache", ModelCache(shared=True))
         out = cache.get(key)
         if out is not None:
@@ -189,37 +203,54 @@ class EnvelopeEngine:
             out = cache[key] = cubic_weights(A[:, None] * self._E_unit[None, :], K_TABLE)
         return out
 
-    def _bands(self, A, coef, table, act) -> tuple[np.ndarray, np.ndarray]:
+    def _bands(self, A, coef, table, act) -> np.ndarray:
         """Slow complex envelopes of the field's bands at +nu (blue) and -nu (red) for
-        drive amplitudes ``A``: two arrays (len(A), M_SLOW)."""
-        mems = act.memories(np.zeros(1))
+        drive amplitudes ``A``: shape (2 [blue, red], len(A), M_SLOW)."""
+        mems = act.memory_gains()
         parts = self._slow_parts(A, coef, table, act, bool(mems))
-        blue, red = parts["blue"], parts["red"]
-        if not mems:
-            return blue, red
-        gm, pc_fft = parts["gm"], parts["pc_fft"]
-        out_b, out_r = blue.copy(), red.copy()
+        out = parts["bands"]
         # the drive power's components at 0, +-2 nu, +-4 nu, each through the kernel at
-        # its own frequencies (every memory present adds its own term), all at once
-        for e, v in act.items:
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is None:
-                continue
-            gain = mem[0]
+        # its own frequencies, times the field's band that brings them to +-nu (every
+        # memory present adds its own term): both bands' five products summed at once,
+        # in the order of _PAIRS
+        for e, v, gain in mems:
             H = e.power_memory(self, v, self._f_power)[1]            # (5, M_SLOW)
-            s = dict(zip(_POWER_M, np.fft.ifft(pc_fft * H[:, None, :], axis=-1)))
-            out_b = out_b + gain * (gm[1] * s[0] + gm[-1] * s[2] + gm[3] * s[-2]
-                                    + gm[-3] * s[4] + gm[5] * s[-4])
-            out_r = out_r + gain * (gm[-1] * s[0] + gm[1] * s[-2] + gm[-3] * s[2]
-                                    + gm[3] * s[-4] + gm[-5] * s[4])
-        return out_b, out_r
+            s = self._filtered_power(A, table, parts["pc_fft"], H)
+            out = out + gain * np.sum(parts["pairs"] * s, axis=1)
+        return out
+
+    def _filtered_power(self, A, table, pc_fft, H) -> np.ndarray:
+        """The drive power's components (the spectra ``pc_fft``) through the kernel ``H``,
+        arranged as :data:`_PAIRS` pairs them with the field's bands: shape (2, 5,
+        len(A), M_SLOW).  Cached by the kernel's values: a fit moves the gain, the
+        calibration modes and the nuisances more often than the kernel's time scales."""
+        key = (A.tobytes(), self._table_key(table), H.dtype.str, H.tobytes())
+        cache = self.__dict__.setdefault("_filtered_power_cache", ModelCache(shared=True))
+        out = cache.get(key)
+        if out is None:
+            s = np.fft.ifft(pc_fft * H[:, None, :], axis=-1)
+            out = cache[key] = s[_PAIRS[1]]
+        return out
+
+    def _table_key(self, table):
+        """A hashable key of a predistortion table's exact values (None: without DPD),
+        kept for the last few table objects (each held, so that its id stays its own)."""
+        if table is None:
+            return None
+        cache = self.__dict__.setdefault("_table_key_cache", ModelCache(4))
+        hit = cache.get(id(table))
+        if hit is not None and hit[0] is table:
+            return hit[1]
+        key = table.tobytes()
+        cache[id(table)] = (table, key)
+        return key
 
     def _tones_envelope(self, A, p, act, dpd_flags, harmonics):
         coef = self._coefficients(p, act)
         n = np.asarray(harmonics)
         out = []
         for d in dpd_flags:
-            bands = np.stack(self._bands(A, coef, self._table(act) if d else None, act))
-            cb, cr = np.fft.fft(bands, axis=-1) / M_SLOW          # both in one call
-            out.append(np.stack([cr[:, (-n) % M_SLOW], cb[:, n % M_SLOW]], axis=1))
+            bands = self._bands(A, coef, self._table(act) if d else None, act)
+            cb, cr = np.fft.fft(bands, axis=-1)                   # both in one call
+            out.append(np.stack([cr[:, (-n) % M_SLOW], cb[:, n % M_SLOW]], axis=1) / M_SLOW)
         return np.stack(out, axis=1)                         # (nA, n flags, 2 sb, H)

@@ -53,7 +53,7 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.model.tones.envelope import (K_TABLE, M_SLOW, N_QUAD,
-                                                            EnvelopeEngine)
+                                                            STATIC_MEMO_ENTRIES, EnvelopeEngine)
 from dpdfit.analyses.diagnosis.model.tones.interpolation import (uniform_at, uniform_interp,
                                                                  uniform_place)
 from dpdfit.analyses.diagnosis.observables.campaign import Campaign
@@ -84,14 +84,30 @@ class ActiveEffects:
 
     def __init__(self, tm, p: dict):
         self.items = []
+        # an effect is present only if a key carries its name before the dot: the others
+        # are not asked (a fit evaluates this thousands of times)
+        named = {k.partition(".")[0] for k in p}
         for e in EFFECTS.values():
-            if e.side != "tones":
+            if e.side != "tones" or e.name not in named:
                 continue
             v = e.values(p)
             if v is not None:
                 self.items.append((e, v))
         self.items.sort(key=lambda ev: ev[0].stage)
         self.tm = tm
+        self._gains = None
+
+    def memory_gains(self) -> list:
+        """``[(effect, values, gain)]`` of the present effects with a power memory (the
+        ``gain`` of :meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.power_memory`),
+        in the order they apply; asked once per parameter set."""
+        if self._gains is None:
+            self._gains = []
+            for e, v in self.items:
+                mem = e.power_memory(self.tm, v, np.zeros(1))
+                if mem is not None:
+                    self._gains.append((e, v, mem[0]))
+        return self._gains
 
     def filters(self, f):
         """The present effects' linear filters ``H(f)`` of the complex drive envelope
@@ -194,14 +210,16 @@ class ToneModel(EnvelopeEngine):
     def _coefficients(self, p: dict, act: ActiveEffects):
         """Forward-model coefficient vectors with the calibration modes and effects applied."""
         cy, cp = self._cy, self._cp
-        if any(p.get(f"cal_amp{i}", 0.0) for i in range(len(self.amp_modes))):
+        na = len(self.amp_modes)
+        amp_names, phase_names = self.mode_names[:na], self.mode_names[na:]
+        if any(p.get(k, 0.0) for k in amp_names):
             cy = cy.copy()
-            for i, m in enumerate(self.amp_modes):
-                cy[2:2 + m.size] += float(p.get(f"cal_amp{i}", 0.0)) * m
-        if any(p.get(f"cal_phase{i}", 0.0) for i in range(len(self.phase_modes))):
+            for k, m in zip(amp_names, self.amp_modes):
+                cy[2:2 + m.size] += float(p.get(k, 0.0)) * m
+        if any(p.get(k, 0.0) for k in phase_names):
             cp = cp.copy()
-            for i, m in enumerate(self.phase_modes):
-                cp[1:1 + m.size] += float(p.get(f"cal_phase{i}", 0.0)) * m
+            for k, m in zip(phase_names, self.phase_modes):
+                cp[1:1 + m.size] += float(p.get(k, 0.0)) * m
         if p.get("pm_x", 0.0):
             # the AOM's own AM-to-PM (a nuisance without a phase file)
             cp = np.concatenate([cp, np.zeros(max(3 - cp.size, 0))])
@@ -215,12 +233,19 @@ class ToneModel(EnvelopeEngine):
         for e, v in act.items:
             c = e.table_curve(self, v, self._cy)
             if c is not None:
-                yt = np.polynomial.polynomial.polyval(self.xg, c)
-                # inverse by interpolation on the fine grid (monotone part), clamped to
-                # full drive as predistortion_table does for targets >= y(1)
-                top = int(np.argmax(yt))
-                inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
-                return np.where(self.lut_target >= yt[-1], 1.0, inv)
+                # kept per curve: the DPD-on half of every Jacobian column but the table's
+                # own asks for the same table again
+                cache = self.__dict__.setdefault("_table_cache", ModelCache(shared=True))
+                key = _array_key(np.asarray(c))
+                table = cache.get(key)
+                if table is None:
+                    yt = np.polynomial.polynomial.polyval(self.xg, c)
+                    # inverse by interpolation on the fine grid (monotone part), clamped to
+                    # full drive as predistortion_table does for targets >= y(1)
+                    top = int(np.argmax(yt))
+                    inv = np.interp(self.lut_target, yt[:top + 1], self.xg[:top + 1])
+                    table = cache[key] = np.where(self.lut_target >= yt[-1], 1.0, inv)
+                return table
         return self.lut_rf
 
     def _static(self, mag, coef, act: ActiveEffects, where=None):
@@ -234,27 +259,57 @@ class ToneModel(EnvelopeEngine):
         caller keeps them."""
         mag = np.asarray(mag)
         if mag.size > 8 * STATIC_TABLE:
-            grid = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
-            F = self._static(grid, coef, act)
+            memo = self.__dict__.setdefault("_static_table_cache",
+                                            ModelCache(STATIC_MEMO_ENTRIES, shared=True))
+            grid = memo.get("grid")
+            if grid is None:
+                grid = memo["grid"] = np.linspace(0.0, 1.0, STATIC_TABLE + 1)
+            F = self._static_memo(grid, coef, act, memo)
             if where is None:
                 return uniform_interp(mag, F, F[1:] - F[:-1])
             return uniform_at(where, F, F[1:] - F[:-1])
         cy, cp = coef
         m = np.minimum(mag, 1.0)
-        y = np.polynomial.polynomial.polyval(m, cy)
-        if np.any(cp):
-            y = y * _unit_phasor(np.polynomial.polynomial.polyval(m, cp))
-        else:
-            y = y.astype(complex)
+        y = _calibrated_field(m, cy, cp)
+        return self._after_static(y, m, cy, act)
+
+    def _static_memo(self, mag, coef, act: ActiveEffects, memo):
+        """:meth:`_static` of fixed magnitudes ``mag`` (the quadrature's), keeping in
+        ``memo`` (a :class:`ModelCache` that belongs to these magnitudes) the parts a
+        fit's Jacobian repeats: the clipped magnitudes, the amplitude curve per ``cy``,
+        its phase factor per ``cp`` and their product.  The same operations on the same
+        numbers as :meth:`_static`."""
+        cy, cp = coef
+        m = memo.get("m")
+        if m is None:
+            m = memo["m"] = np.minimum(mag, 1.0)
+        ky, kp = _array_key(cy), _array_key(cp)
+        y = memo.get(("y", ky, kp))
+        if y is None:
+            ya = memo.get(("amp", ky))
+            if ya is None:
+                ya = memo[("amp", ky)] = np.polynomial.polynomial.polyval(m, cy)
+            if np.any(cp):
+                ph = memo.get(("phase", kp))
+                if ph is None:
+                    ph = memo[("phase", kp)] = _unit_phasor(
+                        np.polynomial.polynomial.polyval(m, cp))
+                y = ya * ph
+            else:
+                y = ya.astype(complex)
+            memo[("y", ky, kp)] = y
+        return self._after_static(y, m, cy, act)
+
+    def _after_static(self, y, m, cy, act: ActiveEffects):
+        """The calibrated field ``y`` at clipped magnitudes ``m`` through the present
+        effects' transfers and memories' steady states (a new array: ``y`` unchanged)."""
         for e, v in act.items:
             y = e.transfer(self, v, y, cy)
-        for e, v in act.items:
-            mem = e.power_memory(self, v, np.zeros(1))
-            if mem is not None:
-                # the calibration runs drive a constant amplitude: a memory's steady state
-                # (gain 1 + c |x|^2, the kernel's H(0) = 1) is inside the measured
-                # transfer, so only the dynamic part 1 + c s(t) acts beyond it
-                y = y / (1 + mem[0] * m ** 2)
+        for e, v, gain in act.memory_gains():
+            # the calibration runs drive a constant amplitude: a memory's steady state
+            # (gain 1 + c |x|^2, the kernel's H(0) = 1) is inside the measured
+            # transfer, so only the dynamic part 1 + c s(t) acts beyond it
+            y = y / (1 + gain * m ** 2)
         return y
 
     # ------------------------------------------------------------- time-domain engine
@@ -377,6 +432,19 @@ class ToneModel(EnvelopeEngine):
         n = np.asarray(harmonics)
         b, c = gate_sim.field_amplitudes(t[1], t[0])
         return n, b, c
+
+
+def _calibrated_field(m: np.ndarray, cy: np.ndarray, cp: np.ndarray) -> np.ndarray:
+    """The calibrated transfer ``y(m) exp(i phi(m))`` (complex) at clipped magnitudes ``m``."""
+    y = np.polynomial.polynomial.polyval(m, cy)
+    if np.any(cp):
+        return y * _unit_phasor(np.polynomial.polynomial.polyval(m, cp))
+    return y.astype(complex)
+
+
+def _array_key(a: np.ndarray) -> tuple:
+    """A hashable key of an array's exact values."""
+    return a.dtype.str, a.shape, a.tobytes()
 
 
 def _unit_phasor(phi: np.ndarray) -> np.ndarray:

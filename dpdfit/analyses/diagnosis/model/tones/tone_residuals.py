@@ -25,7 +25,7 @@ class ToneResiduals:
         self.meas = tone_features(P_dB, A, sd_dB)
         self.sig_jit = float(sig_jit)
         self.jit_multiple = jit_multiple
-        self._key, self._model = None, None
+        self._key, self._model, self._blocks = None, None, None
 
     def reset(self) -> None:
         """Forget the model's last features (the tone model in use changed)."""
@@ -33,13 +33,20 @@ class ToneResiduals:
 
     def feature_blocks(self, tone: ToneModel, p: dict) -> list:
         """``[(label, z)]`` of every tone feature at the tone-side parameters ``p`` of the
-        tone model ``tone`` (its features of the last parameter set kept)."""
+        tone model ``tone``.  The blocks of the last parameter set are kept (read-only
+        arrays): the gate side's Jacobian columns ask for them again unchanged."""
         key = tuple(sorted((k, float(v)) for k, v in p.items()))
         if key != self._key:
-            self._key, self._model = key, tone.features(p)
+            self._key, self._model = None, tone.features(p)
+            self._blocks = self._standardised(self._model)
+            self._key = key
+        return [(dict(label), z) for label, z in self._blocks]
+
+    def _standardised(self, model: dict) -> list:
+        """``[(label, z)]`` of the model's features ``model`` against the recorded ones."""
         out = []
         for name, (v, e) in self.meas.items():
-            m = self._model[name]
+            m = model[name]
             if name == "gate_power":
                 # absolute scale of the tone powers: profiled (weighted mean), 1 parameter
                 e = np.sqrt(e ** 2 + self.sig_jit ** 2 * self.jit_multiple)
@@ -47,5 +54,6 @@ class ToneResiduals:
                 ok = np.isfinite(r)
                 m = m + (np.sum(r[ok] / e[ok] ** 2) / np.sum(1 / e[ok] ** 2) if ok.any() else 0)
             z = (v - m) / e
+            z.flags.writeable = False
             out.append(({"kind": "tones", "observable": name}, z))
         return out
