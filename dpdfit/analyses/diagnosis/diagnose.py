@@ -42,7 +42,7 @@ import time
 
 from threadpoolctl import threadpool_limits
 
-from dpdfit.analyses.diagnosis.comparison.refits import refit_label, refit_labels
+from dpdfit.analyses.diagnosis.comparison.refits import refit_chi2s, refit_labels
 from dpdfit.analyses.diagnosis.decisions.alternatives import (addition_alternatives,
                                                               swap_alternatives)
 from dpdfit.analyses.diagnosis.decisions.explanations import (open_sides, select,
@@ -232,8 +232,10 @@ def _proposal(prob: Problem, base: FitResult, chosen, alts: list, effects_out: l
     if nxt.binding:
         # the binding pair fitted as a later diagnosis will fit it again: the gap the
         # recording starts from
-        nxt = dataclasses.replace(nxt, binding={k: {**v, "chi2": refit_label(prob, base, v)}
-                                                for k, v in nxt.binding.items()})
+        sides = list(nxt.binding)
+        chi2 = refit_chi2s(prob, base, [nxt.binding[k] for k in sides])
+        nxt = dataclasses.replace(nxt, binding={k: {**nxt.binding[k], "chi2": c}
+                                                for k, c in zip(sides, chi2)})
     return nxt
 
 

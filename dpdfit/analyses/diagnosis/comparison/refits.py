@@ -19,10 +19,10 @@ from __future__ import annotations
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
-from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis
+from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis, map_over_problem
 from dpdfit.analyses.diagnosis.fitting.phase_sign import repredict_gates
 
-__all__ = ["refit_label", "refit_labels", "achieved_separation", "binding_refits", "binding_chi2",
+__all__ = ["refit_label", "refit_labels", "refit_chi2s", "achieved_separation", "binding_refits", "binding_chi2",
            "refitted_chi2"]
 
 #: the two sides of a binding pair
@@ -61,19 +61,27 @@ def refit_label(prob, base: FitResult, label: dict) -> float:
     return float(f.chi2)
 
 
+def refit_chi2s(prob, base: FitResult, labels: list) -> list:
+    """``[refit_label(prob, base, label) for label in labels]`` over the cores."""
+    return map_over_problem(prob, refit_label, [((base, lab), {}) for lab in labels])
+
+
 def refit_labels(prob, base: FitResult, labels: list) -> list:
     """Each hypothesis of ``labels`` refitted (:func:`refit_label`): ``{**label, "chi2"}``.
     A hypothesis this campaign cannot fit (a form its recordings no longer support, an
     effect not in the catalog) gets ``chi2`` None and the ``reason``: the caller compares
     nothing for it, and the diagnosis itself stands."""
-    out = []
-    for lab in labels:
-        try:
-            out.append({**lab, "chi2": refit_label(prob, base, lab)})
-        except (KeyError, ValueError) as exc:
-            out.append({**lab, "chi2": None,
-                        "reason": f"not fitted on this campaign ({type(exc).__name__}: {exc})"})
-    return out
+    # independent fits: over the cores (each a fit from scratch, seconds each)
+    done = map_over_problem(prob, _refit_or_reason, [((base, lab), {}) for lab in labels])
+    return [{**lab, **res} for lab, res in zip(labels, done)]
+
+
+def _refit_or_reason(prob, base: FitResult, label: dict) -> dict:
+    try:
+        return {"chi2": refit_label(prob, base, label)}
+    except (KeyError, ValueError) as exc:
+        return {"chi2": None,
+                "reason": f"not fitted on this campaign ({type(exc).__name__}: {exc})"}
 
 
 def achieved_separation(before: dict, after: dict) -> float | None:

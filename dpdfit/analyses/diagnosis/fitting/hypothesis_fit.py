@@ -23,7 +23,8 @@ from dpdfit.analyses.diagnosis.fitting.least_squares import (MAX_NFEV, Objective
                                                              starting_points)
 from dpdfit.core.parallel import pmap
 
-__all__ = ['fit_hypothesis', 'fit_effect', 'fit_all', 'fit_effects', 'form_chains']
+__all__ = ['fit_hypothesis', 'fit_effect', 'fit_all', 'fit_effects', 'form_chains',
+           'map_over_problem']
 
 
 def _result(obj: Objective, best, best_lin) -> FitResult:
@@ -117,6 +118,13 @@ _SHARED: dict = {}
 
 def _fit_job(fn, args: tuple, kw: dict):
     return fn(_SHARED["prob"], *args, **kw)
+
+
+def map_over_problem(prob, fn, jobs: list) -> list:
+    """``[fn(prob, *args, **kw) for args, kw in jobs]`` over the cores: the problem is
+    inherited by the forked workers, never pickled; only ``args``, ``kw`` and the
+    results are (:func:`~dpdfit.core.parallel.pmap`; the same results in any order)."""
+    return _pmap_prob(prob, fn, jobs)
 
 
 def _pmap_prob(prob, fn, jobs: list) -> list:
