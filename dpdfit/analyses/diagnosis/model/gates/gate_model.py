@@ -300,11 +300,14 @@ class GateModel:
         mixers = parts["mixers"].get(mix_key)
         if mixers is None:
             mixers = parts["mixers"][mix_key] = {"gate": {}, "ts": [{} for _ in tab["ts"]]}
-        for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
-            pop, par = observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
-                               terms, det, mixers["gate"])
-            F, imb = collapse(pop)
-            vals[s] = {"F_pop": F, "imb": imb, "C": contrast(par)}
+        # the three power errors at once (along a leading axis): the same values as
+        # three calls, at a third of numpy's per-call cost
+        pop, par = observe(base, d, lin, quad, coefs, np.stack([eps, eps + h, eps - h]),
+                           v_mean, prep, True, coh, terms, det, mixers["gate"])
+        F, imb = collapse(pop)
+        C = contrast(par)
+        for i, s in enumerate(("0", "+", "-")):
+            vals[s] = {"F_pop": F[i], "imb": imb[i], "C": C[i]}
         res = {}
         for q in ("F_pop", "imb", "C"):
             res[q] = vals["0"][q]

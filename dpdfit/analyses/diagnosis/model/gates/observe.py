@@ -34,7 +34,8 @@ PHASES = ERROR_MODEL.analysis_phases()
 # design of the fringe fit: 1, cos phi, sin phi, cos 2phi, sin 2phi (exact on PHASES)
 _DESIGN = np.stack([np.ones_like(PHASES), np.cos(PHASES), np.sin(PHASES), np.cos(2 * PHASES),
                     np.sin(2 * PHASES)], axis=1)
-_PINV = np.linalg.pinv(_DESIGN)[3:5]                 # rows giving the cos/sin 2phi coefficients
+_DESIGN_PINV = np.linalg.pinv(_DESIGN)
+_PINV = _DESIGN_PINV[3:5]                            # rows giving the cos/sin 2phi coefficients
 
 
 def knob_terms(base, d, coefs, qs) -> dict:
@@ -55,7 +56,8 @@ def knob_terms(base, d, coefs, qs) -> dict:
 
 def observe(base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
             coherence=None, terms=None, det=None, mixers=None):
-    """Measured probabilities at power error ``eps`` (dB, per row) for knob weights
+    """Measured probabilities at power error ``eps`` (dB, per row; with leading axes, e.g.
+    ``(3, rows)``, the probabilities at each, along those axes) for knob weights
     ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
     ``(k1, k2)`` per row on the two-ion fringes' ``phi`` and ``2 phi`` harmonics.
     ``terms``: the knobs' changes (:func:`knob_terms`) when already computed;
@@ -69,7 +71,7 @@ def observe(base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
 
     def two_ion(q):
         shape = (-1,) + (1,) * (base[q].ndim - 1)
-        e = eps.reshape(shape) if eps.ndim else eps
+        e = eps.reshape(eps.shape + shape[1:]) if eps.ndim else eps
         v = base[q] + lin[q] * e + quad[q] * (e ** 2 + (vm.reshape(shape) if vm.ndim
                                                         else vm))
         for t in terms[q]:
@@ -127,10 +129,14 @@ class BranchMixer:
 
 def confusion_t(prep: Prep) -> np.ndarray:
     """The transposed four-outcome confusion matrix of the detection errors of ``prep``
-    (:func:`~dpdfit.models.gate_sim.confusion` applies ``p4 @`` it)."""
+    (:func:`~dpdfit.models.gate_sim.confusion` applies ``p4 @`` it): ``kron(C, C).T``
+    with the same products, written out because a prediction makes one every time and
+    ``np.kron``'s generality costs more than the sixteen products."""
     e01, e10 = float(prep.e01), float(prep.e10)
-    C = np.array([[1 - e01, e10], [e01, 1 - e10]])
-    return np.kron(C, C).T
+    C = ((1 - e01, e10), (e01, 1 - e10))
+    # kron(C, C)[2 i + k, 2 j + l] = C[i][j] C[k][l]; transposed: row 2 j + l, column 2 i + k
+    return np.array([[C[i][j] * C[k][l] for i in (0, 1) for k in (0, 1)]
+                     for j in (0, 1) for l in (0, 1)])
 
 
 def collapse(p4):
@@ -146,13 +152,19 @@ def contrast(par4):
 
 
 def decohere(par, k1, k2):
-    """Fringes ``par`` (rows, PHASES, outcomes) with their ``phi`` harmonic scaled by
-    ``k1`` and their ``2 phi`` harmonic by ``k2`` (per row): the final state's
-    single-ion and two-ion coherences decayed, its populations kept (exact on PHASES)."""
-    c = np.einsum("kj,rjo->rko", np.linalg.pinv(_DESIGN), par)      # (rows, 5, outcomes)
+    """Fringes ``par`` (rows, PHASES, outcomes; leading axes before the rows allowed)
+    with their ``phi`` harmonic scaled by ``k1`` and their ``2 phi`` harmonic by ``k2``
+    (per row): the final state's single-ion and two-ion coherences decayed, its
+    populations kept (exact on PHASES)."""
+    lead = par.shape[:-3]
     k1 = np.asarray(k1, dtype=float).reshape(-1, 1)
     k2 = np.asarray(k2, dtype=float).reshape(-1, 1)
-    c = c.copy()
+    if lead:                                # one stack of rows, each row's factors kept
+        n = int(np.prod(lead))
+        out = decohere(par.reshape((-1,) + par.shape[-2:]), np.tile(k1, (n, 1)),
+                       np.tile(k2, (n, 1)))
+        return out.reshape(par.shape)
+    c = np.einsum("kj,rjo->rko", _DESIGN_PINV, par)                  # (rows, 5, outcomes)
     c[:, 1:3] *= k1[:, None]
     c[:, 3:5] *= k2[:, None]
     return np.einsum("jk,rko->rjo", _DESIGN, c)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["whiten_prediction", "whiten_settings"]
+__all__ = ["whiten_prediction", "whiten_stacked", "whiten_settings"]
 
 
 def whiten_prediction(measured: dict, shot: dict, pr: dict, observables: tuple,
@@ -18,9 +18,17 @@ def whiten_prediction(measured: dict, shot: dict, pr: dict, observables: tuple,
     (:meth:`~dpdfit.analyses.diagnosis.model.gates.gate_model.GateModel.predict`), by
     :func:`whiten_settings`."""
     qs = observables
-    r = np.stack([measured[q] - pr[q] for q in qs], axis=1)
-    return whiten_settings(r, np.stack([shot[q] for q in qs], axis=1),
-                           np.stack([pr["dlin_" + q] for q in qs], axis=1),
+    return whiten_stacked(np.stack([measured[q] for q in qs], axis=1),
+                          np.stack([shot[q] for q in qs], axis=1), pr, qs, logdet)
+
+
+def whiten_stacked(measured, shot, pr: dict, observables: tuple, logdet: bool = False):
+    """:func:`whiten_prediction` with the recorded values and their shot-noise errors
+    already stacked ``(n settings, len(observables))`` (what a fit keeps between its
+    evaluations)."""
+    qs = observables
+    r = measured - np.stack([pr[q] for q in qs], axis=1)
+    return whiten_settings(r, shot, np.stack([pr["dlin_" + q] for q in qs], axis=1),
                            np.stack([pr["dquad_" + q] for q in qs], axis=1),
                            pr["v_lin"], pr["v_quad"], logdet=logdet)
 
