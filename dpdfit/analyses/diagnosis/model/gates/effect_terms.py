@@ -24,7 +24,10 @@ def active_effects(names, p: dict) -> list:
     """``[(effect, values)]``: the effects of ``names`` present in the parameter set ``p``,
     each with its values by its own parameter names."""
     out = []
+    present = {k.partition(".")[0] for k in p if "." in k}     # cheaper than each's values
     for name in names:
+        if name not in present:
+            continue
         v = EFFECTS[name].values(p)
         if v is not None:
             out.append((EFFECTS[name], v))

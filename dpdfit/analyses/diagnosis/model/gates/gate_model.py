@@ -300,10 +300,14 @@ class GateModel:
         mixers = parts["mixers"].get(mix_key)
         if mixers is None:
             mixers = parts["mixers"][mix_key] = {"gate": {}, "ts": [{} for _ in tab["ts"]]}
+        # the fixed branches' terms of the mixers, the same for every parameter set
+        fixed = self._stacks().setdefault("branch_terms",
+                                          {"gate": {}, "ts": [{} for _ in tab["ts"]]})
         # the three power errors at once (along a leading axis): the same values as
         # three calls, at a third of numpy's per-call cost
         pop, par = observe(base, d, lin, quad, coefs, np.stack([eps, eps + h, eps - h]),
-                           v_mean, prep, True, coh, terms, det, mixers["gate"])
+                           v_mean, prep, True, coh, terms, det, mixers["gate"],
+                           fixed["gate"])
         F, imb = collapse(pop)
         C = contrast(par)
         for i, s in enumerate(("0", "+", "-")):
@@ -322,7 +326,7 @@ class GateModel:
             c_t, e_t, terms_t = parts["ts"][k]
             e = e_t + float(p.get(f"eps_ts{k}", 0.0))
             pop, _ = observe(b, dd, li, qu, c_t, e, 0.0, prep, False, terms=terms_t, det=det,
-                             mixers=mixers["ts"][k])
+                             mixers=mixers["ts"][k], fixed=fixed["ts"][k])
             acc["P00_t"].append(pop[0, :, 0])
             acc["P11_t"].append(pop[0, :, 3])
         for q, v in acc.items():

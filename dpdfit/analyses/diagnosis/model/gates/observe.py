@@ -24,7 +24,7 @@ from dpdfit.analyses.diagnosis.effects import Prep
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models.gate_sim.spam import spectator_outcomes
 
-__all__ = ["observe", "knob_terms", "BranchMixer", "confusion_t", "PHASES", "collapse",
+__all__ = ["observe", "knob_terms", "BranchMixer", "branch_terms", "confusion_t", "PHASES", "collapse",
            "contrast", "decohere"]
 
 #: analysis phases of the model's fringes (the contrast does not depend on them): the
@@ -55,7 +55,7 @@ def knob_terms(base, d, coefs, qs) -> dict:
 
 
 def observe(base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
-            coherence=None, terms=None, det=None, mixers=None):
+            coherence=None, terms=None, det=None, mixers=None, fixed=None):
     """Measured probabilities at power error ``eps`` (dB, per row; with leading axes, e.g.
     ``(3, rows)``, the probabilities at each, along those axes) for knob weights
     ``coefs`` (``{knob: array over the rows' times}``); ``coherence``: factors
@@ -63,7 +63,9 @@ def observe(base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
     ``terms``: the knobs' changes (:func:`knob_terms`) when already computed;
     ``det``: the detection confusion matrix, transposed, when already made;
     ``mixers``: the preparation branches' mixers (:class:`BranchMixer`, ``{"p": ...,
-    "par": ...}``), made here when missing (a dict passed in keeps them)."""
+    "par": ...}``), made here when missing (a dict passed in keeps them); ``fixed``: the
+    fixed branches' outcome terms (:func:`branch_terms`, ``{"p": ..., "par": ...}``),
+    which no parameter but the coherence moves, kept likewise across mixers."""
     eps = np.asarray(eps, dtype=float)
     vm = np.asarray(v_mean, dtype=float)
     if terms is None:
@@ -81,8 +83,11 @@ def observe(base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
     if det is None:
         det = confusion_t(prep)
     mixers = {} if mixers is None else mixers
+    fixed = {} if fixed is None else fixed
     if "p" not in mixers:
-        mixers["p"] = BranchMixer(prep, base["p1"], base["p2_01"], base["p1_1"])
+        if "p" not in fixed:
+            fixed["p"] = branch_terms(base["p1"], base["p2_01"], base["p1_1"])
+        mixers["p"] = BranchMixer(prep, base["p1"], base["p2_01"], base["p1_1"], fixed["p"])
     pop = mixers["p"](two_ion("p2")) @ det
     if not gate:
         return pop, None
@@ -91,26 +96,43 @@ def observe(base, d, lin, quad, coefs, eps, v_mean, prep: Prep, gate: bool,
         par2 = decohere(par2, *coherence)
     if "par" not in mixers:
         par2_01 = base["par2_01"]
-        if coherence is not None:
+        if coherence is not None:                # the flipped branch's terms decohered too
             par2_01 = decohere(par2_01, *coherence)
-        mixers["par"] = BranchMixer(prep, base["par1"], par2_01, base["par1_1"])
+            fixed_par = None
+        else:
+            if "par" not in fixed:
+                fixed["par"] = branch_terms(base["par1"], par2_01, base["par1_1"])
+            fixed_par = fixed["par"]
+        mixers["par"] = BranchMixer(prep, base["par1"], par2_01, base["par1_1"], fixed_par)
     return pop, mixers["par"](par2) @ det
+
+
+def branch_terms(p1, p2_01, p1_1) -> tuple:
+    """The fixed branches' outcomes as :class:`BranchMixer` weighs them, before their
+    weights: a spectator with the other ion driven from ``|0>`` (``p1``), the flipped
+    two-ion branch with its mirror (``p2_01``), a spectator with the other driven from
+    ``|1>`` (``p1_1``).  They depend on the engine's runs only, so a fit that moves the
+    preparation errors makes them once."""
+    p01 = np.asarray(p2_01, dtype=float)
+    return (spectator_outcomes(p1), p01 + p01[..., [0, 2, 1, 3]], spectator_outcomes(p1_1))
 
 
 class BranchMixer:
     """:func:`~dpdfit.models.gate_sim.mix_branches` of two-ion outcomes ``p2`` with fixed
     other branches (the one-ion and flipped ones, which no power error or knob moves):
     their terms are made once, then added to each ``p2`` in the order ``mix_branches``
-    adds them (the same values)."""
+    adds them (the same values).  ``terms``: :func:`branch_terms` of the same branches,
+    when already made."""
 
-    def __init__(self, prep: Prep, p1, p2_01, p1_1):
+    def __init__(self, prep: Prep, p1, p2_01, p1_1, terms=None):
         q, f = prep.spectator, prep.flip
         self.q, self.f, self.g = q, f, 1.0 - q - f
-        self.spec = q * self.g * spectator_outcomes(p1) if q > 0 else None
+        if terms is None and (q > 0 or f > 0):
+            terms = branch_terms(p1, p2_01, p1_1)
+        self.spec = q * self.g * terms[0] if q > 0 else None
         if f > 0:
-            p01 = np.asarray(p2_01, dtype=float)
-            self.flip = f * self.g * (p01 + p01[..., [0, 2, 1, 3]])
-            self.spec_flip = q * f * spectator_outcomes(p1_1) if q > 0 else None
+            self.flip = f * self.g * terms[1]
+            self.spec_flip = q * f * terms[2] if q > 0 else None
 
     def __call__(self, p2):
         q, f, g = self.q, self.f, self.g
