@@ -285,7 +285,9 @@ class GateModel:
         # what the effects' values alone fix (effect_terms), kept per values: a fit's
         # Jacobian moves the nuisances far more often than them; with the preparation
         # mixers made for them per preparation error (the detection errors act after them)
-        memo = self._stacks().setdefault("parts", ModelCache())
+        memo = self._stacks().get("parts")
+        if memo is None:
+            memo = self._stacks()["parts"] = ModelCache()
         key = tuple((e.name, tuple(sorted(v.items()))) for e, v in active)
         parts = memo.get(key)
         if parts is None:
@@ -296,12 +298,16 @@ class GateModel:
         if mixers is None:
             mixers = parts["mixers"][mix_key] = {"gate": {}, "ts": [{} for _ in tab["ts"]]}
         # the fixed branches' terms of the mixers, the same for every parameter set
-        fixed = self._stacks().setdefault("branch_terms",
-                                          {"gate": {}, "ts": [{} for _ in tab["ts"]]})
+        stacks = self._stacks()
+        fixed = stacks.get("branch_terms")
+        if fixed is None:
+            fixed = stacks["branch_terms"] = {"gate": {}, "ts": [{} for _ in tab["ts"]]}
         # the gate settings' values depend on the effects and the preparation only (not
         # on the time scans' rate errors, which a fit moves as often): kept per both, with
         # the variances (in the tables, which a new rate scatter remakes)
-        memo_gate = tab.setdefault("gate_values", ModelCache(shared=True))
+        memo_gate = tab.get("gate_values")
+        if memo_gate is None:
+            memo_gate = tab["gate_values"] = ModelCache(shared=True)
         gate_key = (key, (prep.spectator, prep.flip, prep.e01, prep.e10))
         res = memo_gate.get(gate_key)
         if res is None:
