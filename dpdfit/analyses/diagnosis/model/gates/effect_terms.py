@@ -38,7 +38,8 @@ def preparation(gm, p: dict, active: list) -> Prep:
     """Preparation and detection errors per ion at parameters ``p`` (the nuisances
     ``prep_split``, ``e01``, ``e10`` around the lab's ``p_prep`` and ``p_det`` of the gate
     model ``gm``, then the ``active`` effects')."""
-    f = float(np.clip(p.get("prep_split", 0.5), 0.0, 1.0))
+    # np.clip's values, without its cost on one number (a prediction asks at every call)
+    f = min(max(float(p.get("prep_split", 0.5)), 0.0), 1.0)
     prep = Prep(f * gm.p_total, (1 - f) * gm.p_total,
                 max(float(p.get("e01", gm.p_det)), 0.0),
                 max(float(p.get("e10", gm.p_det)), 0.0))

@@ -18,6 +18,8 @@ and the decay of a coherence are exact linear maps of the fringe.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import Prep
@@ -153,12 +155,20 @@ def confusion_t(prep: Prep) -> np.ndarray:
     """The transposed four-outcome confusion matrix of the detection errors of ``prep``
     (:func:`~dpdfit.models.gate_sim.confusion` applies ``p4 @`` it): ``kron(C, C).T``
     with the same products, written out because a prediction makes one every time and
-    ``np.kron``'s generality costs more than the sixteen products."""
-    e01, e10 = float(prep.e01), float(prep.e10)
+    ``np.kron``'s generality costs more than the sixteen products; kept for the last
+    detection errors asked (a fit's Jacobian asks for the same ones again and again).
+    Read-only."""
+    return _confusion_t(float(prep.e01), float(prep.e10))
+
+
+@functools.lru_cache(maxsize=32)
+def _confusion_t(e01: float, e10: float) -> np.ndarray:
     C = ((1 - e01, e10), (e01, 1 - e10))
     # kron(C, C)[2 i + k, 2 j + l] = C[i][j] C[k][l]; transposed: row 2 j + l, column 2 i + k
-    return np.array([[C[i][j] * C[k][l] for i in (0, 1) for k in (0, 1)]
-                     for j in (0, 1) for l in (0, 1)])
+    out = np.array([[C[i][j] * C[k][l] for i in (0, 1) for k in (0, 1)]
+                    for j in (0, 1) for l in (0, 1)])
+    out.flags.writeable = False
+    return out
 
 
 def collapse(p4):
