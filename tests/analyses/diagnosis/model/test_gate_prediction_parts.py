@@ -128,8 +128,8 @@ def test_gate_residuals_are_those_of_the_recordings(campaign, gate_model):
     qs = res.observables
     assert np.array_equal(whiten_stacked(res._measured, res._shot, pr, qs),
                           whiten_prediction(res.measured, res.shot, pr, qs))
-    blocks = dict((lab["observable"], z) for lab, z in res.gate_blocks(gate_model, NUIS, True)
-                  if lab["kind"] == "time_scan")
+    blocks = {lab["observable"]: z for lab, z in res.gate_blocks(gate_model, NUIS, True)
+              if lab["kind"] == "time_scan"}
     ts = res.ts
     N = ts["shots"].to_numpy(dtype=float)
     for q, col in (("P00_t", "n00"), ("P11_t", "n11")):
