@@ -55,10 +55,13 @@ class PowerNoise(Displayable):
         return asdict(self)
 
 
-def fit_power_noise(A, power, runs, order: int = AMPLITUDE_ORDER) -> PowerNoise | None:
+def fit_power_noise(A, power, runs, order: int = AMPLITUDE_ORDER,
+                    fits: dict | None = None) -> PowerNoise | None:
     """Noise model of the recorded powers from every run's residuals (module doc).
 
-    Returns None with fewer than :data:`MIN_RUNS` runs that can be fitted.
+    Returns None with fewer than :data:`MIN_RUNS` runs that can be fitted.  ``fits``: a
+    dict that receives each run's fit without errors, ``{run label: fit}`` (for a
+    caller that needs them again).
     """
     A, power, runs = np.asarray(A, float), np.asarray(power, float), np.asarray(runs)
     res, u, w = [], [], []
@@ -71,6 +74,8 @@ def fit_power_noise(A, power, runs, order: int = AMPLITUDE_ORDER) -> PowerNoise 
             f = fit_amplitude(A[sel], power[sel], None, order)
         except DpdfitError:
             continue
+        if fits is not None:
+            fits[r] = f
         p = f.power(A[sel])
         res.append(power[sel] - p)
         uu, ww = _residual_weights(A[sel], p, order)
@@ -153,20 +158,22 @@ def fit_phase_noise(A, phase, runs, order: int = PHASE_ORDER,
     return PhaseNoise(c, d, n_runs, int(r2.size))
 
 
-def model_run_with_noise(cf):
+def model_run_with_noise(cf, fits: dict | None = None):
     """The model (table) run of a campaign folder with its power errors.
 
     ``(CalibrationData, PowerNoise or None)``: when the file has no ``power_err``
     and holds at least :data:`MIN_RUNS` runs, the errors are the learnt noise model
     at each point's fitted power (:func:`fit_power_noise`); otherwise the data as
     recorded.  ``dpdfit analyze`` and ``dpdfit diagnose`` both fit the model run so.
+    ``fits``: a dict that receives the runs' fits without errors at the campaign's
+    order, ``{run label: fit}``, when they are made.
     """
     data = cf.amplitude_model
     df = cf.amplitude_runs
     if data.error is not None or "run" not in df.columns:
         return data, None
     noise = fit_power_noise(df["A"].to_numpy(), df["power"].to_numpy(), df["run"].to_numpy(),
-                            int(cf.meta["order"]))
+                            int(cf.meta["order"]), fits)
     if noise is None:
         return data, None
     return with_power_noise(data, noise, int(cf.meta["order"])), noise

@@ -23,7 +23,12 @@ def run_drift(ctx, p: dict, days) -> np.ndarray:
     recordings, in the drift modes' sd, that the effects present in the parameter set
     ``p`` predict (``ctx``: the diagnosis's problem)."""
     shift = np.zeros((len(days), len(ctx.tone.drift_modes)))
+    # the effects whose parameters ``p`` holds (``"<effect>.<param>"``), in the registry's
+    # order: a fit asks this at every evaluation, and most effects are absent
+    present = {k.partition(".")[0] for k in p if "." in k}
     for e in EFFECTS.values():
+        if e.name not in present:
+            continue
         v = e.values(p)
         if v is not None:
             s = e.run_drift(ctx, v, days)

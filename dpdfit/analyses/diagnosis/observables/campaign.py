@@ -163,14 +163,15 @@ _CONSEQUENCES = {
 }
 
 
-def _model_runs(cf: CampaignFolder, learnt):
+def _model_runs(cf: CampaignFolder, learnt, fits: dict | None = None):
     """The model amplitude and phase runs with their errors, and the noise models:
     :func:`~dpdfit.fits.photodiode.model_run_with_noise` and ``phase_run_with_noise``
-    (which learn the noise from every run), or with ``learnt`` = ``(power noise, phase
-    noise)`` already learnt so by the caller (the same errors, no run refitted).
+    (which learn the noise from every run; ``fits`` receives the amplitude runs' fits),
+    or with ``learnt`` = ``(power noise, phase noise)`` already learnt so by the caller
+    (the same errors, no run refitted).
     Returns ``(data, power noise, phase data or None, phase noise)``."""
     if learnt is None:
-        return (*model_run_with_noise(cf), *phase_run_with_noise(cf))
+        return (*model_run_with_noise(cf, fits), *phase_run_with_noise(cf))
     power, phase = learnt
     data, pdata = cf.amplitude_model, cf.phase_model
     if power is not None:
@@ -180,11 +181,13 @@ def _model_runs(cf: CampaignFolder, learnt):
     return data, power, pdata, (None if pdata is None else phase)
 
 
-def _calibrations(cf: CampaignFolder, noise: dict, given=None, learnt=None):
+def _calibrations(cf: CampaignFolder, noise: dict, given=None, learnt=None,
+                  fits: dict | None = None):
     """The model runs' fits and residuals; ``given`` (a Calibration of the same runs at
     the campaign's order, made by the caller) is used instead of fitting again, and
-    ``learnt`` (the runs' noise models, :func:`_model_runs`) instead of learning them."""
-    data, noise["photodiode"], pdata, noise["phase"] = _model_runs(cf, learnt)
+    ``learnt`` (the runs' noise models, :func:`_model_runs`) instead of learning them
+    (``fits`` receives the amplitude runs' fits made in learning them)."""
+    data, noise["photodiode"], pdata, noise["phase"] = _model_runs(cf, learnt, fits)
     order = int(cf.meta["order"])
     if given is not None and given.amplitude.order == order:
         amp = given.amplitude
@@ -278,7 +281,8 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     cf = folder if isinstance(folder, CampaignFolder) else CampaignFolder(folder)
     cf.check_plausible()                 # a unit slip anywhere refuses the campaign
     cal_noise = {}
-    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise, calibration, noise)
+    noise_fits = {}
+    amp, amp_res, ph, ph_res = _calibrations(cf, cal_noise, calibration, noise, noise_fits)
     warnings = []
     if not amp.monotone:
         iv = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in amp.nonmonotone_intervals)
@@ -303,6 +307,10 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
     recorded = cf.recording_times
+    if run_fits is None and "power_err" not in cf.amplitude_runs.columns:
+        # the drift modes fit every run without errors at the campaign's order, as the
+        # power noise's learning did: the same fits, not made twice
+        run_fits = noise_fits
     modes, coords, labels, starts, n_sig = drift_modes(cf, int(cf.meta["order"]), run_fits)
     after = runs_after_recordings(coords, labels, starts, recorded, cf.table_run)
     if not recorded:

@@ -24,7 +24,10 @@ def active_effects(names, p: dict) -> list:
     """``[(effect, values)]``: the effects of ``names`` present in the parameter set ``p``,
     each with its values by its own parameter names."""
     out = []
+    present = {k.partition(".")[0] for k in p if "." in k}     # cheaper than each's values
     for name in names:
+        if name not in present:
+            continue
         v = EFFECTS[name].values(p)
         if v is not None:
             out.append((EFFECTS[name], v))
@@ -35,7 +38,8 @@ def preparation(gm, p: dict, active: list) -> Prep:
     """Preparation and detection errors per ion at parameters ``p`` (the nuisances
     ``prep_split``, ``e01``, ``e10`` around the lab's ``p_prep`` and ``p_det`` of the gate
     model ``gm``, then the ``active`` effects')."""
-    f = float(np.clip(p.get("prep_split", 0.5), 0.0, 1.0))
+    # np.clip's values, without its cost on one number (a prediction asks at every call)
+    f = min(max(float(p.get("prep_split", 0.5)), 0.0), 1.0)
     prep = Prep(f * gm.p_total, (1 - f) * gm.p_total,
                 max(float(p.get("e01", gm.p_det)), 0.0),
                 max(float(p.get("e10", gm.p_det)), 0.0))

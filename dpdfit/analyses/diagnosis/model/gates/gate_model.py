@@ -285,26 +285,64 @@ class GateModel:
         # what the effects' values alone fix (effect_terms), kept per values: a fit's
         # Jacobian moves the nuisances far more often than them; with the preparation
         # mixers made for them per preparation error (the detection errors act after them)
-        memo = self._stacks().setdefault("parts", ModelCache())
+        memo = self._stacks().get("parts")
+        if memo is None:
+            memo = self._stacks()["parts"] = ModelCache()
         key = tuple((e.name, tuple(sorted(v.items()))) for e, v in active)
         parts = memo.get(key)
         if parts is None:
             parts = memo[key] = {**effect_terms(self, active, tab), "mixers": ModelCache()}
-        coefs, eps, coh, terms = parts["gate"]
-        v_mean, v_quad = tab["var"]
-        base, d, lin, quad = tab["gate"]
-        h = POWER_STEP_DB / 3
-        vals = {}
         det = confusion_t(prep)
         mix_key = (prep.spectator, prep.flip)                # what the mixers depend on
         mixers = parts["mixers"].get(mix_key)
         if mixers is None:
             mixers = parts["mixers"][mix_key] = {"gate": {}, "ts": [{} for _ in tab["ts"]]}
-        for s, e in (("0", eps), ("+", eps + h), ("-", eps - h)):
-            pop, par = observe(base, d, lin, quad, coefs, e, v_mean, prep, True, coh,
-                               terms, det, mixers["gate"])
-            F, imb = collapse(pop)
-            vals[s] = {"F_pop": F, "imb": imb, "C": contrast(par)}
+        # the fixed branches' terms of the mixers, the same for every parameter set
+        stacks = self._stacks()
+        fixed = stacks.get("branch_terms")
+        if fixed is None:
+            fixed = stacks["branch_terms"] = {"gate": {}, "ts": [{} for _ in tab["ts"]]}
+        # the gate settings' values depend on the effects and the preparation only (not
+        # on the time scans' rate errors, which a fit moves as often): kept per both, with
+        # the variances (in the tables, which a new rate scatter remakes)
+        memo_gate = tab.get("gate_values")
+        if memo_gate is None:
+            memo_gate = tab["gate_values"] = ModelCache(shared=True)
+        gate_key = (key, (prep.spectator, prep.flip, prep.e01, prep.e10))
+        res = memo_gate.get(gate_key)
+        if res is None:
+            res = memo_gate[gate_key] = self._gate_values(tab, parts, prep, det,
+                                                          mixers["gate"], fixed["gate"])
+        res = dict(res)
+        acc = {"P00_t": [], "P11_t": []}
+        for k, (key, times, (b, dd, li, qu)) in enumerate(tab["ts"]):
+            c_t, e_t, terms_t = parts["ts"][k]
+            e = e_t + float(p.get(f"eps_ts{k}", 0.0))
+            pop, _ = observe(b, dd, li, qu, c_t, e, 0.0, prep, False, terms=terms_t, det=det,
+                             mixers=mixers["ts"][k], fixed=fixed["ts"][k])
+            acc["P00_t"].append(pop[0, :, 0])
+            acc["P11_t"].append(pop[0, :, 3])
+        for q, v in acc.items():
+            if v:
+                res[q] = np.concatenate(v)
+        return res
+
+    @staticmethod
+    def _gate_values(tab, parts, prep, det, mixers, fixed) -> dict:
+        """The gate settings' part of :meth:`predict`."""
+        coefs, eps, coh, terms = parts["gate"]
+        v_mean, v_quad = tab["var"]
+        base, d, lin, quad = tab["gate"]
+        h = POWER_STEP_DB / 3
+        vals = {}
+        # the three power errors at once (along a leading axis): the same values as
+        # three calls, at a third of numpy's per-call cost
+        pop, par = observe(base, d, lin, quad, coefs, np.stack([eps, eps + h, eps - h]),
+                           v_mean, prep, True, coh, terms, det, mixers, fixed)
+        F, imb = collapse(pop)
+        C = contrast(par)
+        for i, s in enumerate(("0", "+", "-")):
+            vals[s] = {"F_pop": F[i], "imb": imb[i], "C": C[i]}
         res = {}
         for q in ("F_pop", "imb", "C"):
             res[q] = vals["0"][q]
@@ -314,17 +352,6 @@ class GateModel:
             res["dquad_" + q] = dq
             res["var_" + q] = dl ** 2 * v_mean + dq ** 2 * v_quad
         res["v_lin"], res["v_quad"] = v_mean, v_quad
-        acc = {"P00_t": [], "P11_t": []}
-        for k, (key, times, (b, dd, li, qu)) in enumerate(tab["ts"]):
-            c_t, e_t, terms_t = parts["ts"][k]
-            e = e_t + float(p.get(f"eps_ts{k}", 0.0))
-            pop, _ = observe(b, dd, li, qu, c_t, e, 0.0, prep, False, terms=terms_t, det=det,
-                             mixers=mixers["ts"][k])
-            acc["P00_t"].append(pop[0, :, 0])
-            acc["P11_t"].append(pop[0, :, 3])
-        for q, v in acc.items():
-            if v:
-                res[q] = np.concatenate(v)
         return res
 
     def bell_fidelity(self, p: dict) -> np.ndarray:

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.analyses.diagnosis.model.gates.gate_model import GateModel
-from dpdfit.analyses.diagnosis.model.gates.whitening import whiten_prediction
+from dpdfit.analyses.diagnosis.model.gates.whitening import whiten_stacked
 
 __all__ = ["GateResiduals", "scan_points"]
 
@@ -41,14 +41,24 @@ class GateResiduals:
         self.measured = {q: gates[q].to_numpy() for q in self.observables}
         self.shot = {q: gates[q + "_shot"].to_numpy() for q in self.observables}
         self.ts = None if time_scans is None else scan_points(time_scans)
+        # what no parameter moves, made once: a fit evaluates the residuals thousands of
+        # times, and a column of a DataFrame costs more than the arithmetic on it
+        self._measured = np.stack([self.measured[q] for q in self.observables], axis=1)
+        self._shot = np.stack([self.shot[q] for q in self.observables], axis=1)
+        self._scan = None
+        if self.ts is not None:
+            N = self.ts["shots"].to_numpy(dtype=float)
+            self._scan = (N, 0.5 / N, 1 - 0.5 / N,
+                          {"P00_t": self.ts["n00"].to_numpy() / N,
+                           "P11_t": self.ts["n11"].to_numpy() / N})
         self._key, self._val = None, None
 
     def whitened(self, gate: GateModel, p: dict, logdet: bool = False):
         """Whitened gate residuals of the gate model ``gate`` at ``p``
         (:func:`~dpdfit.analyses.diagnosis.model.gates.whitening.whiten_prediction`; with
         ``logdet``, also the log-determinant of their covariance)."""
-        return whiten_prediction(self.measured, self.shot, gate.predict(p), self.observables,
-                                 logdet)
+        return whiten_stacked(self._measured, self._shot, gate.predict(p), self.observables,
+                              logdet)
 
     def gate_blocks(self, gate: GateModel, p: dict, whiten: bool) -> list:
         """``[(label, z)]`` of the gate observables and the time scans at the gate-side
@@ -68,16 +78,16 @@ class GateResiduals:
         pr = gate.predict(p)
         qs = self.observables
         if whiten:
-            z = whiten_prediction(self.measured, self.shot, pr, qs)
+            z = whiten_stacked(self._measured, self._shot, pr, qs)
         else:
             r = np.stack([self.measured[q] - pr[q] for q in qs], axis=1)
             z = r / np.sqrt(np.stack([self.shot[q] ** 2 + pr["var_" + q] for q in qs], axis=1))
         out = [({"kind": "gates", "observable": q}, z[:, j]) for j, q in enumerate(qs)]
-        if self.ts is not None and "P00_t" in pr:
-            N = self.ts["shots"].to_numpy(dtype=float)
-            for q, col in (("P00_t", "n00"), ("P11_t", "n11")):
-                pm = np.clip(pr[q], 0.5 / N, 1 - 0.5 / N)
-                zt = (self.ts[col].to_numpy() / N - pr[q]) / np.sqrt(pm * (1 - pm) / N)
+        if self._scan is not None and "P00_t" in pr:
+            N, lo, hi, frac = self._scan
+            for q in ("P00_t", "P11_t"):
+                pm = np.clip(pr[q], lo, hi)
+                zt = (frac[q] - pr[q]) / np.sqrt(pm * (1 - pm) / N)
                 out.append(({"kind": "time_scan", "observable": q}, zt))
         self._key, self._val = key, out
         return list(out)
