@@ -17,9 +17,9 @@ valid, and every error that comes from independent repeats shrinks as ``1/sqrt(k
 Bad input refused, in one line naming the file, rows and tone:
 
 * the same tone twice in one repeat (with a ``repeat`` column), or, without one, a
-  repeat whose rows all copy an earlier repeat of the same trace in every column (a line
-  or a trace pasted twice; an honest repeat never reads every tone to the last digit
-  again);
+  repeat whose rows all copy one earlier repeat of the same trace in every column (a line
+  or a trace pasted twice; an honest repeat never reads every tone of a trace to the
+  last digit again, though single readings written to 0.001 dB often coincide);
 * repeated readings of a tone that contradict each other beyond their noise
   (:func:`check_spectra_repeats`).
 """
@@ -148,12 +148,13 @@ def _check_repeat_labels(df: pd.DataFrame, name: str) -> None:
 
 
 def _check_no_repeat_copied(df: pd.DataFrame, name: str) -> None:
-    """Without a ``repeat`` column: no repeat whose every row equals, in every column, an
-    earlier row (a line or a trace pasted twice).
+    """Without a ``repeat`` column: no repeat trace that copies one earlier repeat of the
+    same trace, every row equal in every column to that repeat's row of the same tone (a
+    line or a trace pasted twice).
 
-    A single equal reading among others is legitimate (powers written to 0.001 dB
-    coincide now and then); a whole repeat equal to earlier readings to the last digit
-    is not a new recording.
+    Readings written to 0.001 dB coincide now and then, and over many repeats a trace's
+    every reading may equal *some* earlier reading, each from a different repeat; that is
+    honest.  A copy is one earlier repeat read again to the last digit, whole.
     """
     rep = df.groupby(TONE_KEY, sort=False).cumcount().to_numpy()
     if not (rep > 0).any():
@@ -162,20 +163,35 @@ def _check_no_repeat_copied(df: pd.DataFrame, name: str) -> None:
     if not dup.any():
         return
     trace = df.groupby(TRACE_KEY, sort=False).ngroup().to_numpy()
-    copied = pd.Series(dup).groupby([trace, rep]).transform("all").to_numpy() & (rep > 0)
-    if not copied.any():
+    # a repeat can copy an earlier one only if each of its rows equals an earlier row;
+    # only those few repeats are examined one by one
+    maybe = pd.Series(dup).groupby([trace, rep]).transform("all").to_numpy() & (rep > 0)
+    if not maybe.any():
         return
-    j = int(np.flatnonzero(copied)[0])
-    rows = np.flatnonzero((trace == trace[j]) & (rep == rep[j]))
-    originals = [int(np.flatnonzero((df == df.iloc[i]).all(axis=1).to_numpy())[0])
-                 for i in rows]
-    first = df.iloc[j]
+    # the class of equal rows of each row, and the repeats each class holds
+    same = df.groupby(list(df.columns), sort=False, dropna=False).ngroup().to_numpy()
+    held = pd.DataFrame({"same": same, "rep": rep, "row": np.arange(len(df))})
+    first_of = held.drop_duplicates(["same", "rep"]).set_index(["same", "rep"])["row"]
+    for t, k in pd.DataFrame({"t": trace[maybe], "k": rep[maybe]}).drop_duplicates() \
+            .itertuples(index=False):
+        rows = np.flatnonzero((trace == t) & (rep == k))
+        for r in sorted(held.loc[held["same"] == same[rows[0]], "rep"].unique()):
+            if r >= k:
+                break
+            keys = list(zip(same[rows].tolist(), [int(r)] * rows.size))
+            if all(key in first_of.index for key in keys):
+                _refuse_copy(df, name, rows, first_of.loc[keys].to_numpy(), int(r))
+
+
+def _refuse_copy(df: pd.DataFrame, name: str, rows, originals, r: int) -> None:
+    first = df.iloc[int(rows[0])]
     what = "a line pasted twice" if rows.size == 1 else "a trace pasted twice"
     raise InputError(f"{_rows_text(name, rows + 1)} of trace (A={first['A']:g}, "
                      f"dpd={int(first['dpd'])}, {first['sideband']}) "
                      f"{'copies' if rows.size == 1 else 'copy'} "
-                     f"{_rows_text(name, np.array(originals) + 1)} in every column: {what}? "
-                     "(a repeated recording reads differently)", file=name, row=int(rows[0]) + 1)
+                     f"{_rows_text(name, np.asarray(originals) + 1)} (its repeat {r + 1}) in "
+                     f"every column: {what}? (a repeated recording reads differently)",
+                     file=name, row=int(rows[0]) + 1)
 
 
 def _floor_db(df: pd.DataFrame) -> np.ndarray:

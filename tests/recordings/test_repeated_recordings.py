@@ -97,6 +97,24 @@ def test_a_trace_or_a_line_pasted_twice_is_refused_an_equal_reading_is_not(tmp_p
     assert ok["repeat"].tolist()[-2:] == ["3", "3"]
 
 
+def test_a_repeat_whose_readings_each_equal_a_different_earlier_repeat_is_not_a_copy(tmp_path):
+    # powers written to 0.001 dB: over many repeats every reading of a new repeat may
+    # equal some earlier reading, each from a different repeat; only a whole earlier
+    # repeat read again is a copy
+    head = "A,dpd,sideband,n,P_dB\n"
+    r1 = "0.5,0,red,1,-20.001\n0.5,0,red,2,-21.004\n0.5,0,red,3,-30.010\n"
+    r2 = "0.5,0,red,1,-20.003\n0.5,0,red,2,-21.002\n0.5,0,red,3,-30.012\n"
+    r3 = "0.5,0,red,1,-20.001\n0.5,0,red,2,-21.002\n0.5,0,red,3,-30.011\n"
+    r4 = "0.5,0,red,1,-20.003\n0.5,0,red,2,-21.004\n0.5,0,red,3,-30.011\n"
+    ok = read_spectra(_write(tmp_path / "many.csv", head + r1 + r2 + r3 + r4))
+    assert ok["repeat"].tolist()[-3:] == ["4", "4", "4"]
+    # the same rows, the fourth repeat now a whole copy of the second: refused, naming it
+    with pytest.raises(InputError, match=r"rows 10, 11, 12 .*of trace \(A=0.5, dpd=0, red\) "
+                                         r"copy rows 4, 5, 6 .*\(its repeat 2\) in every "
+                                         r"column: a trace pasted twice"):
+        read_spectra(_write(tmp_path / "copied.csv", head + r1 + r2 + r3 + r2))
+
+
 def _tone_table(rng, amplitudes, repeats, *, jitter_db=2.0, repeat_db=0.05,
                 floor_db=-90.0):
     """A spectra.csv table as a lab records it: every amplitude in ``amplitudes`` recorded
