@@ -116,6 +116,8 @@ class Comparison(Displayable):
                 ("new alternatives", len(self.new_alternatives), None, ""),
                 ("separation predicted", s.predicted, None, "delta BIC"),
                 ("separation achieved", s.achieved, None, "delta BIC"),
+                ("moved toward", s.toward_label or "neither", None, ""),
+                ("predicted for that side", s.predicted_toward, None, "delta BIC"),
                 ("achieved / predicted", s.ratio, None, ""),
                 ("another recording", n.what or "none", None, "")]
 
@@ -169,8 +171,8 @@ class Comparison(Displayable):
         if s.ratio is None:
             return f"separation of {pair}: achieved {s.achieved:.3g} (delta chi2); {s.reason}"
         line = (f"separation of {pair} ({str(s.what).replace('_', ' ')}): achieved "
-                f"{s.achieved:.3g} against {s.predicted:.3g} predicted (ratio "
-                f"{s.ratio:.2f})")
+                f"{s.achieved:.3g} toward {s.toward_label} against {s.predicted_toward:.3g} "
+                f"predicted were it true (ratio {s.ratio:.2f})")
         # the prediction holds for the recording proposed, not for another one taken instead
         if isinstance(s.settings, dict):
             try:

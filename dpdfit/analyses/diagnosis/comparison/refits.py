@@ -9,7 +9,8 @@ single effects (the other side's nuisances held at the baseline's optimum, a
 tone-side hypothesis's field carried to the gates with the phase-sign convention
 kept), so that its chi2 before and after the recording are comparable;
 :func:`achieved_separation` is how far the recording moved the pair apart:
-``|(chi2_rival - chi2_truth)_after - (chi2_rival - chi2_truth)_before|``.
+``|(chi2_rival - chi2_truth)_after - (chi2_rival - chi2_truth)_before|``, and
+:func:`separation_direction` toward which side.
 :func:`binding_refits` is the pair as the later diagnosis is asked to refit it,
 :func:`binding_chi2` its chi2 before (kept in the proposal) and :func:`refitted_chi2`
 after (the later diagnosis's ``extra["refits"]``), the two sides of that difference.
@@ -22,8 +23,8 @@ from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis, map_over_problem
 from dpdfit.analyses.diagnosis.fitting.phase_sign import repredict_gates
 
-__all__ = ["refit_label", "refit_labels", "refit_chi2s", "achieved_separation", "binding_refits", "binding_chi2",
-           "refitted_chi2"]
+__all__ = ["refit_label", "refit_labels", "refit_chi2s", "achieved_separation",
+           "separation_direction", "binding_refits", "binding_chi2", "refitted_chi2"]
 
 #: the two sides of a binding pair
 _SIDES = ("truth", "rival")
@@ -84,15 +85,30 @@ def _refit_or_reason(prob, base: FitResult, label: dict) -> dict:
                 "reason": f"not fitted on this campaign ({type(exc).__name__}: {exc})"}
 
 
-def achieved_separation(before: dict, after: dict) -> float | None:
-    """``|gap_after - gap_before|``, ``gap`` the rival's chi2 minus the truth's, from two
-    ``{"truth": chi2, "rival": chi2}`` (None when one is missing)."""
+def _gap_change(before: dict, after: dict) -> float | None:
     try:
         g0 = float(before["rival"]) - float(before["truth"])
         g1 = float(after["rival"]) - float(after["truth"])
     except (KeyError, TypeError, ValueError, OverflowError):
         return None
-    return abs(g1 - g0)
+    return g1 - g0
+
+
+def achieved_separation(before: dict, after: dict) -> float | None:
+    """``|gap_after - gap_before|``, ``gap`` the rival's chi2 minus the truth's, from two
+    ``{"truth": chi2, "rival": chi2}`` (None when one is missing)."""
+    d = _gap_change(before, after)
+    return None if d is None else abs(d)
+
+
+def separation_direction(before: dict, after: dict) -> str | None:
+    """The side of the pair the recording moved toward: ``"truth"`` when the rival's
+    chi2 grew against the truth's (the gap widened), ``"rival"`` when it shrank, None
+    when it did not move or a chi2 is missing."""
+    d = _gap_change(before, after)
+    if d is None or d == 0:
+        return None
+    return "truth" if d > 0 else "rival"
 
 
 def _binding(proposal) -> dict:

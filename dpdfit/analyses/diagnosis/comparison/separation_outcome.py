@@ -9,7 +9,8 @@ from dataclasses import dataclass
 from dpdfit.analyses.diagnosis.comparison.previous import (hypothesis_label, json_number,
                                                            named_in, unknown_in_binding)
 from dpdfit.analyses.diagnosis.comparison.refits import (achieved_separation, binding_chi2,
-                                                         binding_refits, refitted_chi2)
+                                                         binding_refits, refitted_chi2,
+                                                         separation_direction)
 from dpdfit.core.records import Record
 
 __all__ = ["SeparationOutcome", "ProposalAfter", "separation", "proposal_after"]
@@ -33,11 +34,17 @@ class SeparationOutcome(Record):
     #: the pair's chi2 in the proposal and refitted now, ``{"truth", "rival"}``
     chi2_before: dict | None
     chi2_after: dict | None
-    #: the separation achieved (delta chi2) and achieved / predicted
+    #: the separation achieved (delta chi2) and achieved / predicted for the side the
+    #: recording moved toward (``predicted_toward``)
     achieved: float | None
     ratio: float | None
     #: why a value is None (None when all are there)
     reason: str | None = None
+    #: the side the recording moved toward (``"truth"`` or ``"rival"``, None when it did
+    #: not move), its label, and the separation predicted were that side true
+    toward: str | None = None
+    toward_label: str | None = None
+    predicted_toward: float | None = None
 
 
 @dataclass(frozen=True)
@@ -79,8 +86,10 @@ def separation(before: dict, after: dict) -> SeparationOutcome:
     ``what``, ``truth``, ``rival`` (labels), ``predicted`` (the proposal's
     ``expected_delta_bic``), ``predicted_if_truth`` / ``predicted_if_rival`` (the
     separation expected were that one true), ``chi2_before`` / ``chi2_after``
-    (``{"truth", "rival"}``), ``achieved``, ``ratio`` (achieved / predicted) and
-    ``reason`` (why a value is None; None when all are there)."""
+    (``{"truth", "rival"}``), ``achieved``, ``toward`` / ``toward_label`` (the side the
+    recording moved toward), ``predicted_toward`` (the separation predicted were that
+    side true), ``ratio`` (achieved / ``predicted_toward``) and ``reason`` (why a value
+    is None; None when all are there)."""
     nxt = before.get("next_measurement")
     out = {"what": None, "settings": None, "truth": None, "rival": None, "predicted": None,
            "predicted_if_truth": None, "predicted_if_rival": None, "chi2_before": None,
@@ -104,12 +113,24 @@ def separation(before: dict, after: dict) -> SeparationOutcome:
                                                "refit=binding_refits(previous "
                                                "next_measurement)))")
     out["achieved"] = achieved_separation(out["chi2_before"], out["chi2_after"])
-    p = out["predicted"]
-    out["ratio"] = (out["achieved"] / p if p and p > 0 and out["achieved"] is not None
-                    else None)
-    return SeparationOutcome(**out, reason=None if out["ratio"] is not None
-                             else "the previous proposal predicted no separation to compare "
-                                  "with")
+    side = separation_direction(out["chi2_before"], out["chi2_after"])
+    toward = {"toward": side, "toward_label": out.get(side) if side else None}
+    if not out["predicted"] or out["predicted"] <= 0 or out["achieved"] is None:
+        return SeparationOutcome(**out, **toward, reason="the previous proposal predicted no "
+                                                        "separation to compare with")
+    if side is None:
+        return SeparationOutcome(**out, **toward, reason="the recording did not move the "
+                                                        "pair apart")
+    # a recording that moved toward the rival is measured against what was predicted were
+    # the rival true, not against the truth's figure (the ratio would be about neither)
+    p = (out["predicted_if_truth"] or out["predicted"]) if side == "truth" \
+        else out["predicted_if_rival"]
+    if not p or p <= 0:
+        return SeparationOutcome(**out, **toward, reason=f"the recording moved toward "
+                                 f"{toward['toward_label']}, for which the previous proposal "
+                                 "predicted no separation")
+    out["ratio"] = out["achieved"] / p
+    return SeparationOutcome(**out, **toward, predicted_toward=p, reason=None)
 
 
 def proposal_after(after: dict) -> ProposalAfter:

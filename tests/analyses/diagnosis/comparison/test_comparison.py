@@ -82,7 +82,34 @@ def test_separation_achieved_against_predicted_from_the_refitted_pair():
     assert (s["predicted_if_truth"], s["predicted_if_rival"]) == (27.0, 45.0)
     assert (s["truth"], s["rival"], s["what"]) == ("stale_calibration",
                                                    "detector_nonlinearity", "spectra")
-    assert "achieved 30 against 27 predicted (ratio 1.11)" in c.report()
+    assert (s["toward"], s["toward_label"], s["predicted_toward"]) == (
+        "truth", "stale_calibration", 27.0)
+    assert ("achieved 30 toward stale_calibration against 27 predicted were it true "
+            "(ratio 1.11)") in c.report()
+
+
+def test_a_recording_that_moved_toward_the_rival_is_measured_against_the_rivals_prediction():
+    """The gap (rival - truth) went from 10 to -20: 30 toward the rival, against the 45
+    predicted were the rival true (not the truth's 27: 1.11 would be about neither)."""
+    c = compare_diagnoses(_before(), _after(refits=_refits(200.0, 180.0)))
+    s = c.separation
+    assert s["achieved"] == pytest.approx(30.0)
+    assert (s["toward"], s["toward_label"], s["predicted_toward"]) == (
+        "rival", "detector_nonlinearity", 45.0)
+    assert s["ratio"] == pytest.approx(30.0 / 45.0) and s["reason"] is None
+    assert ("achieved 30 toward detector_nonlinearity against 45 predicted were it true "
+            "(ratio 0.67)") in c.report()
+    # the rival's own figure missing: no ratio, and the line says why
+    before = _before()
+    before["next_measurement"]["binding"]["rival"]["expected_delta_bic"] = None
+    c = compare_diagnoses(before, _after(refits=_refits(200.0, 180.0)))
+    assert c.separation["ratio"] is None and c.separation["toward"] == "rival"
+    assert "moved toward detector_nonlinearity, for which the previous proposal predicted " \
+           "no separation" in c.report()
+    # no movement at all: no direction, no ratio
+    c = compare_diagnoses(_before(), _after(refits=_refits(200.0, 210.0)))
+    assert c.separation["achieved"] == 0.0 and c.separation["toward"] is None
+    assert c.separation["ratio"] is None and "did not move the pair apart" in c.report()
 
 
 def test_the_separation_names_the_recording_it_was_predicted_for():
@@ -96,7 +123,7 @@ def test_the_separation_names_the_recording_it_was_predicted_for():
     c = compare_diagnoses(before, _after())
     assert c.separation["settings"] == before["next_measurement"]["settings"]
     line = next(x for x in c.report().splitlines() if "separation of" in x)
-    assert line.endswith("predicted (ratio 1.11) for a population scan at A = 0.4 with "
+    assert line.endswith("predicted were it true (ratio 1.11) for a population scan at A = 0.4 with "
                          "DPD, 220 scans (612 shots)"), line
 
 
