@@ -109,7 +109,7 @@ def add_diagnose_command(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--schedule", metavar="FILE.csv",
                    help="write the proposed next recording as a schedule: one row per point "
                         "and repeat (kind, repeat, point, A, dpd, shots, phase_rad, t_us, "
-                        "lab_s), for an experiment to loop over")
+                        "lab_s, day, start_s, tone_sd_db), for an experiment to loop over")
     s.add_argument("--compare", metavar="PREVIOUS_JSON",
                    help="an earlier diagnosis of this campaign ('dpdfit diagnose --json' "
                         "output) before further recordings were added: refit the pair its "

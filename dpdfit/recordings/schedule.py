@@ -23,8 +23,28 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 ``t_us``
     The gate time of a time-scan point (microseconds); empty otherwise.
 ``lab_s``
-    The lab time the diagnosis assumed for the row (seconds): the proposal's
-    ``lab_seconds`` spread evenly over its rows, so that the column sums to it.
+    The row's own lab time (seconds), as the diagnosis counted it
+    (:class:`~dpdfit.core.defaults.LabTimes`): ``shots`` times ``shot_s`` for a scan
+    point, ``spectrum_trace_s`` for a trace, the run's time over its grid points for a
+    calibration-run point.  The column sums to the proposal's ``lab_seconds`` (rescaled
+    to it when the proposal was made with other lab times).  The waits between paced
+    calibration runs are not lab time.
+``day``
+    The day of the row's session (integer): 0 is the next session, which the proposal
+    predicts as if it were the day of the campaign's latest recording ("now"); a
+    calibration run paced days after the previous one has a later day.
+``start_s``
+    When the row is taken (seconds from the start of its day's session): rows taken back
+    to back follow each other by their ``lab_s``; a paced calibration run starts its
+    spacing after the previous run's start.
+``tone_sd_db``
+    Spectra only: the repeatability of a tone's power between traces (dB, 1 sigma) the
+    diagnosis learnt from the campaign's spectra and assumed for each trace (one row is
+    one trace, captured as the campaign's traces were); empty otherwise.
+
+The last three columns came later and are optional: a schedule without them is read
+with them empty.  Rows of every kind are taken back to back, except calibration runs,
+which are paced (:mod:`dpdfit.analyses.diagnosis.proposal.schedule`).
 
 :func:`read_schedule` checks a schedule file (one :class:`~dpdfit.errors.InputError`
 line naming the file, column and row for anything that cannot be recorded);
@@ -43,12 +63,14 @@ from dpdfit.errors import InputError
 from dpdfit.recordings.outputs import atomic_write_text, csv_table_text
 from dpdfit.recordings.tables import read_table
 
-__all__ = ["SCHEDULE_COLUMNS", "SCHEDULE_KINDS", "RUN_KINDS", "SCAN_KINDS", "read_schedule",
-           "write_schedule", "check_schedule"]
+__all__ = ["SCHEDULE_COLUMNS", "OPTIONAL_COLUMNS", "SCHEDULE_KINDS", "RUN_KINDS",
+           "SCAN_KINDS", "read_schedule", "write_schedule", "check_schedule"]
 
 #: the schedule's columns, in order (a contract: labs' experiments read them by name)
 SCHEDULE_COLUMNS = ("kind", "repeat", "point", "A", "dpd", "shots", "phase_rad", "t_us",
-                    "lab_s")
+                    "lab_s", "day", "start_s", "tone_sd_db")
+#: the columns a schedule file may leave out (read back empty): all but the first four
+OPTIONAL_COLUMNS = SCHEDULE_COLUMNS[4:]
 #: calibration runs: a grid of amplitudes, no flag, no shots
 RUN_KINDS = ("amplitude_run", "phase_run")
 #: gate recordings: a setting (A, dpd) and shots per point
@@ -89,6 +111,18 @@ def _filled(df: pd.DataFrame, col: str, rows: np.ndarray, kind: str, name: str) 
     df[col] = v
 
 
+def _numbers(cells: pd.Series, col: str, name: str) -> pd.Series:
+    """An optional column as numbers, an empty cell as NaN; text that is not a number is
+    refused (it would otherwise read as empty and be recorded as if left out)."""
+    v = pd.to_numeric(cells, errors="coerce")
+    text = cells.astype(str).str.strip().str.lower()
+    bad = np.flatnonzero((v.isna() & cells.notna() & ~text.isin(("", "nan", "<na>")))
+                         .to_numpy())
+    if bad.size:
+        _fail(f"{cells.iloc[bad[0]]!r} is not a number", name, col, bad[0])
+    return v
+
+
 def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
     """A schedule table checked (module doc) and typed: the numeric columns as float64,
     ``kind`` as text.  ``name`` is the file named in an error line."""
@@ -108,16 +142,16 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
         rows = (kind == k).to_numpy()
         for col in cols:
             _filled(df, col, rows, k, name)
-    for col in ("dpd", "shots", "phase_rad", "t_us", "lab_s"):
+    for col in OPTIONAL_COLUMNS:
         if col not in df.columns:
             df[col] = np.nan
-        df[col] = pd.to_numeric(df[col], errors="coerce")
+        df[col] = _numbers(df[col], col, name)
     _check_values(df, kind.to_numpy(), name)
     _check_repeats(df, name)
     # counts as integers (empty where a kind has none), so that the table reads as written
     for col in ("repeat", "point"):
         df[col] = df[col].astype("int64")
-    for col in ("dpd", "shots"):
+    for col in ("dpd", "shots", "day"):
         df[col] = df[col].round().astype("Int64")
     return df[list(SCHEDULE_COLUMNS)]
 
@@ -135,11 +169,17 @@ def _check_values(df: pd.DataFrame, kind: np.ndarray, name: str) -> None:
     if bad.size:
         _fail(f"dpd {d[bad[0]]:g} is not a flag (0 or 1)", name, "dpd", bad[0])
     _integers(df, "shots", np.isin(kind, SCAN_KINDS), 1, name)
-    for col in ("t_us", "lab_s"):
+    for col in ("t_us", "lab_s", "start_s"):
         v = df[col].to_numpy(float)
         bad = np.flatnonzero(np.isfinite(v) & (v < 0) | np.isinf(v))
         if bad.size:
             _fail(f"{v[bad[0]]:g} must be >= 0 and finite", name, col, bad[0])
+    day = df["day"].to_numpy(float)
+    _integers(df, "day", ~np.isnan(day), 0, name)
+    v = df["tone_sd_db"].to_numpy(float)
+    bad = np.flatnonzero(~np.isnan(v) & ~((v > 0) & np.isfinite(v)))
+    if bad.size:
+        _fail(f"{v[bad[0]]:g} must be > 0 and finite", name, "tone_sd_db", bad[0])
 
 
 def _check_repeats(df: pd.DataFrame, name: str) -> None:
@@ -183,15 +223,16 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
     InputError
         One line naming the file, the column and the row: an unknown kind, a negative
         or fractional number of shots, an amplitude outside [0, 1], a flag that is not
-        0 or 1, a point listed twice, a setting that changes within one scan.  The file
+        0 or 1, a point listed twice, a setting that changes within one scan, a day that
+        is not a whole number >= 0, a negative start, a tone sd <= 0, text where a
+        number belongs.  The file
         is read through :func:`~dpdfit.recordings.tables.read_table`: a FIFO or device
         is refused unread, and a file of more than
         :data:`~dpdfit.core.defaults.MAX_SCHEDULE_ROWS` rows as soon as its reading
         passes that many, the rest not read.
     """
     name = str(path)
-    df = read_table(path, ["kind", "repeat", "point", "A"],
-                    ["dpd", "shots", "phase_rad", "t_us", "lab_s"],
+    df = read_table(path, ["kind", "repeat", "point", "A"], list(OPTIONAL_COLUMNS),
                     numeric=["repeat", "point", "A"], max_rows=MAX_SCHEDULE_ROWS)
     return check_schedule(df, name)
 

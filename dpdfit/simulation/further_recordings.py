@@ -148,7 +148,8 @@ def schedule_measurements(schedule) -> list:
         kind at one setting become ``runs`` / ``scans``; spectra list every trace
         amplitude of every repeat (both flags needed); a parity scan's shots are counted
         over its phases, as the proposal counts them; a time scan's ``points`` are its
-        times after the first.
+        times after the start (``t_us > 0``); the pacing columns (``day``,
+        ``start_s``) are not read: the simulator takes further runs an hour or two apart.
 
     Returns
     -------
@@ -167,18 +168,26 @@ def schedule_measurements(schedule) -> list:
         if kind == "spectra":
             amps = rows.drop_duplicates(["repeat", "A"])["A"].tolist()
             flags = sorted({int(d) for d in rows["dpd"]})
-            out.append({"what": kind, "settings": {"amplitudes": sorted(amps), "dpd": flags}})
+            st = {"amplitudes": sorted(amps), "dpd": flags}
+            sd = rows["tone_sd_db"].dropna()
+            if len(sd):
+                st["tone_sd_db"] = float(sd.iloc[0])
+            out.append({"what": kind, "settings": st})
             continue
         first = rows.groupby("repeat", sort=False).first()
         per = rows.groupby("repeat", sort=False).size()
+        # a time scan's points are its times after the start (an older schedule also
+        # listed t = 0, which the simulator records anyway)
+        after = (rows["t_us"] > 0).groupby(rows["repeat"], sort=False).sum()
         keys = pd.DataFrame({"A": first["A"], "dpd": first["dpd"], "shots": first["shots"],
-                             "n": per})
-        for (A, d, shots, n), reps in keys.groupby(["A", "dpd", "shots", "n"], sort=False):
+                             "n": per, "after": after})
+        for (A, d, shots, n, m), reps in keys.groupby(["A", "dpd", "shots", "n", "after"],
+                                                      sort=False):
             st = {"A": float(A), "dpd": int(d), "shots": int(shots) * (int(n) if kind ==
                                                                         "parity" else 1),
                   "scans": int(len(reps))}
             if kind == "time_scan":
-                st["points"] = int(n) - 1
+                st["points"] = int(m)
             out.append({"what": kind, "settings": st})
     return out
 

@@ -2,8 +2,8 @@
 
 ``dpdfit diagnose CAMPAIGN --schedule schedule.csv`` writes the recording the diagnosis
 proposes as one row per point and repeat (kind, repeat, point, A, dpd, shots, phase_rad,
-t_us, lab_s).  Each experiment below reads the rows of its kind, records them in order
-and archives one value per point in plain datasets, the names that
+t_us, lab_s, day, start_s, tone_sd_db).  Each experiment below reads the rows of its kind,
+records them in order and archives one value per point in plain datasets, the names that
 ``scheduled_recording.toml`` maps to dpdfit's tables; ``dpdfit add CAMPAIGN
 scheduled_recording.toml -o CAMPAIGN_PLUS`` then merges the results into a copy of the
 campaign.
@@ -97,7 +97,9 @@ class ScheduledTimeScan(_ScheduledRecording):
 
 class ScheduledAmplitudeRun(_ScheduledRecording):
     """One results file per run (``repeat``): submit it once per repeat, with the
-    argument ``repeat``; dpdfit labels the run by its rid."""
+    argument ``repeat``, on the row's ``day`` at its ``start_s`` (the runs are paced as
+    the campaign's own runs were, not taken back to back); dpdfit labels the run by its
+    rid."""
 
     KIND = "amplitude_run"
 

@@ -165,7 +165,10 @@ def _spectra(prob, hyps, lab):
             total = total + c[:, j]
         idx = np.array(sorted(chosen))
         amps = [float(a) for a in SPECTRA_GRID[idx]]
-        items.append(Item("spectra", {"amplitudes": amps, "dpd": [0, 1]},
+        # the tone repeatability each trace is predicted with: the schedule writes it, so
+        # that a lab records the traces as the campaign's were (their averaging)
+        items.append(Item("spectra", {"amplitudes": amps, "dpd": [0, 1],
+                                      "tone_sd_db": float(prob.tone_noise.s_tone_db)},
                           2 * len(amps) * lab.spectrum_trace_s, "powers",
                           lambda P, idx=idx: _feature_values(P, SPECTRA_GRID, idx),
                           _feature_whitener(prob, idx)))

@@ -17,12 +17,13 @@ with the recording's noise:
   only locate a mismatch), since such a run cannot separate two hypotheses;
 * ``spectra``: traces at ``k`` (:data:`SPECTRA_COUNTS`) amplitudes of
   :data:`SPECTRA_GRID`, chosen greedily, with and without DPD, through the
-  per-trace tone features (the learnt repeatability with the floor's part; the
-  absolute scale ``gate_power`` left out);
+  per-trace tone features (the learnt repeatability, which the settings state as
+  ``tone_sd_db``, with the floor's part; the absolute scale ``gate_power`` left out);
 * ``populations`` / ``parity``: one scan at a recorded gate setting with the
   campaign's typical shots (parity: per phase, ``parity_phases`` phases), with
   the scan's random power error;
-* ``time_scan``: a scan at a recorded time-scan setting, binomial ``P00`` and ``P11``.
+* ``time_scan``: a scan at a recorded time-scan setting, binomial ``P00`` and ``P11`` at
+  its ``points`` times after the start (the start, ``t = 0``, is not fitted).
 
 **Separating causes, not curves.**  A hypothesis is a group of fits: a family in
 each of its forms still in reach.  For two hypotheses, ``a`` true and ``b`` its

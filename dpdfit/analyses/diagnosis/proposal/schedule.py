@@ -7,15 +7,41 @@ taking from the campaign what the proposal leaves implicit because the campaign 
 fixes it:
 
 * a calibration run records the amplitude grid of the campaign's latest run of its kind;
-* a parity scan records the phases the campaign's parity scans of that setting have (the
-  analysis phases ``2 pi k / parity_phases`` without one), each with the proposal's shots
-  divided by ``parity_phases`` (as the proposal counts them);
-* a time scan records the times the campaign's time scan of that setting has;
-* spectra record each amplitude with both flags; an amplitude the proposal lists ``k``
-  times is recorded in repeats 1..k.
+* a parity scan records the phases the campaign's parity scans of that setting have
+  (without one, the analysis phases ``2 pi k / n`` with ``n`` the campaign's
+  ``parity_phases``), each with the proposal's shots divided by the number of phases
+  written (rounded), so that shots per phase times phases is the proposal's shots;
+* a time scan records the times after the start (``t > 0``) the campaign's time scan of
+  that setting has: the points the diagnosis fits and the proposal counts
+  (``points``); the start ``t = 0`` carries nothing the diagnosis uses;
+* spectra record each amplitude with both flags, one row per trace; an amplitude the
+  proposal lists ``k`` times is recorded in repeats 1..k, each trace with the tone
+  repeatability the proposal assumed (``tone_sd_db``).
 
-Repeats (``scans``, ``runs``) become the ``repeat`` column; the proposal's lab time is
-spread evenly over the rows (``lab_s``).
+Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
+when it is taken:
+
+* ``lab_s``: the row's own lab time by :class:`~dpdfit.core.defaults.LabTimes`, as the
+  menu counts it (:mod:`~dpdfit.analyses.diagnosis.proposal.menu`): ``shots * shot_s``
+  for a scan point, ``spectrum_trace_s`` for a trace, the run's time over its grid
+  points for a calibration-run point; rescaled so that the column sums to the
+  proposal's ``lab_seconds`` (a proposal made with the same lab times needs no rescaling).
+* Calibration runs are paced, not taken back to back: the proposal counts each further
+  run as an independent draw of the campaign's run-to-run scatter (the drift modes' sd,
+  learnt from runs taken hours or days apart), which runs taken back to back are not.
+  So they are spread as the campaign's own runs of that kind were: run ``r`` starts
+  ``(r - 1)`` intervals after the first, the interval the median gap between the starts
+  of the campaign's consecutive runs (whole days when it is a day or more; at least the
+  run's own lab time; a day when the runs carry no timestamps, :func:`run_interval`).
+  Within a run the points follow each other back to back.
+* Every other recording is taken back to back in the order of its rows, in the next
+  session (``day`` 0).
+
+``day`` counts whole days from that next session, which the proposal predicts as if it
+were the day of the campaign's latest recording ("now": a drifting calibration is
+predicted at that day); ``start_s`` is the row's start in seconds from the start of its
+day's session (a day's session starts at the hour day 0's did).  The waits between paced
+runs are not lab time and are not in ``lab_s``.
 """
 
 from __future__ import annotations
@@ -23,13 +49,16 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES
 from dpdfit.errors import InputError
 from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.recordings.campaign_folder import CampaignFolder
-from dpdfit.recordings.schedule import SCHEDULE_COLUMNS, check_schedule
+from dpdfit.recordings.schedule import RUN_KINDS, SCHEDULE_COLUMNS, check_schedule
 
-__all__ = ["proposal_schedule"]
+__all__ = ["proposal_schedule", "run_interval", "DAY_S"]
+
+#: seconds of a day: the unit of the schedule's ``day`` column
+DAY_S = 86400.0
 
 
 def _latest_grid(runs: pd.DataFrame | None) -> np.ndarray | None:
@@ -47,6 +76,25 @@ def _latest_grid(runs: pd.DataFrame | None) -> np.ndarray | None:
     return runs.loc[runs["run"] == last, "A"].to_numpy(float)
 
 
+def run_interval(runs: pd.DataFrame | None, run_s: float) -> float:
+    """Seconds between the starts of consecutive further calibration runs: the median gap
+    between the starts of the campaign's consecutive runs ``runs`` (one calibration
+    table), in whole days when it is a day or more, at least ``run_s`` (a run's own lab
+    time); a day when the runs carry no timestamps or fewer than two runs have one."""
+    gap = DAY_S
+    if runs is not None and len(runs) and "timestamp" in runs.columns \
+            and "run" in runs.columns:
+        starts = pd.to_datetime(runs.groupby("run", sort=False)["timestamp"].min(),
+                                utc=True).dropna().sort_values()
+        gaps = np.diff(starts.to_numpy()).astype("timedelta64[ns]").astype(float) / 1e9
+        gaps = gaps[gaps > 0]
+        if gaps.size:
+            gap = float(np.median(gaps))
+    if gap >= DAY_S:
+        gap = float(np.round(gap / DAY_S)) * DAY_S
+    return max(gap, float(run_s))
+
+
 def _at(df: pd.DataFrame | None, A: float, d: int) -> pd.DataFrame:
     if df is None:
         return pd.DataFrame()
@@ -54,11 +102,17 @@ def _at(df: pd.DataFrame | None, A: float, d: int) -> pd.DataFrame:
               & (df["dpd"].to_numpy(float) == d)]
 
 
+def _run_table(what: str, camp: CampaignFolder) -> pd.DataFrame | None:
+    return camp.amplitude_runs if what == "amplitude_run" else camp.phase_runs
+
+
 def _runs(what: str, st: dict, camp: CampaignFolder) -> list:
-    grid = _latest_grid(camp.amplitude_runs if what == "amplitude_run" else camp.phase_runs)
+    grid = _latest_grid(_run_table(what, camp))
     if grid is None:
+        table = "calibration_amplitude.csv" if what == "amplitude_run" else \
+            "calibration_phase.csv"
         raise InputError(f"the campaign has no {what.replace('_', ' ')} whose amplitude grid "
-                         "a further run could repeat", file=str(camp.folder))
+                         "a further run could repeat", file=str(camp.file(table)))
     return [{"repeat": r, "point": i, "A": float(a)}
             for r in range(1, int(st.get("runs", 1)) + 1) for i, a in enumerate(grid)]
 
@@ -66,17 +120,29 @@ def _runs(what: str, st: dict, camp: CampaignFolder) -> list:
 def _spectra(st: dict) -> list:
     amps = [float(a) for a in st.get("amplitudes") or ()]
     flags = sorted(int(d) for d in st.get("dpd", (0, 1)))
+    sd = st.get("tone_sd_db")
+    sd = np.nan if sd is None else float(sd)
     seen: dict = {}
     rows = []
     for a in amps:                        # the k-th listing of an amplitude: repeat k
         seen[a] = seen.get(a, 0) + 1
-        rows += [{"repeat": seen[a], "A": a, "dpd": d} for d in flags]
+        rows += [{"repeat": seen[a], "A": a, "dpd": d, "tone_sd_db": sd} for d in flags]
     rows.sort(key=lambda r: (r["repeat"], r["A"], r["dpd"]))
     point: dict = {}
     for r in rows:
         r["point"] = point.get(r["repeat"], 0)
         point[r["repeat"]] = r["point"] + 1
     return rows
+
+
+def _parity_phases(camp: CampaignFolder) -> int:
+    """The campaign's ``parity_phases`` (``campaign.json``; the lab's default without it)."""
+    n = camp.meta.get("parity_phases", ERROR_MODEL.parity_phases)
+    if isinstance(n, bool) or not isinstance(n, (int, float)) or not np.isfinite(n) \
+            or n != int(n) or n < 1:
+        raise InputError(f"parity_phases {n!r} must be an integer >= 1",
+                         file=str(camp.file("campaign.json")))
+    return int(n)
 
 
 def _scan_points(what: str, st: dict, camp: CampaignFolder) -> list:
@@ -86,20 +152,64 @@ def _scan_points(what: str, st: dict, camp: CampaignFolder) -> list:
         return [{"point": 0, "shots": shots}]
     if what == "parity":
         rec = _at(camp.parity, A, d)
-        phases = (np.unique(rec["phase_rad"].to_numpy(float)) if len(rec)
-                  else ERROR_MODEL.analysis_phases())
-        each = max(1, int(round(shots / ERROR_MODEL.parity_phases)))
+        if len(rec):
+            phases = np.unique(rec["phase_rad"].to_numpy(float))
+        else:
+            n = _parity_phases(camp)
+            phases = np.arange(n) * 2 * np.pi / n
+        each = max(1, int(round(shots / phases.size)))
         return [{"point": i, "shots": each, "phase_rad": float(p)}
                 for i, p in enumerate(phases)]
     rec = _at(camp.time_scans, A, d)
-    if not len(rec):
+    times = np.unique(rec["t_us"].to_numpy(float)) if len(rec) else np.array([])
+    times = times[times > 0]
+    if not times.size:
         raise InputError(f"the campaign has no time scan at A = {A:g}, dpd = {d} whose times "
-                         "a further one could repeat", file=str(camp.folder))
-    times = np.unique(rec["t_us"].to_numpy(float))
+                         "a further one could repeat", file=str(camp.file("time_scans.csv")))
+    if "points" in st and int(st["points"]) != times.size:
+        raise InputError(f"the proposal's time scan at A = {A:g}, dpd = {d} has "
+                         f"{int(st['points'])} points, the campaign's has {times.size} "
+                         "times after the start: the proposal was not made for this campaign",
+                         file=str(camp.file("time_scans.csv")))
     return [{"point": i, "shots": shots, "t_us": float(t)} for i, t in enumerate(times)]
 
 
-def proposal_schedule(proposal, campaign) -> pd.DataFrame:
+def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
+    """Each row's own lab time by the lab times ``lab`` (module doc)."""
+    if what in RUN_KINDS:
+        run_s = lab.amplitude_run_s if what == "amplitude_run" else lab.phase_run_s
+        return run_s / df.groupby("repeat")["point"].transform("size").to_numpy(float)
+    if what == "spectra":
+        return np.full(len(df), float(lab.spectrum_trace_s))
+    return df["shots"].to_numpy(float) * lab.shot_s
+
+
+def _lab_seconds(df: pd.DataFrame, what: str, total, lab) -> np.ndarray:
+    """``lab_s``: the rows' own lab times, rescaled to sum to the proposal's ``total``
+    (kept as they are without one)."""
+    w = _row_seconds(df, what, lab)
+    if total is None:
+        return w
+    total, s = float(total), float(w.sum())
+    return w * (total / s) if s > 0 else np.full(len(df), total / max(len(df), 1))
+
+
+def _timing(df: pd.DataFrame, what: str, camp: CampaignFolder) -> tuple:
+    """``(day, start_s)`` of each row (module doc): calibration runs paced by
+    :func:`run_interval`, every other recording back to back from the session's start."""
+    lab_s = df["lab_s"].to_numpy(float)
+    if what in RUN_KINDS:
+        within = df.groupby("repeat")["lab_s"].cumsum().to_numpy(float) - lab_s
+        run_s = float(df.groupby("repeat")["lab_s"].sum().max())
+        gap = run_interval(_run_table(what, camp), run_s)
+        offset = (df["repeat"].to_numpy(float) - 1) * gap + within
+    else:
+        offset = np.cumsum(lab_s) - lab_s
+    day = np.floor(offset / DAY_S)
+    return day.astype(int), offset - day * DAY_S
+
+
+def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
     """The proposed recording as a schedule table (module doc).
 
     Parameters
@@ -107,7 +217,11 @@ def proposal_schedule(proposal, campaign) -> pd.DataFrame:
     proposal : dict or NextMeasurement
         The diagnosis's ``next_measurement`` (its ``to_dict()`` or the object).
     campaign : CampaignFolder or path-like
-        The campaign the proposal was made for (its grids, phases and times).
+        The campaign the proposal was made for (its grids, phases, times and the
+        spacing of its calibration runs).
+    lab : dpdfit.core.defaults.LabTimes, optional
+        The lab times the proposal was made with (default
+        :data:`~dpdfit.core.defaults.LAB_TIMES`): each row's share of ``lab_seconds``.
 
     Returns
     -------
@@ -119,8 +233,9 @@ def proposal_schedule(proposal, campaign) -> pd.DataFrame:
     Raises
     ------
     InputError
-        No recording was proposed (``what`` None: the line gives the reason), or the
-        campaign lacks what the recording repeats (a run's grid, a time scan's times).
+        No recording was proposed (``what`` None: the line gives the reason), the
+        campaign lacks what the recording repeats (a run's grid, a time scan's times),
+        or a time scan's ``points`` differ from the campaign's times after the start.
     """
     p = proposal.to_dict() if hasattr(proposal, "to_dict") else dict(proposal or {})
     what, st = p.get("what"), dict(p.get("settings") or {})
@@ -128,7 +243,7 @@ def proposal_schedule(proposal, campaign) -> pd.DataFrame:
         raise InputError("no recording was proposed, so there is nothing to schedule: "
                          f"{p.get('reason') or 'the diagnosis is not ambiguous'}")
     camp = campaign if isinstance(campaign, CampaignFolder) else CampaignFolder(campaign)
-    if what in ("amplitude_run", "phase_run"):
+    if what in RUN_KINDS:
         rows = _runs(what, st, camp)
     elif what == "spectra":
         rows = _spectra(st)
@@ -140,8 +255,10 @@ def proposal_schedule(proposal, campaign) -> pd.DataFrame:
         raise InputError(f"unknown recording {what!r} in the proposal")
     df = pd.DataFrame(rows)
     df.insert(0, "kind", what)
-    df["lab_s"] = float(p.get("lab_seconds") or 0.0) / max(len(df), 1)
     for col in SCHEDULE_COLUMNS:
         if col not in df.columns:
             df[col] = np.nan
+    df["lab_s"] = _lab_seconds(df, what, p.get("lab_seconds"),
+                               LAB_TIMES if lab is None else lab)
+    df["day"], df["start_s"] = _timing(df, what, camp)
     return check_schedule(df[list(SCHEDULE_COLUMNS)], "the proposal's schedule")

@@ -80,6 +80,23 @@ def test_more_amplitudes_separate_more(tone_prob):
             2 * len(m["settings"]["amplitudes"]) * LAB_TIMES.spectrum_trace_s)
 
 
+def test_spectra_carry_the_tone_repeatability_they_were_predicted_with(tone_prob):
+    """Each spectra item states the tone repeatability its traces are predicted with (the
+    campaign's learnt one), and the schedule writes it on every trace."""
+    from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
+    nm = propose_next_measurement(tone_prob, [BASE, DETECTOR])
+    sd = tone_prob.tone_noise.s_tone_db
+    assert sd > 0
+    for m in nm.menu:
+        if m["what"] == "spectra":
+            assert m["settings"]["tone_sd_db"] == sd
+    df = proposal_schedule(nm, BUNDLED_CAMPAIGN)
+    assert (df["tone_sd_db"] == sd).all()
+    assert len(df) == 2 * len(nm.settings["amplitudes"])
+    assert df["lab_s"].sum() == pytest.approx(nm.lab_seconds, rel=1e-12)
+    np.testing.assert_allclose(df["lab_s"], LAB_TIMES.spectrum_trace_s, rtol=1e-12)
+
+
 def test_amplitude_run_separation_is_the_asimov_chi2(tone_prob):
     """A drifted AOM moves the next calibration run by its drift (in run-to-run sd):
     against a hypothesis without drift the expected delta BIC is sum(sa^2)."""

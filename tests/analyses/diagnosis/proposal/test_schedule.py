@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
-from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES
 from dpdfit.errors import InputError
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.schedule import SCHEDULE_COLUMNS, read_schedule, write_schedule
@@ -33,6 +33,13 @@ PROPOSALS = [
     {"what": "time_scan", "settings": {"A": 0.5, "dpd": 1, "shots": 625, "points": 24,
                                        "scans": 2}, "lab_seconds": 300.0},
 ]
+#: the proposals above are costed with the default lab times: each row's own time
+ROW_SECONDS = {"amplitude_run": LAB_TIMES.amplitude_run_s / 201,
+               "phase_run": LAB_TIMES.phase_run_s / 201,
+               "spectra": LAB_TIMES.spectrum_trace_s,
+               "populations": 625 * LAB_TIMES.shot_s,
+               "parity": 625 * LAB_TIMES.shot_s,
+               "time_scan": 625 * LAB_TIMES.shot_s}
 
 
 @pytest.fixture(scope="module")
@@ -47,6 +54,7 @@ def test_schedule_lists_every_point_of_every_repeat(proposal, camp):
     assert list(df.columns) == list(SCHEDULE_COLUMNS)
     assert set(df["kind"]) == {proposal["what"]}
     assert df["lab_s"].sum() == pytest.approx(proposal["lab_seconds"], rel=1e-12)
+    np.testing.assert_allclose(df["lab_s"], ROW_SECONDS[proposal["what"]], rtol=1e-12)
     assert not df.duplicated(["repeat", "point"]).any()
     what = proposal["what"]
     if what == "amplitude_run":
@@ -71,9 +79,10 @@ def test_schedule_lists_every_point_of_every_repeat(proposal, camp):
     elif what == "time_scan":
         ts = camp.time_scans
         times = np.unique(ts.loc[(ts["A"] == 0.5) & (ts["dpd"] == 1), "t_us"])
-        assert times.size == st_["points"] + 1          # t = 0 and the points after it
+        # the times after the start, as many as the proposal's points (t = 0 is not fitted)
+        assert times[0] == 0 and times.size == st_["points"] + 1
         for r in (1, 2):
-            np.testing.assert_array_equal(df.loc[df["repeat"] == r, "t_us"], times)
+            np.testing.assert_array_equal(df.loc[df["repeat"] == r, "t_us"], times[1:])
 
 
 @pytest.mark.parametrize("proposal", PROPOSALS, ids=lambda p: p["what"])
