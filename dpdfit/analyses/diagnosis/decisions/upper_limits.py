@@ -1,14 +1,15 @@
-"""Alternatives a recording cannot end: an addition whose size is consistent with zero is
-an upper limit, not a rival.
+"""Effects the recordings do not see: an addition whose size is consistent with zero is an
+upper limit on that effect, not a rival of the named effects.
 
-An addition in reach (:func:`~dpdfit.analyses.diagnosis.decisions.alternatives.addition_alternatives`)
-is the named effects plus one more.  When the added effect's fitted main size is
+An addition in reach
+(:func:`~dpdfit.analyses.diagnosis.decisions.alternatives.addition_alternatives`) is the
+named effects plus one more.  When the added effect's fitted main size is
 consistent with zero -- its magnitude at most
 :data:`~dpdfit.analyses.diagnosis.evidence.thresholds.ZERO_Z` standard deviations -- the
 recordings do not see that effect: what they say about it is how large it can be, and a
 further recording could only shrink that bound, never settle a rivalry.  Such an
-alternative is reported as an :class:`UpperLimit` on the effect's main size ("stale table:
-|y1 drift| < 3e-4 (95 %)"), and the alternatives that remain are the open ones, rivals with
+alternative is reported as an :class:`UpperLimit` on the effect's main size
+(``stale_calibration [table] |y1 drift| < 0.0003 (95 %)``), and the alternatives that remain are the open ones, rivals with
 support of their own, which the proposal aims at
 (:func:`~dpdfit.analyses.diagnosis.proposal.propose.propose`).
 
