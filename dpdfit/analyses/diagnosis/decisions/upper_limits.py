@@ -20,6 +20,14 @@ profile likelihood where a parameter sits at a bound,
 size (:mod:`~dpdfit.analyses.diagnosis.evidence.form_errors`).  Swaps, and additions that a
 form of a named family leaves no room for (``room``), are never bounded: the first are
 other causes, the second patch a named family's form.
+
+A bound is only as good as the model it comes from.  Where the addition's fit leaves a
+dispersion of the evidence (``tempering``) above
+:data:`~dpdfit.analyses.diagnosis.evidence.thresholds.NULL_REDCHI_MAX`, the most any
+observable of a campaign with nothing concealed shows, the recordings are not described
+well enough for the fitted size to be trusted near zero (a size fitted through a misfit
+can sit far from the truth with a small error): the addition then stays an open
+alternative.
 """
 
 from __future__ import annotations
@@ -29,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.evidence.thresholds import LIMIT_LEVEL, ZERO_Z
+from dpdfit.analyses.diagnosis.evidence.thresholds import LIMIT_LEVEL, NULL_REDCHI_MAX, ZERO_Z
 from dpdfit.analyses.diagnosis.fitting.likelihood_intervals import profile_errors
 from dpdfit.core.records import Record
 
@@ -88,8 +96,10 @@ class UpperLimit(Record):
 
 def upper_limit_of(prob, alternative, fit) -> UpperLimit | None:
     """The :class:`UpperLimit` an alternative stands for, or None when it is open: a swap,
-    an addition some form leaves no room for, or one whose added effect's main size is
-    not consistent with zero (or has no finite error to judge it by).  ``fit``: the
+    an addition some form leaves no room for, one whose added effect's main size is not
+    consistent with zero (or has no finite error to judge it by), or one whose fit does
+    not describe the recordings well enough to bound it (tempering above
+    :data:`~dpdfit.analyses.diagnosis.evidence.thresholds.NULL_REDCHI_MAX`).  ``fit``: the
     alternative's fit (the named effects plus the added one)."""
     a = alternative
     c = a.effect
@@ -100,6 +110,8 @@ def upper_limit_of(prob, alternative, fit) -> UpperLimit | None:
     if size is None or not (np.isfinite(size.value) and np.isfinite(size.error)):
         return None
     tau = max(float(a.tempering), 1.0)
+    if tau > NULL_REDCHI_MAX:
+        return None
     sigma = float(size.error) * float(np.sqrt(tau))
     if abs(size.value) > ZERO_Z * sigma:
         return None

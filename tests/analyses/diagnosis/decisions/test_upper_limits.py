@@ -86,6 +86,19 @@ def test_the_sigma_carries_the_dispersion_of_the_additions_evidence():
     assert u.limit == pytest.approx(3e-4 + 1.96 * 2e-4)
 
 
+def test_an_addition_whose_fit_does_not_describe_the_recordings_is_not_bounded():
+    # a size fitted through a misfit (tempering 14, beyond what any observable of a null
+    # campaign shows) can sit far from the truth with a small error: no bound from it
+    from dpdfit.analyses.diagnosis.evidence.thresholds import NULL_REDCHI_MAX
+    fit = _fit(value=1e-4, error=1e-4)
+    alt = (_addition(tau=14.0), fit)
+    assert 14.0 > NULL_REDCHI_MAX
+    still, limits = split_upper_limits(None, [alt])
+    assert still == [alt] and limits == ()
+    (u,) = split_upper_limits(None, [(_addition(tau=NULL_REDCHI_MAX), fit)])[1]
+    assert u.tempering == NULL_REDCHI_MAX
+
+
 def test_an_addition_whose_size_is_clearly_not_zero_stays_an_alternative():
     alt = (_addition(), _fit(value=1e-3, error=1e-4))
     still, limits = split_upper_limits(None, [alt])
