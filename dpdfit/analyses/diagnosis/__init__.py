@@ -10,7 +10,7 @@ The folders follow the data, each stage reading only the ones above it::
       gates/       the gate observables' forward model (exact engine) and the rate scatter
     fitting/       the fit of one hypothesis (the baseline, an effect, several)
     evidence/      what the fits say: mismatches, ranking, tempering, families, thresholds
-    decisions/     the verdict: first effect, additions, explanations, alternatives
+    decisions/     the verdict: first effect, additions, explanations, alternatives, upper limits
     proposal/      the next recording: hypotheses in reach, menu, separation, schedule
     comparison/    what a further recording changed, against an earlier diagnosis
     result.py      Diagnosis, the typed result and its JSON (rendering.py: its text)

@@ -33,6 +33,11 @@ Steps (:func:`diagnose`):
    errors (Gauss-Newton, the calibration's error modes profiled out; profile
    likelihood where the curvature is poor, e.g. at a bound) and its cost in
    Bell fidelity.
+7. **Alternatives.**  The hypotheses the recordings do not separate from the named ones
+   (:mod:`~dpdfit.analyses.diagnosis.decisions.alternatives`); an addition whose fitted
+   size is consistent with zero is an upper limit on that effect instead
+   (:mod:`~dpdfit.analyses.diagnosis.decisions.upper_limits`), and the proposed
+   recording is aimed at the strongest open alternative.
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ from dpdfit.analyses.diagnosis.decisions.explanations import (open_sides, select
                                                               start_alternatives)
 from dpdfit.analyses.diagnosis.decisions.first_effect import choose_first
 from dpdfit.analyses.diagnosis.decisions.named_effects import named_effects
+from dpdfit.analyses.diagnosis.decisions.upper_limits import split_upper_limits
 from dpdfit.analyses.diagnosis.effects import EFFECTS, default_effects, get
 from dpdfit.analyses.diagnosis.evidence.families import family_evidence
 from dpdfit.analyses.diagnosis.evidence.generic_discrepancy import generic_discrepancy
@@ -193,6 +199,8 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
             + swap_alternatives(fits, form_fits, ranking, first, named, sides,
                                 exclude={o.start for o in others})
             + addition_alternatives(tried, named, open_sides(prob, chosen, sides)))
+    # an addition whose size is consistent with zero is an upper limit, not a rival
+    alts, limits = split_upper_limits(prob, alts)
     effects_out = (named_effects(prob, base, chosen, named, chain, form_fits)
                    if chosen is not None else [])
     lap("sizes")
@@ -214,7 +222,8 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
         effects=effects_out, steps=steps,
         redchi_one=None if one is None else one.redchi(),
         mismatch_evidence=tuple(evidence), verdict_fit=verdict_fit,
-        alternatives=tuple(a for a, _ in alts), proposal=nxt, null_range=null_range,
+        alternatives=tuple(a for a, _ in alts), upper_limits=limits, proposal=nxt,
+        null_range=null_range,
         explained_fraction=None if chosen is None else explained_fraction(base, chosen),
         null_model=null_model, refits=refits, generic=generic, timing_seconds=timing,
         **_campaign_notes(prob, camp, dropped),
@@ -224,7 +233,8 @@ def _diagnose(campaign, effects, pairs: int, with_gates: bool, run_fits, calibra
 def _proposal(prob: Problem, base: FitResult, chosen, alts: list, effects_out: list,
               form_fits: dict) -> NextMeasurement | None:
     """The next measurement (:func:`~dpdfit.analyses.diagnosis.proposal.propose.propose`)
-    when the verdict has alternatives or a poorly constrained size; its binding pair
+    when the verdict has open alternatives (``alts``: the upper limits left out) or a
+    poorly constrained size, aimed at the strongest alternative; its binding pair
     with the chi2 a later diagnosis will compare its own refit of them with."""
     if chosen is None or not (alts or any(e.get("poorly_constrained") for e in effects_out)):
         return None

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["report_text", "next_measurement_sentence", "alternatives_sentence"]
+__all__ = ["report_text", "next_measurement_sentence", "alternatives_sentence",
+           "upper_limits_sentence"]
 
 
 def report_text(d) -> str:
@@ -18,6 +19,7 @@ def report_text(d) -> str:
              f"  verdict: {d.verdict}"
              + (f"   (named: {', '.join(d.named)})" if len(d.named) > 1 else "")]
     lines += [f"  {x}" for x in alternatives_sentence(d.verdict, d.alternatives)]
+    lines += [f"  {x}" for x in upper_limits_sentence(getattr(d, "upper_limits", ()))]
     if d.null_range is not None:
         lines.append(f"  the baseline's global chi2 is above its dof, but nothing is "
                      f"located and every observable's reduced chi2 is at most "
@@ -80,6 +82,16 @@ def alternatives_sentence(verdict: str, alternatives: list) -> list[str]:
                      "recordings favour it, not decisively once the misfit the forms leave "
                      "is counted")
     return lines
+
+
+def upper_limits_sentence(limits) -> list[str]:
+    """The report's line for the upper limits
+    (:class:`~dpdfit.analyses.diagnosis.decisions.upper_limits.UpperLimit`), e.g.
+    ``"not seen, bounded: stale_calibration [table] |y1 drift| < 0.00031 (95 %)"``; none
+    without them."""
+    if not limits:
+        return []
+    return ["not seen, bounded: " + "; ".join(u.text() for u in limits)]
 
 
 def next_measurement_sentence(nxt: dict) -> str:

@@ -2,7 +2,8 @@
 (:meth:`Diagnosis.to_dict`, the keys of ``dpdfit diagnose --json``).
 
 Its parts are typed too: the alternatives
-(:class:`~dpdfit.analyses.diagnosis.decisions.alternatives.Alternative`), the proposed
+(:class:`~dpdfit.analyses.diagnosis.decisions.alternatives.Alternative`), the upper
+limits (:class:`~dpdfit.analyses.diagnosis.decisions.upper_limits.UpperLimit`), the proposed
 recording (:class:`~dpdfit.analyses.diagnosis.proposal.next_measurement.NextMeasurement`),
 the null model (:class:`~dpdfit.analyses.diagnosis.model.null_model.NullModel`).  The text
 report is rendered apart (:mod:`~dpdfit.analyses.diagnosis.rendering`).
@@ -16,7 +17,7 @@ import pandas as pd
 
 from dpdfit.analyses.diagnosis.comparison.compare import Comparison, compare_diagnoses
 from dpdfit.analyses.diagnosis.effects import EFFECTS
-from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA
+from dpdfit.analyses.diagnosis.evidence.thresholds import ALPHA, LIMIT_LEVEL, ZERO_Z
 from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.model.null_model import NullModel
 from dpdfit.analyses.diagnosis.proposal.next_measurement import NextMeasurement
@@ -44,9 +45,15 @@ CONVENTIONS = {"delta_bic": "BIC(effect) - BIC(baseline); negative favours the e
                "alternatives": "hypotheses the tempered evidence does not separate from "
                                "the named ones: delta_bic (raw) and delta_bic_tempered are "
                                "theirs minus the named hypothesis's",
+               "upper_limits": "effects the recordings do not see: an addition to the "
+                               "named ones whose main size is consistent with zero "
+                               f"(|value| <= {ZERO_Z:g} sigma, sigma statistical x "
+                               f"sqrt(tempering)), bounded by limit = |value| + {ZERO_Z:g} "
+                               f"sigma at level {LIMIT_LEVEL:g}; not among the alternatives",
                "next_measurement": "the single recording from the menu with the largest "
-                                   "expected delta BIC between the hypotheses in reach per "
-                                   "lab hour (Asimov, parameters held at their fits)",
+                                   "expected delta BIC between the named hypothesis and "
+                                   "the strongest alternative per lab hour (Asimov, "
+                                   "parameters held at their fits)",
                "fidelity_cost": "mean over the recorded gate settings of the Bell fidelity "
                                 "without the effect minus with it (gate side: (F_pop + C)/2 "
                                 "predicted; tone side: the spectral estimate F_est)",
@@ -103,8 +110,13 @@ class Diagnosis(Displayable):
     #: the named effects' fit: ``"acceptable"``, ``"approximate"`` (decisive, but its form
     #: leaves an unacceptable fit) or ``"none"``
     verdict_fit: str = "none"
-    #: the hypotheses the recordings do not separate from the named one
+    #: the hypotheses the recordings do not separate from the named one (open: rivals
+    #: with support of their own)
     alternatives: tuple = ()
+    #: the effects the recordings do not see, bounded: additions to the named ones whose
+    #: fitted size is consistent with zero
+    #: (:class:`~dpdfit.analyses.diagnosis.decisions.upper_limits.UpperLimit`)
+    upper_limits: tuple = ()
     #: the recording that would decide, or why none is proposed (None: none was needed)
     proposal: NextMeasurement | None = None
     #: the null range of reduced chi2 that made a global mismatch a null (None: not used)
@@ -149,7 +161,8 @@ class Diagnosis(Displayable):
     @property
     def extra(self) -> dict:
         """The JSON's keys after ``seconds`` as one dict, each typed part as its JSON:
-        ``mismatch_evidence``, ``verdict_fit``, ``alternatives``, ``next_measurement``
+        ``mismatch_evidence``, ``verdict_fit``, ``alternatives``, ``upper_limits``,
+        ``next_measurement``
         (:attr:`proposal`), ``null_range``, ``explained_fraction``, ``null_model``,
         ``refits`` (when asked for), ``generic``, ``timing_seconds``, ``nuisances``,
         ``recording_times``, ``runs_after_recordings``, ``warnings``, ``left_out``,
@@ -157,6 +170,7 @@ class Diagnosis(Displayable):
         out = {"mismatch_evidence": list(self.mismatch_evidence),
                "verdict_fit": self.verdict_fit,
                "alternatives": [a.to_dict() for a in self.alternatives],
+               "upper_limits": [u.to_dict() for u in self.upper_limits],
                "next_measurement": None if self.proposal is None else self.proposal.to_dict(),
                "null_range": self.null_range, "explained_fraction": self.explained_fraction,
                "null_model": None if self.null_model is None else self.null_model.to_dict()}

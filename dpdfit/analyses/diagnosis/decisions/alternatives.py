@@ -16,7 +16,10 @@ forms leave (:mod:`~dpdfit.analyses.diagnosis.evidence.tempering`):
   decisively -- "perhaps also spam_offset".
 
 Each alternative is an :class:`Alternative`; its :meth:`~Alternative.to_dict` is an
-entry of the JSON's ``alternatives``.
+entry of the JSON's ``alternatives``.  An addition whose added size is consistent with
+zero is not kept among them: it is an upper limit on that effect
+(:mod:`~dpdfit.analyses.diagnosis.decisions.upper_limits`).  Of those that stay, the
+strongest rival (:func:`strongest_alternative`) is the one the proposal aims at.
 """
 
 from __future__ import annotations
@@ -31,7 +34,8 @@ from dpdfit.analyses.diagnosis.evidence.thresholds import (ADDITION_IN_REACH, AL
                                                            BIC_DECISIVE, NOISE_Z)
 from dpdfit.core.records import Record
 
-__all__ = ["Alternative", "alternative_entry", "swap_alternatives", "addition_alternatives"]
+__all__ = ["Alternative", "alternative_entry", "swap_alternatives", "addition_alternatives",
+           "strongest_alternative"]
 
 
 @dataclass(frozen=True)
@@ -177,3 +181,12 @@ def addition_alternatives(steps: list, named: list, open_sides=()) -> list:
                 out.append((alternative_entry(c, raw, gap_t, tau, a,
                                    [c if x == a else x for x in named], z=z), f))
     return out
+
+
+def strongest_alternative(alternatives: list):
+    """The best-supported of the open alternatives, each an ``(Alternative, its fit)``:
+    the lowest tempered delta BIC against the named hypothesis (the first listed on a
+    tie), the rival a proposed recording is aimed at; None when there is none."""
+    if not alternatives:
+        return None
+    return min(alternatives, key=lambda af: af[0].delta_bic_tempered)

@@ -5,7 +5,8 @@ that name an effect or leave it a refinement."""
 from __future__ import annotations
 
 __all__ = [
-    'ALPHA', 'ALPHA_FIT', 'BIC_DECISIVE', 'DOMINANT_FRACTION', 'EXPLAINED_FRACTION', 'NULL_REDCHI_MAX', 'NOISE_Z', 'ADDITION_IN_REACH', 'FORM_IN_REACH', 'POORLY_CONSTRAINED']
+    'ALPHA', 'ALPHA_FIT', 'BIC_DECISIVE', 'DOMINANT_FRACTION', 'EXPLAINED_FRACTION', 'NULL_REDCHI_MAX', 'NOISE_Z', 'ADDITION_IN_REACH', 'FORM_IN_REACH', 'POORLY_CONSTRAINED',
+    'LIMIT_LEVEL', 'ZERO_Z']
 
 #: global false-alarm level of a mismatch (3 sigma)
 ALPHA = 0.0027
@@ -53,3 +54,13 @@ POORLY_CONSTRAINED = 0.5
 #: a form of a hypothesis's family is still in reach (and must be separated by a proposed
 #: recording) while its tempered evidence is within this of the family's best form
 FORM_IN_REACH = BIC_DECISIVE
+
+#: the confidence level of an upper limit on an effect the recordings do not see (an
+#: addition to the named effects whose fitted size is consistent with zero,
+#: :mod:`~dpdfit.analyses.diagnosis.decisions.upper_limits`)
+LIMIT_LEVEL = 0.95
+
+#: a fitted size is consistent with zero while its magnitude is at most this many of its
+#: standard deviations, and its upper limit is its magnitude plus as many: 1.96, the
+#: two-sided Gaussian quantile of :data:`LIMIT_LEVEL`
+ZERO_Z = 1.96

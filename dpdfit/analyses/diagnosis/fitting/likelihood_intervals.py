@@ -88,6 +88,9 @@ def profile_errors(prob, fit: FitResult, name: str) -> dict:
     sizes = dict(fit.sizes.get(name, {}))
     poor = [k for k in fit.free if k.startswith(name + ".")
             and (k in fit.at_bound or not np.isfinite(fit.params_err.get(k, np.nan)))]
+    if not poor:
+        # every error has its curvature: nothing to profile (nor to evaluate the size at)
+        return sizes
     # the parameters the main size depends on (a profile is a dozen refits each)
     main = e.main
     p0 = fit.all_params

@@ -1,5 +1,7 @@
-"""What the next recording must separate, and the proposal: the named fit against every
-alternative's, each with its family's forms in reach (:func:`forms_in_reach`), or,
+"""What the next recording must separate, and the proposal: the named fit against the
+strongest open alternative's
+(:func:`~dpdfit.analyses.diagnosis.decisions.alternatives.strongest_alternative`), each
+with its family's forms in reach (:func:`forms_in_reach`), or,
 without alternatives, a poorly constrained size against the same fit moved by 1 sigma
 (:func:`shifted_hypothesis`); :func:`propose` hands them to
 :func:`~dpdfit.analyses.diagnosis.proposal.next_measurement.propose_next_measurement`."""
@@ -11,6 +13,7 @@ import logging
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.decisions.alternatives import strongest_alternative
 from dpdfit.analyses.diagnosis.evidence.families import chi2_gap_z, shared_observables
 from dpdfit.analyses.diagnosis.evidence.tempering import tempered_gap
 from dpdfit.analyses.diagnosis.evidence.thresholds import FORM_IN_REACH, NOISE_Z
@@ -60,16 +63,18 @@ def propose(prob, chosen, alternatives: list, named_effects: list,
             form_fits: dict | None = None) -> NextMeasurement:
     """The next measurement
     (:class:`~dpdfit.analyses.diagnosis.proposal.next_measurement.NextMeasurement`) for an
-    ambiguous verdict (the named fit against every alternative's fit, each with its family's forms
-    in reach, :func:`forms_in_reach`) or, without alternatives, for the named effects
+    ambiguous verdict (the named fit against the fit of the strongest of the open
+    ``alternatives``, ``[(Alternative, fit)]``, each with its family's forms in reach,
+    :func:`forms_in_reach`) or, without alternatives, for the named effects
     whose main size is poorly constrained (the fit against the same fit with that effect
     moved by 1 sigma, parameters held)."""
     form_fits = form_fits or {}
-    # the swaps first: they are the competing explanations; additions in reach differ
-    # from the verdict by a refinement, and the smallest separation would chase it
-    swaps = [f for a, f in alternatives if a.is_swap]
-    hyps = [forms_in_reach(chosen, form_fits)] + [
-        forms_in_reach(f, form_fits) for f in (swaps or [f for _, f in alternatives])]
+    # aimed at the strongest rival: the open alternatives have support of their own (an
+    # addition the recordings do not see is an upper limit, not among them), and the
+    # weakest-separated of several would chase the one with the least
+    rival = strongest_alternative(alternatives)
+    hyps = [forms_in_reach(chosen, form_fits)] + (
+        [] if rival is None else [forms_in_reach(rival[1], form_fits)])
     profile = True
     if len(hyps) == 1:
         for e in named_effects:
@@ -82,7 +87,7 @@ def propose(prob, chosen, alternatives: list, named_effects: list,
     if len(hyps) == 1:
         return NextMeasurement(None, reason="no parameter of the poorly constrained effect "
                                             "has an error to move it by")
-    tau = max([a.tempering for a, _ in alternatives] or [1.0])
+    tau = 1.0 if rival is None else rival[0].tempering
     try:
         return propose_next_measurement(prob, hyps, tempering=tau, profile=profile)
     except Exception as exc:          # the verdict stands whatever the proposal does

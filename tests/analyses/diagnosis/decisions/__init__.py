@@ -1,0 +1,1 @@
+"""Tests of the diagnosis's decisions: alternatives, upper limits."""
