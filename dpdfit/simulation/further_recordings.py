@@ -27,7 +27,7 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan"}
+                "time_scan": "time_scan", "spam": "spam"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -75,7 +75,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         [...], "dpd": [0, 1]}``), ``populations`` / ``parity`` (``{"A", "dpd",
         "shots"}``: parity shots are the scan's total over its phases, as the
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
-        shots per point, points after the start; the scan also records ``t = 0``).
+        shots per point, points after the start; the scan also records ``t = 0``),
+        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``).
 
     Returns
     -------
@@ -132,6 +133,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
+    if what == "spam":
+        shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
+        return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")

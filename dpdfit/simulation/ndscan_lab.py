@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.errors import DpdfitError, InputError
-from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.recordings.campaign_folder import CHARACTERISATION_FILES, CampaignFolder
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.csv_text import parse_csv_strings
 from dpdfit.recordings.input_files import read_input_bytes
@@ -88,7 +88,9 @@ class NdscanLab:
     the runs written from them into ``out`` (``rid``: the last run's, in order)."""
 
     def __init__(self, campaign_dir, out):
-        self.t = {n: read_campaign_table(campaign_dir, n) for n in CAMPAIGN_TABLES}
+        # the lab's characterisation tables (spam.csv) are not written as results files
+        self.t = {n: read_campaign_table(campaign_dir, n) for n in CAMPAIGN_TABLES
+                  if f"{n}.csv" not in CHARACTERISATION_FILES}
         self.campaign = read_campaign_json(campaign_dir)
         self.out, self.rid = Path(out), 0
 
