@@ -318,6 +318,9 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     left = cf.left_out(_CONSEQUENCES)
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
+    if gates is None and cf.spam is not None:
+        left.append("spam.csv without gate recordings: not fitted (the preparation and "
+                    "detection errors it measures are the gate model's)")
     recorded = cf.recording_times
     if run_fits is None and "power_err" not in cf.amplitude_runs.columns:
         # the drift modes fit every run without errors at the campaign's order, as the
