@@ -168,6 +168,11 @@ def schedule_measurements(schedule) -> list:
         if kind in ("amplitude_run", "phase_run"):
             out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
             continue
+        if kind == "spam":
+            for shots, reps in rows.groupby("shots", sort=False):
+                st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
+                out.append({"what": kind, "settings": st})
+            continue
         if kind == "spectra":
             amps = rows.drop_duplicates(["repeat", "A"])["A"].tolist()
             flags = sorted({int(d) for d in rows["dpd"]})

@@ -184,6 +184,11 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
     """
     if not new:
         raise InputError("the recording added no rows: nothing to write")
+    if len(new.get("spam", ())):
+        raise InputError("the stand-in writes no ARTIQ results files of a SPAM "
+                         "characterisation yet: record the spam rows as spam.csv "
+                         "(dpdfit.simulation.recorded_schedule.record_further) and add them "
+                         "with dpdfit add")
     last_rid, last_time = campaign_files_end(campaign_tables, campaign)
     out = Path(out_dir)
     with staged_folder(out) as tmp:

@@ -115,7 +115,8 @@ def as_written(rows: pd.DataFrame) -> pd.DataFrame:
     """The rows as the simulator writes them into a campaign folder (its CSV text, 10
     significant digits: :func:`~dpdfit.simulation.campaign.folder.csv_text`) and reads
     them back: what a recording of the simulator holds, to the last digit."""
-    return pd.read_csv(io.StringIO(csv_text(rows)))
+    # a prepared basis state is text (00, not the number 0)
+    return pd.read_csv(io.StringIO(csv_text(rows)), dtype={"prepared": str})
 
 
 def _new_runs(table: pd.DataFrame, old_runs: int) -> pd.DataFrame:

@@ -12,7 +12,9 @@ fixes it:
   divided by ``parity_phases`` (as the proposal counts them);
 * a time scan records the times the campaign's time scan of that setting has;
 * spectra record each amplitude with both flags; an amplitude the proposal lists ``k``
-  times is recorded in repeats 1..k.
+  times is recorded in repeats 1..k;
+* a SPAM characterisation records each prepared state (``prepared``) with the proposal's
+  shots, at ``A`` 0 (no gate), one point per state.
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column; the proposal's lab time is
 spread evenly over the rows (``lab_s``).
@@ -132,6 +134,11 @@ def proposal_schedule(proposal, campaign) -> pd.DataFrame:
         rows = _runs(what, st, camp)
     elif what == "spectra":
         rows = _spectra(st)
+    elif what == "spam":
+        rows = [{"repeat": r, "point": i, "A": 0.0, "shots": int(st["shots"]),
+                 "prepared": str(s)}
+                for r in range(1, int(st.get("scans", 1)) + 1)
+                for i, s in enumerate(st.get("states", ("00", "11")))]
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}
@@ -144,4 +151,5 @@ def proposal_schedule(proposal, campaign) -> pd.DataFrame:
     for col in SCHEDULE_COLUMNS:
         if col not in df.columns:
             df[col] = np.nan
-    return check_schedule(df[list(SCHEDULE_COLUMNS)], "the proposal's schedule")
+    cols = list(SCHEDULE_COLUMNS) + (["prepared"] if "prepared" in df.columns else [])
+    return check_schedule(df[cols], "the proposal's schedule")
