@@ -39,9 +39,10 @@ Required and optional (everything else in the layout is optional):
   the repeat of ``spectra.csv`` the trace is).
 * ``spam.csv`` -- the SPAM characterisation: ``prepared, n00, n01_10, n11, shots``
   (+ ``run``, ``timestamp``), :func:`~dpdfit.recordings.spam.read_spam`.  A
-  characterisation table (:data:`CHARACTERISATION_FILES`): its absence leaves nothing
-  of the other recordings' analysis out, so :meth:`CampaignFolder.left_out` does not
-  list it.
+  characterisation table
+  (:data:`~dpdfit.recordings.campaign_folder.CHARACTERISATION_FILES`): its absence
+  leaves nothing of the other recordings' analysis out, so
+  :meth:`CampaignFolder.left_out` does not list it.
 
 Nothing is ever written into the folder.
 

@@ -27,7 +27,9 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan", "spam": "spam"}
+                "time_scan": "time_scan"}
+#: (``extend_config`` also records a ``spam`` characterisation; it is not among the
+#: random choice's kinds while the stand-in writes no ARTIQ results files of it)
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 

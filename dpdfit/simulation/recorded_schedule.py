@@ -41,12 +41,14 @@ from dpdfit.simulation.campaign.spam_runs import spam_table
 from dpdfit.simulation.campaign.spectra import spectra_tables
 from dpdfit.simulation.further_recordings import extend_config
 
-__all__ = ["TABLES", "StandInRecording", "extended_config", "record_further", "as_written",
+__all__ = ["TABLES", "CHARACTERISATION_TABLES", "StandInRecording", "extended_config", "record_further", "as_written",
            "simulated_tables", "difference_rows", "check_replayed"]
 
 #: The campaign tables a further recording can add rows to, in the campaign's order.
 TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
-          "gate_rates", "time_scans", "spam")
+          "gate_rates", "time_scans")
+#: the lab's characterisation tables a further recording can add (a campaign may have none)
+CHARACTERISATION_TABLES = ("spam",)
 #: agreement of a replayed value with the campaign's table: truth.json and the CSVs keep
 #: 10 significant digits, and the processor's BLAS kernel rounds differently in the last
 #: bits, which moves a float by ~1e-8 relative through the calibration fit and the
@@ -178,7 +180,8 @@ def record_further(cfg: CampaignConfig, measurements, *, original: dict | None =
         new["spam"] = spam_table(ext, further_from=len(cfg.further))
     if original is not None:
         check_replayed(replayed, original, new)
-    tables = {t: as_written(new[t]) for t in TABLES if t in new and len(new[t])}
+    tables = {t: as_written(new[t]) for t in (*TABLES, *CHARACTERISATION_TABLES)
+              if t in new and len(new[t])}
     return StandInRecording(tables=tables, measurements=measurements, config=ext,
                             seconds=time.perf_counter() - t0)
 

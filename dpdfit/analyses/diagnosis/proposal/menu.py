@@ -255,12 +255,13 @@ def _spam_whitener(N: int):
 def _spam(prob, hyps, lab):
     """The SPAM characterisation (``spam.csv``): each of
     :data:`~dpdfit.analyses.diagnosis.proposal.hypotheses.SPAM_STATES` prepared and
-    detected with no gate, :data:`SPAM_SHOTS` shots each; offered with gate recordings,
-    whose preparation and detection errors it measures directly (a SPAM offset acts on
-    it, dephasing and heating do not)."""
+    detected with no gate,
+    :data:`~dpdfit.analyses.diagnosis.proposal.menu.SPAM_SHOTS` shots each; offered with
+    gate recordings, whose preparation and detection errors it measures directly (a SPAM
+    offset acts on it, dephasing and heating do not)."""
     if getattr(prob, "gate", None) is None or prob.gate.gates is None \
-            or len(prob.gate.gates) == 0:
-        return []
+            or len(prob.gate.gates) == 0 or not hasattr(prob.gate, "preparation"):
+        return []           # (a gate model without preparation errors cannot predict it)
     N = SPAM_SHOTS
     return [Item("spam", {"shots": N, "states": list(SPAM_STATES)},
                  len(SPAM_STATES) * N * lab.spam_shot_s, "spam",
