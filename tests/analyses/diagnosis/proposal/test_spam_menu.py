@@ -1,9 +1,9 @@
 """The menu offers the SPAM characterisation when the campaign has gate scans, with its lab
 time; a proposal of it is written as a schedule and recorded by the simulator."""
 
-import numpy as np
 import pytest
 
+from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis
 from dpdfit.analyses.diagnosis.proposal.hypotheses import Hypothesis
 from dpdfit.analyses.diagnosis.proposal.menu import BUILDERS, SPAM_SHOTS
 from dpdfit.analyses.diagnosis.proposal.next_measurement import KINDS, describe_recording
@@ -15,7 +15,6 @@ from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.recorded_schedule import record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 from tests.analyses.diagnosis.model.test_spam_fitted import spam_case  # noqa: F401
-from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis
 
 
 def test_offered_with_gate_scans_and_separates_spam_from_heating(spam_case):  # noqa: F811
