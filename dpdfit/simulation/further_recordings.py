@@ -25,11 +25,12 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
+#: ``spam`` is drawn when the proposal's menu offers it; :func:`default_menu` (the menu
+#: of a proposal without one) leaves it out, so that a blind choice without a menu is
+#: drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan"}
-#: (``extend_config`` also records a ``spam`` characterisation; it is not among the
-#: random choice's kinds while the stand-in writes no ARTIQ results files of it)
+                "time_scan": "time_scan", "spam": "spam"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -208,7 +209,9 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     Returns
     -------
     list of dict
-        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS`.
+        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` (a
+        characterisation only a menu that offers it draws: the default menu's kinds, and
+        so its draws, are those it had before SPAM could be recorded).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)
@@ -253,8 +256,9 @@ def random_menu_choice(rng: np.random.Generator, measurement: dict | None,
     for m in (measurement or {}).get("menu") or ():
         m = {"what": m} if isinstance(m, str) else m
         if isinstance(m, dict) and m.get("what") in MEASUREMENTS:
-            st = m.get("settings") or next(x["settings"] for x in defaults
-                                           if x["what"] == m["what"])
+            st = m.get("settings") or next((x["settings"] for x in defaults
+                                            if x["what"] == m["what"]),
+                                           {"shots": NOMINAL_SHOTS})      # spam
             menu.append({"what": m["what"], "settings": dict(st)})
     menu = menu or defaults
     kinds = sorted({MEASUREMENTS[m["what"]] for m in menu})
