@@ -88,10 +88,14 @@ def _check_states(values, key: str, err, table: str) -> None:
     """Refuse a ``prepared`` value that is no basis state (text ``00`` .. ``11``, as
     ``spam.csv`` records it; ``|00>`` is read as ``00``): the import would make rows
     of a state that does not exist."""
+    states = ", ".join(f'"{s}"' for s in BASIS_STATES)
     for v in values:
-        if not (isinstance(v, str) and v.strip().strip("|>") in BASIS_STATES):
+        if not isinstance(v, str):
+            err.bad(key, f"a prepared state is text, one of {states} (a number loses the "
+                    f"leading zero), got {shown(v)}", table, "prepared")
+        if v.strip().strip("|>") not in BASIS_STATES:
             err.bad(key, f"prepared state {shown(v)} does not exist: the basis states are "
-                    f"{', '.join(BASIS_STATES)} (text)", table, "prepared")
+                    f"{states}", table, "prepared")
 
 
 def column_modifiers(column: str, v: dict, key: str, err, table: str) -> dict:

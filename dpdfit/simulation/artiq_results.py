@@ -27,7 +27,8 @@ from dpdfit.simulation.ndscan_lab import (NdscanLab, duration_axis, epoch, time_
                                           write_calibration_runs, write_campaign_spam_runs,
                                           write_ndscan_gate_runs, write_spectra_runs)
 
-__all__ = ["MAPPINGS", "copy_mapping", "mapping_sources", "write_ndscan_campaign", "write_per_shot_campaign"]
+__all__ = ["MAPPINGS", "copy_mapping", "mapping_sources", "write_ndscan_campaign",
+           "write_per_shot_campaign"]
 
 #: Folder of the annotated mapping files copied next to the results.
 # package data (pyproject.toml), so the writer works from an installed dpdfit too;
