@@ -213,7 +213,6 @@ def write_ndscan_gate_runs(lab: NdscanLab) -> None:
                  count_channels(rows, ("n00", "n01_10", "n11")), args)
 
 
-
 def spam_code(prepared) -> np.ndarray:
     """The prepared basis states (``00`` .. ``11``, the first character the first ion) as
     the integer codes of the SPAM experiment's axis ``prepared``: each state read as a

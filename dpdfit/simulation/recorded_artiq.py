@@ -10,11 +10,10 @@ campaign's last file (calibration runs start at their recorded time, which the m
 reads as their timestamp).  A SPAM characterisation is one run per recording of the
 prepared states (:func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`), imported by the
 mapping's ``[[spam]]`` into ``spam.csv``.  The mapping's ``[campaign]`` table is the
-campaign's ``campaign.json``
-(without its recording times), so that the new files are seen as the same campaign's;
-tables without new rows are left out of it (a glob that matches nothing is an import
-error), so it is read as the mapping of further recordings (``read_mapping(path,
-partial=True)``, as ``dpdfit add`` reads it).
+campaign's ``campaign.json`` (without its recording times), so that the new files are
+seen as the same campaign's; tables without new rows are left out of it (a glob that
+matches nothing is an import error), so it is read as the mapping of further
+recordings (``read_mapping(path, partial=True)``, as ``dpdfit add`` reads it).
 """
 
 from __future__ import annotations
