@@ -215,6 +215,11 @@ class LabTimes:
     #: one experimental shot: Doppler and sideband cooling (several ms) dominate the
     #: 150-310 us gate and ~1 ms detection, so ~10 ms per shot (100 shots/s)
     shot_s: float = 0.01
+    #: one shot of the SPAM characterisation (a basis state prepared, detected, no gate):
+    #: Doppler cooling and optical pumping (~1 ms) and the ~1 ms detection, no sideband
+    #: cooling and no gate, so ~2 ms per shot: 1000 shots of each of |00> and |11> in
+    #: about 4 s, a few minutes with the repeats a decision needs
+    spam_shot_s: float = 0.002
     #: the longest recording the diagnosis proposes (repeats included): a working day
     max_seconds: float = 8 * 3600.0
 

@@ -37,6 +37,12 @@ Required and optional (everything else in the layout is optional):
   recorded again has its counts summed (:func:`~dpdfit.recordings.counts.read_time_scans`).
 * ``traces.csv`` + ``traces/`` -- ``file, A, dpd, fs, fdet, nu, xi0`` (+ ``repeat``:
   the repeat of ``spectra.csv`` the trace is).
+* ``spam.csv`` -- the SPAM characterisation: ``prepared, n00, n01_10, n11, shots``
+  (+ ``run``, ``timestamp``), :func:`~dpdfit.recordings.spam.read_spam`.  A
+  characterisation table
+  (:data:`~dpdfit.recordings.campaign_folder.CHARACTERISATION_FILES`): its absence
+  leaves nothing of the other recordings' analysis out, so
+  :meth:`CampaignFolder.left_out` does not list it.
 
 Nothing is ever written into the folder.
 
@@ -75,12 +81,13 @@ from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
 from .input_files import check_inside, open_input, read_input_json
+from .spam import read_spam
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
 from .traces import check_trace_file
 
 __all__ = ["CampaignFolder", "check_campaign_folder", "META_DEFAULTS", "FILES",
-           "OTHER_FILES", "RECORDING_KEYS", "MAX_FUTURE_DAYS"]
+           "OTHER_FILES", "RECORDING_KEYS", "MAX_FUTURE_DAYS", "CHARACTERISATION_FILES"]
 
 #: campaign.json keys stating when the recordings were taken (optional, ISO 8601)
 RECORDING_KEYS = ("spectra_recorded", "gates_recorded")
@@ -101,7 +108,11 @@ FILES = {
     "gate_rates.csv": "gate-rate calibrations",
     "time_scans.csv": "population time scans",
     "traces.csv": "raw heterodyne traces",
+    "spam.csv": "SPAM characterisation (basis states prepared, detected with no gate)",
 }
+#: the lab's characterisation experiments: optional tables whose absence is not listed
+#: as left out (a campaign without them is analysed as it always was)
+CHARACTERISATION_FILES = ("spam.csv",)
 #: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
 OTHER_FILES = ("budget.toml",)
 
@@ -352,20 +363,29 @@ class CampaignFolder:
                                        file=name, column="file", row=i + 1) from None
         return df
 
+    @functools.cached_property
+    def spam(self) -> pd.DataFrame | None:
+        """``prepared, n00, n01_10, n11, shots`` (+ ``run``, ``timestamp``), one row per
+        prepared state, repeated recordings pooled (:func:`~.spam.read_spam`), None
+        without ``spam.csv``."""
+        if not self.has("spam.csv"):
+            return None
+        return read_spam(self.file("spam.csv"), within=self.path)
+
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
         :mod:`~dpdfit.recordings.plausibility`): such a campaign is refused as a whole.
         A file that is malformed is left to the analyses that read it, except
-        ``time_scans.csv`` (counts above the shots, say), which no analysis of its own
-        reads: it is refused here, at once, not after every analysis ran."""
+        ``time_scans.csv`` and ``spam.csv`` (counts above the shots, say), which no analysis
+        of its own reads: they are refused here, at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
-                     "gate_rates", "time_scans", "traces"):
+                     "gate_rates", "time_scans", "traces", "spam"):
             try:
                 getattr(self, name)
             except InputError as exc:
                 if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
-                        name == "time_scans"):
+                        name in ("time_scans", "spam")):
                     raise
 
     # -------------------------------------------------------------- left out
@@ -374,7 +394,8 @@ class CampaignFolder:
         files, optional columns of the files present (``consequences``:
         :func:`~dpdfit.recordings.columns.missing_column_lines`), defaulted campaign.json keys."""
         out = [f"{name} absent ({what})" for name, what in FILES.items()
-               if name not in ("campaign.json", "calibration_amplitude.csv")
+               if name not in ("campaign.json", "calibration_amplitude.csv",
+                               *CHARACTERISATION_FILES)
                and not self.has(name)]
         for table in CAMPAIGN_TABLES:          # a file absent lacks no column
             out += missing_column_lines(self.file(f"{table}.csv"), table, consequences,

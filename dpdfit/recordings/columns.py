@@ -4,7 +4,8 @@ Stated once: the readers (:func:`~dpdfit.recordings.tables.read_calibration_tabl
 :attr:`~dpdfit.recordings.campaign_folder.CampaignFolder.spectra` and
 ``time_scans``, :func:`~dpdfit.recordings.counts.read_populations`,
 :func:`~dpdfit.recordings.counts.read_parity`,
-:func:`~dpdfit.recordings.gate_rates.read_gate_rates`) read these, and the import
+:func:`~dpdfit.recordings.gate_rates.read_gate_rates`,
+:func:`~dpdfit.recordings.spam.read_spam`) read these, and the import
 mapping derives its columns from them (:data:`dpdfit.recordings.mapping.TABLE_COLUMNS`).
 Each entry is ``(required, optional)``; ``populations.csv`` needs ``n_even`` or the
 three counts ``n00, n01_10, n11`` besides its required columns.
@@ -31,11 +32,15 @@ CAMPAIGN_TABLES = {
     "parity": (("A", "dpd", "scan", "phase_rad", "n_even", "shots"), ()),
     "time_scans": (("A", "dpd", "t_us", "n00", "n11", "shots"), ("n01_10",)),
     "gate_rates": (("A", "dpd", "xi0_khz"), ("xi0_err_khz",)),
+    "spam": (("prepared", "n00", "n01_10", "n11", "shots"), ("run", "timestamp")),
 }
 
 #: optional columns whose absence leaves nothing out (a label the reader can infer):
 #: never listed as missing
 LABELS_ONLY = ("repeat",)
+#: tables none of whose optional columns any analysis reads (labels of the lab's own):
+#: their absence is never listed either
+_LABELLED_ONLY = ("spam",)
 
 
 def header_columns(path: str | os.PathLike, *, within=None) -> list[str]:
@@ -62,12 +67,14 @@ def missing_optional_columns(path: str | os.PathLike, table: str, *,
                              within=None) -> list[str]:
     """The optional columns of ``table`` that the header of its file ``path`` lacks
     (for ``populations`` the three counts ``n00, n01_10, n11``: ``n_even`` follows from
-    them; never the :data:`LABELS_ONLY`).  Only the header is read (inside ``within``
+    them; never the :data:`LABELS_ONLY`, nor the labels of ``spam``).  Only the header is read (inside ``within``
     when given); a file whose header cannot be read lacks nothing here (its reader says
     what is wrong)."""
     try:
         have = set(header_columns(path, within=within))
     except InputError:
+        return []
+    if table in _LABELLED_ONLY:
         return []
     wanted = ("n00", "n01_10", "n11") if table == "populations" else CAMPAIGN_TABLES[table][1]
     return [c for c in wanted if c not in have and c not in LABELS_ONLY]

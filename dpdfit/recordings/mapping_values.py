@@ -15,6 +15,7 @@ import math
 from dpdfit.core.defaults import INTEGER_MAX, ErrorModel
 from dpdfit.errors import InputError
 
+from .spam import BASIS_STATES
 from .units import COLUMN_KINDS
 from .value_formats import FormatError, check_format
 
@@ -79,6 +80,22 @@ def check_constant(column: str, v, key: str, err, table: str) -> None:
     if not (is_number(v) or text and isinstance(v, (str, datetime.date, datetime.time))):
         err.bad(key, f"a constant of {column} must be {'text or ' if text else ''}a number, "
                 f"got {shown(v)}", table, column)
+    if column == "prepared":
+        _check_states([v], key, err, table)
+
+
+def _check_states(values, key: str, err, table: str) -> None:
+    """Refuse a ``prepared`` value that is no basis state (text ``00`` .. ``11``, as
+    ``spam.csv`` records it; ``|00>`` is read as ``00``): the import would make rows
+    of a state that does not exist."""
+    states = ", ".join(f'"{s}"' for s in BASIS_STATES)
+    for v in values:
+        if not isinstance(v, str):
+            err.bad(key, f"a prepared state is text, one of {states} (a number loses the "
+                    f"leading zero), got {shown(v)}", table, "prepared")
+        if v.strip().strip("|>") not in BASIS_STATES:
+            err.bad(key, f"prepared state {shown(v)} does not exist: the basis states are "
+                    f"{states}", table, "prepared")
 
 
 def column_modifiers(column: str, v: dict, key: str, err, table: str) -> dict:
@@ -98,6 +115,8 @@ def column_modifiers(column: str, v: dict, key: str, err, table: str) -> dict:
                                    and all(isinstance(x, str) for x in labels.values())):
         err.bad(f"{key}.labels", "must be a table { code = \"name\" } (each name a string)",
                 table, column)
+    if labels is not None and column == "prepared":
+        _check_states(labels.values(), f"{key}.labels", err, table)
     fs = v.get("full_scale_dbm")
     if fs is not None and not (is_number(fs) and math.isfinite(fs)):
         err.bad(f"{key}.full_scale_dbm", f"must be a finite number (dBm), got {shown(fs)}",

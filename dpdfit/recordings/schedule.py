@@ -5,19 +5,21 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 
 ``kind``
     What is recorded: ``amplitude_run``, ``phase_run``, ``spectra``, ``populations``,
-    ``parity`` or ``time_scan`` (the diagnosis's ``next_measurement.what``).
+    ``parity``, ``time_scan`` or ``spam`` (the diagnosis's ``next_measurement.what``).
 ``repeat``
     Which repeat (run, scan, trace) the row belongs to: 1, 2, ...
 ``point``
     The point within its repeat: 0, 1, ... (the order to record them in).
 ``A``
     The amplitude of the point: a grid point of a calibration run, the amplitude of a
-    trace, the gate setting of a scan (normalised RF amplitude, 0..1).
+    trace, the gate setting of a scan (normalised RF amplitude, 0..1); 0 for a SPAM
+    point (no gate is driven).
 ``dpd``
-    0 or 1 (with or without predistortion); empty for calibration runs.
+    0 or 1 (with or without predistortion); empty for calibration runs and SPAM points.
 ``shots``
     Shots of the point: of the population scan, of one phase of a parity scan, of one
-    time of a time scan; empty for calibration runs and spectra.
+    time of a time scan, of one prepared state of a SPAM characterisation; empty for
+    calibration runs and spectra.
 ``phase_rad``
     The analysis phase of a parity point (rad); empty otherwise.
 ``t_us``
@@ -25,10 +27,10 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 ``lab_s``
     The row's own lab time (seconds), as the diagnosis counted it
     (:class:`~dpdfit.core.defaults.LabTimes`): ``shots`` times ``shot_s`` for a scan
-    point, ``spectrum_trace_s`` for a trace, the run's time over its grid points for a
-    calibration-run point.  The column sums to the proposal's ``lab_seconds`` (rescaled
-    to it when the proposal was made with other lab times).  The waits between paced
-    calibration runs are not lab time.
+    point (``spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace, the run's
+    time over its grid points for a calibration-run point.  The column sums to the
+    proposal's ``lab_seconds`` (rescaled to it when the proposal was made with other lab
+    times).  The waits between paced calibration runs are not lab time.
 ``day``
     The day of the row's session (integer): 0 is the next session, which the proposal
     predicts as if it were the day of the campaign's latest recording ("now"); a
@@ -41,10 +43,15 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     Spectra only: the repeatability of a tone's power between traces (dB, 1 sigma) the
     diagnosis learnt from the campaign's spectra and assumed for each trace (one row is
     one trace, captured as the campaign's traces were); empty otherwise.
+``prepared``
+    Only in a schedule with ``spam`` rows (the other schedules keep the columns above):
+    the basis state a SPAM point prepares, ``00``, ``01``, ``10`` or ``11`` (as
+    ``spam.csv`` records it); empty for the other kinds.
 
-The last three columns came later and are optional: a schedule without them is read
-with them empty.  Rows of every kind are taken back to back, except calibration runs,
-which are paced (:mod:`dpdfit.analyses.diagnosis.proposal.schedule`).
+The columns ``day``, ``start_s`` and ``tone_sd_db`` came later and are optional: a
+schedule without them is read with them empty.  Rows of every kind are taken back to
+back, except calibration runs, which are paced
+(:mod:`dpdfit.analyses.diagnosis.proposal.schedule`).
 
 :func:`read_schedule` checks a schedule file (one :class:`~dpdfit.errors.InputError`
 line naming the file, column and row for anything that cannot be recorded);
@@ -64,7 +71,8 @@ from dpdfit.recordings.outputs import atomic_write_text, csv_table_text
 from dpdfit.recordings.tables import read_table
 
 __all__ = ["SCHEDULE_COLUMNS", "OPTIONAL_COLUMNS", "SCHEDULE_KINDS", "RUN_KINDS",
-           "SCAN_KINDS", "read_schedule", "write_schedule", "check_schedule"]
+           "SCAN_KINDS", "CHARACTERISATION_KINDS", "read_schedule", "write_schedule",
+           "check_schedule"]
 
 #: the schedule's columns, in order (a contract: labs' experiments read them by name)
 SCHEDULE_COLUMNS = ("kind", "repeat", "point", "A", "dpd", "shots", "phase_rad", "t_us",
@@ -75,12 +83,17 @@ OPTIONAL_COLUMNS = SCHEDULE_COLUMNS[4:]
 RUN_KINDS = ("amplitude_run", "phase_run")
 #: gate recordings: a setting (A, dpd) and shots per point
 SCAN_KINDS = ("populations", "parity", "time_scan")
+#: the lab's characterisation experiments: no gate setting (``A`` 0, no flag), shots
+CHARACTERISATION_KINDS = ("spam",)
 #: every kind of recording a schedule may hold (the diagnosis's menu)
-SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS
+SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS
+#: the column a schedule has only when it holds ``spam`` rows (after the others)
+_PREPARED = "prepared"
+_BASIS_STATES = ("00", "01", "10", "11")
 #: per kind, the columns its rows must fill (besides kind, repeat, point, A)
 _NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
           "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
-          "time_scan": ("dpd", "shots", "t_us")}
+          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",)}
 #: per kind, the columns that must not change within one repeat
 _CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
              "time_scan": ("A", "dpd", "shots")}
@@ -147,28 +160,51 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
             df[col] = np.nan
         df[col] = _numbers(df[col], col, name)
     _check_values(df, kind.to_numpy(), name)
+    spam = _check_prepared(df, kind.to_numpy(), name)
     _check_repeats(df, name)
     # counts as integers (empty where a kind has none), so that the table reads as written
     for col in ("repeat", "point"):
         df[col] = df[col].astype("int64")
     for col in ("dpd", "shots", "day"):
         df[col] = df[col].round().astype("Int64")
-    return df[list(SCHEDULE_COLUMNS)]
+    return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])]
+
+
+def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
+    """Each ``spam`` row's ``prepared`` is a basis state (text ``00`` .. ``11``; empty on
+    the other rows); whether the schedule has ``spam`` rows."""
+    spam = kind == "spam"
+    if not spam.any():
+        return False
+    if _PREPARED not in df.columns:
+        _fail(f"column '{_PREPARED}' is missing (the 'spam' rows need it)", name)
+    text = df[_PREPARED].astype("string").fillna("").str.strip().to_numpy(dtype=object)
+    bad = np.flatnonzero(spam & ~np.isin(text, _BASIS_STATES))
+    if bad.size:
+        _fail(f"prepared state {text[bad[0]]!r} does not exist (the basis states: "
+              f"{', '.join(_BASIS_STATES)})", name, _PREPARED, bad[0])
+    df[_PREPARED] = np.where(spam, text, "")
+    return True
 
 
 def _check_values(df: pd.DataFrame, kind: np.ndarray, name: str) -> None:
     runs = np.isin(kind, RUN_KINDS)
+    ungated = np.isin(kind, CHARACTERISATION_KINDS)
     A = df["A"].to_numpy(float)
-    bad = np.flatnonzero(~((A >= 0) & (A <= 1)) | (~runs & (A == 0)))
+    bad = np.flatnonzero(~((A >= 0) & (A <= 1)) | (~runs & ~ungated & (A == 0))
+                         | (ungated & (A != 0)))
     if bad.size:
-        where = "[0, 1]" if runs[bad[0]] else "(0, 1]"
-        _fail(f"amplitude {A[bad[0]]:g} is outside {where}", name, "A", bad[0])
-    flagged = ~runs
+        where = ("0 (no gate is driven)" if ungated[bad[0]] else
+                 "[0, 1]" if runs[bad[0]] else "(0, 1]")
+        _fail(f"amplitude {A[bad[0]]:g} is outside {where}" if not ungated[bad[0]] else
+              f"amplitude {A[bad[0]]:g} of a {kind[bad[0]]} point must be {where}",
+              name, "A", bad[0])
+    flagged = ~runs & ~ungated
     d = df["dpd"].to_numpy(float)
     bad = np.flatnonzero(flagged & ~np.isin(d, (0.0, 1.0)))
     if bad.size:
         _fail(f"dpd {d[bad[0]]:g} is not a flag (0 or 1)", name, "dpd", bad[0])
-    _integers(df, "shots", np.isin(kind, SCAN_KINDS), 1, name)
+    _integers(df, "shots", np.isin(kind, SCAN_KINDS + CHARACTERISATION_KINDS), 1, name)
     for col in ("t_us", "lab_s", "start_s"):
         v = df[col].to_numpy(float)
         bad = np.flatnonzero(np.isfinite(v) & (v < 0) | np.isinf(v))
@@ -232,7 +268,8 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
         passes that many, the rest not read.
     """
     name = str(path)
-    df = read_table(path, ["kind", "repeat", "point", "A"], list(OPTIONAL_COLUMNS),
+    df = read_table(path, ["kind", "repeat", "point", "A"],
+                    list(OPTIONAL_COLUMNS) + [_PREPARED],
                     numeric=["repeat", "point", "A"], max_rows=MAX_SCHEDULE_ROWS)
     return check_schedule(df, name)
 

@@ -86,6 +86,7 @@ COLUMN_KINDS = {
     # the photodiode signal is in the lab's own (arbitrary) unit: taken as stored
     "power": ("any", ""), "power_err": ("any", ""),
     "run": ("label", ""), "timestamp": ("label", ""), "sideband": ("label", ""),
+    "prepared": ("label", ""),
 }
 
 

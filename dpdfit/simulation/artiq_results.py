@@ -24,10 +24,11 @@ import numpy as np
 from dpdfit.errors import DpdfitError
 from dpdfit.simulation.artiq_results_file import axis, channel, stored_in_si
 from dpdfit.simulation.ndscan_lab import (NdscanLab, duration_axis, epoch, time_scan_runs,
-                                          write_calibration_runs, write_ndscan_gate_runs,
-                                          write_spectra_runs)
+                                          write_calibration_runs, write_campaign_spam_runs,
+                                          write_ndscan_gate_runs, write_spectra_runs)
 
-__all__ = ["MAPPINGS", "copy_mapping", "write_ndscan_campaign", "write_per_shot_campaign"]
+__all__ = ["MAPPINGS", "copy_mapping", "mapping_sources", "write_ndscan_campaign",
+           "write_per_shot_campaign"]
 
 #: Folder of the annotated mapping files copied next to the results.
 # package data (pyproject.toml), so the writer works from an installed dpdfit too;
@@ -43,14 +44,20 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     One file per calibration run (axis ``amplitude``), per dpd for spectra (axes
     ``amplitude``, ``sideband``, ``order``) and populations (axis ``amplitude``,
     the scans as repeats), per (A, dpd) for parity (axis ``phase``, rad) and time
-    scans (axis ``duration``), one for the gate rates (axes ``amplitude``, ``dpd``).
-    Returns the path of ``out_dir/mapping.toml`` (a copy of ``ndscan_campaign.toml``).
+    scans (axis ``duration``), one for the gate rates (axes ``amplitude``, ``dpd``), and,
+    when the campaign has ``spam.csv``, one per SPAM recording (axis ``prepared``, a
+    code: :func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`).
+    Returns the path of ``out_dir/mapping.toml`` (a copy of ``ndscan_campaign.toml``;
+    without ``spam.csv`` its ``[[spam]]`` source is left out, a glob that would match
+    no file).
     """
     lab = NdscanLab(campaign_dir, out_dir)
     write_calibration_runs(lab, percent=False)
     write_spectra_runs(lab, False, 240.0)
     write_ndscan_gate_runs(lab)
-    return copy_mapping("ndscan_campaign.toml", lab.campaign, out_dir)
+    write_campaign_spam_runs(lab)
+    return copy_mapping("ndscan_campaign.toml", lab.campaign, out_dir,
+                        [t for t, rows in lab.t.items() if t != "spam" or len(rows)])
 
 
 def _bright_ions(counts: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -135,9 +142,31 @@ def _toml_table(name: str, table: dict) -> list:
     return lines
 
 
-def copy_mapping(name: str, campaign: dict, out_dir) -> Path:
+def mapping_sources(text: str, tables) -> str:
+    """A mapping's text with the sources (``[[table]]`` entries) of ``tables`` only: each
+    source's block, from the comment paragraph above its header to the next one's, is
+    kept or left out whole; the text before the first source is kept."""
+    lines = text.split("\n")
+    heads = [i for i, s in enumerate(lines) if s.startswith("[[")]
+    if not heads:
+        return text
+    starts = []
+    for i in heads:                  # a source's block begins with its comment paragraph
+        while i > 0 and lines[i - 1].startswith("#"):
+            i -= 1
+        starts.append(i)
+    keep = lines[:starts[0]]
+    for k, (i, s) in enumerate(zip(heads, starts)):
+        end = starts[k + 1] if k + 1 < len(starts) else len(lines)
+        if lines[i].strip("[] ") in tables:
+            keep += lines[s:end]
+    return "\n".join(keep)
+
+
+def copy_mapping(name: str, campaign: dict, out_dir, tables=None) -> Path:
     """Copy mapping ``name`` to ``out_dir/mapping.toml``; its [campaign] block (between the
-    marker lines) is replaced by the campaign's keys when they differ."""
+    marker lines) is replaced by the campaign's keys when they differ; with ``tables``,
+    only those tables' sources are kept (:func:`mapping_sources`)."""
     source = MAPPINGS / name
     if not source.is_file():
         raise DpdfitError(f"mapping file {source} not found (it ships with dpdfit as package data)")
@@ -149,6 +178,8 @@ def copy_mapping(name: str, campaign: dict, out_dir) -> Path:
         first = block.split("\n", 1)[0]
         lines = [head + _MARK[0] + first, *_toml_table("campaign", wanted), _MARK[1] + tail]
         text = "\n".join(lines)
+    if tables is not None:
+        text = mapping_sources(text, tables)
     out = Path(out_dir, "mapping.toml")
     out.write_text(text)
     return out

@@ -25,9 +25,12 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
+#: ``spam`` is drawn when the proposal's menu offers it; :func:`default_menu` (the menu
+#: of a proposal without one) leaves it out, so that a blind choice without a menu is
+#: drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan"}
+                "time_scan": "time_scan", "spam": "spam"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -75,7 +78,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         [...], "dpd": [0, 1]}``), ``populations`` / ``parity`` (``{"A", "dpd",
         "shots"}``: parity shots are the scan's total over its phases, as the
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
-        shots per point, points after the start; the scan also records ``t = 0``).
+        shots per point, points after the start; the scan also records ``t = 0``),
+        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``).
 
     Returns
     -------
@@ -132,6 +136,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
+    if what == "spam":
+        shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
+        return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")
@@ -164,6 +171,11 @@ def schedule_measurements(schedule) -> list:
         rows = df[df["kind"] == kind]
         if kind in ("amplitude_run", "phase_run"):
             out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
+            continue
+        if kind == "spam":
+            for shots, reps in rows.groupby("shots", sort=False):
+                st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
+                out.append({"what": kind, "settings": st})
             continue
         if kind == "spectra":
             amps = rows.drop_duplicates(["repeat", "A"])["A"].tolist()
@@ -206,7 +218,9 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     Returns
     -------
     list of dict
-        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS`.
+        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` (a
+        characterisation only a menu that offers it draws: the default menu's kinds, and
+        so its draws, are those it had before SPAM could be recorded).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)
@@ -251,8 +265,9 @@ def random_menu_choice(rng: np.random.Generator, measurement: dict | None,
     for m in (measurement or {}).get("menu") or ():
         m = {"what": m} if isinstance(m, str) else m
         if isinstance(m, dict) and m.get("what") in MEASUREMENTS:
-            st = m.get("settings") or next(x["settings"] for x in defaults
-                                           if x["what"] == m["what"])
+            st = m.get("settings") or next((x["settings"] for x in defaults
+                                            if x["what"] == m["what"]),
+                                           {"shots": NOMINAL_SHOTS})      # spam
             menu.append({"what": m["what"], "settings": dict(st)})
     menu = menu or defaults
     kinds = sorted({MEASUREMENTS[m["what"]] for m in menu})

@@ -4,14 +4,16 @@
 (:func:`~dpdfit.simulation.artiq_results_file.write_results_file`) with the next rid.
 The runs every layout shares: one per calibration run (:func:`write_calibration_runs`),
 the spectra (:func:`write_spectra_runs`), and the ndscan set's gate runs
-(:func:`write_ndscan_gate_runs`); :mod:`dpdfit.simulation.artiq_results` writes whole
-campaigns with them and :mod:`dpdfit.simulation.recorded_artiq` continues one.
+(:func:`write_ndscan_gate_runs`) and SPAM characterisations (:func:`write_spam_runs`);
+:mod:`dpdfit.simulation.artiq_results` writes whole campaigns with them and
+:mod:`dpdfit.simulation.recorded_artiq` continues one.
 """
 
 from __future__ import annotations
 
 import io
 import itertools
+import os
 from datetime import datetime
 from pathlib import Path
 
@@ -19,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from dpdfit.errors import DpdfitError, InputError
-from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.recordings.campaign_folder import CHARACTERISATION_FILES, CampaignFolder
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.csv_text import parse_csv_strings
 from dpdfit.recordings.input_files import read_input_bytes
@@ -28,7 +30,12 @@ from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets
                                                   write_results_file)
 
 __all__ = ["NdscanLab", "read_campaign_table", "read_campaign_json", "campaign_meta", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
-           "time_scan_runs", "count_channels", "write_ndscan_gate_runs"]
+           "time_scan_runs", "count_channels", "write_ndscan_gate_runs", "SPAM_EXPERIMENT",
+           "spam_code", "spam_runs", "write_spam_runs", "write_campaign_spam_runs"]
+
+#: the ndscan fragment of the lab's SPAM characterisation (its results files end
+#: ``-SpamCharacterisation.h5``)
+SPAM_EXPERIMENT = "lab.characterisation.SpamCharacterisation"
 
 
 def read_campaign_table(folder, table: str) -> pd.DataFrame:
@@ -88,14 +95,19 @@ class NdscanLab:
     the runs written from them into ``out`` (``rid``: the last run's, in order)."""
 
     def __init__(self, campaign_dir, out):
-        self.t = {n: read_campaign_table(campaign_dir, n) for n in CAMPAIGN_TABLES}
+        # a characterisation table (spam.csv) is optional: empty when the campaign has none
+        self.t = {n: read_campaign_table(campaign_dir, n)
+                  if f"{n}.csv" not in CHARACTERISATION_FILES
+                  or os.path.lexists(Path(campaign_dir, f"{n}.csv")) else pd.DataFrame()
+                  for n in CAMPAIGN_TABLES}
         self.campaign = read_campaign_json(campaign_dir)
-        self.out, self.rid = Path(out), 0
+        self.out, self.rid, self.last = Path(out), 0, None
 
     def run(self, class_name, start, datasets, arguments=None, metadata=None):
         """Write the next run (``rid + 1``) of experiment ``class_name``, started at
         ``start`` (s since the epoch), as a results file in ``out``."""
         self.rid += 1
+        self.last = start if self.last is None else max(self.last, start)
         write_results_file(self.out, self.rid, class_name, start, datasets, arguments=arguments,
                            metadata=metadata)
 
@@ -200,3 +212,50 @@ def write_ndscan_gate_runs(lab: NdscanLab) -> None:
         lab.scan("lab.gates.TimeScan", next(clock), [duration_axis(rows)],
                  count_channels(rows, ("n00", "n01_10", "n11")), args)
 
+
+def spam_code(prepared) -> np.ndarray:
+    """The prepared basis states (``00`` .. ``11``, the first character the first ion) as
+    the integer codes of the SPAM experiment's axis ``prepared``: each state read as a
+    binary number (``00`` -> 0, ``01`` -> 1, ``10`` -> 2, ``11`` -> 3), which the
+    mapping's ``labels`` turn back into the text ``spam.csv`` records."""
+    # pandas may have read 00 as the number 0; a lab may write |00>
+    text = pd.Series(prepared).astype(str).str.strip().str.strip("|>").str.zfill(2)
+    bad = [s for s in text if s not in ("00", "01", "10", "11")]
+    if bad:
+        raise DpdfitError(f"spam: prepared state {bad[0]!r} is not a basis state "
+                          "(00, 01, 10, 11)")
+    return np.array([int(s, 2) for s in text], dtype=np.int64)
+
+
+def spam_runs(rows: pd.DataFrame) -> list:
+    """The SPAM rows as the runs a lab records them in, in order: a run prepares each
+    state once with one number of shots, so a state prepared again (or other shots)
+    begins the next run.  Each run's rows, consecutive as in ``rows``."""
+    if not len(rows):
+        return []
+    codes, shots = spam_code(rows["prepared"]), rows["shots"].to_numpy(np.int64)
+    starts, seen = [0], set()
+    for i, (c, n) in enumerate(zip(codes, shots)):
+        if c in seen or (i and n != shots[starts[-1]]):
+            starts.append(i)
+            seen = set()
+        seen.add(c)
+    return [rows.iloc[a:b] for a, b in zip(starts, starts[1:] + [len(rows)])]
+
+
+def write_spam_runs(lab: NdscanLab, clock) -> None:
+    """One run of :data:`SPAM_EXPERIMENT` per SPAM recording (:func:`spam_runs`) of
+    ``lab.t['spam']``, started at the times ``clock`` gives: the prepared state the scan
+    axis (:func:`spam_code`), the detected outcomes result channels, the shots the
+    argument ``num_shots``."""
+    for rows in spam_runs(lab.t["spam"]):
+        lab.scan(SPAM_EXPERIMENT, next(clock), [axis("prepared", spam_code(rows["prepared"]))],
+                 count_channels(rows, ("n00", "n01_10", "n11")),
+                 {"num_shots": int(rows["shots"].iloc[0])})
+
+
+def write_campaign_spam_runs(lab: NdscanLab) -> None:
+    """The campaign's SPAM recordings (``spam.csv``, if it has one), 300 s apart after
+    its last run: a characterisation taken once the gates were recorded."""
+    if len(lab.t["spam"]):
+        write_spam_runs(lab, itertools.count(lab.last + 300.0, 300.0))

@@ -5,13 +5,15 @@ are written with the ndscan layout of :func:`~dpdfit.simulation.artiq_results.wr
 (its runs, :mod:`~dpdfit.simulation.ndscan_lab`, and its mapping), continuing the campaign
 as its own files would have been numbered: an amplitude run's rid is its run number (the
 mapping labels it ``R{rid:03d}``), every other file's rid comes after every rid the
-campaign's files would have, and the spectra and gate files start after the campaign's
-last file (calibration runs start at their recorded time, which the mapping reads as
-their timestamp).  The mapping's ``[campaign]`` table is the campaign's ``campaign.json``
-(without its recording times), so that the new files are seen as the same campaign's;
-tables without new rows are left out of it (a glob that matches nothing is an import
-error), so it is read as the mapping of further recordings (``read_mapping(path,
-partial=True)``, as ``dpdfit add`` reads it).
+campaign's files would have, and the spectra, gate and SPAM files start after the
+campaign's last file (calibration runs start at their recorded time, which the mapping
+reads as their timestamp).  A SPAM characterisation is one run per recording of the
+prepared states (:func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`), imported by the
+mapping's ``[[spam]]`` into ``spam.csv``.  The mapping's ``[campaign]`` table is the
+campaign's ``campaign.json`` (without its recording times), so that the new files are
+seen as the same campaign's; tables without new rows are left out of it (a glob that
+matches nothing is an import error), so it is read as the mapping of further
+recordings (``read_mapping(path, partial=True)``, as ``dpdfit add`` reads it).
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_axis, epoch,
                                           campaign_meta, read_campaign_table,
                                           time_scan_runs, write_calibration_runs,
-                                          write_ndscan_gate_runs, write_spectra_runs)
+                                          write_campaign_spam_runs, write_ndscan_gate_runs,
+                                          write_spam_runs, write_spectra_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
@@ -79,6 +82,7 @@ def campaign_files_end(tables: dict, campaign: dict) -> tuple:
         write_spectra_runs(lab, False, 240.0)
     if all(len(lab.t[t]) for t in ("gate_rates", "populations", "parity", "time_scans")):
         write_ndscan_gate_runs(lab)
+    write_campaign_spam_runs(lab)
     times = [epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
              if k in campaign]
     return lab.rid, max([t for t in (lab.last,) if t is not None] + times)
@@ -141,20 +145,8 @@ def _gates(lab: _Counted, clock) -> None:
 def _mapping_text(campaign: dict, tables, tmp: Path) -> str:
     """The shipped ndscan mapping with the campaign's constants, its sources cut to
     ``tables``."""
-    text = copy_mapping("ndscan_campaign.toml", campaign, tmp).read_text()
-    lines = text.split("\n")
-    heads = [i for i, s in enumerate(lines) if s.startswith("[[")]
-    starts = []
-    for i in heads:                  # a source's block begins with its comment paragraph
-        while i > 0 and lines[i - 1].startswith("#"):
-            i -= 1
-        starts.append(i)
-    keep = lines[:starts[0]]
-    for k, (i, s) in enumerate(zip(heads, starts)):
-        end = starts[k + 1] if k + 1 < len(starts) else len(lines)
-        if lines[i].strip("[] ") in tables:
-            keep += lines[s:end]
-    out = _HEADER.format(name=campaign.get("name", "campaign")) + "\n".join(keep)
+    text = copy_mapping("ndscan_campaign.toml", campaign, tmp, tables).read_text()
+    out = _HEADER.format(name=campaign.get("name", "campaign")) + text
     got = {k for k, v in tomllib.loads(out).items() if isinstance(v, list)}
     if got != set(tables):                     # the shipped mapping's layout changed
         raise RuntimeError(f"mapping sources {sorted(got)} are not {sorted(tables)}")
@@ -196,7 +188,10 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
             _phase_runs(lab, t["calibration_phase"])
         if len(t["spectra"]):
             write_spectra_runs(lab, False, 240.0)
-        _gates(lab, itertools.count(max(lab.last or last_time, last_time) + _AFTER, 300.0))
+        clock = itertools.count(max(lab.last or last_time, last_time) + _AFTER, 300.0)
+        _gates(lab, clock)
+        if len(t["spam"]):
+            write_spam_runs(lab, clock)
         text = _mapping_text(campaign, [n for n in CAMPAIGN_TABLES if len(t[n])], tmp)
         (tmp / "mapping.toml").write_text(text)
     return out / "mapping.toml"

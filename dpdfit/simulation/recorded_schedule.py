@@ -37,15 +37,18 @@ from dpdfit.simulation.campaign.calibration_runs import calibration_runs
 from dpdfit.simulation.campaign.folder import csv_text
 from dpdfit.simulation.campaign.gate_runs import further_gate_rows, gate_tables
 from dpdfit.simulation.campaign.optics import dpd_lut
+from dpdfit.simulation.campaign.spam_runs import spam_table
 from dpdfit.simulation.campaign.spectra import spectra_tables
 from dpdfit.simulation.further_recordings import extend_config
 
-__all__ = ["TABLES", "StandInRecording", "extended_config", "record_further", "as_written",
+__all__ = ["TABLES", "CHARACTERISATION_TABLES", "StandInRecording", "extended_config", "record_further", "as_written",
            "simulated_tables", "difference_rows", "check_replayed"]
 
 #: The campaign tables a further recording can add rows to, in the campaign's order.
 TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
           "gate_rates", "time_scans")
+#: the lab's characterisation tables a further recording can add (a campaign may have none)
+CHARACTERISATION_TABLES = ("spam",)
 #: agreement of a replayed value with the campaign's table: truth.json and the CSVs keep
 #: 10 significant digits, and the processor's BLAS kernel rounds differently in the last
 #: bits, which moves a float by ~1e-8 relative through the calibration fit and the
@@ -114,7 +117,8 @@ def as_written(rows: pd.DataFrame) -> pd.DataFrame:
     """The rows as the simulator writes them into a campaign folder (its CSV text, 10
     significant digits: :func:`~dpdfit.simulation.campaign.folder.csv_text`) and reads
     them back: what a recording of the simulator holds, to the last digit."""
-    return pd.read_csv(io.StringIO(csv_text(rows)))
+    # a prepared basis state is text (00, not the number 0)
+    return pd.read_csv(io.StringIO(csv_text(rows)), dtype={"prepared": str})
 
 
 def _new_runs(table: pd.DataFrame, old_runs: int) -> pd.DataFrame:
@@ -173,9 +177,11 @@ def record_further(cfg: CampaignConfig, measurements, *, original: dict | None =
             new.update(populations=pop, parity=par, gate_rates=rates, time_scans=ts)
             replayed.update(populations=done["pop"], parity=done["par"],
                             gate_rates=done["rates"])
+        new["spam"] = spam_table(ext, further_from=len(cfg.further))
     if original is not None:
         check_replayed(replayed, original, new)
-    tables = {t: as_written(new[t]) for t in TABLES if t in new and len(new[t])}
+    tables = {t: as_written(new[t]) for t in (*TABLES, *CHARACTERISATION_TABLES)
+              if t in new and len(new[t])}
     return StandInRecording(tables=tables, measurements=measurements, config=ext,
                             seconds=time.perf_counter() - t0)
 
@@ -192,6 +198,9 @@ def simulated_tables(cfg: CampaignConfig, *, include_spectra: bool = True,
         if include_gates:
             pop, par, rates, ts, _ = gate_tables(cfg, aom, lut, _Quiet)
             out.update(populations=pop, parity=par, gate_rates=rates, time_scans=ts)
+        spam = spam_table(cfg)
+        if len(spam):
+            out["spam"] = spam
     return out
 
 
@@ -207,11 +216,12 @@ def difference_rows(cfg: CampaignConfig, measurements, before: dict | None = Non
     before = simulated_tables(cfg, **kw) if before is None else before
     after = simulated_tables(extended_config(cfg, measurements), **kw)
     out = {}
-    for t, old in before.items():
-        head = after[t].iloc[:len(old)].reset_index(drop=True)
+    for t, rows in after.items():
+        old = before.get(t, rows.iloc[:0])      # a table the campaign has not: all new
+        head = rows.iloc[:len(old)].reset_index(drop=True)
         pd.testing.assert_frame_equal(head, old.reset_index(drop=True), check_exact=True)
-        if len(after[t]) > len(old):
-            out[t] = as_written(after[t].iloc[len(old):])
+        if len(rows) > len(old):
+            out[t] = as_written(rows.iloc[len(old):])
     return out
 
 

@@ -33,6 +33,8 @@ _POINTS = {
     "parity": ("parity", {"A": "A", "dpd": "dpd", "phase_rad": "phase_rad",
                           "shots": "shots"}),
     "time_scan": ("time_scans", {"A": "A", "dpd": "dpd", "t_us": "t_us", "shots": "shots"}),
+    # the prepared state as a number (00 -> 0, 01 -> 1, 10 -> 10, 11 -> 11): distinct
+    "spam": ("spam", {"prepared": "prepared", "shots": "shots"}),
 }
 #: significant digits a point's values must share (the campaign's CSVs keep 10)
 _DIGITS = 8

@@ -2,15 +2,17 @@
 
 ``dpdfit diagnose CAMPAIGN --schedule schedule.csv`` writes the recording the diagnosis
 proposes as one row per point and repeat (kind, repeat, point, A, dpd, shots, phase_rad,
-t_us, lab_s, day, start_s, tone_sd_db).  Each experiment below reads the rows of its kind,
-records them in order and archives one value per point in plain datasets, the names that
+t_us, lab_s, day, start_s, tone_sd_db; and prepared, in a schedule of a SPAM
+characterisation).  Each experiment below reads the rows of its kind, records them in
+order and archives one value per point in plain datasets, the names that
 ``scheduled_recording.toml`` maps to dpdfit's tables; ``dpdfit add CAMPAIGN
 scheduled_recording.toml -o CAMPAIGN_PLUS`` then merges the results into a copy of the
 campaign.
 
 Only the ``measure_*`` methods are the lab's: replace their bodies with your own
 sequences (cooling, the gate with or without the predistortion table at amplitude A,
-the analysis pulse at phase ``phase_rad``, detection).  Spectra are not recorded here:
+the analysis pulse at phase ``phase_rad``, detection; for SPAM, the state preparation
+and detection with no gate).  Spectra are not recorded here:
 a heterodyne trace's tone powers come from the lab's trace tool, and a folder of CSVs
 in the campaign layout (``spectra.csv``) is added the same way.
 """
@@ -120,4 +122,26 @@ class ScheduledAmplitudeRun(_ScheduledRecording):
 
     def measure_power(self, A):
         """The AOM's diffracted power at RF amplitude ``A`` (photodiode): value, error."""
+        raise NotImplementedError("the lab's own sequence")
+
+
+class ScheduledSpam(_ScheduledRecording):
+    """The SPAM characterisation: each row's basis state ``prepared`` (``00`` .. ``11``,
+    the first character the first ion) prepared and detected with no gate."""
+
+    KIND = "spam"
+
+    def run(self):
+        out = {k: [] for k in ("prepared", "n00", "n01_10", "n11", "shots")}
+        for r in self.rows:
+            state, shots = r["prepared"], int(r["shots"])
+            n00, n01_10, n11 = self.measure_prepared(state, shots)
+            # archived as a number (the state read in binary: 00 -> 0, 11 -> 3), which the
+            # mapping's labels turn back into the text spam.csv records
+            for k, v in zip(out, (int(state, 2), n00, n01_10, n11, shots)):
+                out[k].append(v)
+        self.archive(out)
+
+    def measure_prepared(self, state, shots):
+        """Prepare ``state``, no gate, detect, ``shots`` times: counts as above."""
         raise NotImplementedError("the lab's own sequence")

@@ -35,11 +35,13 @@ PROPOSALS = [
     {"what": "time_scan", "settings": {"A": 0.5, "dpd": 1, "shots": 625, "points": 24,
                                        "scans": 2}},
     {"what": "amplitude_run", "settings": {"runs": 2}},
+    {"what": "spam", "settings": {"shots": 800, "states": ["00", "11"], "scans": 2}},
 ]
 CLASSES = {"populations": "ScheduledPopulations", "parity": "ScheduledParity",
-           "time_scan": "ScheduledTimeScan", "amplitude_run": "ScheduledAmplitudeRun"}
+           "time_scan": "ScheduledTimeScan", "amplitude_run": "ScheduledAmplitudeRun",
+           "spam": "ScheduledSpam"}
 TABLES = {"populations": "populations", "parity": "parity", "time_scan": "time_scans",
-          "amplitude_run": "calibration_amplitude"}
+          "amplitude_run": "calibration_amplitude", "spam": "spam"}
 
 
 def _artiq_stand_in():
@@ -101,6 +103,9 @@ def _lab(cls, rng):
         def measure_parity(self, A, dpd, shots, phase_rad):
             return int(rng.binomial(shots, 0.5 + 0.45 * np.cos(2 * phase_rad)))
 
+        def measure_prepared(self, state, shots):
+            return self._three(shots)
+
         def measure_power(self, A):
             return float(A ** 2 + 1e-3 * rng.standard_normal()), 1e-3
     return Lab
@@ -132,6 +137,12 @@ def test_experiment_records_what_the_mapping_imports(example, tmp_path):
     for what, frame in zip(CLASSES, frames):
         df = imported.tables[TABLES[what]]
         assert len(df) == len(frame), what                     # every point, once
+        if what == "spam":                 # the prepared states as the schedule names them
+            [(_, ds)] = recorded[what]
+            assert df["prepared"].tolist() == frame["prepared"].tolist() == ["00", "11"] * 2
+            for col in ("n00", "n01_10", "n11", "shots"):
+                np.testing.assert_array_equal(df[col].to_numpy(float), np.asarray(ds[col]))
+            continue
         np.testing.assert_array_equal(df["A"].to_numpy(float), frame["A"].to_numpy(float))
         if what == "amplitude_run":
             assert sorted(df["run"].unique()) == ["R1003", "R1004"]

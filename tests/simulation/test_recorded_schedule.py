@@ -19,7 +19,8 @@ from dpdfit.simulation.campaign.simulate import _jsonable_config, _rounded
 from dpdfit.simulation.further_recordings import MEASUREMENTS
 from dpdfit.simulation.recorded_artiq import (campaign_files_end, read_campaign_tables,
                                               write_recorded_results)
-from dpdfit.simulation.recorded_schedule import (TABLES, check_replayed, difference_rows,
+from dpdfit.simulation.recorded_schedule import (CHARACTERISATION_TABLES, TABLES,
+                                                 check_replayed, difference_rows,
                                                  record_further, simulated_tables)
 from tests.helpers.bundled_data import CAMPAIGN
 from tests.helpers.standin import SMALL
@@ -28,7 +29,8 @@ pytest.importorskip("h5py")
 
 #: one measurement of every ``what``: a repeated run, spectra at a new amplitude and at a
 #: recorded one, populations at the first setting (no later setting replayed), parity at
-#: a new amplitude (its gate rate, populations and parity), a time scan at the last one
+#: a new amplitude (its gate rate, populations and parity), a time scan at the last one,
+#: a SPAM characterisation recorded twice (a campaign without spam.csv: a new table)
 PER_WHAT = {
     "amplitude_run": {"what": "amplitude_run", "settings": {"runs": 2}},
     "phase_run": {"what": "phase_run", "settings": {"runs": 1}},
@@ -38,16 +40,18 @@ PER_WHAT = {
     "parity": {"what": "parity", "settings": {"A": 0.5, "dpd": 1, "shots": 3200}},
     "time_scan": {"what": "time_scan",
                   "settings": {"A": 0.6, "dpd": 1, "shots": 100, "points": 4, "scans": 2}},
+    "spam": {"what": "spam", "settings": {"shots": 500, "scans": 2}},
 }
 #: the tables each kind simulates whole in the long way (the others cannot change)
 _WHOLE = {"amplitude_run": dict(include_spectra=False, include_gates=False),
           "phase_run": dict(include_spectra=False, include_gates=False),
-          "spectra": dict(include_gates=False)}
+          "spectra": dict(include_gates=False),
+          "spam": dict(include_spectra=False, include_gates=False)}
 #: the columns that give a row's place among repeats (a stable sort keeps the repeats' order)
 _KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
          "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
          "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
-         "time_scans": ["A", "dpd"]}
+         "time_scans": ["A", "dpd"], "spam": ["prepared"]}
 
 
 def test_every_what_is_covered():
@@ -166,10 +170,10 @@ def test_new_rows_are_the_extended_campaigns_and_import_back(what, campaign, tmp
 def test_every_what_at_once_numbered_after_the_campaign(campaign, tmp_path):
     folder, tables, meta, _ = campaign
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
-    assert set(rec.tables) == set(TABLES)
+    assert set(rec.tables) == set(TABLES) | set(CHARACTERISATION_TABLES)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     imported = import_campaign(read_mapping(mapping, partial=True), progress=False)
-    for t in TABLES:
+    for t in rec.tables:
         same_rows(as_recorded(imported.tables[t], tables.get(t), t), rec.tables[t], t)
     # amplitude runs continue the campaign's labels, through their rid
     amp = imported.tables["calibration_amplitude"]
@@ -222,9 +226,11 @@ def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
-    for t in TABLES:
-        merged = pd.read_csv(out / f"{t}.csv")
-        old = pd.read_csv(folder / f"{t}.csv")
+    assert set(rec.tables) == set(TABLES) | {"spam"} and not (folder / "spam.csv").exists()
+    for t in rec.tables:
+        merged = pd.read_csv(out / f"{t}.csv", dtype={"prepared": str})
+        old = (pd.read_csv(folder / f"{t}.csv") if (folder / f"{t}.csv").exists() else
+               rec.tables[t].iloc[:0])
         pd.testing.assert_frame_equal(merged[list(old.columns)].iloc[:len(old)], old,
                                       check_exact=True)
         new = merged.iloc[len(old):].drop(columns=["source_file", "source_rid"])

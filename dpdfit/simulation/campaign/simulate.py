@@ -22,6 +22,7 @@ from .folder import check_new_folder, csv_text, write_folder
 from .gate_runs import gate_tables
 from .optics import dpd_lut
 from .readme import campaign_readme
+from .spam_runs import spam_table, spam_truth
 from .spectra import spectra_tables
 
 __all__ = ["simulate_campaign"]
@@ -73,7 +74,7 @@ def _jsonable_config(cfg: CampaignConfig) -> dict:
     d = dict.fromkeys(RETIRED_TRUTH_KEYS, 0.0)
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
-        if f.name == "further" and not v:
+        if f.name in ("further", "spam_shots") and not v:
             continue        # keeps the truth.json of campaigns without them byte for byte
         if dataclasses.is_dataclass(v):
             v = {k: (abs(x) if isinstance(x, complex) else x)
@@ -137,6 +138,10 @@ def _simulated(cfg: CampaignConfig, progress, include_gates: bool):
         files.update({"populations.csv": csv_text(pop), "parity.csv": csv_text(par),
                       "gate_rates.csv": csv_text(rates), "time_scans.csv": csv_text(ts)})
     truth = {"config": _jsonable_config(cfg), "calibration": cal_truth, "gates": gate_truth}
+    spam = spam_table(cfg)
+    if len(spam):           # only then: the files of campaigns without it stay as they were
+        files["spam.csv"] = csv_text(spam)
+        truth["spam"] = spam_truth(cfg)
     files["campaign.json"] = json.dumps(_campaign_json(cfg, cal_truth), indent=2,
                                         sort_keys=True) + "\n"
     files["truth.json"] = _truth_json(truth)

@@ -26,6 +26,8 @@ contains every known noise source and nothing else:
 * **time scans**: ``P00`` and ``P11`` at each scan time (binomial; a point
   recorded again has its counts summed).
 * **calibration residuals** of the model's own amplitude and phase runs.
+* **SPAM characterisation** (``spam.csv``, optional): the detected counts of each
+  prepared basis state, pooled per state (:func:`dpdfit.recordings.spam.read_spam`).
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.model.tones.tone_model`
 and :mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`.
@@ -131,6 +133,9 @@ class Campaign:
     #: the amplitude runs taken after the recordings, in the drift modes (None: no
     #: recording times, or no run after them)
     runs_after: "RunsAfter | None" = None
+    #: the SPAM characterisation: ``prepared, n00, n01_10, n11, shots``, one row per
+    #: prepared basis state (None without ``spam.csv``)
+    spam: pd.DataFrame | None = None
 
     @property
     def nu(self) -> float:
@@ -266,6 +271,13 @@ def _time_scans(cf: CampaignFolder):
     return ts[keep].reset_index(drop=True)
 
 
+def _spam(cf: CampaignFolder):
+    spam = cf.spam
+    if spam is None:
+        return None
+    return spam[["prepared", "n00", "n01_10", "n11", "shots"]].reset_index(drop=True)
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -306,6 +318,9 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     left = cf.left_out(_CONSEQUENCES)
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
+    if gates is None and cf.spam is not None:
+        left.append("spam.csv without gate recordings: not fitted (the preparation and "
+                    "detection errors it measures are the gate model's)")
     recorded = cf.recording_times
     if run_fits is None and "power_err" not in cf.amplitude_runs.columns:
         # the drift modes fit every run without errors at the campaign's order, as the
@@ -331,4 +346,4 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     drift_modes=modes, drift_significant=n_sig,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
-                    recorded=recorded, runs_after=after)
+                    recorded=recorded, runs_after=after, spam=_spam(cf))

@@ -12,9 +12,11 @@ from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
+from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
 from dpdfit.core.defaults import PHASE_MIN_A
 
-__all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'MODE_STEP', 'PARAM_STEP']
+__all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
+           'PARAM_STEP']
 
 
 #: amplitudes a spectra recording may choose from
@@ -23,6 +25,10 @@ SPECTRA_GRID = np.round(np.linspace(0.05, 1.0, 20), 4)
 
 #: amplitudes of a calibration run (the campaigns' runs: 101 points on [0, 1])
 RUN_AMPLITUDES = np.linspace(0.0, 1.0, 101)
+
+
+#: the basis states a SPAM characterisation prepares (``spam.csv``)
+SPAM_STATES = ("00", "11")
 
 
 #: finite-difference step (prior sigmas) of the calibration modes in the Jacobians
@@ -35,7 +41,8 @@ PARAM_STEP = 1e-3
 
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
-_SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates"}
+_SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
+                "spam": "gates"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -76,7 +83,9 @@ class Hypothesis:
         """The prediction of ``source`` (``"powers"``: tone powers on
         :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
         next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
-        :data:`RUN_AMPLITUDES`) at the parameter set ``p`` (default: the fit's)."""
+        :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
+        :data:`SPAM_STATES` prepared with no gate) at the parameter set ``p`` (default:
+        the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -161,4 +170,9 @@ def _phase(h: Hypothesis, p: dict):
     return h.tone.phase_sign * (np.polynomial.polynomial.polyval(A, cp) - cp[0])
 
 
-_SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase}
+def _spam(h: Hypothesis, p: dict):
+    return spam_probabilities(h.gate.preparation(p), SPAM_STATES)
+
+
+_SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
+            "spam": _spam}

@@ -19,15 +19,17 @@ from typing import Callable
 import numpy as np
 
 from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
-from dpdfit.analyses.diagnosis.proposal.hypotheses import SPECTRA_GRID, Hypothesis
+from dpdfit.analyses.diagnosis.proposal.hypotheses import SPAM_STATES, SPECTRA_GRID, Hypothesis
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
 from dpdfit.core.defaults import ERROR_MODEL
 
-__all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS']
+__all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS']
 
 
 #: numbers of amplitudes of the spectra items of the menu (each with and without DPD)
 SPECTRA_COUNTS = (1, 2, 4)
+#: shots per prepared state of one SPAM characterisation of the menu (repeated as needed)
+SPAM_SHOTS = 1000
 
 
 # ----------------------------------------------------------------- items
@@ -237,5 +239,37 @@ def _time_scans(prob, hyps, lab):
     return items
 
 
+# ----------------------------------------------------------------- characterisation
+def _spam_whitener(N: int):
+    """Whitening of the detected ``P00, P11`` of each prepared state (multinomial of ``N``
+    shots, the pair's mean probabilities of the three outcomes each floored at half a
+    count, so that the covariance is regular): one 2 x 2 block each."""
+    def noise(ra, rb):
+        p = np.maximum((np.asarray(ra, float) + np.asarray(rb, float)) / 2, 0.5 / N)
+        p = p / p.sum(axis=1, keepdims=True)
+        W = np.zeros((2 * len(p),) * 2)
+        for i, (p00, _, p11) in enumerate(p):
+            C = np.array([[p00 * (1 - p00), -p00 * p11], [-p00 * p11, p11 * (1 - p11)]]) / N
+            W[2 * i:2 * i + 2, 2 * i:2 * i + 2] = np.linalg.inv(np.linalg.cholesky(C))
+        return W
+    return noise
+
+
+def _spam(prob, hyps, lab):
+    """The SPAM characterisation (``spam.csv``): each of
+    :data:`~dpdfit.analyses.diagnosis.proposal.hypotheses.SPAM_STATES` prepared and
+    detected with no gate,
+    :data:`~dpdfit.analyses.diagnosis.proposal.menu.SPAM_SHOTS` shots each; offered with
+    gate recordings, whose preparation and detection errors it measures directly (a SPAM
+    offset acts on it, dephasing and heating do not)."""
+    if getattr(prob, "gate", None) is None or prob.gate.gates is None \
+            or len(prob.gate.gates) == 0 or not hasattr(prob.gate, "preparation"):
+        return []           # (a gate model without preparation errors cannot predict it)
+    N = SPAM_SHOTS
+    return [Item("spam", {"shots": N, "states": list(SPAM_STATES)},
+                 len(SPAM_STATES) * N * lab.spam_shot_s, "spam",
+                 lambda r: np.asarray(r, float)[:, [0, 2]].ravel(), _spam_whitener(N))]
+
+
 #: the builders of the menu, in the order the menu lists them
-BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans)
+BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans, _spam)

@@ -23,7 +23,10 @@ with the recording's noise:
   campaign's typical shots (parity: per phase, ``parity_phases`` phases), with
   the scan's random power error;
 * ``time_scan``: a scan at a recorded time-scan setting, binomial ``P00`` and ``P11`` at
-  its ``points`` times after the start (the start, ``t = 0``, is not fitted).
+  its ``points`` times after the start (the start, ``t = 0``, is not fitted);
+* ``spam``: the SPAM characterisation, ``|00>`` and ``|11>`` prepared and detected with no
+  gate (``spam.csv``), multinomial ``P00`` and ``P11`` of each; offered with gate
+  recordings.
 
 **Separating causes, not curves.**  A hypothesis is a group of fits: a family in
 each of its forms still in reach.  For two hypotheses, ``a`` true and ``b`` its
@@ -76,7 +79,8 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
            "describe_recording"]
 
 #: what a proposal may be
-KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan")
+KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan",
+         "spam")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
 #: the best candidates whose expected separation is confirmed by an exact refit
 #: (:meth:`~dpdfit.analyses.diagnosis.proposal.expected_separation.Direction.refit`, at most
@@ -400,6 +404,11 @@ def describe_recording(what: str, s: dict) -> str:
         listed = ", ".join(f"{a:g}" + (f" x{c}" if c > 1 and not each else "")
                            for a, c in zip(amps, counts))
         return f"spectra at A = {listed}{each} with and without DPD"
+    if what == "spam":
+        scans = int(s.get("scans", 1))
+        states = ", ".join(f"|{x}>" for x in s.get("states", ("00", "11")))
+        return (f"a SPAM characterisation ({states} prepared, detected with no gate; "
+                f"{s['shots']} shots each" + (f", {scans} times" if scans > 1 else "") + ")")
     at = f"at A = {s['A']:g} {'with' if s['dpd'] else 'without'} DPD"
     if s.get("scans", 1) > 1:
         at += f", {s['scans']} scans"

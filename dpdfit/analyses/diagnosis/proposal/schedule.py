@@ -16,14 +16,16 @@ fixes it:
   (``points``); the start ``t = 0`` carries nothing the diagnosis uses;
 * spectra record each amplitude with both flags, one row per trace; an amplitude the
   proposal lists ``k`` times is recorded in repeats 1..k, each trace with the tone
-  repeatability the proposal assumed (``tone_sd_db``).
+  repeatability the proposal assumed (``tone_sd_db``);
+* a SPAM characterisation records each prepared state (``prepared``) with the proposal's
+  shots, at ``A`` 0 (no gate), one point per state.
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
 when it is taken:
 
 * ``lab_s``: the row's own lab time by :class:`~dpdfit.core.defaults.LabTimes`, as the
   menu counts it (:mod:`~dpdfit.analyses.diagnosis.proposal.menu`): ``shots * shot_s``
-  for a scan point, ``spectrum_trace_s`` for a trace, the run's time over its grid
+  for a scan point (``shots * spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace, the run's time over its grid
   points for a calibration-run point; rescaled so that the column sums to the
   proposal's ``lab_seconds`` (a proposal made with the same lab times needs no rescaling).
 * Calibration runs are paced, not taken back to back: the proposal counts each further
@@ -181,6 +183,8 @@ def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
         return run_s / df.groupby("repeat")["point"].transform("size").to_numpy(float)
     if what == "spectra":
         return np.full(len(df), float(lab.spectrum_trace_s))
+    if what == "spam":
+        return df["shots"].to_numpy(float) * lab.spam_shot_s
     return df["shots"].to_numpy(float) * lab.shot_s
 
 
@@ -247,6 +251,11 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
         rows = _runs(what, st, camp)
     elif what == "spectra":
         rows = _spectra(st)
+    elif what == "spam":
+        rows = [{"repeat": r, "point": i, "A": 0.0, "shots": int(st["shots"]),
+                 "prepared": str(s)}
+                for r in range(1, int(st.get("scans", 1)) + 1)
+                for i, s in enumerate(st.get("states", ("00", "11")))]
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}
@@ -261,4 +270,5 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
     df["lab_s"] = _lab_seconds(df, what, p.get("lab_seconds"),
                                LAB_TIMES if lab is None else lab)
     df["day"], df["start_s"] = _timing(df, what, camp)
-    return check_schedule(df[list(SCHEDULE_COLUMNS)], "the proposal's schedule")
+    cols = list(SCHEDULE_COLUMNS) + (["prepared"] if "prepared" in df.columns else [])
+    return check_schedule(df[cols], "the proposal's schedule")
