@@ -253,7 +253,8 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     tempering : float
         The dispersion of the evidence between the hypotheses (>= 1): the diagnosis
         divides the new recording's chi2 difference by about as much, so the
-        recording must add that much more (:func:`decisive_target`).
+        recording must add that much more (:func:`decisive_target`), and its simulated
+        recordings reach :func:`decisive_threshold` in 9 of 10.
     profile : bool
         Refit the rival to the predicted recording (default); False holds every
         parameter at its fit (e.g. to pin down one hypothesis's parameter).

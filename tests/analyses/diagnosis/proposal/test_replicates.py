@@ -168,6 +168,10 @@ def test_the_proposal_reports_its_replicates_and_a_decisive_one_decides_in_them(
         assert r[side]["p10"] <= r[side]["median"]
     assert nm.decisive and min(r["truth"]["p10"], r["rival"]["p10"]) >= BIC_DECISIVE
     assert "in 9 of 10 simulated recordings" in nm.sentence()
+    from dpdfit.analyses.diagnosis.rendering import next_measurement_sentence
+    low = min(r["truth"]["p10"], r["rival"]["p10"])
+    assert f"(at least {low:.0f} in 9 of 10 simulated recordings)" in \
+        next_measurement_sentence(nm.to_dict())
     # reproducible, and read back from its JSON
     again = propose_next_measurement(prob, hyps)
     assert again.replicates == nm.replicates
