@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.proposal.next_measurement import replicated_clause
+
 __all__ = ["report_text", "next_measurement_sentence", "alternatives_sentence",
            "upper_limits_sentence"]
 
@@ -106,7 +108,8 @@ def next_measurement_sentence(nxt: dict) -> str:
     mins = nxt.get("lab_seconds")
     when = "" if mins is None else f", about {mins / 60:.0f} min of lab time"
     return (f"the measurement that would decide: {nxt['what'].replace('_', ' ')} ({how}"
-            f"{when}), expected delta BIC {nxt.get('expected_delta_bic', float('nan')):.3g} "
+            f"{when}), expected delta BIC {nxt.get('expected_delta_bic', float('nan')):.3g}"
+            f"{replicated_clause(nxt.get('replicates') or {})} "
             f"between {' and '.join(nxt.get('separates') or [])}")
 
 

@@ -25,16 +25,56 @@ every form of one from every form of the other.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.optimize import least_squares
 
 from dpdfit.analyses.diagnosis.proposal.hypotheses import Hypothesis
 from dpdfit.analyses.diagnosis.proposal.menu import white
 
-__all__ = ["Direction", "directions", "separation", "REFIT_NFEV"]
+__all__ = ["Direction", "AbsorbingModel", "absorbing_model", "directions", "separation",
+           "REFIT_NFEV"]
 
 #: evaluations of the exact refit of the rival
 REFIT_NFEV = 30
+
+
+@dataclass(frozen=True)
+class AbsorbingModel:
+    """What one hypothesis's parameters can absorb of an item's recording: the
+    parameters ``keys`` that move it, their Jacobian ``J_raw`` (raw, per unit of each
+    parameter) and ``J`` (whitened by the pair's ``W``), their covariance ``C`` from the
+    recordings so far and its information ``Cinv`` (semi-definite: clipped at 0)."""
+
+    keys: list
+    J: np.ndarray
+    J_raw: np.ndarray
+    C: np.ndarray
+    Cinv: np.ndarray
+
+
+def absorbing_model(item, h: Hypothesis, W) -> AbsorbingModel | None:
+    """The parameters of ``h`` that can absorb a recording of ``item`` whitened by ``W``
+    (:class:`AbsorbingModel`); None when none moves it or they have no covariance."""
+    absorbing = h.absorbing(item.source)
+    C = h.covariance([k for k, _ in absorbing]) if absorbing else None
+    if C is None:
+        return None
+    p0, v0 = h.p, item.vector(h)
+    J_raw = np.empty((v0.size, len(absorbing)))
+    for j, (k, step) in enumerate(absorbing):
+        J_raw[:, j] = (item.vector(h, {**p0, k: p0.get(k, 0.0) + step}) - v0) / step
+    J = np.column_stack([white(W, c) for c in J_raw.T])
+    keep = np.any(J != 0, axis=0)
+    if not keep.any():
+        return None
+    C = np.asarray(C, dtype=float)[np.ix_(keep, keep)]
+    # the information, semi-definite: a many-parameter rival's covariance can have a
+    # rounding-negative eigenvalue, whose inverse is no information at all
+    lam, V = np.linalg.eigh(np.linalg.pinv(C))
+    return AbsorbingModel([k for (k, _), y in zip(absorbing, keep) if y], J[:, keep],
+                          J_raw[:, keep], C, (V * np.clip(lam, 0.0, None)) @ V.T)
 
 
 class Direction:
@@ -51,26 +91,17 @@ class Direction:
         self.pooled = getattr(item, "pooled", None) is not None
         if not profile or self.dd == 0.0:
             return
-        absorbing = rival.absorbing(item.source)
-        C = rival.covariance([k for k, _ in absorbing])
-        if C is None:
+        model = absorbing_model(item, rival, W)
+        if model is None:
             return
-        p0, v0 = rival.p, item.vector(rival)
-        J_raw = np.empty((self.raw.size, len(absorbing)))
-        for j, (k, h) in enumerate(absorbing):
-            J_raw[:, j] = (item.vector(rival, {**p0, k: p0.get(k, 0.0) + h}) - v0) / h
-        J = np.column_stack([white(W, c) for c in J_raw.T])
-        keep = np.any(J != 0, axis=0)
-        if not keep.any():
-            return
-        self.keys = [k for (k, _), y in zip(absorbing, keep) if y]
-        self.J, self.J_raw = J[:, keep], J_raw[:, keep]
-        # the information, semi-definite: a many-parameter rival's covariance can have a
-        # rounding-negative eigenvalue, whose inverse is no information at all
-        lam, V = np.linalg.eigh(np.linalg.pinv(C[np.ix_(keep, keep)]))
-        self.Cinv = (V * np.clip(lam, 0.0, None)) @ V.T
+        self.keys, self.J, self.J_raw, self.Cinv = model.keys, model.J, model.J_raw, model.Cinv
         self.g = self.J.T @ self.d
         self.H = self.J.T @ self.J
+
+    def whitening(self, k):
+        """The whitening of ``k`` repeats: ``sqrt(k) W``, or the pooled one."""
+        return (np.sqrt(float(k)) * np.asarray(self.W, dtype=float) if not self.pooled
+                else self.item.whitener(self.truth, self.rival, k))
 
     def _whitened(self, k):
         """``(d_k, J_k)``: the difference and the rival's Jacobian whitened for ``k``
@@ -118,9 +149,7 @@ class Direction:
         L = V * np.sqrt(np.clip(lam, 0.0, None))
         vt, p0, item, rival = self.item.vector(self.truth), self.rival.p, self.item, self.rival
         d_k, J_k = self._whitened(k)
-        # the whitening of k repeats: sqrt(k) W, or the pooled one
-        Wk = (np.sqrt(float(k)) * np.asarray(self.W, dtype=float) if not self.pooled
-              else self.item.whitener(self.truth, self.rival, k))
+        Wk = self.whitening(k)
 
         def fun(x):
             p = {**p0, **{key: p0.get(key, 0.0) + v for key, v in zip(self.keys, x)}}

@@ -55,6 +55,14 @@ with its own noise) until the tempered delta BIC it is expected to add is decisi
 with 95 % probability (:func:`decisive_target`), within a working day of lab
 time.  Choice: the shortest item that decides; else the largest expected delta
 BIC per lab hour (:class:`~dpdfit.core.defaults.LabTimes`), ties to the shorter.
+
+**Predictions that hold.**  The expected figure ranks the menu; it does not promise.
+The chosen recording is simulated under each hypothesis of its binding pair
+(:mod:`~dpdfit.analyses.diagnosis.proposal.replicates`: parameters drawn from their
+covariance, noise, both hypotheses refitted), and it is called decisive only when the
+10th percentile of the separations achieved decides (:func:`decisive_threshold`) under
+whichever of the two is true.  Where the replicates cannot be drawn (no covariance,
+or the parameters held), the expected figure decides, and ``replicates`` says so.
 """
 
 from __future__ import annotations
@@ -70,10 +78,13 @@ from dpdfit.analyses.diagnosis.proposal.expected_separation import (REFIT_NFEV, 
 from dpdfit.analyses.diagnosis.proposal.hypotheses import (RUN_AMPLITUDES, SPECTRA_GRID,
                                                            Hypothesis)
 from dpdfit.analyses.diagnosis.proposal.menu import BUILDERS, SPECTRA_COUNTS
+from dpdfit.analyses.diagnosis.proposal.replicates import (REPLICATES, replicate_separations,
+                                                           summary)
 from dpdfit.core.defaults import LAB_TIMES
 from dpdfit.core.records import Record
 
 __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
+           "decisive_threshold",
            "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID", "SPECTRA_COUNTS",
            "RUN_AMPLITUDES", "CONFIRMED", "REFIT_NFEV", "SATURATION_SHARE",
            "describe_recording"]
@@ -121,6 +132,13 @@ class NextMeasurement(Record):
         The pair and direction that set the separation: ``truth`` and ``rival`` (as
         in ``hypotheses``), each with ``expected_delta_bic``, the separation expected if
         it is the true one (the truth's is the binding, smaller one).
+    replicates : dict
+        The recording simulated under each hypothesis of the binding pair
+        (:mod:`~dpdfit.analyses.diagnosis.proposal.replicates`): ``basis``
+        (``"replicates"``, or ``"expected_delta_bic"`` when they could not be drawn,
+        with ``why``), ``needed`` (the realised delta chi2 that decides,
+        :func:`decisive_threshold`) and ``truth`` and ``rival`` (as in ``binding``, the
+        one taken true), each ``{"median", "p10", "n"}`` of the separations achieved.
     """
 
     what: str | None
@@ -134,10 +152,14 @@ class NextMeasurement(Record):
     separation: dict = field(default_factory=dict)
     hypotheses: list = field(default_factory=list)
     binding: dict = field(default_factory=dict)
+    replicates: dict = field(default_factory=dict)
 
     @property
     def decisive(self) -> bool | None:
-        """Whether the recording is expected to decide (None when nothing is proposed)."""
+        """Whether the recording is expected to decide (None when nothing is proposed):
+        its expected separation reaches :func:`decisive_target` and, where the
+        replicates were drawn, their 10th percentile reaches :func:`decisive_threshold`
+        under either hypothesis of the binding pair."""
         return None if self.what is None else self.reason is None
 
     @classmethod
@@ -149,12 +171,13 @@ class NextMeasurement(Record):
                    menu=list(d.get("menu") or []), reason=d.get("reason"),
                    separation=dict(d.get("predicted_separation") or {}),
                    hypotheses=list(d.get("hypotheses") or []),
-                   binding=dict(d.get("binding") or {}))
+                   binding=dict(d.get("binding") or {}),
+                   replicates=dict(d.get("replicates") or {}))
 
     def to_dict(self) -> dict:
         """The proposal as a JSON-ready dict: the keys of :attr:`menu`'s items plus
-        ``menu``, ``decisive``, ``predicted_separation``, ``hypotheses`` and ``binding``,
-        or ``{"what": None, "reason": ...}`` when there is none."""
+        ``menu``, ``decisive``, ``predicted_separation``, ``hypotheses``, ``binding`` and
+        ``replicates``, or ``{"what": None, "reason": ...}`` when there is none."""
         if self.what is None:
             return {"what": None, "reason": self.reason}
         out = {k: getattr(self, k) for k in _KEYS}
@@ -168,6 +191,8 @@ class NextMeasurement(Record):
             out["hypotheses"] = list(self.hypotheses)
         if self.binding:
             out["binding"] = dict(self.binding)
+        if self.replicates:
+            out["replicates"] = dict(self.replicates)
         return out
 
     def sentence(self) -> str:
@@ -182,7 +207,7 @@ class NextMeasurement(Record):
             goal = f"separate {names[0]} from {' and '.join(names[1:])}"
         return (f"Next: {describe_recording(self.what, self.settings)} (about "
                 f"{_duration(self.lab_seconds)}) would {goal} by an expected delta BIC of "
-                f"{_number(self.expected_delta_bic)}.")
+                f"{_number(self.expected_delta_bic)}{replicated_clause(self.replicates)}.")
 
 
 #: probability with which the proposed recording should make the tempered delta BIC
@@ -199,6 +224,19 @@ def decisive_target(tempering: float = 1.0, probability: float = DECIDE_PROBABIL
     ``E = tempering (z + sqrt(z^2 + BIC_DECISIVE))^2`` (27 for 95 % and no tempering)."""
     z = float(norm.ppf(probability))
     return float(tempering * (z + np.sqrt(z * z + BIC_DECISIVE)) ** 2)
+
+
+def decisive_threshold(tempering: float = 1.0) -> float:
+    """The realised delta chi2 that decides at the dispersion of the evidence
+    ``tempering``: ``BIC_DECISIVE * tempering``.
+
+    :func:`decisive_target` asks of the *realised* difference that, divided by the
+    tempering (>= 1) as the diagnosis divides it, it exceed ``BIC_DECISIVE``, and turns
+    that into the *expectation* that does so with 95 % probability under a Gaussian
+    scatter.  The replicates sample the realised difference itself, so their percentile is
+    compared with that same condition, ``BIC_DECISIVE * tempering`` (10 at no
+    tempering), not with :func:`decisive_target`, which would count the scatter twice."""
+    return float(BIC_DECISIVE * max(tempering, 1.0))
 
 
 def propose_next_measurement(prob, hypotheses: list, lab=None,
@@ -220,7 +258,8 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     tempering : float
         The dispersion of the evidence between the hypotheses (>= 1): the diagnosis
         divides the new recording's chi2 difference by about as much, so the
-        recording must add that much more (:func:`decisive_target`).
+        recording must add that much more (:func:`decisive_target`), and its simulated
+        recordings reach :func:`decisive_threshold` in 9 of 10.
     profile : bool
         Refit the rival to the predicted recording (default); False holds every
         parameter at its fit (e.g. to pin down one hypothesis's parameter).
@@ -239,6 +278,7 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     separates = [g[0].fit.effect for g in groups]
     labels = [[h.label for h in g] for g in groups]
     target = decisive_target(max(tempering, 1.0))
+    needed = decisive_threshold(tempering)
     cands = []
     for build in BUILDERS:
         for item in build(prob, [g[0] for g in groups], lab):
@@ -261,7 +301,9 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     sep = {"fixed": best["fixed"], "linearised": best["linearised"],
            "refit": best.get("refit")}
     binding = _binding(best)
-    common = dict(menu=menu, separation=sep, hypotheses=labels, binding=binding)
+    reps = _replicated(best, needed, profile)
+    common = dict(menu=menu, separation=sep, hypotheses=labels, binding=binding,
+                  replicates=reps)
     fields = {k: m[k] for k in _KEYS}
     if m["expected_delta_bic"] < target:
         return NextMeasurement(reason=(
@@ -270,7 +312,68 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
             f"{describe_recording(m['what'], m['settings'])}, would give an expected "
             f"delta BIC of {_number(m['expected_delta_bic'])}, short of the {_number(target)} that "
             f"decides at this fit's misfit"), **fields, **common)
+    low = _lowest_p10(reps)
+    if low is not None and low < needed:
+        return NextMeasurement(reason=(
+            f"the best recording of the menu, {describe_recording(m['what'], m['settings'])}, "
+            f"would give an expected delta BIC of {_number(m['expected_delta_bic'])}, but 1 "
+            f"in 10 of its simulated recordings (parameters drawn, both hypotheses "
+            f"refitted) gives {_number(low)} or less, short of the {_number(needed)} that "
+            f"decides at this fit's misfit"), **fields, **common)
     return NextMeasurement(**fields, **common)
+
+
+def _reverse(c: dict, d):
+    """The direction of candidate ``c`` reverse to ``d`` (its rival taken true), or None."""
+    return next((r for g in c["dirs"] for r in g
+                 if r.item is d.item and r.truth is d.rival and r.rival is d.truth), None)
+
+
+def _replicated(c: dict, needed: float, profile: bool) -> dict:
+    """The candidate's recording simulated under each hypothesis of its binding pair
+    (:func:`~dpdfit.analyses.diagnosis.proposal.replicates.replicate_separations`), as
+    :attr:`NextMeasurement.replicates`; the basis ``"expected_delta_bic"`` with ``why``
+    when the replicates cannot be drawn."""
+    def fallback(why: str) -> dict:
+        return {"basis": "expected_delta_bic", "why": why}
+    d = c["binding"]
+    if d is None:
+        return fallback("no pair binds the separation")
+    if not profile:
+        return fallback("the hypotheses' parameters are held at their fits (a size to "
+                        "pin down)")
+    out = {}
+    for side, x in (("truth", d), ("rival", _reverse(c, d))):
+        if x is None:
+            out[side] = None
+            continue
+        try:
+            s = replicate_separations(x, c["k"], REPLICATES)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            return fallback(f"the simulated recordings failed: {type(exc).__name__}: {exc}")
+        if s is None:
+            return fallback("a hypothesis has no covariance to draw its parameters from")
+        out[side] = summary(s)
+        if out[side] is None:
+            return fallback("the simulated recordings gave no finite separation")
+    return {"basis": "replicates", "needed": needed, **out}
+
+
+def _lowest_p10(reps: dict) -> float | None:
+    """The smaller 10th percentile of the two sides' replicates (whichever hypothesis is
+    true, the recording must decide), or None when they were not drawn."""
+    if reps.get("basis") != "replicates":
+        return None
+    p = [s["p10"] for s in (reps.get("truth"), reps.get("rival")) if s]
+    return min(p) if p else None
+
+
+def replicated_clause(reps: dict) -> str:
+    """`` (at least 14 in 9 of 10 simulated recordings)``: the 10th percentile of the
+    replicates where they were drawn (the smaller side's), else ``""``."""
+    low = _lowest_p10(reps or {})
+    return "" if low is None else (f" (at least {_number(low)} in 9 of 10 simulated "
+                                   f"recordings)")
 
 
 def _binding(c: dict) -> dict:
@@ -281,8 +384,7 @@ def _binding(c: dict) -> dict:
     d = c["binding"]
     if d is None:
         return {}
-    rev = next((r for g in c["dirs"] for r in g
-                if r.item is d.item and r.truth is d.rival and r.rival is d.truth), None)
+    rev = _reverse(c, d)
     k = c["k"]
 
     def value(x):

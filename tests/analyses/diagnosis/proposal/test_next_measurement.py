@@ -145,7 +145,7 @@ def test_more_hypotheses_take_the_smallest_separation(tone_prob):
 #: keys added to the contract: the separation predicted (held, linearised, refitted),
 #: the hypotheses' forms and the pair that set it; per menu item its held separation
 #: (and the linearised one where a refit confirmed it)
-ADDED_KEYS = {"predicted_separation", "hypotheses", "binding"}
+ADDED_KEYS = {"predicted_separation", "hypotheses", "binding", "replicates"}
 ADDED_ITEM_KEYS = {"separation_fixed", "separation_linearised"}
 
 
@@ -164,6 +164,10 @@ def test_to_dict_has_the_contract_keys_and_only_the_added_ones(tone_prob):
     assert b["truth"]["expected_delta_bic"] == pytest.approx(nm.expected_delta_bic)
     assert b["rival"]["expected_delta_bic"] >= b["truth"]["expected_delta_bic"] - 1e-9
     assert {"effects", "forms"} <= set(b["truth"]) and {"effects", "forms"} <= set(b["rival"])
+    # fits made by hand have no covariance: no replicates, the expected figure decides
+    assert d["replicates"] == {"basis": "expected_delta_bic",
+                               "why": "a hypothesis has no covariance to draw its "
+                                      "parameters from"}
     s = nm.sentence()
     assert s.startswith("Next: spectra at A = ") and s.endswith(".") and s.count(". ") == 0
     assert "separate baseline from detector_nonlinearity" in s
