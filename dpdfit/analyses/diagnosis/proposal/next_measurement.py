@@ -87,7 +87,7 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
            "decisive_threshold",
            "DECIDE_PROBABILITY", "KINDS", "SPECTRA_GRID", "SPECTRA_COUNTS",
            "RUN_AMPLITUDES", "CONFIRMED", "REFIT_NFEV", "SATURATION_SHARE",
-           "describe_recording"]
+           "describe_recording", "replicated_clause"]
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan",
@@ -279,15 +279,33 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
     labels = [[h.label for h in g] for g in groups]
     target = decisive_target(max(tempering, 1.0))
     needed = decisive_threshold(tempering)
+    cands = _ranked_candidates(prob, groups, lab, target, separates, profile)
+    if not cands:
+        return NextMeasurement(None, reason=_why_none(prob))
+    best = cands[0]
+    m = best["entry"]
+    sep = {"fixed": best["fixed"], "linearised": best["linearised"],
+           "refit": best.get("refit")}
+    reps = _replicated(best, needed, profile)
+    common = dict(menu=[c["entry"] for c in best["menu"]], separation=sep,
+                  hypotheses=labels, binding=_binding(best), replicates=reps)
+    fields = {k: m[k] for k in _KEYS}
+    return NextMeasurement(**fields, **common,
+                           reason=_short_of(m, target, needed, reps, lab))
+
+
+def _ranked_candidates(prob, groups, lab, target, separates, profile) -> list:
+    """Every item of the menu as a candidate, the best first, the best
+    :data:`CONFIRMED` confirmed by an exact refit; each carries the whole menu in its
+    original order (``"menu"``)."""
     cands = []
     for build in BUILDERS:
         for item in build(prob, [g[0] for g in groups], lab):
             dirs = directions(item, groups, profile)
             cands.append(_candidate(item, dirs, lab, target, separates))
-    if not cands:
-        return NextMeasurement(None, reason=_why_none(prob))
     confirmed = set()
-    while True:
+    order = []
+    while cands:
         order = sorted(range(len(cands)), key=lambda i: _rank_key(cands[i]), reverse=True)
         todo = [i for i in order[:CONFIRMED] if i not in confirmed]
         if not todo:
@@ -295,32 +313,27 @@ def propose_next_measurement(prob, hypotheses: list, lab=None,
         for i in todo:
             cands[i] = _confirm(cands[i], lab, target)
             confirmed.add(i)
-    best = cands[order[0]]
-    menu = [c["entry"] for c in cands]
-    m = best["entry"]
-    sep = {"fixed": best["fixed"], "linearised": best["linearised"],
-           "refit": best.get("refit")}
-    binding = _binding(best)
-    reps = _replicated(best, needed, profile)
-    common = dict(menu=menu, separation=sep, hypotheses=labels, binding=binding,
-                  replicates=reps)
-    fields = {k: m[k] for k in _KEYS}
+    return [{**cands[i], "menu": cands} for i in order]
+
+
+def _short_of(m: dict, target: float, needed: float, reps: dict, lab) -> str | None:
+    """Why the best recording ``m`` does not decide (None when it does): its expected
+    delta BIC short of ``target``, or 1 in 10 of its simulated recordings short of
+    ``needed``."""
     if m["expected_delta_bic"] < target:
-        return NextMeasurement(reason=(
-            f"no recording of the menu separates them within "
-            f"{_duration(lab.max_seconds)} of lab time: the best, "
-            f"{describe_recording(m['what'], m['settings'])}, would give an expected "
-            f"delta BIC of {_number(m['expected_delta_bic'])}, short of the {_number(target)} that "
-            f"decides at this fit's misfit"), **fields, **common)
+        return (f"no recording of the menu separates them within "
+                f"{_duration(lab.max_seconds)} of lab time: the best, "
+                f"{describe_recording(m['what'], m['settings'])}, would give an expected "
+                f"delta BIC of {_number(m['expected_delta_bic'])}, short of the "
+                f"{_number(target)} that decides at this fit's misfit")
     low = _lowest_p10(reps)
     if low is not None and low < needed:
-        return NextMeasurement(reason=(
-            f"the best recording of the menu, {describe_recording(m['what'], m['settings'])}, "
-            f"would give an expected delta BIC of {_number(m['expected_delta_bic'])}, but 1 "
-            f"in 10 of its simulated recordings (parameters drawn, both hypotheses "
-            f"refitted) gives {_number(low)} or less, short of the {_number(needed)} that "
-            f"decides at this fit's misfit"), **fields, **common)
-    return NextMeasurement(**fields, **common)
+        return (f"the best recording of the menu, {describe_recording(m['what'], m['settings'])}, "
+                f"would give an expected delta BIC of {_number(m['expected_delta_bic'])}, but 1 "
+                f"in 10 of its simulated recordings (parameters drawn, both hypotheses "
+                f"refitted) gives {_number(low)} or less, short of the {_number(needed)} that "
+                f"decides at this fit's misfit")
+    return None
 
 
 def _reverse(c: dict, d):
