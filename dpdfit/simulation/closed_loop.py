@@ -89,7 +89,8 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
     """One recording: the campaign config with ``m`` added, simulated, diagnosed (the
     proposal's binding pair refitted); ``(config, record, diagnosis or None)``."""
     concealed = sorted(job["effects"])
-    out = {"what": m.get("what"), "settings": m.get("settings")}
+    out = {"what": m.get("what"), "settings": m.get("settings"),
+           "lab_seconds": _lab_seconds(m)}
     t0 = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix="dpdfit-loop-", dir=workdir))
     refit = binding_refits(m)
@@ -127,8 +128,34 @@ def _step(job: dict, cfg: CampaignConfig, m: dict, before, workdir) -> tuple:
         rec["premise_held"] = bool(held)
         if held:
             rec["separation_predicted_for_truth"] = float(b[held[0]]["expected_delta_bic"])
+            # the replicates' 10th percentile under that side: the figure that promises
+            p10 = (((m.get("replicates") or {}).get(held[0])) or {}).get("p10")
+            if p10 is not None:
+                rec["separation_p10_for_truth"] = float(p10)
         rec["separation_achieved"] = achieved_separation(chi2_before, chi2_after)
     return cfg, rec, d
+
+
+def _lab_seconds(m: dict) -> float | None:
+    """The lab time a recording asks for (its ``lab_seconds``; None without one)."""
+    try:
+        v = float(m.get("lab_seconds"))
+    except (TypeError, ValueError):
+        return None
+    return v if np.isfinite(v) else None
+
+
+def _seconds_to_resolution(arm: dict) -> float | None:
+    """The lab time of an arm's recordings up to the one that resolved it (None when it
+    was not resolved or a step has no lab time)."""
+    total = 0.0
+    for st in arm.get("steps") or [arm]:
+        if st.get("lab_seconds") is None:
+            return None
+        total += float(st["lab_seconds"])
+        if st.get("resolved"):
+            return total
+    return None
 
 
 def _arm(job: dict, cfg: CampaignConfig, first, choose, workdir, steps: int) -> dict:
@@ -242,7 +269,12 @@ def loop_summary(results: list) -> dict:
         concealed set (``premise_held`` on the step), against the separation expected if
         that one is true (``separation_predicted_for_truth``),
         ``separation_ratios_premise_held`` and
-        ``separation_ratio_median_premise_held``, ``no_proposal`` (loops whose diagnosis proposed
+        ``separation_ratio_median_premise_held``, ``p10_held`` (the fraction of those
+        steps whose achieved separation reached the 10th percentile of the proposal's
+        replicates under the concealed side, ``separation_p10_for_truth``; ``n_p10``
+        such steps), ``lab_seconds_to_resolution_recommended`` and ``_random`` (median
+        lab time of the recordings up to resolution, over the loops each arm resolved),
+        ``no_proposal`` (loops whose diagnosis proposed
         nothing), ``n_failed`` (re-simulations or re-diagnoses that failed).
     """
     n = len(results)
@@ -264,6 +296,10 @@ def loop_summary(results: list) -> dict:
             and (st.get("separation_predicted_for_truth") or 0) > 0]
     steps = [st for x in loops for a in ("recommended", "random")
              for st in (x[a].get("steps") or [x[a]])]
+    promised = [st for st in predicted if st.get("premise_held")
+                and st.get("separation_p10_for_truth") is not None]
+    to_resolve = {a: [v for v in (_seconds_to_resolution(x[a]) for x in loops)
+                      if v is not None] for a in ("recommended", "random")}
     return {"ambiguous_rate": (sum(bool(r.get("alternatives")) for r in results) / n)
             if n else None,
             "confidently_wrong_rate": (sum(wrong) / n) if n else None,
@@ -282,6 +318,17 @@ def loop_summary(results: list) -> dict:
                             "separation_ratios_premise_held": [float(v) for v in held],
                             "separation_ratio_median_premise_held": (
                                 float(np.median(held)) if held else None),
+                            "p10_held": (sum(st["separation_achieved"]
+                                             >= st["separation_p10_for_truth"]
+                                             for st in promised) / len(promised)
+                                         if promised else None),
+                            "n_p10": len(promised),
+                            "lab_seconds_to_resolution_recommended": (
+                                float(np.median(to_resolve["recommended"]))
+                                if to_resolve["recommended"] else None),
+                            "lab_seconds_to_resolution_random": (
+                                float(np.median(to_resolve["random"]))
+                                if to_resolve["random"] else None),
                             "no_proposal": sum(x["recommended"].get("what") is None
                                                and not x["recommended"].get("error")
                                                for x in loops),
@@ -325,4 +372,14 @@ def loop_report_lines(s: dict) -> list:
                      f"{len(cl.get('separation_ratios_premise_held') or [])} whose premise "
                      "held); no proposal "
                      f"{cl.get('no_proposal', 0)}")
+    if cl.get("n_p10"):
+        lines.append(f"    achieved at or above the replicates' 10th percentile: "
+                     f"{num(cl.get('p10_held'))} of {cl['n_p10']} recordings whose premise "
+                     "held")
+    if "lab_seconds_to_resolution_recommended" in cl:
+        def hours(v):
+            return "n/a" if v is None else f"{v / 3600:.3g} h"
+        lines.append(f"    lab time to resolution, median: proposal "
+                     f"{hours(cl.get('lab_seconds_to_resolution_recommended'))}, random "
+                     f"{hours(cl.get('lab_seconds_to_resolution_random'))}")
     return lines

@@ -380,6 +380,33 @@ def test_separation_ratios_are_also_given_over_the_steps_whose_premise_held():
     assert "median 0.9 over 3 recordings (1.1 over the 2 whose premise held)" in text
 
 
+def test_predictions_are_held_to_their_replicates_and_lab_time_to_resolution_is_summed():
+    steps = [{"separation_predicted": 30.0, "separation_achieved": 12.0, "premise_held": True,
+              "separation_predicted_for_truth": 30.0, "separation_p10_for_truth": 15.0,
+              "lab_seconds": 600.0, "resolved": False},
+             {"separation_predicted": 30.0, "separation_achieved": 40.0, "premise_held": True,
+              "separation_predicted_for_truth": 30.0, "separation_p10_for_truth": 20.0,
+              "lab_seconds": 1200.0, "resolved": True}]
+    alt = [{"effect": "spam_offset", "named": ["spam_offset"]}]
+    loops = [{"recommended": {"resolved": False, "steps": steps},
+              "random": {"resolved": False, "steps": [{"lab_seconds": 60.0,
+                                                       "resolved": False}]}},
+             {"recommended": {"resolved": True, "steps": [{"lab_seconds": 7200.0,
+                                                          "resolved": True}]},
+              "random": {"resolved": True, "steps": [{"lab_seconds": 300.0,
+                                                      "resolved": True}]}}]
+    cl = H.summarise([_record("dephasing", ["dephasing"], alternatives=alt, loop=lp)
+                      for lp in loops])["closed_loop"]
+    # one of the two promised recordings reached its 10th percentile
+    assert cl["n_p10"] == 2 and cl["p10_held"] == pytest.approx(0.5)
+    # resolved after 600 + 1200 s, and after 7200 s: median 4500 s; random: 300 s
+    assert cl["lab_seconds_to_resolution_recommended"] == pytest.approx(4500.0)
+    assert cl["lab_seconds_to_resolution_random"] == pytest.approx(300.0)
+    text = "\n".join(C.loop_report_lines(cl | {"ambiguous_rate": 1.0, "closed_loop": cl}))
+    assert "10th percentile: 0.5 of 2 recordings" in text
+    assert "lab time to resolution, median: proposal 1.25 h, random 0.0833 h" in text
+
+
 def test_summary_of_runs_without_ambiguity():
     s = H.summarise([_record("dephasing", ["dephasing"])])
     assert s["ambiguous_rate"] == 0 and s["confidently_wrong_rate"] == 0
