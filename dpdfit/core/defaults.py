@@ -217,7 +217,7 @@ class LabTimes:
     shot_s: float = 0.01
     #: one shot of the SPAM characterisation (a basis state prepared, detected, no gate):
     #: Doppler cooling and optical pumping (~1 ms) and the ~1 ms detection, no sideband
-    #: cooling and no gate, so ~2 ms per shot: 1000 shots of each of |00> and |11> in
+    #: cooling and no gate, so ~2 ms per shot: 1000 shots of each of ``|00>`` and ``|11>`` in
     #: about 4 s, a few minutes with the repeats a decision needs
     spam_shot_s: float = 0.002
     #: the longest recording the diagnosis proposes (repeats included): a working day
