@@ -296,10 +296,6 @@ def loop_summary(results: list) -> dict:
             and (st.get("separation_predicted_for_truth") or 0) > 0]
     steps = [st for x in loops for a in ("recommended", "random")
              for st in (x[a].get("steps") or [x[a]])]
-    promised = [st for st in predicted if st.get("premise_held")
-                and st.get("separation_p10_for_truth") is not None]
-    to_resolve = {a: [v for v in (_seconds_to_resolution(x[a]) for x in loops)
-                      if v is not None] for a in ("recommended", "random")}
     return {"ambiguous_rate": (sum(bool(r.get("alternatives")) for r in results) / n)
             if n else None,
             "confidently_wrong_rate": (sum(wrong) / n) if n else None,
@@ -318,21 +314,25 @@ def loop_summary(results: list) -> dict:
                             "separation_ratios_premise_held": [float(v) for v in held],
                             "separation_ratio_median_premise_held": (
                                 float(np.median(held)) if held else None),
-                            "p10_held": (sum(st["separation_achieved"]
-                                             >= st["separation_p10_for_truth"]
-                                             for st in promised) / len(promised)
-                                         if promised else None),
-                            "n_p10": len(promised),
-                            "lab_seconds_to_resolution_recommended": (
-                                float(np.median(to_resolve["recommended"]))
-                                if to_resolve["recommended"] else None),
-                            "lab_seconds_to_resolution_random": (
-                                float(np.median(to_resolve["random"]))
-                                if to_resolve["random"] else None),
+                            **_promises_and_lab_time(loops, predicted),
                             "no_proposal": sum(x["recommended"].get("what") is None
                                                and not x["recommended"].get("error")
                                                for x in loops),
                             "n_failed": sum("error" in st for st in steps)}}
+
+
+def _promises_and_lab_time(loops: list, predicted: list) -> dict:
+    """``p10_held`` and ``n_p10`` over the predicted steps whose premise held, and each
+    arm's median lab time to resolution (:func:`loop_summary`)."""
+    promised = [st for st in predicted if st.get("premise_held")
+                and st.get("separation_p10_for_truth") is not None]
+    out = {"p10_held": (sum(st["separation_achieved"] >= st["separation_p10_for_truth"]
+                            for st in promised) / len(promised) if promised else None),
+           "n_p10": len(promised)}
+    for arm in ("recommended", "random"):
+        t = [v for v in (_seconds_to_resolution(x[arm]) for x in loops) if v is not None]
+        out[f"lab_seconds_to_resolution_{arm}"] = float(np.median(t)) if t else None
+    return out
 
 
 def loop_report_lines(s: dict) -> list:
