@@ -374,8 +374,8 @@ def loop_report_lines(s: dict) -> list:
                      f"{cl.get('no_proposal', 0)}")
     if cl.get("n_p10"):
         lines.append(f"    achieved at or above the replicates' 10th percentile: "
-                     f"{num(cl.get('p10_held'))} of {cl['n_p10']} recordings whose premise "
-                     "held")
+                     f"{round(cl['p10_held'] * cl['n_p10'])} of {cl['n_p10']} recordings "
+                     "whose premise held")
     if "lab_seconds_to_resolution_recommended" in cl:
         def hours(v):
             return "n/a" if v is None else f"{v / 3600:.3g} h"

@@ -403,7 +403,7 @@ def test_predictions_are_held_to_their_replicates_and_lab_time_to_resolution_is_
     assert cl["lab_seconds_to_resolution_recommended"] == pytest.approx(4500.0)
     assert cl["lab_seconds_to_resolution_random"] == pytest.approx(300.0)
     text = "\n".join(C.loop_report_lines(cl | {"ambiguous_rate": 1.0, "closed_loop": cl}))
-    assert "10th percentile: 0.5 of 2 recordings" in text
+    assert "10th percentile: 1 of 2 recordings" in text
     assert "lab time to resolution, median: proposal 1.25 h, random 0.0833 h" in text
 
 
