@@ -29,7 +29,7 @@ from .tables import read_table
 
 __all__ = ["PHASE_GRID_RAD", "COUNT_Z_MAX", "read_populations", "read_parity", "read_time_scans",
            "check_counts", "check_count_repeats", "grid_keys", "fringe_points", "setting_label",
-           "shots_below_one"]
+           "shots_below_one", "check_outcomes_sum_to_shots"]
 
 #: Phase grid (rad) on which repeated parity scans are compared and merged (S7.4).
 PHASE_GRID_RAD = 0.01
@@ -143,14 +143,19 @@ def _rows_text(file, rows) -> str:
     return text + f" (lines {', '.join(map(str, lines))})"
 
 
-def _check_trio(df, file):
-    """``n00 + n01_10 + n11 == shots``; ``n_even == n00 + n11`` (added when absent)."""
+def check_outcomes_sum_to_shots(df, file) -> None:
+    """``n00 + n01_10 + n11 == shots`` on every row, else one line naming the first."""
     tot = df["n00"] + df["n01_10"] + df["n11"]
     bad = (tot != df["shots"]).to_numpy()
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise InputError(f"n00 + n01_10 + n11 = {tot.iloc[i]:g} differs from shots = "
                          f"{df['shots'].iloc[i]:g}", file=file, column="shots", row=i + 1)
+
+
+def _check_trio(df, file):
+    """``n00 + n01_10 + n11 == shots``; ``n_even == n00 + n11`` (added when absent)."""
+    check_outcomes_sum_to_shots(df, file)
     even = df["n00"] + df["n11"]
     if "n_even" in df.columns:
         bad = (even != df["n_even"]).to_numpy()

@@ -23,7 +23,7 @@ import pandas as pd
 from dpdfit.errors import InputError
 
 from .columns import CAMPAIGN_TABLES
-from .counts import check_count_repeats, check_counts
+from .counts import check_count_repeats, check_counts, check_outcomes_sum_to_shots
 from .tables import read_table
 
 __all__ = ["read_spam", "BASIS_STATES", "OUTCOMES"]
@@ -71,12 +71,7 @@ def read_spam(path: str | os.PathLike, *, within=None) -> pd.DataFrame:
     df = read_table(path, required, optional, numeric=[*OUTCOMES, "shots"], within=within)
     _check_prepared(df, name)
     check_counts(df, [*OUTCOMES, "shots"], name)
-    total = df["n00"] + df["n01_10"] + df["n11"]
-    bad = (total != df["shots"]).to_numpy()
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise InputError(f"n00 + n01_10 + n11 = {total.iloc[i]:g} differs from shots = "
-                         f"{df['shots'].iloc[i]:g}", file=name, column="shots", row=i + 1)
+    check_outcomes_sum_to_shots(df, name)
     check_count_repeats(df, ["prepared"], list(OUTCOMES), name, "SPAM preparation")
     g = df.groupby("prepared", sort=False)
     first = ~df.duplicated(["prepared"]).to_numpy()
