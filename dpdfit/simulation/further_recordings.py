@@ -256,9 +256,11 @@ def random_menu_choice(rng: np.random.Generator, measurement: dict | None,
     Returns
     -------
     dict
-        ``{"what", "settings"}``: a kind of :data:`MEASUREMENTS` drawn uniformly
-        among those on the menu, then one of its entries uniformly (the
-        proposed measurement itself may be drawn: the choice is blind).
+        ``{"what", "settings"}`` (and the menu entry's ``lab_seconds`` when it has one,
+        so that the random arm's lab time is counted as the proposal's is): a kind of
+        :data:`MEASUREMENTS` drawn uniformly among those on the menu, then one of its
+        entries uniformly (the proposed measurement itself may be drawn: the choice is
+        blind).
     """
     defaults = default_menu(rng, cfg)
     menu = []
@@ -268,7 +270,10 @@ def random_menu_choice(rng: np.random.Generator, measurement: dict | None,
             st = m.get("settings") or next((x["settings"] for x in defaults
                                             if x["what"] == m["what"]),
                                            {"shots": NOMINAL_SHOTS})      # spam
-            menu.append({"what": m["what"], "settings": dict(st)})
+            entry = {"what": m["what"], "settings": dict(st)}
+            if m.get("lab_seconds") is not None:      # the menu's own lab time, kept
+                entry["lab_seconds"] = m["lab_seconds"]
+            menu.append(entry)
     menu = menu or defaults
     kinds = sorted({MEASUREMENTS[m["what"]] for m in menu})
     kind = kinds[int(rng.integers(len(kinds)))]

@@ -236,6 +236,23 @@ def test_random_choice_draws_from_the_menu_when_there_is_one():
     assert all(p["settings"] == {"runs": 1} for p in picks if p["what"] == "phase_run")
 
 
+def test_random_choice_keeps_the_menu_entrys_lab_time():
+    # the random arm's time to resolution is summed from its steps' lab_seconds: an
+    # entry drawn from a menu that states its lab time must carry it
+    cfg = H.harness_config(SEED)
+    menu = [{"what": "parity", "settings": {"A": 0.6, "dpd": 1, "shots": 100},
+             "lab_seconds": 42.0},
+            {"what": "phase_run", "settings": {"runs": 1}, "lab_seconds": 300.0}]
+    rng = np.random.default_rng(3)
+    picks = [random_menu_choice(rng, {"what": "parity", "menu": menu}, cfg)
+             for _ in range(50)]
+    assert {p["what"] for p in picks} == {"parity", "phase_run"}
+    assert all(p["lab_seconds"] == {"parity": 42.0, "phase_run": 300.0}[p["what"]]
+               for p in picks)
+    bare = random_menu_choice(rng, {"what": "parity", "menu": ["phase_run"]}, cfg)
+    assert "lab_seconds" not in bare
+
+
 JOB = {"concealed": "dephasing", "seed": SEED, "effects": {"dephasing": {"rate": 50.0}}}
 ALTS = [{"effect": "spam_offset", "delta_bic": 1.0, "delta_bic_tempered": 0.5,
          "named": ["spam_offset"]}]
