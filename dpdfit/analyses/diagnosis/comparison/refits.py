@@ -4,10 +4,11 @@ the campaign before and after it.
 A proposed recording (:mod:`~dpdfit.analyses.diagnosis.proposal.next_measurement`) names the
 pair of hypotheses whose separation it predicts (``binding``: ``truth`` and
 ``rival``, each ``{"effects", "forms"}``).  :func:`refit_label` fits one such
-hypothesis from scratch on a campaign's problem exactly as the diagnosis fits its
-single effects (the other side's nuisances held at the baseline's optimum, a
-tone-side hypothesis's field carried to the gates with the phase-sign convention
-kept), so that its chi2 before and after the recording are comparable;
+hypothesis from scratch on a campaign's problem exactly as the diagnosis fits the
+hypotheses it names (a gate-side one with the tones held at the baseline's optimum; a
+tone-side part on the tones, its field carried to the gates under the better phase-sign
+convention, the gate side refitted there), so that its chi2 before and after the
+recording are comparable and the gap is the one the diagnosis decides by;
 :func:`achieved_separation` is how far the recording moved the pair apart:
 ``|(chi2_rival - chi2_truth)_after - (chi2_rival - chi2_truth)_before|``, and
 :func:`separation_direction` toward which side.
@@ -18,10 +19,12 @@ after (the later diagnosis's ``extra["refits"]``), the two sides of that differe
 
 from __future__ import annotations
 
+import dataclasses
+
 from dpdfit.analyses.diagnosis.effects import EFFECTS
 from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis, map_over_problem
-from dpdfit.analyses.diagnosis.fitting.phase_sign import repredict_gates
+from dpdfit.analyses.diagnosis.fitting.phase_sign import carry
 
 __all__ = ["refit_label", "refit_labels", "refit_chi2s", "achieved_separation",
            "separation_direction", "binding_refits", "binding_chi2", "refitted_chi2"]
@@ -46,20 +49,41 @@ def refit_label(prob, base: FitResult, label: dict) -> float:
     effects = list(label.get("effects") or ())
     if not effects:
         return float(base.chi2)
-    hyp = tuple(zip(effects, label.get("forms") or [None] * len(effects)))
-    saved = prob.tone, prob.gate
+    hyp = tuple((e, f if f is not None else prob.forms_of(e)[0].name)
+                for e, f in zip(effects, label.get("forms") or [None] * len(effects)))
+    saved = prob.tone, prob.gate, getattr(prob, "carried", None)
     # the baseline's models (the diagnosis may have left the gates on a named field)
-    tone, gate = getattr(prob, "base_models", saved)
+    tone, gate = getattr(prob, "base_models", saved[:2])
     try:
         prob.use_tone(tone)
         prob.gate = gate
-        f = fit_hypothesis(prob, hyp, fixed=_held(prob, base, effects), init=base.nuisances)
-        if prob.gate is not None and any(EFFECTS[e].side == "tones" for e in effects):
-            f = repredict_gates(prob, f, keep_sign=True)
+        f = _fit_as_named(prob, base, hyp)
     finally:
         prob.use_tone(saved[0])
         prob.gate = saved[1]
+        prob.carried = saved[2]
     return float(f.chi2)
+
+
+def _fit_as_named(prob, base: FitResult, hyp: tuple) -> FitResult:
+    """``hyp`` fitted as the diagnosis fits a hypothesis it names: a tone-side part on the
+    tones, its field carried to the gates under either phase-sign convention
+    (:func:`~dpdfit.analyses.diagnosis.fitting.phase_sign.carry`) and the gate side --
+    nuisances and gate-side effects -- fitted there; a gate-side hypothesis on the
+    gates, the tones held at the baseline's."""
+    tone_hyp = tuple(h for h in hyp if EFFECTS[h[0]].side == "tones")
+    if prob.gate is None or not tone_hyp:
+        return fit_hypothesis(prob, hyp, fixed=_held(prob, base, [e for e, _ in hyp]),
+                              init=base.nuisances)
+    # a gate-side effect fitted under the baseline's field while the tones carry another
+    # (or the field carried under the baseline's phase sign only) is a model the
+    # diagnosis never names: its chi2 would separate the pair by the field, not the physics
+    t = fit_hypothesis(prob, tone_hyp, fixed=_held(prob, base, [e for e, _ in tone_hyp]),
+                       init=base.nuisances)
+    ordered = tone_hyp + tuple(h for h in hyp if h not in tone_hyp)
+    t = dataclasses.replace(t, effect="+".join(e for e, _ in ordered),
+                            forms=tuple(f for _, f in ordered))
+    return carry(prob, base, t)
 
 
 def refit_chi2s(prob, base: FitResult, labels: list) -> list:
