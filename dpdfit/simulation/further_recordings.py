@@ -65,6 +65,16 @@ def _setting(cfg: CampaignConfig, st: dict) -> tuple:
     return A, int(d), _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
 
 
+def _characterisation(cfg: CampaignConfig, what: str, st: dict, scans: int) -> CampaignConfig:
+    """``cfg`` with ``scans`` further characterisation items of kind ``what`` (SPAM: its
+    shots per prepared state; the pulse response: its step's amplitude)."""
+    if what == "spam":
+        item = ("spam", _positive_int(st.get("shots", NOMINAL_SHOTS), "shots"))
+    else:
+        item = ("pulse_response", _amplitude(st.get("A", cfg.time_scan_A)))
+    return dataclasses.replace(cfg, further=cfg.further + (item,) * scans)
+
+
 def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
     """The campaign config with one further recording: the measurement ``measurement``.
 
@@ -80,8 +90,7 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
         shots per point, points after the start; the scan also records ``t = 0``),
         ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
-        ``pulse_response`` (``{"A"}``: one trace of a step to ``A``; default the time
-        scans' amplitude).
+        ``pulse_response`` (``{"A"}``: a trace of a step to ``A``, else time_scan_A).
 
     Returns
     -------
@@ -138,12 +147,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
-    if what == "spam":
-        shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
-        return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
-    if what == "pulse_response":
-        A = _amplitude(st.get("A", cfg.time_scan_A))
-        return dataclasses.replace(cfg, further=cfg.further + (("pulse_response", A),) * scans)
+    if what in ("spam", "pulse_response"):
+        return _characterisation(cfg, what, st, scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")
