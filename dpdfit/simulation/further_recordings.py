@@ -25,9 +25,9 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
-#: ``spam`` is drawn when the proposal's menu offers it; :func:`default_menu` (the menu
-#: of a proposal without one) leaves it out, so that a blind choice without a menu is
-#: drawn as before.
+#: ``spam`` and ``pulse_response`` are drawn when the proposal's menu offers them;
+#: :func:`default_menu` (the menu of a proposal without one) leaves them out, so that a
+#: blind choice without a menu is drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
                 "time_scan": "time_scan", "spam": "spam", "pulse_response": "pulse_response"}
@@ -182,6 +182,11 @@ def schedule_measurements(schedule) -> list:
         if kind in ("amplitude_run", "phase_run"):
             out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
             continue
+        if kind == "pulse_response":
+            for A, reps in rows.groupby("A", sort=False):
+                st = {"A": float(A), "scans": int(reps["repeat"].nunique())}
+                out.append({"what": kind, "settings": st})
+            continue
         if kind == "spam":
             for shots, reps in rows.groupby("shots", sort=False):
                 st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
@@ -228,9 +233,9 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     Returns
     -------
     list of dict
-        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` (a
-        characterisation only a menu that offers it draws: the default menu's kinds, and
-        so its draws, are those it had before SPAM could be recorded).
+        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` and
+        ``pulse_response`` (characterisations only a menu that offers them draws: the
+        default menu's kinds, and so its draws, are those it had before them).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)
