@@ -53,7 +53,7 @@ _WHOLE = {"amplitude_run": dict(include_spectra=False, include_gates=False),
 _KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
          "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
          "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
-         "time_scans": ["A", "dpd"], "spam": ["prepared"]}
+         "time_scans": ["A", "dpd"], "spam": ["prepared"], "pulse_response": ["run", "t_us"]}
 
 
 def test_every_what_is_covered():
@@ -228,7 +228,8 @@ def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
-    assert set(rec.tables) == set(TABLES) | {"spam"} and not (folder / "spam.csv").exists()
+    assert set(rec.tables) == set(TABLES) | {"spam", "pulse_response"}
+    assert not (folder / "spam.csv").exists() and not (folder / "pulse_response.csv").exists()
     for t in rec.tables:
         merged = pd.read_csv(out / f"{t}.csv", dtype={"prepared": str})
         old = (pd.read_csv(folder / f"{t}.csv") if (folder / f"{t}.csv").exists() else
