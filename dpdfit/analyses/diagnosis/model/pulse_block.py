@@ -73,7 +73,8 @@ def _predictions(ctx, p: dict) -> dict:
     """``{A: prediction at the samples of that A}`` of ``ctx.camp.pulse_response``, kept
     for the last few tone-side parameter sets (a fit's Jacobian asks the same again)."""
     pulse = ctx.camp.pulse_response
-    key = tuple(sorted((k, float(v)) for k, v in p.items()))
+    # the tone model too: a problem may swap it (the other phase-sign convention)
+    key = (id(ctx.tone), *sorted((k, float(v)) for k, v in p.items()))
     cache = ctx.__dict__.setdefault("_pulse_cache", ModelCache(shared=True))
     out = cache.get(key)
     if out is None:

@@ -39,6 +39,12 @@ def test_offered_with_spectra_and_separates_memory_from_higher_order(memory_case
     assert pulse_relative_noise(with_pulse.camp) == pytest.approx(PULSE_REL_NOISE, rel=0.2)
 
 
+def test_the_menus_trace_is_the_simulators():
+    from dpdfit.analyses.diagnosis.proposal.hypotheses import PULSE_TIMES_US
+    from dpdfit.simulation.campaign.pulse_runs import PULSE_TIMES_US as RECORDED
+    assert np.array_equal(PULSE_TIMES_US, RECORDED)
+
+
 def test_offered_only_with_a_tone_model():
     class NoTones:
         tone = None
