@@ -9,7 +9,8 @@ from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_hypothesis
 from dpdfit.analyses.diagnosis.proposal.hypotheses import Hypothesis, pulse_amplitude
 from dpdfit.analyses.diagnosis.proposal.menu import (BUILDERS, PULSE_REL_NOISE,
                                                      pulse_relative_noise)
-from dpdfit.analyses.diagnosis.proposal.next_measurement import KINDS, describe_recording
+from dpdfit.analyses.diagnosis.proposal.next_measurement import (KINDS, describe_recording,
+                                                                 propose_next_measurement)
 from dpdfit.analyses.diagnosis.proposal.schedule import proposal_schedule
 from dpdfit.core.defaults import LAB_TIMES
 from dpdfit.errors import InputError
@@ -37,6 +38,9 @@ def test_offered_with_spectra_and_separates_memory_from_higher_order(memory_case
     # the campaign's own trace gives the noise; without one the simulator's photodiode
     assert pulse_relative_noise(prob.camp) == PULSE_REL_NOISE
     assert pulse_relative_noise(with_pulse.camp) == pytest.approx(PULSE_REL_NOISE, rel=0.2)
+    # the proposal: the cheapest decisive recording of the menu is the pulse response
+    proposal = propose_next_measurement(prob, [mem.fit, him.fit]).to_dict()
+    assert proposal["what"] == "pulse_response" and proposal["lab_seconds"] == 60.0
 
 
 def test_the_menus_trace_is_the_simulators():
