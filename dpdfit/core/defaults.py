@@ -220,6 +220,11 @@ class LabTimes:
     #: cooling and no gate, so ~2 ms per shot: 1000 shots of each of ``|00>`` and ``|11>`` in
     #: about 4 s, a few minutes with the repeats a decision needs
     spam_shot_s: float = 0.002
+    #: one AOM pulse response (a step 0 -> A traced by a fast photodiode on a scope): the
+    #: scope averages a few thousand steps at a repetition of ~1 kHz (a few seconds), and
+    #: setting up the RF switch, the trigger and the photodiode in the beam takes most of
+    #: a minute, so ~60 s per averaged trace
+    pulse_trace_s: float = 60.0
     #: the longest recording the diagnosis proposes (repeats included): a working day
     max_seconds: float = 8 * 3600.0
 

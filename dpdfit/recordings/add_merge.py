@@ -17,7 +17,7 @@ from dpdfit.errors import InputError
 
 from .add_checks import same_run
 from .add_sources import SOURCE_COLUMNS
-from .columns import CAMPAIGN_TABLES
+from .columns import CAMPAIGN_TABLES, MISSING_LINES
 
 __all__ = ["merge_table", "renumber_scans", "continued_labels", "FILLED"]
 
@@ -207,8 +207,9 @@ def _check_required(required, mine, theirs, rec, table: str, campaign_file: str)
                                  "this table", file=campaign_file, column=c)
     for c in required:
         if c not in theirs.columns and (mine is None or not len(mine.columns)):
-            raise InputError(f"NEW's {table} has no column '{c}', which its reader needs in "
-                             "every row", file=_file(rec, table))
+            raise InputError(MISSING_LINES.get((table, c), f"NEW's {table} has no column "
+                                               f"'{c}', which its reader needs in every row"),
+                             file=_file(rec, table))
 
 
 def _even_counts(theirs: pd.DataFrame, rec) -> list:

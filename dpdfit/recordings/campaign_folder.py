@@ -43,6 +43,10 @@ Required and optional (everything else in the layout is optional):
   (:data:`~dpdfit.recordings.campaign_folder.CHARACTERISATION_FILES`): its absence
   leaves nothing of the other recordings' analysis out, so
   :meth:`CampaignFolder.left_out` does not list it.
+* ``pulse_response.csv`` -- the AOM pulse response: ``t_us, power`` (+ ``A``,
+  ``power_err``, ``run``, ``timestamp``),
+  :func:`~dpdfit.recordings.pulse_response.read_pulse_response`; a characterisation
+  table, as ``spam.csv``.
 
 Nothing is ever written into the folder.
 
@@ -81,6 +85,7 @@ from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
 from .input_files import check_inside, open_input, read_input_json
+from .pulse_response import read_pulse_response
 from .spam import read_spam
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
@@ -109,10 +114,11 @@ FILES = {
     "time_scans.csv": "population time scans",
     "traces.csv": "raw heterodyne traces",
     "spam.csv": "SPAM characterisation (basis states prepared, detected with no gate)",
+    "pulse_response.csv": "AOM pulse response (a fast photodiode trace of an RF step)",
 }
 #: the lab's characterisation experiments: optional tables whose absence is not listed
 #: as left out (a campaign without them is analysed as it always was)
-CHARACTERISATION_FILES = ("spam.csv",)
+CHARACTERISATION_FILES = ("spam.csv", "pulse_response.csv")
 #: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
 OTHER_FILES = ("budget.toml",)
 
@@ -372,20 +378,32 @@ class CampaignFolder:
             return None
         return read_spam(self.file("spam.csv"), within=self.path)
 
+    @functools.cached_property
+    def pulse_response(self) -> pd.DataFrame | None:
+        """``t_us, power, A`` (+ ``power_err``, labels) and ``step``, one row per sample
+        (:func:`~.pulse_response.read_pulse_response`; ``A`` absent: the time scans'
+        amplitude when they have one), None without ``pulse_response.csv``."""
+        if not self.has("pulse_response.csv"):
+            return None
+        ts = self.time_scans if self.has("time_scans.csv") else None
+        amps = () if ts is None else np.unique(ts["A"].to_numpy(dtype=float))
+        return read_pulse_response(self.file("pulse_response.csv"), within=self.path,
+                                   default_A=float(amps[0]) if len(amps) == 1 else None)
+
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
         :mod:`~dpdfit.recordings.plausibility`): such a campaign is refused as a whole.
         A file that is malformed is left to the analyses that read it, except
-        ``time_scans.csv`` and ``spam.csv`` (counts above the shots, say), which no analysis
+        ``time_scans.csv``, ``spam.csv`` and ``pulse_response.csv`` (counts above the shots, say), which no analysis
         of its own reads: they are refused here, at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
-                     "gate_rates", "time_scans", "traces", "spam"):
+                     "gate_rates", "time_scans", "traces", "spam", "pulse_response"):
             try:
                 getattr(self, name)
             except InputError as exc:
                 if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
-                        name in ("time_scans", "spam")):
+                        name in ("time_scans", "spam", "pulse_response")):
                     raise
 
     # -------------------------------------------------------------- left out

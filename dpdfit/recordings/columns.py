@@ -5,7 +5,8 @@ Stated once: the readers (:func:`~dpdfit.recordings.tables.read_calibration_tabl
 ``time_scans``, :func:`~dpdfit.recordings.counts.read_populations`,
 :func:`~dpdfit.recordings.counts.read_parity`,
 :func:`~dpdfit.recordings.gate_rates.read_gate_rates`,
-:func:`~dpdfit.recordings.spam.read_spam`) read these, and the import
+:func:`~dpdfit.recordings.spam.read_spam`,
+:func:`~dpdfit.recordings.pulse_response.read_pulse_response`) read these, and the import
 mapping derives its columns from them (:data:`dpdfit.recordings.mapping.TABLE_COLUMNS`).
 Each entry is ``(required, optional)``; ``populations.csv`` needs ``n_even`` or the
 three counts ``n00, n01_10, n11`` besides its required columns.
@@ -21,7 +22,7 @@ from .csv_text import header_line, header_names
 from .input_files import open_input
 
 __all__ = ["CAMPAIGN_TABLES", "LABELS_ONLY", "header_columns", "missing_optional_columns",
-           "missing_column_lines"]
+           "missing_column_lines", "MISSING_LINES"]
 
 #: campaign table (its file without ``.csv``) -> (required columns, optional columns)
 CAMPAIGN_TABLES = {
@@ -33,6 +34,7 @@ CAMPAIGN_TABLES = {
     "time_scans": (("A", "dpd", "t_us", "n00", "n11", "shots"), ("n01_10",)),
     "gate_rates": (("A", "dpd", "xi0_khz"), ("xi0_err_khz",)),
     "spam": (("prepared", "n00", "n01_10", "n11", "shots"), ("run", "timestamp")),
+    "pulse_response": (("t_us", "power"), ("A", "power_err", "run", "timestamp")),
 }
 
 #: optional columns whose absence leaves nothing out (a label the reader can infer):
@@ -40,7 +42,10 @@ CAMPAIGN_TABLES = {
 LABELS_ONLY = ("repeat",)
 #: tables none of whose optional columns any analysis reads (labels of the lab's own):
 #: their absence is never listed either
-_LABELLED_ONLY = ("spam",)
+_LABELLED_ONLY = ("spam", "pulse_response")
+#: what a table without one of its required columns lacks, where the column's name alone
+#: does not say it (the reader's and ``dpdfit add``'s line)
+MISSING_LINES = {("pulse_response", "t_us"): "pulse_response.csv has no time axis (column t_us)"}
 
 
 def header_columns(path: str | os.PathLike, *, within=None) -> list[str]:

@@ -82,6 +82,22 @@ def check_constant(column: str, v, key: str, err, table: str) -> None:
                 f"got {shown(v)}", table, column)
     if column == "prepared":
         _check_states([v], key, err, table)
+    if table == "pulse_response" and is_number(v):
+        _check_pulse_constant(column, v, key, err)
+
+
+def _check_pulse_constant(column: str, v, key: str, err) -> None:
+    """Refuse a constant no AOM pulse response holds: its time axis (every sample of a
+    trace at one time: ``pulse_response.csv``'s times must increase within a step), a step
+    to an amplitude outside (0, 1] (a step to 0 drives nothing), a negative reading, an
+    error that is not positive."""
+    why = {"t_us": "a trace's time axis cannot be a constant (every sample at one time): "
+                   "map it from the trace's scan axis",
+           "A": f"a step to A = {v} is outside (0, 1]" if not 0 < v <= 1 else None,
+           "power": f"a reading of {v} is negative" if v < 0 else None,
+           "power_err": f"an error of {v} is not > 0" if v <= 0 else None}.get(column)
+    if why:
+        err.bad(key, why, "pulse_response", column)
 
 
 def _check_states(values, key: str, err, table: str) -> None:

@@ -5,7 +5,8 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 
 ``kind``
     What is recorded: ``amplitude_run``, ``phase_run``, ``spectra``, ``populations``,
-    ``parity``, ``time_scan`` or ``spam`` (the diagnosis's ``next_measurement.what``).
+    ``parity``, ``time_scan``, ``spam`` or ``pulse_response`` (the diagnosis's
+    ``next_measurement.what``).
 ``repeat``
     Which repeat (run, scan, trace) the row belongs to: 1, 2, ...
 ``point``
@@ -13,13 +14,15 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 ``A``
     The amplitude of the point: a grid point of a calibration run, the amplitude of a
     trace, the gate setting of a scan (normalised RF amplitude, 0..1); 0 for a SPAM
-    point (no gate is driven).
+    point (no gate is driven); the step's amplitude of a pulse response (one point per
+    trace: the drive switched from 0 to ``A``, traced by a fast photodiode).
 ``dpd``
-    0 or 1 (with or without predistortion); empty for calibration runs and SPAM points.
+    0 or 1 (with or without predistortion); empty for calibration runs, SPAM points and
+    pulse responses.
 ``shots``
     Shots of the point: of the population scan, of one phase of a parity scan, of one
     time of a time scan, of one prepared state of a SPAM characterisation; empty for
-    calibration runs and spectra.
+    calibration runs, spectra and pulse responses.
 ``phase_rad``
     The analysis phase of a parity point (rad); empty otherwise.
 ``t_us``
@@ -27,7 +30,8 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 ``lab_s``
     The row's own lab time (seconds), as the diagnosis counted it
     (:class:`~dpdfit.core.defaults.LabTimes`): ``shots`` times ``shot_s`` for a scan
-    point (``spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace, the run's
+    point (``spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace
+    (``pulse_trace_s`` for a pulse response), the run's
     time over its grid points for a calibration-run point.  The column sums to the
     proposal's ``lab_seconds`` (rescaled to it when the proposal was made with other lab
     times).  The waits between paced calibration runs are not lab time.
@@ -83,8 +87,11 @@ OPTIONAL_COLUMNS = SCHEDULE_COLUMNS[4:]
 RUN_KINDS = ("amplitude_run", "phase_run")
 #: gate recordings: a setting (A, dpd) and shots per point
 SCAN_KINDS = ("populations", "parity", "time_scan")
-#: the lab's characterisation experiments: no gate setting (``A`` 0, no flag), shots
-CHARACTERISATION_KINDS = ("spam",)
+#: the lab's characterisation experiments: no flag; a SPAM point has no gate setting
+#: (``A`` 0) and shots, a pulse response the step's amplitude ``A`` and no shots
+CHARACTERISATION_KINDS = ("spam", "pulse_response")
+#: the characterisation kinds that drive no gate (``A`` 0)
+_UNGATED = ("spam",)
 #: every kind of recording a schedule may hold (the diagnosis's menu)
 SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS
 #: the column a schedule has only when it holds ``spam`` rows (after the others)
@@ -93,7 +100,7 @@ _BASIS_STATES = ("00", "01", "10", "11")
 #: per kind, the columns its rows must fill (besides kind, repeat, point, A)
 _NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
           "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
-          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",)}
+          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",), "pulse_response": ()}
 #: per kind, the columns that must not change within one repeat
 _CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
              "time_scan": ("A", "dpd", "shots")}
@@ -189,7 +196,7 @@ def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
 
 def _check_values(df: pd.DataFrame, kind: np.ndarray, name: str) -> None:
     runs = np.isin(kind, RUN_KINDS)
-    ungated = np.isin(kind, CHARACTERISATION_KINDS)
+    ungated = np.isin(kind, _UNGATED)
     A = df["A"].to_numpy(float)
     bad = np.flatnonzero(~((A >= 0) & (A <= 1)) | (~runs & ~ungated & (A == 0))
                          | (ungated & (A != 0)))
@@ -199,12 +206,12 @@ def _check_values(df: pd.DataFrame, kind: np.ndarray, name: str) -> None:
         _fail(f"amplitude {A[bad[0]]:g} is outside {where}" if not ungated[bad[0]] else
               f"amplitude {A[bad[0]]:g} of a {kind[bad[0]]} point must be {where}",
               name, "A", bad[0])
-    flagged = ~runs & ~ungated
+    flagged = ~runs & ~np.isin(kind, CHARACTERISATION_KINDS)
     d = df["dpd"].to_numpy(float)
     bad = np.flatnonzero(flagged & ~np.isin(d, (0.0, 1.0)))
     if bad.size:
         _fail(f"dpd {d[bad[0]]:g} is not a flag (0 or 1)", name, "dpd", bad[0])
-    _integers(df, "shots", np.isin(kind, SCAN_KINDS + CHARACTERISATION_KINDS), 1, name)
+    _integers(df, "shots", np.isin(kind, SCAN_KINDS + _UNGATED), 1, name)
     for col in ("t_us", "lab_s", "start_s"):
         v = df[col].to_numpy(float)
         bad = np.flatnonzero(np.isfinite(v) & (v < 0) | np.isinf(v))

@@ -25,12 +25,12 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
-#: ``spam`` is drawn when the proposal's menu offers it; :func:`default_menu` (the menu
-#: of a proposal without one) leaves it out, so that a blind choice without a menu is
-#: drawn as before.
+#: ``spam`` and ``pulse_response`` are drawn when the proposal's menu offers them;
+#: :func:`default_menu` (the menu of a proposal without one) leaves them out, so that a
+#: blind choice without a menu is drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan", "spam": "spam"}
+                "time_scan": "time_scan", "spam": "spam", "pulse_response": "pulse_response"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -65,6 +65,16 @@ def _setting(cfg: CampaignConfig, st: dict) -> tuple:
     return A, int(d), _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
 
 
+def _characterisation(cfg: CampaignConfig, what: str, st: dict, scans: int) -> CampaignConfig:
+    """``cfg`` with ``scans`` further characterisation items of kind ``what`` (SPAM: its
+    shots per prepared state; the pulse response: its step's amplitude)."""
+    if what == "spam":
+        item = ("spam", _positive_int(st.get("shots", NOMINAL_SHOTS), "shots"))
+    else:
+        item = ("pulse_response", _amplitude(st.get("A", cfg.time_scan_A)))
+    return dataclasses.replace(cfg, further=cfg.further + (item,) * scans)
+
+
 def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
     """The campaign config with one further recording: the measurement ``measurement``.
 
@@ -79,7 +89,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         "shots"}``: parity shots are the scan's total over its phases, as the
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
         shots per point, points after the start; the scan also records ``t = 0``),
-        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``).
+        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
+        ``pulse_response`` (``{"A"}``: a trace of a step to ``A``, else time_scan_A).
 
     Returns
     -------
@@ -136,9 +147,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
-    if what == "spam":
-        shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
-        return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
+    if what in ("spam", "pulse_response"):
+        return _characterisation(cfg, what, st, scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")
@@ -171,6 +181,11 @@ def schedule_measurements(schedule) -> list:
         rows = df[df["kind"] == kind]
         if kind in ("amplitude_run", "phase_run"):
             out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
+            continue
+        if kind == "pulse_response":
+            for A, reps in rows.groupby("A", sort=False):
+                st = {"A": float(A), "scans": int(reps["repeat"].nunique())}
+                out.append({"what": kind, "settings": st})
             continue
         if kind == "spam":
             for shots, reps in rows.groupby("shots", sort=False):
@@ -218,9 +233,9 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     Returns
     -------
     list of dict
-        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` (a
-        characterisation only a menu that offers it draws: the default menu's kinds, and
-        so its draws, are those it had before SPAM could be recorded).
+        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` and
+        ``pulse_response`` (characterisations only a menu that offers them draws: the
+        default menu's kinds, and so its draws, are those it had before them).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)

@@ -4,7 +4,8 @@
 (:func:`~dpdfit.simulation.artiq_results_file.write_results_file`) with the next rid.
 The runs every layout shares: one per calibration run (:func:`write_calibration_runs`),
 the spectra (:func:`write_spectra_runs`), and the ndscan set's gate runs
-(:func:`write_ndscan_gate_runs`) and SPAM characterisations (:func:`write_spam_runs`);
+(:func:`write_ndscan_gate_runs`), SPAM characterisations (:func:`write_spam_runs`) and
+AOM pulse responses (:func:`write_pulse_runs`);
 :mod:`dpdfit.simulation.artiq_results` writes whole campaigns with them and
 :mod:`dpdfit.simulation.recorded_artiq` continues one.
 """
@@ -25,17 +26,21 @@ from dpdfit.recordings.campaign_folder import CHARACTERISATION_FILES, CampaignFo
 from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.csv_text import parse_csv_strings
 from dpdfit.recordings.input_files import read_input_bytes
+from dpdfit.recordings.pulse_response import step_labels
 from dpdfit.recordings.mapping_values import check_campaign_types
 from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets, stored_in_si,
                                                   write_results_file)
 
 __all__ = ["NdscanLab", "read_campaign_table", "read_campaign_json", "campaign_meta", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
            "time_scan_runs", "count_channels", "write_ndscan_gate_runs", "SPAM_EXPERIMENT",
-           "spam_code", "spam_runs", "write_spam_runs", "write_campaign_spam_runs"]
+           "spam_code", "spam_runs", "write_spam_runs", "write_campaign_spam_runs",
+           "PULSE_EXPERIMENT", "write_pulse_runs", "write_campaign_pulse_runs"]
 
 #: the ndscan fragment of the lab's SPAM characterisation (its results files end
 #: ``-SpamCharacterisation.h5``)
 SPAM_EXPERIMENT = "lab.characterisation.SpamCharacterisation"
+#: the ndscan fragment of the lab's AOM pulse response (``-PulseResponse.h5``)
+PULSE_EXPERIMENT = "lab.characterisation.PulseResponse"
 
 
 def read_campaign_table(folder, table: str) -> pd.DataFrame:
@@ -259,3 +264,30 @@ def write_campaign_spam_runs(lab: NdscanLab) -> None:
     its last run: a characterisation taken once the gates were recorded."""
     if len(lab.t["spam"]):
         write_spam_runs(lab, itertools.count(lab.last + 300.0, 300.0))
+
+
+def write_pulse_runs(lab: NdscanLab, clock) -> None:
+    """One run of :data:`PULSE_EXPERIMENT` per trace (step,
+    :func:`~dpdfit.recordings.pulse_response.step_labels`) of
+    ``lab.t['pulse_response']``, started at the times ``clock`` gives: the time after
+    the step the scan axis ``delay`` (shown in us, stored in s when that is exact), the
+    photodiode's reading and its error result channels, the step's amplitude and the
+    trace's label the arguments ``amplitude`` and ``label``."""
+    rows = lab.t["pulse_response"]
+    if not len(rows):
+        return
+    for k, (_, trace) in enumerate(rows.groupby(step_labels(rows), sort=True)):
+        stored, scale = stored_in_si(trace["t_us"], 1e-6)
+        ch = {"pd_power": channel(trace["power"].to_numpy(float))}
+        if "power_err" in trace.columns:
+            ch["pd_power_err"] = channel(trace["power_err"].to_numpy(float))
+        label = str(trace["run"].iloc[0]) if "run" in trace.columns else f"pulse{k + 1}"
+        lab.scan(PULSE_EXPERIMENT, next(clock), [axis("delay", stored, unit="us", scale=scale)],
+                 ch, {"amplitude": float(trace["A"].iloc[0]), "label": label})
+
+
+def write_campaign_pulse_runs(lab: NdscanLab) -> None:
+    """The campaign's AOM pulse responses (``pulse_response.csv``, if it has one), 300 s
+    apart after its last run: a characterisation taken once the rest was recorded."""
+    if len(lab.t["pulse_response"]):
+        write_pulse_runs(lab, itertools.count(lab.last + 300.0, 300.0))

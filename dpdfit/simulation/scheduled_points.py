@@ -35,6 +35,8 @@ _POINTS = {
     "time_scan": ("time_scans", {"A": "A", "dpd": "dpd", "t_us": "t_us", "shots": "shots"}),
     # the prepared state as a number (00 -> 0, 01 -> 1, 10 -> 10, 11 -> 11): distinct
     "spam": ("spam", {"prepared": "prepared", "shots": "shots"}),
+    # a pulse response is one point per trace: its step's amplitude
+    "pulse_response": ("pulse_response", {"A": "A"}),
 }
 #: significant digits a point's values must share (the campaign's CSVs keep 10)
 _DIGITS = 8
@@ -52,6 +54,10 @@ def _recorded(table: pd.DataFrame | None, columns: list, kind: str) -> Counter:
         traces = table.groupby(["A", "dpd", "sideband", "n"]).size().groupby(
             level=["A", "dpd"]).max()
         return Counter({_key(k): int(v) for k, v in traces.items()})
+    if kind == "pulse_response":
+        # a trace is its run's samples: count traces, not samples
+        traces = table.drop_duplicates(["run", "A"])[["A"]].to_numpy(float)
+        return Counter(_key(r) for r in traces)
     return Counter(_key(r) for r in table[columns].to_numpy(float))
 
 

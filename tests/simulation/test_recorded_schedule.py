@@ -41,17 +41,19 @@ PER_WHAT = {
     "time_scan": {"what": "time_scan",
                   "settings": {"A": 0.6, "dpd": 1, "shots": 100, "points": 4, "scans": 2}},
     "spam": {"what": "spam", "settings": {"shots": 500, "scans": 2}},
+    "pulse_response": {"what": "pulse_response", "settings": {"A": 0.6}},
 }
 #: the tables each kind simulates whole in the long way (the others cannot change)
 _WHOLE = {"amplitude_run": dict(include_spectra=False, include_gates=False),
           "phase_run": dict(include_spectra=False, include_gates=False),
           "spectra": dict(include_gates=False),
-          "spam": dict(include_spectra=False, include_gates=False)}
+          "spam": dict(include_spectra=False, include_gates=False),
+          "pulse_response": dict(include_spectra=False, include_gates=False)}
 #: the columns that give a row's place among repeats (a stable sort keeps the repeats' order)
 _KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
          "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
          "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
-         "time_scans": ["A", "dpd"], "spam": ["prepared"]}
+         "time_scans": ["A", "dpd"], "spam": ["prepared"], "pulse_response": ["run", "t_us"]}
 
 
 def test_every_what_is_covered():
@@ -226,7 +228,8 @@ def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
-    assert set(rec.tables) == set(TABLES) | {"spam"} and not (folder / "spam.csv").exists()
+    assert set(rec.tables) == set(TABLES) | {"spam", "pulse_response"}
+    assert not (folder / "spam.csv").exists() and not (folder / "pulse_response.csv").exists()
     for t in rec.tables:
         merged = pd.read_csv(out / f"{t}.csv", dtype={"prepared": str})
         old = (pd.read_csv(folder / f"{t}.csv") if (folder / f"{t}.csv").exists() else

@@ -29,6 +29,7 @@ from dpdfit.analyses.diagnosis.model.gates.gate_model import (DETECTION_PRIOR_SI
 from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
 from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
+from dpdfit.analyses.diagnosis.model.pulse_block import pulse_block
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
 from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
@@ -220,7 +221,9 @@ class Problem:
         without it, for the deviation search and plots:
         :meth:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.gate_blocks`),
         the SPAM characterisation with the gates
-        (:func:`~dpdfit.analyses.diagnosis.model.spam_block.spam_block`) and,
+        (:func:`~dpdfit.analyses.diagnosis.model.spam_block.spam_block`), the AOM pulse
+        response with the tones
+        (:func:`~dpdfit.analyses.diagnosis.model.pulse_block.pulse_block`) and,
         ``with_prior``, the priors.  Each side sees its own parameters only.
         """
         tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
@@ -230,6 +233,8 @@ class Problem:
             out += self.tone_residuals.feature_blocks(self.tone, tone_p)
             if self.runs_after is not None:
                 out.append(runs_after_block(self, p))
+            if self.camp.pulse_response is not None:
+                out.append(pulse_block(self, tone_p))
         if self.gate is not None:
             out += self.gate_residuals.gate_blocks(self.gate, gate_p, whiten)
             if self.camp.spam is not None:

@@ -28,6 +28,9 @@ contains every known noise source and nothing else:
 * **calibration residuals** of the model's own amplitude and phase runs.
 * **SPAM characterisation** (``spam.csv``, optional): the detected counts of each
   prepared basis state, pooled per state (:func:`dpdfit.recordings.spam.read_spam`).
+* **AOM pulse response** (``pulse_response.csv``, optional): the photodiode trace of each
+  RF step with each sample's noise (``power_err``, else the trace's own sample-to-sample
+  scatter, :func:`pulse_response_noise`).
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.model.tones.tone_model`
 and :mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`.
@@ -53,7 +56,7 @@ from dpdfit.fits.photodiode import (model_run_with_noise, phase_run_with_noise,
                                     with_phase_noise, with_power_noise)
 from dpdfit.recordings.campaign_folder import CampaignFolder
 
-__all__ = ['DEFAULT_ERROR_MODEL', 'Campaign', 'load_campaign']
+__all__ = ['DEFAULT_ERROR_MODEL', 'Campaign', 'load_campaign', 'pulse_response_noise']
 
 
 #: the lab's error model when campaign.json has none (``ERROR_MODEL``'s error_model keys)
@@ -136,6 +139,9 @@ class Campaign:
     #: the SPAM characterisation: ``prepared, n00, n01_10, n11, shots``, one row per
     #: prepared basis state (None without ``spam.csv``)
     spam: pd.DataFrame | None = None
+    #: the AOM pulse response: ``step, A, t_us, power, sigma``, one row per sample (None
+    #: without ``pulse_response.csv``)
+    pulse_response: pd.DataFrame | None = None
 
     @property
     def nu(self) -> float:
@@ -278,6 +284,31 @@ def _spam(cf: CampaignFolder):
     return spam[["prepared", "n00", "n01_10", "n11", "shots"]].reset_index(drop=True)
 
 
+def pulse_response_noise(steps, power) -> np.ndarray:
+    """Each sample's noise from its step's own trace, for a table without ``power_err``:
+    the median absolute deviation of successive differences (1.4826 MAD / sqrt 2: the
+    rise and any ringing are a few samples among thousands, so they do not enter)."""
+    steps, power = np.asarray(steps), np.asarray(power, dtype=float)
+    sigma = np.empty(power.size)
+    for s in np.unique(steps):
+        idx = np.flatnonzero(steps == s)
+        d = np.diff(power[idx])
+        mad = np.median(np.abs(d - np.median(d))) if d.size else 0.0
+        floor = 1e-9 * max(float(np.max(np.abs(power[idx]))), 1e-300)
+        sigma[idx] = max(1.4826 * mad / np.sqrt(2.0), floor)
+    return sigma
+
+
+def _pulse_response(cf: CampaignFolder):
+    pulse = cf.pulse_response
+    if pulse is None:
+        return None
+    out = pulse[["step", "A", "t_us", "power"]].reset_index(drop=True)
+    out["sigma"] = (pulse["power_err"].to_numpy(dtype=float) if "power_err" in pulse.columns
+                    else pulse_response_noise(out["step"], out["power"]))
+    return out
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -346,4 +377,5 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     drift_modes=modes, drift_significant=n_sig,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
-                    recorded=recorded, runs_after=after, spam=_spam(cf))
+                    recorded=recorded, runs_after=after, spam=_spam(cf),
+                    pulse_response=_pulse_response(cf))

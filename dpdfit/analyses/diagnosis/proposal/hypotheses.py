@@ -12,11 +12,12 @@ from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
+from dpdfit.analyses.diagnosis.model.pulse_block import pulse_prediction
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
 from dpdfit.core.defaults import PHASE_MIN_A
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
-           'PARAM_STEP']
+           'PARAM_STEP', 'PULSE_TIMES_US', 'pulse_amplitude']
 
 
 #: amplitudes a spectra recording may choose from
@@ -30,6 +31,11 @@ RUN_AMPLITUDES = np.linspace(0.0, 1.0, 101)
 #: the basis states a SPAM characterisation prepares (``spam.csv``)
 SPAM_STATES = ("00", "11")
 
+#: the samples of an AOM pulse response (us after the step, ``pulse_response.csv``): a
+#: scope trace of 4096 samples at 10 ns, the acoustic rise (tens of ns) resolved and a
+#: slow memory (to 8 us) settled
+PULSE_TIMES_US = np.round(np.arange(1, 4097) * 0.01, 2)
+
 
 #: finite-difference step (prior sigmas) of the calibration modes in the Jacobians
 MODE_STEP = 0.05
@@ -42,7 +48,7 @@ PARAM_STEP = 1e-3
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
 _SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
-                "spam": "gates"}
+                "spam": "gates", "pulse": "tones"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -84,8 +90,9 @@ class Hypothesis:
         :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
         next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
         :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
-        :data:`SPAM_STATES` prepared with no gate) at the parameter set ``p`` (default:
-        the fit's)."""
+        :data:`SPAM_STATES` prepared with no gate; ``"pulse"``: the AOM pulse response at
+        :data:`PULSE_TIMES_US` normalised to its settled level, :func:`pulse_amplitude`)
+        at the parameter set ``p`` (default: the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -174,5 +181,22 @@ def _spam(h: Hypothesis, p: dict):
     return spam_probabilities(h.gate.preparation(p), SPAM_STATES)
 
 
+def pulse_amplitude(camp) -> float:
+    """The step amplitude of a further pulse response: the campaign's own trace's (its
+    first step), else the time scans' amplitude (the gate's) when they have one, else the
+    largest amplitude of the spectra (where a memory of the drive power shows most)."""
+    pulse = getattr(camp, "pulse_response", None)
+    if pulse is not None:
+        return float(pulse["A"].iloc[0])
+    ts = getattr(camp, "time_scans", None)
+    amps = () if ts is None else np.unique(np.asarray(ts["A"], dtype=float))
+    return float(amps[0]) if len(amps) == 1 else float(np.max(camp.A_tones))
+
+
+def _pulse(h: Hypothesis, p: dict):
+    m = pulse_prediction(h.tone, p, pulse_amplitude(h.prob.camp), PULSE_TIMES_US)
+    return m / m[-1] if m[-1] > 0 else m
+
+
 _SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
-            "spam": _spam}
+            "spam": _spam, "pulse": _pulse}

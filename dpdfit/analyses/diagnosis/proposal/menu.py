@@ -19,17 +19,23 @@ from typing import Callable
 import numpy as np
 
 from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
-from dpdfit.analyses.diagnosis.proposal.hypotheses import SPAM_STATES, SPECTRA_GRID, Hypothesis
+from dpdfit.analyses.diagnosis.proposal.hypotheses import (SPAM_STATES, SPECTRA_GRID, Hypothesis,
+                                                           pulse_amplitude)
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
 from dpdfit.core.defaults import ERROR_MODEL
 
-__all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS']
+__all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS', 'PULSE_REL_NOISE',
+           'pulse_relative_noise']
 
 
 #: numbers of amplitudes of the spectra items of the menu (each with and without DPD)
 SPECTRA_COUNTS = (1, 2, 4)
 #: shots per prepared state of one SPAM characterisation of the menu (repeated as needed)
 SPAM_SHOTS = 1000
+#: relative noise of one sample of an AOM pulse response without one of the campaign's
+#: own: the simulator's photodiode near half power (a floor of 5e-4 and 1e-3 of the
+#: power, at ~1.1 of its 2 at full drive), a scope trace averaged over many steps
+PULSE_REL_NOISE = 1.1e-3
 
 
 # ----------------------------------------------------------------- items
@@ -271,5 +277,33 @@ def _spam(prob, hyps, lab):
                  lambda r: np.asarray(r, float)[:, [0, 2]].ravel(), _spam_whitener(N))]
 
 
+def pulse_relative_noise(camp) -> float:
+    """Relative noise of one sample of a further pulse response: the campaign's own
+    trace's (the median of ``sigma / power`` over its second half, where it has settled),
+    else :data:`PULSE_REL_NOISE`."""
+    pulse = getattr(camp, "pulse_response", None)
+    if pulse is None:
+        return PULSE_REL_NOISE
+    late = pulse["t_us"].to_numpy(float) >= 0.5 * float(pulse["t_us"].max())
+    power = pulse["power"].to_numpy(float)[late]
+    ok = power > 0
+    rel = pulse["sigma"].to_numpy(float)[late][ok] / power[ok]
+    return float(np.median(rel)) if rel.size else PULSE_REL_NOISE
+
+
+def _pulse_response(prob, hyps, lab):
+    """The AOM pulse response (``pulse_response.csv``): one trace of a step to
+    :func:`~dpdfit.analyses.diagnosis.proposal.hypotheses.pulse_amplitude`, normalised to
+    its settled level, each sample with :func:`pulse_relative_noise`; offered with the
+    spectra, whose model predicts it (only a memory of the modulator changes it)."""
+    if getattr(prob, "tone", None) is None:
+        return []
+    A = pulse_amplitude(prob.camp)
+    w = 1.0 / pulse_relative_noise(prob.camp)
+    return [Item("pulse_response", {"A": A}, lab.pulse_trace_s, "pulse",
+                 lambda r: r, lambda a, b: np.full(np.size(a), w))]
+
+
 #: the builders of the menu, in the order the menu lists them
-BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans, _spam)
+BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans, _spam,
+            _pulse_response)

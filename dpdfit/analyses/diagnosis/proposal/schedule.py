@@ -18,14 +18,16 @@ fixes it:
   proposal lists ``k`` times is recorded in repeats 1..k, each trace with the tone
   repeatability the proposal assumed (``tone_sd_db``);
 * a SPAM characterisation records each prepared state (``prepared``) with the proposal's
-  shots, at ``A`` 0 (no gate), one point per state.
+  shots, at ``A`` 0 (no gate), one point per state;
+* an AOM pulse response records one trace of a step to ``A`` per repeat (one point).
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
 when it is taken:
 
 * ``lab_s``: the row's own lab time by :class:`~dpdfit.core.defaults.LabTimes`, as the
   menu counts it (:mod:`~dpdfit.analyses.diagnosis.proposal.menu`): ``shots * shot_s``
-  for a scan point (``shots * spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace, the run's time over its grid
+  for a scan point (``shots * spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace
+  (``pulse_trace_s`` for a pulse response), the run's time over its grid
   points for a calibration-run point; rescaled so that the column sums to the
   proposal's ``lab_seconds`` (a proposal made with the same lab times needs no rescaling).
 * Calibration runs are paced, not taken back to back: the proposal counts each further
@@ -185,6 +187,8 @@ def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
         return np.full(len(df), float(lab.spectrum_trace_s))
     if what == "spam":
         return df["shots"].to_numpy(float) * lab.spam_shot_s
+    if what == "pulse_response":
+        return np.full(len(df), float(lab.pulse_trace_s))
     return df["shots"].to_numpy(float) * lab.shot_s
 
 
@@ -256,6 +260,9 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
                  "prepared": str(s)}
                 for r in range(1, int(st.get("scans", 1)) + 1)
                 for i, s in enumerate(st.get("states", ("00", "11")))]
+    elif what == "pulse_response":
+        rows = [{"repeat": r, "point": 0, "A": float(st["A"])}
+                for r in range(1, int(st.get("scans", 1)) + 1)]
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}

@@ -384,6 +384,26 @@ class ToneModel(EnvelopeEngine):
         return np.stack(out, axis=1)
 
     # ------------------------------------------------------------- public
+    def drive_field(self, x, freq, p: dict) -> np.ndarray:
+        """The optical field of a complex drive ``x`` (one period; ``freq`` its FFT
+        frequencies, Hz) at the parameter set ``p``: the present effects' drive filters,
+        the calibrated static transfer with the effects' transfers, their power memories
+        -- what the time-domain engine does to the gate waveform, for another drive (the
+        AOM pulse response's step, :mod:`~dpdfit.analyses.diagnosis.model.pulse_block`)."""
+        act = ActiveEffects(self, p)
+        x = np.asarray(x, dtype=complex)
+        filters = act.filters(freq)
+        if filters:
+            x = np.fft.ifft(np.fft.fft(x) * np.prod(filters, axis=0))
+        mag = np.abs(x)
+        y = self._static(mag, self._coefficients(p, act), act) * (x / np.maximum(mag, 1e-300))
+        memories = act.memories(freq)
+        if memories:
+            power_fft = np.fft.fft(np.minimum(mag, 1.0) ** 2)
+            for gain, H in memories:
+                y = y * (1 + gain * np.fft.ifft(power_fft * H).real)
+        return y
+
     def tone_amplitudes(self, A, p: dict, harmonics=TONE_HARMONICS, dpd_flags=(0, 1)):
         """Complex tone amplitudes at drive amplitudes ``A``: shape (len(A), len(dpd_flags),
         2 sideband [red, blue], len(harmonics)); the field's Fourier coefficients at
