@@ -28,6 +28,9 @@ contains every known noise source and nothing else:
 * **calibration residuals** of the model's own amplitude and phase runs.
 * **SPAM characterisation** (``spam.csv``, optional): the detected counts of each
   prepared basis state, pooled per state (:func:`dpdfit.recordings.spam.read_spam`).
+* **Ramsey and spin-echo characterisation** (``ramsey.csv``, optional): the detected
+  counts of each sequence at each wait, pooled per point
+  (:func:`dpdfit.recordings.ramsey.read_ramsey`).
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.model.tones.tone_model`
 and :mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`.
@@ -136,6 +139,9 @@ class Campaign:
     #: the SPAM characterisation: ``prepared, n00, n01_10, n11, shots``, one row per
     #: prepared basis state (None without ``spam.csv``)
     spam: pd.DataFrame | None = None
+    #: the Ramsey and spin-echo characterisation: ``sequence, wait_s, n00, n01_10, n11,
+    #: shots``, one row per point (None without ``ramsey.csv``)
+    ramsey: pd.DataFrame | None = None
 
     @property
     def nu(self) -> float:
@@ -278,6 +284,13 @@ def _spam(cf: CampaignFolder):
     return spam[["prepared", "n00", "n01_10", "n11", "shots"]].reset_index(drop=True)
 
 
+def _ramsey(cf: CampaignFolder):
+    df = cf.ramsey
+    if df is None:
+        return None
+    return df[["sequence", "wait_s", "n00", "n01_10", "n11", "shots"]].reset_index(drop=True)
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -318,6 +331,9 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     left = cf.left_out(_CONSEQUENCES)
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
+    if gates is None and cf.ramsey is not None:
+        left.append("ramsey.csv without gate recordings: not fitted (the coherence time it "
+                    "measures is the gate model's)")
     if gates is None and cf.spam is not None:
         left.append("spam.csv without gate recordings: not fitted (the preparation and "
                     "detection errors it measures are the gate model's)")
@@ -346,4 +362,5 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     drift_modes=modes, drift_significant=n_sig,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
-                    recorded=recorded, runs_after=after, spam=_spam(cf))
+                    recorded=recorded, runs_after=after, spam=_spam(cf),
+                    ramsey=_ramsey(cf))
