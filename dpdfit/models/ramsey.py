@@ -35,10 +35,21 @@ import numpy as np
 
 from dpdfit.models.gate_sim.dephasing import accumulated_dephasing
 
-__all__ = ["SEQUENCES", "refocused", "free_dephasing", "ramsey_probabilities"]
+__all__ = ["SEQUENCES", "SCAN_POINTS", "scan_waits", "refocused", "free_dephasing",
+           "ramsey_probabilities"]
 
 #: the sequences, as ``ramsey.csv`` names them
 SEQUENCES = ("ramsey", "echo")
+#: waits per sequence of a Ramsey scan (the first at zero)
+SCAN_POINTS = 20
+
+
+def scan_waits(T2: float, points: int = SCAN_POINTS) -> np.ndarray:
+    """The waits (s) of a scan for a coherence time ``T2`` (s): zero, then ``points - 1``
+    geometric from ``T2/2500`` (20 us at 50 ms: slow noise decays within a few ms) to
+    ``1.5 T2``, rounded to the ns."""
+    grid = np.geomspace(T2 / 2500.0, 1.5 * T2, int(points) - 1)
+    return np.round(np.concatenate([[0.0], grid]), 9)
 
 
 def refocused(beta: float) -> bool:

@@ -25,12 +25,12 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
-#: ``spam`` is drawn when the proposal's menu offers it; :func:`default_menu` (the menu
-#: of a proposal without one) leaves it out, so that a blind choice without a menu is
+#: ``spam`` and ``ramsey`` are drawn when the proposal's menu offers them;
+#: :func:`default_menu` (the menu of a proposal without one) leaves them out, so that a blind choice without a menu is
 #: drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan", "spam": "spam"}
+                "time_scan": "time_scan", "spam": "spam", "ramsey": "ramsey"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -79,7 +79,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         "shots"}``: parity shots are the scan's total over its phases, as the
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
         shots per point, points after the start; the scan also records ``t = 0``),
-        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``).
+        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
+        ``ramsey`` (``{"shots"}``: shots per point of a Ramsey and spin-echo scan on the
+        simulator's waits, :func:`~dpdfit.models.ramsey.scan_waits`).
 
     Returns
     -------
@@ -136,9 +138,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
-    if what == "spam":
+    if what in ("spam", "ramsey"):
         shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
-        return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
+        return dataclasses.replace(cfg, further=cfg.further + ((what, shots),) * scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")
@@ -172,7 +174,7 @@ def schedule_measurements(schedule) -> list:
         if kind in ("amplitude_run", "phase_run"):
             out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
             continue
-        if kind == "spam":
+        if kind in ("spam", "ramsey"):
             for shots, reps in rows.groupby("shots", sort=False):
                 st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
                 out.append({"what": kind, "settings": st})
@@ -218,8 +220,8 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     Returns
     -------
     list of dict
-        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` (a
-        characterisation only a menu that offers it draws: the default menu's kinds, and
+        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` and
+        ``ramsey`` (characterisations only a menu that offers them draws: the default menu's kinds, and
         so its draws, are those it had before SPAM could be recorded).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))

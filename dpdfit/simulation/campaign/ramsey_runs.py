@@ -28,7 +28,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from dpdfit.models.ramsey import SEQUENCES, free_dephasing, ramsey_probabilities
+from dpdfit.models.ramsey import (SCAN_POINTS, SEQUENCES, free_dephasing,
+                                  ramsey_probabilities, scan_waits)
 
 from .config import CampaignConfig, rng_for
 
@@ -36,16 +37,14 @@ __all__ = ["RAMSEY_POINTS", "ramsey_waits", "ramsey_engine", "ramsey_dephasing",
            "ramsey_rows", "ramsey_table", "ramsey_truth", "RAMSEY_COLUMNS"]
 
 #: waits per sequence of a Ramsey scan (the first at zero)
-RAMSEY_POINTS = 20
+RAMSEY_POINTS = SCAN_POINTS
 #: the columns the simulator writes
 RAMSEY_COLUMNS = ["sequence", "wait_us", "n00", "n01_10", "n11", "shots"]
 
 
 def ramsey_waits(T2: float, points: int = RAMSEY_POINTS) -> np.ndarray:
-    """The waits (s) of a scan: zero, then ``points - 1`` geometric from ``T2/2500`` (20 us
-    at 50 ms: slow noise decays within a few ms) to ``1.5 T2``, rounded to the ns."""
-    grid = np.geomspace(T2 / 2500.0, 1.5 * T2, int(points) - 1)
-    return np.round(np.concatenate([[0.0], grid]), 9)
+    """The waits (s) of a scan (:func:`~dpdfit.models.ramsey.scan_waits`: the menu's)."""
+    return scan_waits(T2, points)
 
 
 def _injections(cfg: CampaignConfig, refs: dict) -> list:

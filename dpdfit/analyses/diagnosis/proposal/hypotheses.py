@@ -12,7 +12,10 @@ from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
+from dpdfit.analyses.diagnosis.model.gates.effect_terms import active_effects
+from dpdfit.analyses.diagnosis.model.ramsey_block import ramsey_probabilities_of
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
+from dpdfit.models.ramsey import SEQUENCES, scan_waits
 from dpdfit.core.defaults import PHASE_MIN_A
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
@@ -42,7 +45,7 @@ PARAM_STEP = 1e-3
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
 _SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
-                "spam": "gates"}
+                "spam": "gates", "ramsey": "gates"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -84,8 +87,10 @@ class Hypothesis:
         :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
         next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
         :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
-        :data:`SPAM_STATES` prepared with no gate) at the parameter set ``p`` (default:
-        the fit's)."""
+        :data:`SPAM_STATES` prepared with no gate; ``"ramsey"``: the detected outcomes of
+        the Ramsey sequence, then the echo, at the waits of
+        :func:`~dpdfit.models.ramsey.scan_waits` for the stated T2) at the parameter set
+        ``p`` (default: the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -174,5 +179,13 @@ def _spam(h: Hypothesis, p: dict):
     return spam_probabilities(h.gate.preparation(p), SPAM_STATES)
 
 
+def _ramsey(h: Hypothesis, p: dict):
+    gm = h.gate
+    t = scan_waits(gm.nominal["T2"])
+    active = active_effects(gm.effects, p)
+    return np.concatenate([ramsey_probabilities_of(gm, p, active, t, s == "echo")
+                           for s in SEQUENCES])
+
+
 _SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
-            "spam": _spam}
+            "spam": _spam, "ramsey": _ramsey}

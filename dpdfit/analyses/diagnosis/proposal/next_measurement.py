@@ -27,6 +27,9 @@ with the recording's noise:
 * ``spam``: the SPAM characterisation, ``|00>`` and ``|11>`` prepared and detected with no
   gate (``spam.csv``), multinomial ``P00`` and ``P11`` of each; offered with gate
   recordings.
+* ``ramsey``: the Ramsey and spin-echo characterisation (``ramsey.csv``), both
+  sequences at a scan of waits to 1.5 times the stated T2, multinomial ``P00`` and
+  ``P11`` of each point; offered with gate recordings.
 
 **Separating causes, not curves.**  A hypothesis is a group of fits: a family in
 each of its forms still in reach.  For two hypotheses, ``a`` true and ``b`` its
@@ -91,7 +94,7 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan",
-         "spam")
+         "spam", "ramsey")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
 #: the best candidates whose expected separation is confirmed by an exact refit
 #: (:meth:`~dpdfit.analyses.diagnosis.proposal.expected_separation.Direction.refit`, at most
@@ -524,6 +527,11 @@ def describe_recording(what: str, s: dict) -> str:
         states = ", ".join(f"|{x}>" for x in s.get("states", ("00", "11")))
         return (f"a SPAM characterisation ({states} prepared, detected with no gate; "
                 f"{s['shots']} shots each" + (f", {scans} times" if scans > 1 else "") + ")")
+    if what == "ramsey":
+        scans = int(s.get("scans", 1))
+        return (f"a Ramsey and spin-echo scan ({s['points']} waits to "
+                f"{s['max_wait_us'] / 1e3:g} ms, {s['shots']} shots each"
+                + (f", {scans} times" if scans > 1 else "") + ")")
     at = f"at A = {s['A']:g} {'with' if s['dpd'] else 'without'} DPD"
     if s.get("scans", 1) > 1:
         at += f", {s['scans']} scans"
