@@ -24,7 +24,8 @@ import numpy as np
 from dpdfit.errors import DpdfitError
 from dpdfit.simulation.artiq_results_file import axis, channel, stored_in_si
 from dpdfit.simulation.ndscan_lab import (NdscanLab, duration_axis, epoch, time_scan_runs,
-                                          write_calibration_runs, write_campaign_spam_runs,
+                                          write_calibration_runs, write_campaign_ramsey_runs,
+                                          write_campaign_spam_runs,
                                           write_ndscan_gate_runs, write_spectra_runs)
 
 __all__ = ["MAPPINGS", "copy_mapping", "mapping_sources", "write_ndscan_campaign",
@@ -46,9 +47,12 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     the scans as repeats), per (A, dpd) for parity (axis ``phase``, rad) and time
     scans (axis ``duration``), one for the gate rates (axes ``amplitude``, ``dpd``), and,
     when the campaign has ``spam.csv``, one per SPAM recording (axis ``prepared``, a
-    code: :func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`).
+    code: :func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`), and with ``ramsey.csv``
+    one per Ramsey scan (axes ``sequence``, a code, and ``wait``:
+    :func:`~dpdfit.simulation.ndscan_lab.write_ramsey_runs`).
     Returns the path of ``out_dir/mapping.toml`` (a copy of ``ndscan_campaign.toml``;
-    without ``spam.csv`` its ``[[spam]]`` source is left out, a glob that would match
+    without ``spam.csv`` (``ramsey.csv``) its ``[[spam]]`` (``[[ramsey]]``) source is left
+    out, a glob that would match
     no file).
     """
     lab = NdscanLab(campaign_dir, out_dir)
@@ -56,8 +60,10 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     write_spectra_runs(lab, False, 240.0)
     write_ndscan_gate_runs(lab)
     write_campaign_spam_runs(lab)
+    write_campaign_ramsey_runs(lab)
     return copy_mapping("ndscan_campaign.toml", lab.campaign, out_dir,
-                        [t for t, rows in lab.t.items() if t != "spam" or len(rows)])
+                        [t for t, rows in lab.t.items()
+                         if t not in ("spam", "ramsey") or len(rows)])
 
 
 def _bright_ions(counts: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -9,7 +9,9 @@ campaign's files would have, and the spectra, gate and SPAM files start after th
 campaign's last file (calibration runs start at their recorded time, which the mapping
 reads as their timestamp).  A SPAM characterisation is one run per recording of the
 prepared states (:func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`), imported by the
-mapping's ``[[spam]]`` into ``spam.csv``.  The mapping's ``[campaign]`` table is the
+mapping's ``[[spam]]`` into ``spam.csv``; a Ramsey scan is one run
+(:func:`~dpdfit.simulation.ndscan_lab.write_ramsey_runs`), imported by ``[[ramsey]]``
+into ``ramsey.csv``.  The mapping's ``[campaign]`` table is the
 campaign's ``campaign.json`` (without its recording times), so that the new files are
 seen as the same campaign's; tables without new rows are left out of it (a glob that
 matches nothing is an import error), so it is read as the mapping of further
@@ -41,8 +43,10 @@ from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_axis, epoch,
                                           campaign_meta, read_campaign_table,
                                           time_scan_runs, write_calibration_runs,
+                                          write_campaign_ramsey_runs,
                                           write_campaign_spam_runs, write_ndscan_gate_runs,
-                                          write_spam_runs, write_spectra_runs)
+                                          write_ramsey_runs, write_spam_runs,
+                                          write_spectra_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
@@ -83,6 +87,7 @@ def campaign_files_end(tables: dict, campaign: dict) -> tuple:
     if all(len(lab.t[t]) for t in ("gate_rates", "populations", "parity", "time_scans")):
         write_ndscan_gate_runs(lab)
     write_campaign_spam_runs(lab)
+    write_campaign_ramsey_runs(lab)
     times = [epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
              if k in campaign]
     return lab.rid, max([t for t in (lab.last,) if t is not None] + times)
@@ -192,6 +197,8 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
         _gates(lab, clock)
         if len(t["spam"]):
             write_spam_runs(lab, clock)
+        if len(t["ramsey"]):
+            write_ramsey_runs(lab, clock)
         text = _mapping_text(campaign, [n for n in CAMPAIGN_TABLES if len(t[n])], tmp)
         (tmp / "mapping.toml").write_text(text)
     return out / "mapping.toml"
