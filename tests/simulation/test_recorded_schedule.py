@@ -30,7 +30,8 @@ pytest.importorskip("h5py")
 #: one measurement of every ``what``: a repeated run, spectra at a new amplitude and at a
 #: recorded one, populations at the first setting (no later setting replayed), parity at
 #: a new amplitude (its gate rate, populations and parity), a time scan at the last one,
-#: a SPAM characterisation recorded twice (a campaign without spam.csv: a new table)
+#: a SPAM characterisation recorded twice and a Ramsey scan (a campaign without spam.csv
+#: and ramsey.csv: new tables)
 PER_WHAT = {
     "amplitude_run": {"what": "amplitude_run", "settings": {"runs": 2}},
     "phase_run": {"what": "phase_run", "settings": {"runs": 1}},
@@ -228,7 +229,8 @@ def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
-    assert set(rec.tables) == set(TABLES) | {"spam"} and not (folder / "spam.csv").exists()
+    assert set(rec.tables) == set(TABLES) | {"spam", "ramsey"}
+    assert not (folder / "spam.csv").exists() and not (folder / "ramsey.csv").exists()
     for t in rec.tables:
         merged = pd.read_csv(out / f"{t}.csv", dtype={"prepared": str})
         old = (pd.read_csv(folder / f"{t}.csv") if (folder / f"{t}.csv").exists() else

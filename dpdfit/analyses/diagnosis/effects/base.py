@@ -246,13 +246,12 @@ class Effect:
         untouched (None: no such decay)."""
         return None
 
-    def free_dephasing(self, gm, v: dict, t: np.ndarray, echo: bool, recorded: bool = True):
+    def free_dephasing(self, gm, v: dict, t: np.ndarray, echo: bool):
         """``(G_independent, G_common)`` (arrays like ``t``): each ion's accumulated
         dephasing over a free-precession wait ``t`` (s) of the Ramsey sequence, or of the
         spin echo with ``echo`` (``ramsey.csv``; :mod:`dpdfit.models.ramsey` says what the
-        echo removes); with ``recorded`` (a recorded coherence time ``T2_rec`` is fitted),
-        beyond the white independent dephasing that ``T2_rec`` stands for (None: no such
-        dephasing)."""
+        echo removes), beyond the white independent dephasing that the recorded coherence
+        time ``T2_rec`` stands for (None: no such dephasing)."""
         return None
 
     def power_offset_db(self, gm, v: dict, A: np.ndarray) -> np.ndarray:

@@ -25,9 +25,9 @@ part (``beta = 1``, the share ``1 - f_cm``): in free precession that is the qubi
 coherence time, which a Ramsey recording measures as the baseline's nuisance ``T2_rec``
 (it replaces the lab's stated ``T2``).  With ``ramsey.csv`` the effect's white independent
 rate is therefore the dephasing the gate adds beyond free precession (e.g. the gate
-lasers' phase noise); its common, slow and stretched parts are seen by both.  Without
-it (a Ramsey recording predicted by the proposal) the whole rate is free-precession
-dephasing beyond the stated ``T2``.
+lasers' phase noise); its common, slow and stretched parts are seen by both.  A Ramsey
+recording the proposal predicts is predicted as the diagnosis will fit it: the white
+independent rate does not show in it.
 
 Forms: ``independent`` (catalog: ``f_cm = 0``, ``beta = 1``, during the gate),
 ``common`` (``f_cm = 1``), ``mixed`` (``f_cm`` free), ``stretched`` (``f_cm`` and
@@ -121,11 +121,11 @@ class Dephasing(Effect):
         G = v.get("rate", 0.0) * gm.t_ref * (np.maximum(t, 0.0) / gm.t_ref) ** v.get("beta", 1.0)
         return np.exp(-G), np.exp(-2 * (1 + v.get("f_cm", 0.0)) * G)
 
-    def free_dephasing(self, gm, v, t, echo, recorded=True):
-        # the white independent part is the recorded T2's, when one is fitted (module doc)
+    def free_dephasing(self, gm, v, t, echo):
+        # the white independent part is the recorded T2's (module doc)
         rate, f, beta = v.get("rate", 0.0), v.get("f_cm", 0.0), v.get("beta", 1.0)
         G = free_dephasing(rate, beta, gm.t_ref, t, echo)
-        white = recorded and abs(beta - 1.0) < 1e-9
+        white = abs(beta - 1.0) < 1e-9
         return (0.0 if white else 1.0 - f) * G, f * G
 
     def size_values(self, ctx, p):

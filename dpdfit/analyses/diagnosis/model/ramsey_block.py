@@ -94,18 +94,16 @@ def recorded_coherence(gm, p: dict) -> list:
 
 def ramsey_probabilities_of(gm, p: dict, active: list, t, echo: bool) -> np.ndarray:
     """``(len(t), 3)`` detected outcomes of one sequence at the waits ``t`` (s) under
-    parameters ``p`` (``active``: the effects present, with their values).  Without
-    :data:`T2_REC` in ``p`` (a campaign without ``ramsey.csv``: a Ramsey scan the proposal
-    predicts) the stated T2 holds and the effects' whole free-precession dephasing adds
-    to it (:meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.free_dephasing`)."""
+    parameters ``p`` (``active``: the effects present, with their values; without
+    :data:`T2_REC` in ``p``, a campaign without ``ramsey.csv``, the stated T2), the
+    effects' free-precession dephasing
+    (:meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.free_dephasing`) added."""
     t = np.asarray(t, dtype=float)
-    recorded = T2_REC in p
     T2 = float(p.get(T2_REC, gm.nominal["T2"] * 1e3)) * 1e-3
     G_i = t / max(T2, 1e-12)
     G_c = np.zeros(t.shape)
     for e, v in active:
-        g = (e.free_dephasing(gm, v, t, echo, recorded) if hasattr(e, "free_dephasing")
-             else None)
+        g = e.free_dephasing(gm, v, t, echo)
         if g is not None:
             G_i, G_c = G_i + g[0], G_c + g[1]
     prep = gm.preparation(p, active)
