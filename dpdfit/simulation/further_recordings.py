@@ -26,8 +26,8 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
 #: ``spam`` and ``ramsey`` are drawn when the proposal's menu offers them;
-#: :func:`default_menu` (the menu of a proposal without one) leaves them out, so that a blind choice without a menu is
-#: drawn as before.
+#: :func:`default_menu` (the menu of a proposal without one) leaves them out, so that a
+#: blind choice without a menu is drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
                 "time_scan": "time_scan", "spam": "spam", "ramsey": "ramsey"}
@@ -221,8 +221,8 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     -------
     list of dict
         ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` and
-        ``ramsey`` (characterisations only a menu that offers them draws: the default menu's kinds, and
-        so its draws, are those it had before SPAM could be recorded).
+        ``ramsey`` (characterisations only a menu that offers them draws: the default
+        menu's kinds, and so its draws, are those it had before SPAM could be recorded).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)

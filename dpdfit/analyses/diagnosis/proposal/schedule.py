@@ -29,8 +29,8 @@ when it is taken:
 * ``lab_s``: the row's own lab time by :class:`~dpdfit.core.defaults.LabTimes`, as the
   menu counts it (:mod:`~dpdfit.analyses.diagnosis.proposal.menu`): ``shots * shot_s``
   for a scan point (``shots * spam_shot_s`` for a SPAM state, ``shots * (ramsey_shot_s +
-  wait) + ramsey_point_s`` for a Ramsey point), ``spectrum_trace_s`` for a trace, the run's time over its grid
-  points for a calibration-run point; rescaled so that the column sums to the
+  wait) + ramsey_point_s`` for a Ramsey point), ``spectrum_trace_s`` for a trace, the
+  run's time over its grid points for a calibration-run point; rescaled so that the column sums to the
   proposal's ``lab_seconds`` (a proposal made with the same lab times needs no rescaling).
 * Calibration runs are paced, not taken back to back: the proposal counts each further
   run as an independent draw of the campaign's run-to-run scatter (the drift modes' sd,
