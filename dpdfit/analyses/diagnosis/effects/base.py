@@ -250,8 +250,7 @@ class Effect:
         """``(G_independent, G_common)`` (arrays like ``t``): each ion's accumulated
         dephasing over a free-precession wait ``t`` (s) of the Ramsey sequence, or of the
         spin echo with ``echo`` (``ramsey.csv``; :mod:`dpdfit.models.ramsey` says what the
-        echo removes), beyond the white independent dephasing that the recorded coherence
-        time ``T2_rec`` stands for (None: no such dephasing)."""
+        echo removes), beyond the lab's stated T2 (None: no such dephasing)."""
         return None
 
     def power_offset_db(self, gm, v: dict, A: np.ndarray) -> np.ndarray:

@@ -20,14 +20,8 @@ the populations do not).
 
 In free precession (``ramsey.csv``, :meth:`Dephasing.free_dephasing`) each ion dephases
 by the same ``G(t)`` over the wait, the echo removing slow noise (``beta > 1``) and not
-white (:mod:`dpdfit.models.ramsey` states the assumption) -- except the white independent
-part (``beta = 1``, the share ``1 - f_cm``): in free precession that is the qubit's own
-coherence time, which a Ramsey recording measures as the baseline's nuisance ``T2_rec``
-(it replaces the lab's stated ``T2``).  With ``ramsey.csv`` the effect's white independent
-rate is therefore the dephasing the gate adds beyond free precession (e.g. the gate
-lasers' phase noise); its common, slow and stretched parts are seen by both.  A Ramsey
-recording the proposal predicts is predicted as the diagnosis will fit it: the white
-independent rate does not show in it.
+white (:mod:`dpdfit.models.ramsey` states the assumption): the recording measures every
+form, the white independent one as a coherence time shorter than the lab's stated ``T2``.
 
 Forms: ``independent`` (catalog: ``f_cm = 0``, ``beta = 1``, during the gate),
 ``common`` (``f_cm = 1``), ``mixed`` (``f_cm`` free), ``stretched`` (``f_cm`` and
@@ -122,11 +116,9 @@ class Dephasing(Effect):
         return np.exp(-G), np.exp(-2 * (1 + v.get("f_cm", 0.0)) * G)
 
     def free_dephasing(self, gm, v, t, echo):
-        # the white independent part is the recorded T2's (module doc)
         rate, f, beta = v.get("rate", 0.0), v.get("f_cm", 0.0), v.get("beta", 1.0)
         G = free_dephasing(rate, beta, gm.t_ref, t, echo)
-        white = abs(beta - 1.0) < 1e-9
-        return (0.0 if white else 1.0 - f) * G, f * G
+        return (1.0 - f) * G, f * G
 
     def size_values(self, ctx, p):
         v = self.values(p) or {}

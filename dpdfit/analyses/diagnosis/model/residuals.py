@@ -29,8 +29,7 @@ from dpdfit.analyses.diagnosis.model.gates.gate_model import (DETECTION_PRIOR_SI
 from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
 from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
-from dpdfit.analyses.diagnosis.model.ramsey_block import (T2_REC, coherence_report,
-                                                          ramsey_block, t2_rec_prior)
+from dpdfit.analyses.diagnosis.model.ramsey_block import coherence_report, ramsey_block
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
 from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
@@ -157,10 +156,6 @@ class Problem:
         self.gate_residuals = GateResiduals(self.gate.gates, camp.time_scans)
         self.prior["prep_split"], self.center["prep_split"] = np.inf, 0.5
         self.bounds["prep_split"] = (0.0, 1.0)
-        if camp.ramsey is not None:
-            # the recorded coherence time replaces the stated one (flat prior)
-            self.center[T2_REC], self.bounds[T2_REC] = t2_rec_prior(self.gate.nominal["T2"])
-            self.prior[T2_REC] = np.inf
         for k in ("e01", "e10"):
             self.prior[k], self.center[k] = DETECTION_PRIOR_SIGMA, self.gate.p_det
             self.bounds[k] = (0.0, self.gate.p_det + 50 * DETECTION_PRIOR_SIGMA)
@@ -185,7 +180,8 @@ class Problem:
             preparation_error_total=None if self.gate is None else self.gate.p_total,
             fitted=None if base is None else {k: v for k, v in base.nuisances.items()
                                               if not k.startswith("cal_")},
-            coherence=coherence_report(self, base) if T2_REC in self.prior else None)
+            coherence=(coherence_report(self, base)
+                       if self.gate is not None and self.camp.ramsey is not None else None))
 
     # ------------------------------------------------------------ models in use
     def use_tone(self, tone: ToneModel) -> None:
