@@ -225,6 +225,16 @@ class LabTimes:
     #: setting up the RF switch, the trigger and the photodiode in the beam takes most of
     #: a minute, so ~60 s per averaged trace
     pulse_trace_s: float = 60.0
+    #: one shot of the Ramsey and spin-echo characterisation, the wait excluded (added per
+    #: shot from the scan's waits): Doppler cooling and optical pumping (~1 ms), two or
+    #: three carrier pulses (~10 us) and the ~1 ms detection, no sideband cooling, so
+    #: ~2 ms per shot as for SPAM
+    ramsey_shot_s: float = 0.002
+    #: overhead per point of a Ramsey scan: the control system compiles and uploads the
+    #: sequence of each wait and reads its counts back (ndscan/ARTIQ: ~0.5 s a point);
+    #: 20 waits x 2 sequences x 200 shots is then about 2 minutes with the waits of a
+    #: scan to 1.5 T2 (T2 = 50 ms)
+    ramsey_point_s: float = 0.5
     #: the longest recording the diagnosis proposes (repeats included): a working day
     max_seconds: float = 8 * 3600.0
 

@@ -47,6 +47,11 @@ Required and optional (everything else in the layout is optional):
   ``power_err``, ``run``, ``timestamp``),
   :func:`~dpdfit.recordings.pulse_response.read_pulse_response`; a characterisation
   table, as ``spam.csv``.
+* ``ramsey.csv`` -- the Ramsey and spin-echo characterisation: ``sequence, wait_us,
+  n00, n01_10, n11, shots`` (+ ``run``, ``timestamp``),
+  :func:`~dpdfit.recordings.ramsey.read_ramsey`; its waits checked against the
+  campaign's coherence time (:func:`~dpdfit.recordings.ramsey.check_ramsey_waits`).
+  A characterisation table too.
 
 Nothing is ever written into the folder.
 
@@ -74,7 +79,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import (AMPLITUDE_ORDER, ETA_LD, ETA_REF, NBAR,
+from dpdfit.core.defaults import (AMPLITUDE_ORDER, ERROR_MODEL, ETA_LD, ETA_REF, NBAR,
                                   NU_HZ, XI0_SPECTRA_HZ)
 from dpdfit.core.jsonable import json_kind
 from dpdfit.errors import ImplausibleValueError, InputError, RefusedFileError
@@ -86,6 +91,7 @@ from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
 from .input_files import check_inside, open_input, read_input_json
 from .pulse_response import read_pulse_response
+from .ramsey import check_ramsey_waits, read_ramsey
 from .spam import read_spam
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
@@ -115,10 +121,11 @@ FILES = {
     "traces.csv": "raw heterodyne traces",
     "spam.csv": "SPAM characterisation (basis states prepared, detected with no gate)",
     "pulse_response.csv": "AOM pulse response (a fast photodiode trace of an RF step)",
+    "ramsey.csv": "Ramsey and spin-echo characterisation (coherence with a variable wait)",
 }
 #: the lab's characterisation experiments: optional tables whose absence is not listed
 #: as left out (a campaign without them is analysed as it always was)
-CHARACTERISATION_FILES = ("spam.csv", "pulse_response.csv")
+CHARACTERISATION_FILES = ("spam.csv", "pulse_response.csv", "ramsey.csv")
 #: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
 OTHER_FILES = ("budget.toml",)
 
@@ -390,20 +397,41 @@ class CampaignFolder:
         return read_pulse_response(self.file("pulse_response.csv"), within=self.path,
                                    default_A=float(amps[0]) if len(amps) == 1 else None)
 
+    @functools.cached_property
+    def ramsey(self) -> pd.DataFrame | None:
+        """``sequence, wait_us, wait_s, n00, n01_10, n11, shots`` (+ ``run``,
+        ``timestamp``), one row per point, repeated recordings pooled
+        (:func:`~.ramsey.read_ramsey`), the waits checked against the error model's
+        ``T2_s`` (:func:`~.ramsey.check_ramsey_waits`); None without ``ramsey.csv``."""
+        if not self.has("ramsey.csv"):
+            return None
+        name = self.file("ramsey.csv")
+        df = read_ramsey(name, within=self.path)
+        em = self.raw_meta.get("error_model")
+        stated = isinstance(em, dict) and "T2_s" in em
+        try:
+            T2 = float(em["T2_s"]) if stated else ERROR_MODEL.T2_s
+        except (TypeError, ValueError):
+            return df                     # a bad T2_s is the error model reader's to refuse
+        check_ramsey_waits(df, T2, str(name), "campaign.json error_model T2_s" if stated
+                           else "the paper's T2, campaign.json states none")
+        return df
+
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
         :mod:`~dpdfit.recordings.plausibility`): such a campaign is refused as a whole.
         A file that is malformed is left to the analyses that read it, except
-        ``time_scans.csv``, ``spam.csv`` and ``pulse_response.csv`` (counts above the shots, say), which no analysis
-        of its own reads: they are refused here, at once, not after every analysis ran."""
+        ``time_scans.csv``, ``spam.csv``, ``pulse_response.csv`` and ``ramsey.csv`` (counts
+        above the shots, say), which no analysis of its own reads: they are refused here,
+        at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
-                     "gate_rates", "time_scans", "traces", "spam", "pulse_response"):
+                     "gate_rates", "time_scans", "traces", "spam", "pulse_response", "ramsey"):
             try:
                 getattr(self, name)
             except InputError as exc:
                 if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
-                        name in ("time_scans", "spam", "pulse_response")):
+                        name in ("time_scans", "spam", "pulse_response", "ramsey")):
                     raise
 
     # -------------------------------------------------------------- left out

@@ -15,6 +15,7 @@ import math
 from dpdfit.core.defaults import INTEGER_MAX, ErrorModel
 from dpdfit.errors import InputError
 
+from .ramsey import SEQUENCES
 from .spam import BASIS_STATES
 from .units import COLUMN_KINDS
 from .value_formats import FormatError, check_format
@@ -82,6 +83,10 @@ def check_constant(column: str, v, key: str, err, table: str) -> None:
                 f"got {shown(v)}", table, column)
     if column == "prepared":
         _check_states([v], key, err, table)
+    if column == "sequence":
+        _check_sequences([v], key, err, table)
+    if column == "wait_us" and is_number(v) and not v >= 0:
+        err.bad(key, f"a wait below zero ({shown(v)} us) is no wait", table, column)
     if table == "pulse_response" and is_number(v):
         _check_pulse_constant(column, v, key, err)
 
@@ -98,6 +103,16 @@ def _check_pulse_constant(column: str, v, key: str, err) -> None:
            "power_err": f"an error of {v} is not > 0" if v <= 0 else None}.get(column)
     if why:
         err.bad(key, why, "pulse_response", column)
+
+
+def _check_sequences(values, key: str, err, table: str) -> None:
+    """Refuse a ``sequence`` value that is no Ramsey sequence (``ramsey`` or ``echo``, as
+    ``ramsey.csv`` records it): the import would make rows of a sequence that does not
+    exist."""
+    for v in values:
+        if not (isinstance(v, str) and v.strip().lower() in SEQUENCES):
+            err.bad(key, f"sequence {shown(v)} does not exist: the sequences are "
+                    f"{', '.join(SEQUENCES)} (text)", table, "sequence")
 
 
 def _check_states(values, key: str, err, table: str) -> None:
@@ -133,6 +148,8 @@ def column_modifiers(column: str, v: dict, key: str, err, table: str) -> dict:
                 table, column)
     if labels is not None and column == "prepared":
         _check_states(labels.values(), f"{key}.labels", err, table)
+    if labels is not None and column == "sequence":
+        _check_sequences(labels.values(), f"{key}.labels", err, table)
     fs = v.get("full_scale_dbm")
     if fs is not None and not (is_number(fs) and math.isfinite(fs)):
         err.bad(f"{key}.full_scale_dbm", f"must be a finite number (dBm), got {shown(fs)}",

@@ -5,7 +5,7 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 
 ``kind``
     What is recorded: ``amplitude_run``, ``phase_run``, ``spectra``, ``populations``,
-    ``parity``, ``time_scan``, ``spam`` or ``pulse_response`` (the diagnosis's
+    ``parity``, ``time_scan``, ``spam``, ``pulse_response`` or ``ramsey`` (the diagnosis's
     ``next_measurement.what``).
 ``repeat``
     Which repeat (run, scan, trace) the row belongs to: 1, 2, ...
@@ -13,16 +13,17 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     The point within its repeat: 0, 1, ... (the order to record them in).
 ``A``
     The amplitude of the point: a grid point of a calibration run, the amplitude of a
-    trace, the gate setting of a scan (normalised RF amplitude, 0..1); 0 for a SPAM
-    point (no gate is driven); the step's amplitude of a pulse response (one point per
-    trace: the drive switched from 0 to ``A``, traced by a fast photodiode).
+    trace, the gate setting of a scan (normalised RF amplitude, 0..1); 0 for a SPAM or
+    Ramsey point (no gate is driven); the step's amplitude of a pulse response (one point
+    per trace: the drive switched from 0 to ``A``, traced by a fast photodiode).
 ``dpd``
-    0 or 1 (with or without predistortion); empty for calibration runs, SPAM points and
-    pulse responses.
+    0 or 1 (with or without predistortion); empty for calibration runs, SPAM and Ramsey
+    points and pulse responses.
 ``shots``
     Shots of the point: of the population scan, of one phase of a parity scan, of one
-    time of a time scan, of one prepared state of a SPAM characterisation; empty for
-    calibration runs, spectra and pulse responses.
+    time of a time scan, of one prepared state of a SPAM characterisation, of one
+    sequence and wait of a Ramsey scan; empty for calibration runs, spectra and pulse
+    responses.
 ``phase_rad``
     The analysis phase of a parity point (rad); empty otherwise.
 ``t_us``
@@ -30,7 +31,8 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 ``lab_s``
     The row's own lab time (seconds), as the diagnosis counted it
     (:class:`~dpdfit.core.defaults.LabTimes`): ``shots`` times ``shot_s`` for a scan
-    point (``spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace
+    point (``spam_shot_s`` for a SPAM state; ``ramsey_shot_s`` plus the wait per shot and
+    ``ramsey_point_s`` for a Ramsey point), ``spectrum_trace_s`` for a trace
     (``pulse_trace_s`` for a pulse response), the run's
     time over its grid points for a calibration-run point.  The column sums to the
     proposal's ``lab_seconds`` (rescaled to it when the proposal was made with other lab
@@ -51,6 +53,10 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     Only in a schedule with ``spam`` rows (the other schedules keep the columns above):
     the basis state a SPAM point prepares, ``00``, ``01``, ``10`` or ``11`` (as
     ``spam.csv`` records it); empty for the other kinds.
+``sequence``, ``wait_us``
+    Only in a schedule with ``ramsey`` rows (after the others): the sequence of a Ramsey
+    point, ``ramsey`` or ``echo``, and its free-precession wait (microseconds), as
+    ``ramsey.csv`` records them; empty for the other kinds.
 
 The columns ``day``, ``start_s`` and ``tone_sd_db`` came later and are optional: a
 schedule without them is read with them empty.  Rows of every kind are taken back to
@@ -87,20 +93,24 @@ OPTIONAL_COLUMNS = SCHEDULE_COLUMNS[4:]
 RUN_KINDS = ("amplitude_run", "phase_run")
 #: gate recordings: a setting (A, dpd) and shots per point
 SCAN_KINDS = ("populations", "parity", "time_scan")
-#: the lab's characterisation experiments: no flag; a SPAM point has no gate setting
-#: (``A`` 0) and shots, a pulse response the step's amplitude ``A`` and no shots
-CHARACTERISATION_KINDS = ("spam", "pulse_response")
+#: the lab's characterisation experiments: no flag; a SPAM or Ramsey point has no gate
+#: setting (``A`` 0) and shots, a pulse response the step's amplitude ``A`` and no shots
+CHARACTERISATION_KINDS = ("spam", "pulse_response", "ramsey")
 #: the characterisation kinds that drive no gate (``A`` 0)
-_UNGATED = ("spam",)
+_UNGATED = ("spam", "ramsey")
 #: every kind of recording a schedule may hold (the diagnosis's menu)
 SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS
 #: the column a schedule has only when it holds ``spam`` rows (after the others)
 _PREPARED = "prepared"
 _BASIS_STATES = ("00", "01", "10", "11")
+#: the columns a schedule has only when it holds ``ramsey`` rows (after the others)
+_RAMSEY = ("sequence", "wait_us")
+_SEQUENCES = ("ramsey", "echo")
 #: per kind, the columns its rows must fill (besides kind, repeat, point, A)
 _NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
           "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
-          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",), "pulse_response": ()}
+          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",), "pulse_response": (),
+          "ramsey": ("shots", "wait_us")}
 #: per kind, the columns that must not change within one repeat
 _CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
              "time_scan": ("A", "dpd", "shots")}
@@ -168,13 +178,15 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
         df[col] = _numbers(df[col], col, name)
     _check_values(df, kind.to_numpy(), name)
     spam = _check_prepared(df, kind.to_numpy(), name)
+    ramsey = _check_sequence(df, kind.to_numpy(), name)
     _check_repeats(df, name)
     # counts as integers (empty where a kind has none), so that the table reads as written
     for col in ("repeat", "point"):
         df[col] = df[col].astype("int64")
     for col in ("dpd", "shots", "day"):
         df[col] = df[col].round().astype("Int64")
-    return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])]
+    return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])
+              + (list(_RAMSEY) if ramsey else [])]
 
 
 def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
@@ -191,6 +203,30 @@ def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
         _fail(f"prepared state {text[bad[0]]!r} does not exist (the basis states: "
               f"{', '.join(_BASIS_STATES)})", name, _PREPARED, bad[0])
     df[_PREPARED] = np.where(spam, text, "")
+    return True
+
+
+def _check_sequence(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
+    """Each ``ramsey`` row's ``sequence`` is ``ramsey`` or ``echo`` and its ``wait_us`` a
+    wait (>= 0; both empty on the other rows); whether the schedule has ``ramsey``
+    rows."""
+    rows = kind == "ramsey"
+    if not rows.any():
+        return False
+    if "sequence" not in df.columns:
+        _fail("column 'sequence' is missing (the 'ramsey' rows need it)", name)
+    text = df["sequence"].astype("string").fillna("").str.strip().str.lower().to_numpy(
+        dtype=object)
+    bad = np.flatnonzero(rows & ~np.isin(text, _SEQUENCES))
+    if bad.size:
+        _fail(f"sequence {text[bad[0]]!r} does not exist (the sequences: "
+              f"{', '.join(_SEQUENCES)})", name, "sequence", bad[0])
+    wait = df["wait_us"].to_numpy(float)
+    bad = np.flatnonzero(rows & ~(wait >= 0))
+    if bad.size:
+        _fail(f"wait {wait[bad[0]]:g} us is below zero", name, "wait_us", bad[0])
+    df["sequence"] = np.where(rows, text, "")
+    df["wait_us"] = np.where(rows, wait, np.nan)
     return True
 
 
@@ -276,7 +312,7 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
     """
     name = str(path)
     df = read_table(path, ["kind", "repeat", "point", "A"],
-                    list(OPTIONAL_COLUMNS) + [_PREPARED],
+                    list(OPTIONAL_COLUMNS) + [_PREPARED, *_RAMSEY],
                     numeric=["repeat", "point", "A"], max_rows=MAX_SCHEDULE_ROWS)
     return check_schedule(df, name)
 

@@ -25,12 +25,14 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
-#: ``spam`` and ``pulse_response`` are drawn when the proposal's menu offers them;
+#: ``spam``, ``pulse_response`` and ``ramsey`` are drawn when the proposal's menu offers
+#: them;
 #: :func:`default_menu` (the menu of a proposal without one) leaves them out, so that a
 #: blind choice without a menu is drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan", "spam": "spam", "pulse_response": "pulse_response"}
+                "time_scan": "time_scan", "spam": "spam", "pulse_response": "pulse_response",
+                "ramsey": "ramsey"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -67,9 +69,10 @@ def _setting(cfg: CampaignConfig, st: dict) -> tuple:
 
 def _characterisation(cfg: CampaignConfig, what: str, st: dict, scans: int) -> CampaignConfig:
     """``cfg`` with ``scans`` further characterisation items of kind ``what`` (SPAM: its
-    shots per prepared state; the pulse response: its step's amplitude)."""
-    if what == "spam":
-        item = ("spam", _positive_int(st.get("shots", NOMINAL_SHOTS), "shots"))
+    shots per prepared state; the pulse response: its step's amplitude; the Ramsey scan:
+    its shots per point)."""
+    if what in ("spam", "ramsey"):
+        item = (what, _positive_int(st.get("shots", NOMINAL_SHOTS), "shots"))
     else:
         item = ("pulse_response", _amplitude(st.get("A", cfg.time_scan_A)))
     return dataclasses.replace(cfg, further=cfg.further + (item,) * scans)
@@ -90,7 +93,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
         shots per point, points after the start; the scan also records ``t = 0``),
         ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
-        ``pulse_response`` (``{"A"}``: a trace of a step to ``A``, else time_scan_A).
+        ``pulse_response`` (``{"A"}``: a trace of a step to ``A``, else time_scan_A),
+        ``ramsey`` (``{"shots"}``: shots per point of a Ramsey and spin-echo scan on the
+        simulator's waits, :func:`~dpdfit.models.ramsey.scan_waits`).
 
     Returns
     -------
@@ -147,7 +152,7 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
-    if what in ("spam", "pulse_response"):
+    if what in ("spam", "pulse_response", "ramsey"):
         return _characterisation(cfg, what, st, scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
@@ -187,7 +192,7 @@ def schedule_measurements(schedule) -> list:
                 st = {"A": float(A), "scans": int(reps["repeat"].nunique())}
                 out.append({"what": kind, "settings": st})
             continue
-        if kind == "spam":
+        if kind in ("spam", "ramsey"):
             for shots, reps in rows.groupby("shots", sort=False):
                 st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
                 out.append({"what": kind, "settings": st})
@@ -233,9 +238,9 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     Returns
     -------
     list of dict
-        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but ``spam`` and
-        ``pulse_response`` (characterisations only a menu that offers them draws: the
-        default menu's kinds, and so its draws, are those it had before them).
+        ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but the characterisations
+        ``spam``, ``pulse_response`` and ``ramsey`` (only a menu that offers them draws
+        them: the default menu's kinds, and so its draws, are those it had before them).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)

@@ -34,13 +34,20 @@ from dpdfit.simulation.artiq_results_file import (axis, channel, ndscan_datasets
 __all__ = ["NdscanLab", "read_campaign_table", "read_campaign_json", "campaign_meta", "epoch", "write_calibration_runs", "write_spectra_runs", "duration_axis",
            "time_scan_runs", "count_channels", "write_ndscan_gate_runs", "SPAM_EXPERIMENT",
            "spam_code", "spam_runs", "write_spam_runs", "write_campaign_spam_runs",
-           "PULSE_EXPERIMENT", "write_pulse_runs", "write_campaign_pulse_runs"]
+           "PULSE_EXPERIMENT", "write_pulse_runs", "write_campaign_pulse_runs",
+           "RAMSEY_EXPERIMENT", "RAMSEY_CODES", "ramsey_runs", "write_ramsey_runs",
+           "write_campaign_ramsey_runs"]
 
 #: the ndscan fragment of the lab's SPAM characterisation (its results files end
 #: ``-SpamCharacterisation.h5``)
 SPAM_EXPERIMENT = "lab.characterisation.SpamCharacterisation"
 #: the ndscan fragment of the lab's AOM pulse response (``-PulseResponse.h5``)
 PULSE_EXPERIMENT = "lab.characterisation.PulseResponse"
+#: the ndscan fragment of the lab's Ramsey and spin-echo scan (its results files end
+#: ``-RamseyEcho.h5``)
+RAMSEY_EXPERIMENT = "lab.characterisation.RamseyEcho"
+#: the codes of the Ramsey scan's axis ``sequence`` (the mapping's labels turn them back)
+RAMSEY_CODES = {"ramsey": 0, "echo": 1}
 
 
 def read_campaign_table(folder, table: str) -> pd.DataFrame:
@@ -291,3 +298,42 @@ def write_campaign_pulse_runs(lab: NdscanLab) -> None:
     apart after its last run: a characterisation taken once the rest was recorded."""
     if len(lab.t["pulse_response"]):
         write_pulse_runs(lab, itertools.count(lab.last + 300.0, 300.0))
+
+
+def ramsey_runs(rows: pd.DataFrame) -> list:
+    """The Ramsey rows as the runs a lab records them in, in order: a run takes each
+    ``(sequence, wait_us)`` once with one number of shots, so a point taken again (or
+    other shots) begins the next run.  Each run's rows, consecutive as in ``rows``."""
+    if not len(rows):
+        return []
+    keys = list(zip(rows["sequence"], rows["wait_us"].to_numpy(float)))
+    shots = rows["shots"].to_numpy(np.int64)
+    starts, seen = [0], set()
+    for i, (k, n) in enumerate(zip(keys, shots)):
+        if k in seen or (i and n != shots[starts[-1]]):
+            starts.append(i)
+            seen = set()
+        seen.add(k)
+    return [rows.iloc[a:b] for a, b in zip(starts, starts[1:] + [len(rows)])]
+
+
+def write_ramsey_runs(lab: NdscanLab, clock) -> None:
+    """One run of :data:`RAMSEY_EXPERIMENT` per Ramsey scan (:func:`ramsey_runs`) of
+    ``lab.t['ramsey']``, started at the times ``clock`` gives: axes ``sequence`` (a code,
+    :data:`RAMSEY_CODES`) and ``wait`` (shown in us, stored in s when that is exact), the
+    detected outcomes result channels, the shots the argument ``num_shots``."""
+    for rows in ramsey_runs(lab.t["ramsey"]):
+        codes = np.array([RAMSEY_CODES[str(x).strip().lower()] for x in rows["sequence"]],
+                         dtype=np.int64)
+        stored, scale = stored_in_si(rows["wait_us"], 1e-6)
+        lab.scan(RAMSEY_EXPERIMENT, next(clock),
+                 [axis("sequence", codes), axis("wait", stored, unit="us", scale=scale)],
+                 count_channels(rows, ("n00", "n01_10", "n11")),
+                 {"num_shots": int(rows["shots"].iloc[0])})
+
+
+def write_campaign_ramsey_runs(lab: NdscanLab) -> None:
+    """The campaign's Ramsey scans (``ramsey.csv``, if it has one), 300 s apart after its
+    last run: a characterisation taken once the gates were recorded."""
+    if len(lab.t["ramsey"]):
+        write_ramsey_runs(lab, itertools.count(lab.last + 300.0, 300.0))

@@ -11,7 +11,9 @@ reads as their timestamp).  A SPAM characterisation is one run per recording of 
 prepared states (:func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`), imported by the
 mapping's ``[[spam]]`` into ``spam.csv``; an AOM pulse response is one run per trace
 (:func:`~dpdfit.simulation.ndscan_lab.write_pulse_runs`), imported by its
-``[[pulse_response]]``.  The mapping's ``[campaign]`` table is the
+``[[pulse_response]]``; a Ramsey scan is one run
+(:func:`~dpdfit.simulation.ndscan_lab.write_ramsey_runs`), imported by ``[[ramsey]]``
+into ``ramsey.csv``.  The mapping's ``[campaign]`` table is the
 campaign's ``campaign.json`` (without its recording times), so that the new files are
 seen as the same campaign's; tables without new rows are left out of it (a glob that
 matches nothing is an import error), so it is read as the mapping of further
@@ -44,8 +46,10 @@ from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_ax
                                           campaign_meta, read_campaign_table,
                                           time_scan_runs, write_calibration_runs,
                                           write_campaign_pulse_runs,
+                                          write_campaign_ramsey_runs,
                                           write_campaign_spam_runs, write_ndscan_gate_runs,
-                                          write_pulse_runs, write_spam_runs, write_spectra_runs)
+                                          write_pulse_runs, write_ramsey_runs,
+                                          write_spam_runs, write_spectra_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
@@ -87,6 +91,7 @@ def campaign_files_end(tables: dict, campaign: dict) -> tuple:
         write_ndscan_gate_runs(lab)
     write_campaign_spam_runs(lab)
     write_campaign_pulse_runs(lab)
+    write_campaign_ramsey_runs(lab)
     times = [epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
              if k in campaign]
     return lab.rid, max([t for t in (lab.last,) if t is not None] + times)
@@ -197,6 +202,8 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
         if len(t["spam"]):
             write_spam_runs(lab, clock)
         write_pulse_runs(lab, clock)
+        if len(t["ramsey"]):
+            write_ramsey_runs(lab, clock)
         text = _mapping_text(campaign, [n for n in CAMPAIGN_TABLES if len(t[n])], tmp)
         (tmp / "mapping.toml").write_text(text)
     return out / "mapping.toml"

@@ -37,6 +37,8 @@ _POINTS = {
     "spam": ("spam", {"prepared": "prepared", "shots": "shots"}),
     # a pulse response is one point per trace: its step's amplitude
     "pulse_response": ("pulse_response", {"A": "A"}),
+    # both sequences share the waits: the point is its wait, recorded once per sequence
+    "ramsey": ("ramsey", {"wait_us": "wait_us", "shots": "shots"}),
 }
 #: significant digits a point's values must share (the campaign's CSVs keep 10)
 _DIGITS = 8

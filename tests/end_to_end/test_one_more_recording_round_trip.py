@@ -45,13 +45,15 @@ PROPOSALS = {
              "settings": {"shots": 500, "states": ["00", "11"], "scans": 2}},
     "pulse_response": {"what": "pulse_response", "lab_seconds": 120.0,
                        "settings": {"A": 0.6, "scans": 2}},
+    "ramsey": {"what": "ramsey", "lab_seconds": 100.0,
+               "settings": {"shots": 120, "points": 20, "max_wait_us": 75000.0}},
 }
 #: the columns that order a table's rows among themselves (repeats keep their order)
 KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
         "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
         "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
         "time_scans": ["A", "dpd", "t_us"], "spam": ["prepared"],
-        "pulse_response": ["run", "t_us"]}
+        "pulse_response": ["run", "t_us"], "ramsey": ["sequence", "wait_us"]}
 
 
 def test_every_what_of_the_menu_has_a_round_trip():

@@ -30,7 +30,8 @@ pytest.importorskip("h5py")
 #: one measurement of every ``what``: a repeated run, spectra at a new amplitude and at a
 #: recorded one, populations at the first setting (no later setting replayed), parity at
 #: a new amplitude (its gate rate, populations and parity), a time scan at the last one,
-#: a SPAM characterisation recorded twice (a campaign without spam.csv: a new table)
+#: a SPAM characterisation recorded twice and a Ramsey scan (a campaign without spam.csv
+#: and ramsey.csv: new tables)
 PER_WHAT = {
     "amplitude_run": {"what": "amplitude_run", "settings": {"runs": 2}},
     "phase_run": {"what": "phase_run", "settings": {"runs": 1}},
@@ -42,18 +43,21 @@ PER_WHAT = {
                   "settings": {"A": 0.6, "dpd": 1, "shots": 100, "points": 4, "scans": 2}},
     "spam": {"what": "spam", "settings": {"shots": 500, "scans": 2}},
     "pulse_response": {"what": "pulse_response", "settings": {"A": 0.6}},
+    "ramsey": {"what": "ramsey", "settings": {"shots": 120}},
 }
 #: the tables each kind simulates whole in the long way (the others cannot change)
 _WHOLE = {"amplitude_run": dict(include_spectra=False, include_gates=False),
           "phase_run": dict(include_spectra=False, include_gates=False),
           "spectra": dict(include_gates=False),
           "spam": dict(include_spectra=False, include_gates=False),
-          "pulse_response": dict(include_spectra=False, include_gates=False)}
+          "pulse_response": dict(include_spectra=False, include_gates=False),
+          "ramsey": dict(include_spectra=False, include_gates=False)}
 #: the columns that give a row's place among repeats (a stable sort keeps the repeats' order)
 _KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
          "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
          "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
-         "time_scans": ["A", "dpd"], "spam": ["prepared"], "pulse_response": ["run", "t_us"]}
+         "time_scans": ["A", "dpd"], "spam": ["prepared"], "pulse_response": ["run", "t_us"],
+         "ramsey": ["sequence", "wait_us"]}
 
 
 def test_every_what_is_covered():
@@ -228,8 +232,8 @@ def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
-    assert set(rec.tables) == set(TABLES) | {"spam", "pulse_response"}
-    assert not (folder / "spam.csv").exists() and not (folder / "pulse_response.csv").exists()
+    assert set(rec.tables) == set(TABLES) | {"spam", "pulse_response", "ramsey"}
+    assert not any((folder / f"{t}.csv").exists() for t in ("spam", "pulse_response", "ramsey"))
     for t in rec.tables:
         merged = pd.read_csv(out / f"{t}.csv", dtype={"prepared": str})
         old = (pd.read_csv(folder / f"{t}.csv") if (folder / f"{t}.csv").exists() else

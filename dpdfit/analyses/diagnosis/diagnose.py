@@ -69,6 +69,7 @@ from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_effects, fit_hypothesis
 from dpdfit.analyses.diagnosis.fitting.phase_sign import carry
 from dpdfit.analyses.diagnosis.model.gates.gate_model import GATE_NUISANCES
+from dpdfit.analyses.diagnosis.model.ramsey_block import T2_REC
 from dpdfit.analyses.diagnosis.model.residuals import (NUISANCES, Problem,
                                                        check_forms_left_out)
 from dpdfit.analyses.diagnosis.observables.campaign import Campaign, load_campaign
@@ -262,6 +263,8 @@ def _campaign_notes(prob: Problem, camp, dropped: list) -> dict:
                                              if k in ("delta_bic", "delta_bic_tempered",
                                                       "family_delta_bic_tempered")}}
                             for e, en in dropped)}
+    if T2_REC in prob.prior:                   # only with ramsey.csv
+        out["nuisances"][T2_REC] = "ms"
     if prob.forms_left_out:
         out["forms_left_out"] = {k: sorted(v) for k, v in prob.forms_left_out.items()}
     return out

@@ -187,6 +187,11 @@ def _null_model_lines(nm: dict) -> list:
         rs = nm["rate_scatter"]
         lines.append(f"    gate-rate calibration scatter {rs['rel']:.3%} "
                      f"(stated {rs['stated_rel']:.3%})")
+    coh = nm.get("coherence") or {}
+    if "T2_recorded_ms" in coh:
+        lines.append(f"    coherence time T2 {coh['T2_recorded_ms']:.3g} +/- "
+                     f"{coh['T2_recorded_err_ms']:.2g} ms recorded by ramsey.csv (stated "
+                     f"{coh['T2_stated_ms']:.3g} ms)")
     if nm.get("phase_sign") is not None:
         lines.append(f"    phase-sign convention {nm['phase_sign']:+d}")
     fitted = nm.get("fitted") or {}

@@ -185,6 +185,9 @@ class CampaignConfig:
     #: traces of the campaign's AOM pulse response (``pulse_response.csv``: a step
     #: ``0 -> time_scan_A`` traced by a fast photodiode); 0: none recorded
     pulse_traces: int = 0
+    #: shots per point of the campaign's Ramsey and spin-echo scan (``ramsey.csv``: both
+    #: sequences at every wait of ``ramsey_runs.ramsey_waits``); 0: none recorded
+    ramsey_shots: int = 0
     harmonics_gate: tuple = tuple(range(-2, 6))
     effects: dict = field(default_factory=dict)
     #: calibration runs recorded after the spectra and gates (the last ones)
@@ -199,8 +202,9 @@ class CampaignConfig:
     #: ``("phase_run",)``, ``("scan", A, dpd, shots_pop, shots_par)``,
     #: ``("time_scan", A, dpd, shots, points)`` (shots per point; points with ``t = 0``,
     #: as ``time_scan_points``; parity shots per phase) or ``("spam", shots)`` (a SPAM
-    #: characterisation, shots per prepared state) or ``("pulse_response", A)`` (an AOM
-    #: pulse response, one trace of a step to ``A``).  Item ``j`` draws only from its own
+    #: characterisation, shots per prepared state), ``("pulse_response", A)`` (an AOM
+    #: pulse response, one trace of a step to ``A``) or ``("ramsey", shots)`` (a Ramsey
+    #: and spin-echo scan, shots per point).  Item ``j`` draws only from its own
     #: stream (purpose 8, ``j``), so every other recording is drawn as without it.
     further: tuple = ()
 
@@ -351,6 +355,7 @@ TRUTH_CONTRACT = {
     "time_scan_max": Number(0.0, 10.0, lo_open=True),
     "spam_shots": Integer(0, MAX_SHOTS),
     "pulse_traces": Integer(0, MAX_SIMULATED_RUNS),
+    "ramsey_shots": Integer(0, MAX_SHOTS),
     "harmonics_gate": ListOf(_HARMONIC, 1, 2 * MAX_PRODUCT_ORDER + 1, distinct=True,
                              holding=_GATE_TONES),
     "effects": Effects(lambda name: _effect_param(name), _FINITE),
@@ -366,7 +371,8 @@ TRUTH_CONTRACT = {
         "time_scan": Fixed(("A", "dpd", "shots", "points"),
                            (_AMPLITUDE, _FLAG, _SHOTS, Integer(2, MAX_SIMULATED_POINTS))),
         "spam": Fixed(("shots",), (_SHOTS,)),
-        "pulse_response": Fixed(("A",), (_AMPLITUDE,))}),
+        "pulse_response": Fixed(("A",), (_AMPLITUDE,)),
+        "ramsey": Fixed(("shots",), (_SHOTS,))}),
         0, MAX_SCHEDULE_ROWS),
 }
 
@@ -467,6 +473,7 @@ def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:
     Keys: 1 calibration drift, 2 amplitude run, 3 phase run, 4 trace, 5 gates,
     7 the drifted calibration behind the table (``table_drift``), 8 the
     further recordings (``further``, by index), 9 the SPAM characterisation
-    (``spam_shots``), 15 the AOM pulse response (``pulse_traces``, by trace).
+    (``spam_shots``), 15 the AOM pulse response (``pulse_traces``, by trace), 21 the
+    Ramsey and spin-echo scan (``ramsey_shots``).
     """
     return np.random.default_rng(np.random.SeedSequence([cfg.seed, *key]))

@@ -25,7 +25,7 @@ from .config import CampaignConfig, rng_for
 from .further_engine import FurtherEngine, jittered_scan_counts
 from .optics import gate_spectrum
 
-__all__ = ["gate_tables", "further_gate_rows"]
+__all__ = ["gate_tables", "further_gate_rows", "gate_references"]
 
 _PHASES = ERROR_MODEL.analysis_phases()           # analysis phases of the parity scans
 _SCAN_SHOTS = 625                                  # shots per time-scan point
@@ -201,6 +201,13 @@ def _gate_setup(cfg: CampaignConfig, aom, lut):
     xi_unit = gate_sim.calibrate_xi0(b0, c0, n0, 1.0)
     eta_Omega0 = cfg.alpha_khz * 1e3 / xi_unit
     return settings, spectra, eta_Omega0, _references(cfg, spectra, eta_Omega0)
+
+
+def gate_references(cfg: CampaignConfig, aom, lut) -> dict:
+    """The campaign's references the injections read (``A_ref``, ``t_ref``), as the gates
+    get them: for a recording without a gate (a characterisation) whose injected physics
+    is parametrised at the gate time."""
+    return _gate_setup(cfg, aom, lut)[3]
 
 
 def _frames(out: dict, start: dict | None = None) -> tuple:

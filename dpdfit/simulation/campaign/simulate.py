@@ -19,10 +19,11 @@ from dpdfit.core.version import __version__
 from .calibration_runs import calibration_runs, table_index
 from .config import DEFAULT_SEED, RETIRED_TRUTH_KEYS, CampaignConfig
 from .folder import check_new_folder, csv_text, write_folder
-from .gate_runs import gate_tables
+from .gate_runs import gate_references, gate_tables
 from .optics import dpd_lut
-from .readme import campaign_readme
 from .pulse_runs import pulse_table, pulse_truth
+from .ramsey_runs import ramsey_table, ramsey_truth
+from .readme import campaign_readme
 from .spam_runs import spam_table, spam_truth
 from .spectra import spectra_tables
 
@@ -75,7 +76,7 @@ def _jsonable_config(cfg: CampaignConfig) -> dict:
     d = dict.fromkeys(RETIRED_TRUTH_KEYS, 0.0)
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
-        if f.name in ("further", "spam_shots", "pulse_traces") and not v:
+        if f.name in ("further", "spam_shots", "pulse_traces", "ramsey_shots") and not v:
             continue        # keeps the truth.json of campaigns without them byte for byte
         if dataclasses.is_dataclass(v):
             v = {k: (abs(x) if isinstance(x, complex) else x)
@@ -147,6 +148,10 @@ def _simulated(cfg: CampaignConfig, progress, include_gates: bool):
     if len(pulse):          # as spam.csv: only then
         files["pulse_response.csv"] = csv_text(pulse)
         truth["pulse_response"] = pulse_truth(cfg, aom)
+    if cfg.ramsey_shots or any(item[0] == "ramsey" for item in cfg.further):
+        refs = gate_references(cfg, aom, lut)
+        files["ramsey.csv"] = csv_text(ramsey_table(cfg, refs))
+        truth["ramsey"] = ramsey_truth(cfg, refs)
     files["campaign.json"] = json.dumps(_campaign_json(cfg, cal_truth), indent=2,
                                         sort_keys=True) + "\n"
     files["truth.json"] = _truth_json(truth)

@@ -246,6 +246,13 @@ class Effect:
         untouched (None: no such decay)."""
         return None
 
+    def free_dephasing(self, gm, v: dict, t: np.ndarray, echo: bool):
+        """``(G_independent, G_common)`` (arrays like ``t``): each ion's accumulated
+        dephasing over a free-precession wait ``t`` (s) of the Ramsey sequence, or of the
+        spin echo with ``echo`` (``ramsey.csv``; :mod:`dpdfit.models.ramsey` says what the
+        echo removes), beyond the lab's stated T2 (None: no such dephasing)."""
+        return None
+
     def power_offset_db(self, gm, v: dict, A: np.ndarray) -> np.ndarray:
         """Optical power offset (dB) at gate time at drive amplitudes ``A``."""
         return np.zeros(np.shape(A))

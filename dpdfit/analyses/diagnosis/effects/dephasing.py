@@ -18,6 +18,11 @@ the final state's coherences only (noise too slow to act within the gate's
 loops, or between the gate and the analysis pulse: the parity contrast decays,
 the populations do not).
 
+In free precession (``ramsey.csv``, :meth:`Dephasing.free_dephasing`) each ion dephases
+by the same ``G(t)`` over the wait, the echo removing slow noise (``beta > 1``) and not
+white (:mod:`dpdfit.models.ramsey` states the assumption): the recording measures every
+form, the white independent one as a coherence time shorter than the lab's stated ``T2``.
+
 Forms: ``independent`` (catalog: ``f_cm = 0``, ``beta = 1``, during the gate),
 ``common`` (``f_cm = 1``), ``mixed`` (``f_cm`` free), ``stretched`` (``f_cm`` and
 ``beta`` free), and ``coherence``, ``coherence_mixed``, ``coherence_stretched``:
@@ -29,6 +34,8 @@ of the extra decay, ``exp(-(t/T2)^beta)``), ``f_cm``, ``beta``.
 from __future__ import annotations
 
 import numpy as np
+
+from dpdfit.models.ramsey import free_dephasing
 
 from .base import Effect, Form, Knob, Param
 
@@ -107,6 +114,11 @@ class Dephasing(Effect):
         t = np.asarray(t, dtype=float)
         G = v.get("rate", 0.0) * gm.t_ref * (np.maximum(t, 0.0) / gm.t_ref) ** v.get("beta", 1.0)
         return np.exp(-G), np.exp(-2 * (1 + v.get("f_cm", 0.0)) * G)
+
+    def free_dephasing(self, gm, v, t, echo):
+        rate, f, beta = v.get("rate", 0.0), v.get("f_cm", 0.0), v.get("beta", 1.0)
+        G = free_dephasing(rate, beta, gm.t_ref, t, echo)
+        return (1.0 - f) * G, f * G
 
     def size_values(self, ctx, p):
         v = self.values(p) or {}

@@ -30,6 +30,7 @@ from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
 from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
 from dpdfit.analyses.diagnosis.model.pulse_block import pulse_block
+from dpdfit.analyses.diagnosis.model.ramsey_block import coherence_report, ramsey_block
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
 from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
@@ -179,7 +180,9 @@ class Problem:
             per_scan_power_jitter_db=None if self.gate is None else self.gate.sig_jit,
             preparation_error_total=None if self.gate is None else self.gate.p_total,
             fitted=None if base is None else {k: v for k, v in base.nuisances.items()
-                                              if not k.startswith("cal_")})
+                                              if not k.startswith("cal_")},
+            coherence=(coherence_report(self, base)
+                       if self.gate is not None and self.camp.ramsey is not None else None))
 
     # ------------------------------------------------------------ models in use
     def use_tone(self, tone: ToneModel) -> None:
@@ -223,7 +226,9 @@ class Problem:
         the SPAM characterisation with the gates
         (:func:`~dpdfit.analyses.diagnosis.model.spam_block.spam_block`), the AOM pulse
         response with the tones
-        (:func:`~dpdfit.analyses.diagnosis.model.pulse_block.pulse_block`) and,
+        (:func:`~dpdfit.analyses.diagnosis.model.pulse_block.pulse_block`), the Ramsey and
+        spin-echo characterisation
+        (:func:`~dpdfit.analyses.diagnosis.model.ramsey_block.ramsey_block`) and,
         ``with_prior``, the priors.  Each side sees its own parameters only.
         """
         tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
@@ -239,6 +244,8 @@ class Problem:
             out += self.gate_residuals.gate_blocks(self.gate, gate_p, whiten)
             if self.camp.spam is not None:
                 out.append(spam_block(self, gate_p))
+            if self.camp.ramsey is not None:
+                out.append(ramsey_block(self, gate_p))
         if with_prior:
             z = np.array([(p.get(k, self.center[k]) - self.center[k]) / s
                           for k, s in self.prior.items() if np.isfinite(s)])

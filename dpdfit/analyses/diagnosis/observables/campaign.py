@@ -31,6 +31,9 @@ contains every known noise source and nothing else:
 * **AOM pulse response** (``pulse_response.csv``, optional): the photodiode trace of each
   RF step with each sample's noise (``power_err``, else the trace's own sample-to-sample
   scatter, :func:`pulse_response_noise`).
+* **Ramsey and spin-echo characterisation** (``ramsey.csv``, optional): the detected
+  counts of each sequence at each wait, pooled per point
+  (:func:`dpdfit.recordings.ramsey.read_ramsey`).
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.model.tones.tone_model`
 and :mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`.
@@ -142,6 +145,9 @@ class Campaign:
     #: the AOM pulse response: ``step, A, t_us, power, sigma``, one row per sample (None
     #: without ``pulse_response.csv``)
     pulse_response: pd.DataFrame | None = None
+    #: the Ramsey and spin-echo characterisation: ``sequence, wait_s, n00, n01_10, n11,
+    #: shots``, one row per point (None without ``ramsey.csv``)
+    ramsey: pd.DataFrame | None = None
 
     @property
     def nu(self) -> float:
@@ -309,6 +315,13 @@ def _pulse_response(cf: CampaignFolder):
     return out
 
 
+def _ramsey(cf: CampaignFolder):
+    df = cf.ramsey
+    if df is None:
+        return None
+    return df[["sequence", "wait_s", "n00", "n01_10", "n11", "shots"]].reset_index(drop=True)
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -349,6 +362,9 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     left = cf.left_out(_CONSEQUENCES)
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
+    if gates is None and cf.ramsey is not None:
+        left.append("ramsey.csv without gate recordings: not fitted (the coherence time it "
+                    "measures is the gate model's)")
     if gates is None and cf.spam is not None:
         left.append("spam.csv without gate recordings: not fitted (the preparation and "
                     "detection errors it measures are the gate model's)")
@@ -378,4 +394,4 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
                     recorded=recorded, runs_after=after, spam=_spam(cf),
-                    pulse_response=_pulse_response(cf))
+                    pulse_response=_pulse_response(cf), ramsey=_ramsey(cf))

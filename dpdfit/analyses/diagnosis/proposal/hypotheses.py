@@ -11,9 +11,12 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
-from dpdfit.analyses.diagnosis.model.runs_after import run_drift
+from dpdfit.analyses.diagnosis.model.gates.effect_terms import active_effects
 from dpdfit.analyses.diagnosis.model.pulse_block import pulse_prediction
+from dpdfit.analyses.diagnosis.model.ramsey_block import ramsey_probabilities_of
+from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
+from dpdfit.models.ramsey import SEQUENCES, scan_waits
 from dpdfit.core.defaults import PHASE_MIN_A
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
@@ -48,7 +51,7 @@ PARAM_STEP = 1e-3
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
 _SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
-                "spam": "gates", "pulse": "tones"}
+                "spam": "gates", "pulse": "tones", "ramsey": "gates"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -91,8 +94,10 @@ class Hypothesis:
         next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
         :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
         :data:`SPAM_STATES` prepared with no gate; ``"pulse"``: the AOM pulse response at
-        :data:`PULSE_TIMES_US` normalised to its settled level, :func:`pulse_amplitude`)
-        at the parameter set ``p`` (default: the fit's)."""
+        :data:`PULSE_TIMES_US` normalised to its settled level, :func:`pulse_amplitude`;
+        ``"ramsey"``: the detected outcomes of the Ramsey sequence, then the echo, at the
+        waits of :func:`~dpdfit.models.ramsey.scan_waits` for the stated T2) at the
+        parameter set ``p`` (default: the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -198,5 +203,13 @@ def _pulse(h: Hypothesis, p: dict):
     return m / m[-1] if m[-1] > 0 else m
 
 
+def _ramsey(h: Hypothesis, p: dict):
+    gm = h.gate
+    t = scan_waits(gm.nominal["T2"])
+    active = active_effects(gm.effects, p)
+    return np.concatenate([ramsey_probabilities_of(gm, p, active, t, s == "echo")
+                           for s in SEQUENCES])
+
+
 _SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
-            "spam": _spam, "pulse": _pulse}
+            "spam": _spam, "pulse": _pulse, "ramsey": _ramsey}

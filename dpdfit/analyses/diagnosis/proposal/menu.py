@@ -23,9 +23,10 @@ from dpdfit.analyses.diagnosis.proposal.hypotheses import (SPAM_STATES, SPECTRA_
                                                            pulse_amplitude)
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
 from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.models.ramsey import SCAN_POINTS, SEQUENCES, scan_waits
 
 __all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS', 'PULSE_REL_NOISE',
-           'pulse_relative_noise']
+           'pulse_relative_noise', 'RAMSEY_SHOTS', 'ramsey_seconds']
 
 
 #: numbers of amplitudes of the spectra items of the menu (each with and without DPD)
@@ -36,6 +37,8 @@ SPAM_SHOTS = 1000
 #: own: the simulator's photodiode near half power (a floor of 5e-4 and 1e-3 of the
 #: power, at ~1.1 of its 2 at full drive), a scope trace averaged over many steps
 PULSE_REL_NOISE = 1.1e-3
+#: shots per point (sequence and wait) of one Ramsey and spin-echo scan of the menu
+RAMSEY_SHOTS = 200
 
 
 # ----------------------------------------------------------------- items
@@ -304,6 +307,32 @@ def _pulse_response(prob, hyps, lab):
                  lambda r: r, lambda a, b: np.full(np.size(a), w))]
 
 
+def ramsey_seconds(T2: float, shots: int, lab, points: int = SCAN_POINTS) -> float:
+    """Lab time (s) of one Ramsey and spin-echo scan for a coherence time ``T2`` (s): every
+    shot of both sequences at every wait of :func:`~dpdfit.models.ramsey.scan_waits` takes
+    ``lab.ramsey_shot_s`` plus its wait, every point ``lab.ramsey_point_s``."""
+    t = scan_waits(T2, points)
+    per_sequence = shots * float(np.sum(lab.ramsey_shot_s + t)) + t.size * lab.ramsey_point_s
+    return len(SEQUENCES) * per_sequence
+
+
+def _ramsey(prob, hyps, lab):
+    """The Ramsey and spin-echo characterisation (``ramsey.csv``): both sequences at the
+    waits of :func:`~dpdfit.models.ramsey.scan_waits` (to 1.5 times the stated T2),
+    :data:`~dpdfit.analyses.diagnosis.proposal.menu.RAMSEY_SHOTS` shots each; offered with
+    gate recordings: it measures the coherence time the gate model takes and tells
+    common, slow and white dephasing apart (a SPAM offset moves it too, heating does
+    not)."""
+    if getattr(prob, "gate", None) is None or prob.gate.gates is None \
+            or len(prob.gate.gates) == 0 or not hasattr(prob.gate, "preparation"):
+        return []
+    N, T2 = RAMSEY_SHOTS, float(prob.gate.nominal["T2"])
+    t = scan_waits(T2)
+    st = {"shots": N, "points": int(t.size), "max_wait_us": round(float(t[-1]) * 1e6, 3)}
+    return [Item("ramsey", st, ramsey_seconds(T2, N, lab), "ramsey",
+                 lambda r: np.asarray(r, float)[:, [0, 2]].ravel(), _spam_whitener(N))]
+
+
 #: the builders of the menu, in the order the menu lists them
 BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans, _spam,
-            _pulse_response)
+            _pulse_response, _ramsey)

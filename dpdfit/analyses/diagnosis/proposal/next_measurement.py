@@ -29,7 +29,10 @@ with the recording's noise:
   recordings;
 * ``pulse_response``: the AOM pulse response, a step to the gate's amplitude traced by a
   fast photodiode (``pulse_response.csv``), normalised to its settled level, each sample
-  with the photodiode's relative noise; offered with the spectra.
+  with the photodiode's relative noise; offered with the spectra;
+* ``ramsey``: the Ramsey and spin-echo characterisation (``ramsey.csv``), both
+  sequences at a scan of waits to 1.5 times the stated T2, multinomial ``P00`` and
+  ``P11`` of each point; offered with gate recordings.
 
 **Separating causes, not curves.**  A hypothesis is a group of fits: a family in
 each of its forms still in reach.  For two hypotheses, ``a`` true and ``b`` its
@@ -94,7 +97,7 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan",
-         "spam", "pulse_response")
+         "spam", "pulse_response", "ramsey")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
 #: the best candidates whose expected separation is confirmed by an exact refit
 #: (:meth:`~dpdfit.analyses.diagnosis.proposal.expected_separation.Direction.refit`, at most
@@ -531,6 +534,11 @@ def describe_recording(what: str, s: dict) -> str:
         scans = int(s.get("scans", 1))
         return (f"an AOM pulse response (a step to A = {s['A']:g} traced by a fast "
                 "photodiode" + (f", {scans} traces" if scans > 1 else "") + ")")
+    if what == "ramsey":
+        scans = int(s.get("scans", 1))
+        return (f"a Ramsey and spin-echo scan ({s['points']} waits to "
+                f"{s['max_wait_us'] / 1e3:g} ms, {s['shots']} shots each"
+                + (f", {scans} times" if scans > 1 else "") + ")")
     at = f"at A = {s['A']:g} {'with' if s['dpd'] else 'without'} DPD"
     if s.get("scans", 1) > 1:
         at += f", {s['scans']} scans"

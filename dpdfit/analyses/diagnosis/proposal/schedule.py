@@ -19,16 +19,20 @@ fixes it:
   repeatability the proposal assumed (``tone_sd_db``);
 * a SPAM characterisation records each prepared state (``prepared``) with the proposal's
   shots, at ``A`` 0 (no gate), one point per state;
-* an AOM pulse response records one trace of a step to ``A`` per repeat (one point).
+* an AOM pulse response records one trace of a step to ``A`` per repeat (one point);
+* a Ramsey and spin-echo scan records each sequence (``sequence``) at each wait
+  (``wait_us``) of the scan the menu counted (the campaign's stated T2 sets it), with the
+  proposal's shots per point, at ``A`` 0 (no gate).
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
 when it is taken:
 
 * ``lab_s``: the row's own lab time by :class:`~dpdfit.core.defaults.LabTimes`, as the
   menu counts it (:mod:`~dpdfit.analyses.diagnosis.proposal.menu`): ``shots * shot_s``
-  for a scan point (``shots * spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace
-  (``pulse_trace_s`` for a pulse response), the run's time over its grid
-  points for a calibration-run point; rescaled so that the column sums to the
+  for a scan point (``shots * spam_shot_s`` for a SPAM state, ``shots * (ramsey_shot_s +
+  wait) + ramsey_point_s`` for a Ramsey point), ``spectrum_trace_s`` for a trace
+  (``pulse_trace_s`` for a pulse response), the run's time over its grid points for a
+  calibration-run point; rescaled so that the column sums to the
   proposal's ``lab_seconds`` (a proposal made with the same lab times needs no rescaling).
 * Calibration runs are paced, not taken back to back: the proposal counts each further
   run as an independent draw of the campaign's run-to-run scatter (the drift modes' sd,
@@ -55,6 +59,7 @@ import pandas as pd
 
 from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES
 from dpdfit.errors import InputError
+from dpdfit.models.ramsey import SCAN_POINTS, SEQUENCES, scan_waits
 from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.schedule import RUN_KINDS, SCHEDULE_COLUMNS, check_schedule
@@ -178,6 +183,19 @@ def _scan_points(what: str, st: dict, camp: CampaignFolder) -> list:
     return [{"point": i, "shots": shots, "t_us": float(t)} for i, t in enumerate(times)]
 
 
+def _ramsey_points(st: dict, camp: CampaignFolder) -> list:
+    """The rows of a Ramsey and spin-echo scan: each sequence at the waits of
+    :func:`~dpdfit.models.ramsey.scan_waits` for the campaign's stated T2 (its
+    ``error_model`` ``T2_s``, else the lab's default), as the menu counted them."""
+    em = camp.raw_meta.get("error_model")
+    T2 = float(em["T2_s"]) if isinstance(em, dict) and "T2_s" in em else ERROR_MODEL.T2_s
+    waits = scan_waits(T2, int(st.get("points", SCAN_POINTS)))
+    return [{"repeat": r, "point": j * waits.size + i, "A": 0.0, "shots": int(st["shots"]),
+             "sequence": seq, "wait_us": round(float(w) * 1e6, 3)}
+            for r in range(1, int(st.get("scans", 1)) + 1)
+            for j, seq in enumerate(SEQUENCES) for i, w in enumerate(waits)]
+
+
 def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
     """Each row's own lab time by the lab times ``lab`` (module doc)."""
     if what in RUN_KINDS:
@@ -189,6 +207,10 @@ def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
         return df["shots"].to_numpy(float) * lab.spam_shot_s
     if what == "pulse_response":
         return np.full(len(df), float(lab.pulse_trace_s))
+    if what == "ramsey":
+        return (df["shots"].to_numpy(float) * (lab.ramsey_shot_s
+                                               + df["wait_us"].to_numpy(float) * 1e-6)
+                + lab.ramsey_point_s)
     return df["shots"].to_numpy(float) * lab.shot_s
 
 
@@ -263,6 +285,8 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
     elif what == "pulse_response":
         rows = [{"repeat": r, "point": 0, "A": float(st["A"])}
                 for r in range(1, int(st.get("scans", 1)) + 1)]
+    elif what == "ramsey":
+        rows = _ramsey_points(st, camp)
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}
@@ -277,5 +301,6 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
     df["lab_s"] = _lab_seconds(df, what, p.get("lab_seconds"),
                                LAB_TIMES if lab is None else lab)
     df["day"], df["start_s"] = _timing(df, what, camp)
-    cols = list(SCHEDULE_COLUMNS) + (["prepared"] if "prepared" in df.columns else [])
+    cols = list(SCHEDULE_COLUMNS) + [c for c in ("prepared", "sequence", "wait_us")
+                                     if c in df.columns]
     return check_schedule(df[cols], "the proposal's schedule")

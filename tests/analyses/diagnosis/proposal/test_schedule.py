@@ -116,7 +116,7 @@ GOOD = ("kind,repeat,point,A,dpd,shots,phase_rad,t_us,lab_s\n"
 @pytest.mark.parametrize("old,new,column,row", [
     ("populations,1,0,0.5,1,625", "populations,1,0,0.5,1,-625", "shots", 1),
     ("populations,1,0,0.5,1,625", "populations,1,0,0.5,1,62.5", "shots", 1),
-    ("populations,1", "ramsey,1", "kind", 1),
+    ("populations,1", "cpmg,1", "kind", 1),             # (ramsey is a kind now)
     ("populations,1,0,0.5", "populations,1,0,1.5", "A", 1),
     ("populations,1,0,0.5,1", "populations,1,0,0.5,2", "dpd", 1),
     ("time_scan,1,1,0.5,0,625,,15.2", "time_scan,1,0,0.5,0,625,,15.2", "point", 3),

@@ -46,6 +46,7 @@ import copy
 import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
+from dpdfit.analyses.diagnosis.effects.dephasing import INDEPENDENT
 from dpdfit.analyses.diagnosis.model.caches import ModelCache
 from dpdfit.analyses.diagnosis.model.gates.effect_terms import (active_effects,
                                                                 effect_terms, preparation)
@@ -55,6 +56,7 @@ from dpdfit.analyses.diagnosis.model.gates.knob_response import (KNOB_MULTIPLES,
                                                                  response_tables)
 from dpdfit.analyses.diagnosis.model.gates.observe import (PHASES, collapse, confusion_t,
                                                            contrast, observe)
+from dpdfit.analyses.diagnosis.model.ramsey_block import recorded_coherence
 from dpdfit.core.defaults import ERROR_MODEL
 from dpdfit.models import gate_sim
 
@@ -124,6 +126,9 @@ class GateModel:
                 if k.key in knobs and knobs[k.key] != k:
                     raise ValueError(f"two effects define knob {k.key!r} differently")
                 knobs[k.key] = k
+        if getattr(camp, "ramsey", None) is not None:
+            # the recorded coherence time acts through the independent dephasing rate
+            knobs.setdefault(INDEPENDENT.key, INDEPENDENT)
         self.knobs = knobs
         self.tone = tone
         self.base = self._base_runs(tone, {})
@@ -280,7 +285,7 @@ class GateModel:
         gate-rate error (dB).
         """
         tab = self._tables()
-        active = active_effects(self.effects, p)
+        active = active_effects(self.effects, p) + recorded_coherence(self, p)
         prep = preparation(self, p, active)
         # what the effects' values alone fix (effect_terms), kept per values: a fit's
         # Jacobian moves the nuisances far more often than them; with the preparation
