@@ -43,6 +43,10 @@ Required and optional (everything else in the layout is optional):
   (:data:`~dpdfit.recordings.campaign_folder.CHARACTERISATION_FILES`): its absence
   leaves nothing of the other recordings' analysis out, so
   :meth:`CampaignFolder.left_out` does not list it.
+* ``detector_linearity.csv`` -- the detector linearity characterisation: ``A, power,
+  power_attenuated, attenuation_db`` (+ ``power_err``, ``run``, ``timestamp``),
+  :func:`~dpdfit.recordings.detector_linearity.read_detector_linearity`; a
+  characterisation table like ``spam.csv``.
 
 Nothing is ever written into the folder.
 
@@ -82,6 +86,7 @@ from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
 from .input_files import check_inside, open_input, read_input_json
 from .spam import read_spam
+from .detector_linearity import read_detector_linearity
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
 from .traces import check_trace_file
@@ -109,10 +114,12 @@ FILES = {
     "time_scans.csv": "population time scans",
     "traces.csv": "raw heterodyne traces",
     "spam.csv": "SPAM characterisation (basis states prepared, detected with no gate)",
+    "detector_linearity.csv": "detector linearity (photodiode read with and without a "
+                              "calibrated attenuator)",
 }
 #: the lab's characterisation experiments: optional tables whose absence is not listed
 #: as left out (a campaign without them is analysed as it always was)
-CHARACTERISATION_FILES = ("spam.csv",)
+CHARACTERISATION_FILES = ("spam.csv", "detector_linearity.csv")
 #: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
 OTHER_FILES = ("budget.toml",)
 
@@ -372,20 +379,38 @@ class CampaignFolder:
             return None
         return read_spam(self.file("spam.csv"), within=self.path)
 
+    @functools.cached_property
+    def detector_linearity(self) -> pd.DataFrame | None:
+        """``A, power, power_attenuated, attenuation_db`` (+ ``power_err``, ``run``,
+        ``timestamp``, ``transmission``), one row per reading pair, its ``A`` checked
+        against the calibration runs' range
+        (:func:`~.detector_linearity.read_detector_linearity`), None without
+        ``detector_linearity.csv``."""
+        if not self.has("detector_linearity.csv"):
+            return None
+        try:
+            a = self.amplitude_runs["A"].to_numpy(dtype=float)
+            a_range = (float(a.min()), float(a.max()))
+        except InputError:          # no readable calibration: its own reader says so
+            a_range = None
+        return read_detector_linearity(self.file("detector_linearity.csv"), within=self.path,
+                                       a_range=a_range)
+
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
         :mod:`~dpdfit.recordings.plausibility`): such a campaign is refused as a whole.
         A file that is malformed is left to the analyses that read it, except
-        ``time_scans.csv`` and ``spam.csv`` (counts above the shots, say), which no analysis
+        ``time_scans.csv``, ``spam.csv`` and ``detector_linearity.csv`` (counts above the
+        shots, say), which no analysis
         of its own reads: they are refused here, at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
-                     "gate_rates", "time_scans", "traces", "spam"):
+                     "gate_rates", "time_scans", "traces", "spam", "detector_linearity"):
             try:
                 getattr(self, name)
             except InputError as exc:
                 if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
-                        name in ("time_scans", "spam")):
+                        name in ("time_scans", "spam", "detector_linearity")):
                     raise
 
     # -------------------------------------------------------------- left out
