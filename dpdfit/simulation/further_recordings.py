@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.core.defaults import ERROR_MODEL, LINEARITY_POINTS
 from dpdfit.errors import InputError
 from dpdfit.recordings.schedule import check_schedule
 from dpdfit.simulation.campaign import CampaignConfig
@@ -30,7 +30,8 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 #: drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan", "spam": "spam"}
+                "time_scan": "time_scan", "spam": "spam",
+                "detector_linearity": "detector_linearity"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -65,6 +66,14 @@ def _setting(cfg: CampaignConfig, st: dict) -> tuple:
     return A, int(d), _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
 
 
+def _with_linearity(cfg: CampaignConfig, st: dict, scans: int) -> CampaignConfig:
+    """``cfg`` with ``scans`` detector linearity characterisations of ``st["points"]``
+    drives each (default :data:`~dpdfit.core.defaults.LINEARITY_POINTS`)."""
+    points = _positive_int(st.get("points", LINEARITY_POINTS), "points", least=2)
+    return dataclasses.replace(cfg, further=cfg.further
+                               + (("detector_linearity", points),) * scans)
+
+
 def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
     """The campaign config with one further recording: the measurement ``measurement``.
 
@@ -79,7 +88,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         "shots"}``: parity shots are the scan's total over its phases, as the
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
         shots per point, points after the start; the scan also records ``t = 0``),
-        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``).
+        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
+        ``detector_linearity`` (``{"points"}``: drives read with and without the
+        attenuator, :func:`_with_linearity`).
 
     Returns
     -------
@@ -139,6 +150,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
     if what == "spam":
         shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
         return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
+    if what == "detector_linearity":
+        return _with_linearity(cfg, st, scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")
