@@ -43,10 +43,15 @@ class NullModel(Record):
     preparation_error_total: float | None
     #: the baseline's fitted nuisances, the calibration modes left out (None: not fitted)
     fitted: dict | None = None
+    #: where the detector linearity characterisation's noise comes from (one phrase,
+    #: :mod:`~dpdfit.analyses.diagnosis.observables.detector_linearity`; None without
+    #: ``detector_linearity.csv``)
+    detector_linearity_noise: str | None = None
 
     def to_dict(self) -> dict:
         """The JSON's ``null_model``: every attribute, ``tone_noise`` as its dict;
-        ``fitted`` only once the baseline is fitted."""
+        ``fitted`` only once the baseline is fitted, ``detector_linearity_noise`` only
+        with a detector linearity table."""
         out = {"tone_noise": self.tone_noise.to_dict(),
                "calibration_noise": dict(self.calibration_noise),
                "phase_sign": self.phase_sign, "phase_sign_chi2": self.phase_sign_chi2,
@@ -55,6 +60,8 @@ class NullModel(Record):
                "preparation_error_total": self.preparation_error_total}
         if self.fitted is not None:
             out["fitted"] = dict(self.fitted)
+        if self.detector_linearity_noise is not None:
+            out["detector_linearity_noise"] = self.detector_linearity_noise
         return out
 
 

@@ -31,6 +31,7 @@ from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatte
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
+from dpdfit.analyses.diagnosis.model.linearity_block import linearity_block
 from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
 from dpdfit.analyses.diagnosis.model.tones.tone_noise import (learn_tone_noise, repeats_of,
                                                               trace_jitter_multiple)
@@ -178,7 +179,9 @@ class Problem:
             per_scan_power_jitter_db=None if self.gate is None else self.gate.sig_jit,
             preparation_error_total=None if self.gate is None else self.gate.p_total,
             fitted=None if base is None else {k: v for k, v in base.nuisances.items()
-                                              if not k.startswith("cal_")})
+                                              if not k.startswith("cal_")},
+            detector_linearity_noise=(None if self.camp.detector_linearity is None
+                                      else self.camp.detector_linearity.noise))
 
     # ------------------------------------------------------------ models in use
     def use_tone(self, tone: ToneModel) -> None:
@@ -220,7 +223,9 @@ class Problem:
         without it, for the deviation search and plots:
         :meth:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.gate_blocks`),
         the SPAM characterisation with the gates
-        (:func:`~dpdfit.analyses.diagnosis.model.spam_block.spam_block`) and,
+        (:func:`~dpdfit.analyses.diagnosis.model.spam_block.spam_block`), the detector
+        linearity characterisation with the tones
+        (:func:`~dpdfit.analyses.diagnosis.model.linearity_block.linearity_block`) and,
         ``with_prior``, the priors.  Each side sees its own parameters only.
         """
         tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
@@ -230,6 +235,8 @@ class Problem:
             out += self.tone_residuals.feature_blocks(self.tone, tone_p)
             if self.runs_after is not None:
                 out.append(runs_after_block(self, p))
+            if self.camp.detector_linearity is not None:
+                out.append(linearity_block(self, tone_p))
         if self.gate is not None:
             out += self.gate_residuals.gate_blocks(self.gate, gate_p, whiten)
             if self.camp.spam is not None:
