@@ -20,7 +20,7 @@ __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_OR
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "FORMULAS", "DIAGNOSIS_PAIRS",
            "HARNESS_PER_EFFECT", "HARNESS_NULLS", "HARNESS_PAIRS", "HARNESS_TRIPLES",
            "HARNESS_PER_FORM", "HARNESS_SEED", "ErrorModel", "ERROR_MODEL", "LabTimes",
-           "LAB_TIMES", "LINEARITY_POINTS", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "MAX_INPUT_BYTES",
+           "LAB_TIMES", "LINEARITY_POINTS", "LINEARITY_ATTENUATION_DB", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "MAX_INPUT_BYTES",
            "MAX_INPUT_BYTES_VARIABLE", "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_CSV_COLUMNS", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
            "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
@@ -239,6 +239,10 @@ LAB_TIMES = LabTimes()
 #: read with and without the attenuator at each): 10 span the calibration's powers
 #: from ~5 % of full scale to full scale, a few minutes of lab time (:class:`LabTimes`)
 LINEARITY_POINTS = 10
+#: the calibrated attenuator of a proposed detector linearity characterisation (dB): an
+#: ND filter of optical density 1, its attenuated reading still ~100x the calibration
+#: photodiode's noise floor at full drive
+LINEARITY_ATTENUATION_DB = 10.0
 #: noise (1 sigma, rad) of one point of a phase calibration run when the campaign has no
 #: phase runs to learn it from: the paper's run-to-run sd of phi(1), 0.0009 rad over six
 #: runs (Supplement, phase stability), rounded up

@@ -34,7 +34,7 @@ from .columns import CAMPAIGN_TABLES
 from .tables import read_table
 
 __all__ = ["read_detector_linearity", "MIN_ATTENUATION_DB", "MAX_ATTENUATION_DB",
-           "MAX_RATIO_DISAGREEMENT_DB", "transmission"]
+           "MAX_RATIO_DISAGREEMENT_DB", "transmission", "LOWEST_DRIVE", "linearity_drives"]
 
 #: The smallest attenuation (dB) taken as an attenuator's: a linearity check needs a
 #: ratio the readings resolve against a few-percent nonlinearity (ND filters and fibre
@@ -50,6 +50,18 @@ MAX_ATTENUATION_DB = 60.0
 #: nonlinearity of the catalog's range (``|k| <= 0.5``) moves it by 1.8 dB at most,
 #: a wrong attenuator or a unit slip by far more.
 MAX_RATIO_DISAGREEMENT_DB = 3.0
+
+
+#: the weakest drive of a characterisation the diagnosis proposes: its power, ~5 % of
+#: full scale, is where a nonlinear reading error has faded (the ratio's reference),
+#: its attenuated reading still ~20x the calibration photodiode's noise floor
+LOWEST_DRIVE = 0.2
+
+
+def linearity_drives(points: int) -> np.ndarray:
+    """``points`` drives from :data:`LOWEST_DRIVE` to full drive, evenly spaced: those a
+    proposed characterisation reads (the schedule's ``A``) and the simulator records."""
+    return np.round(np.linspace(LOWEST_DRIVE, 1.0, int(points)), 10)
 
 
 def transmission(attenuation_db) -> np.ndarray:

@@ -5,7 +5,8 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 
 ``kind``
     What is recorded: ``amplitude_run``, ``phase_run``, ``spectra``, ``populations``,
-    ``parity``, ``time_scan`` or ``spam`` (the diagnosis's ``next_measurement.what``).
+    ``parity``, ``time_scan``, ``spam`` or ``detector_linearity`` (the diagnosis's
+    ``next_measurement.what``).
 ``repeat``
     Which repeat (run, scan, trace) the row belongs to: 1, 2, ...
 ``point``
@@ -13,7 +14,7 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 ``A``
     The amplitude of the point: a grid point of a calibration run, the amplitude of a
     trace, the gate setting of a scan (normalised RF amplitude, 0..1); 0 for a SPAM
-    point (no gate is driven).
+    point (no gate is driven); the drive of a detector linearity point.
 ``dpd``
     0 or 1 (with or without predistortion); empty for calibration runs and SPAM points.
 ``shots``
@@ -47,6 +48,11 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     Only in a schedule with ``spam`` rows (the other schedules keep the columns above):
     the basis state a SPAM point prepares, ``00``, ``01``, ``10`` or ``11`` (as
     ``spam.csv`` records it); empty for the other kinds.
+``attenuation_db``
+    Only in a schedule with ``detector_linearity`` rows (after the columns above): the
+    calibrated attenuator (dB, > 0) the photodiode is read with at the point's drive,
+    after its reading without; empty for the other kinds.  Such a point's ``lab_s`` is
+    its two readings and its share of putting the attenuator in.
 
 The columns ``day``, ``start_s`` and ``tone_sd_db`` came later and are optional: a
 schedule without them is read with them empty.  Rows of every kind are taken back to
@@ -72,7 +78,7 @@ from dpdfit.recordings.tables import read_table
 
 __all__ = ["SCHEDULE_COLUMNS", "OPTIONAL_COLUMNS", "SCHEDULE_KINDS", "RUN_KINDS",
            "SCAN_KINDS", "CHARACTERISATION_KINDS", "read_schedule", "write_schedule",
-           "check_schedule"]
+           "check_schedule", "LINEARITY_KINDS", "LINEARITY_COLUMN"]
 
 #: the schedule's columns, in order (a contract: labs' experiments read them by name)
 SCHEDULE_COLUMNS = ("kind", "repeat", "point", "A", "dpd", "shots", "phase_rad", "t_us",
@@ -85,15 +91,22 @@ RUN_KINDS = ("amplitude_run", "phase_run")
 SCAN_KINDS = ("populations", "parity", "time_scan")
 #: the lab's characterisation experiments: no gate setting (``A`` 0, no flag), shots
 CHARACTERISATION_KINDS = ("spam",)
+#: the detector linearity characterisation: a drive (``A``, no flag, no shots) read
+#: without and with an attenuator (:data:`LINEARITY_COLUMN`)
+LINEARITY_KINDS = ("detector_linearity",)
+#: the column a schedule has only when it holds ``detector_linearity`` rows (last)
+LINEARITY_COLUMN = "attenuation_db"
 #: every kind of recording a schedule may hold (the diagnosis's menu)
-SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS
+SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS \
+    + LINEARITY_KINDS
 #: the column a schedule has only when it holds ``spam`` rows (after the others)
 _PREPARED = "prepared"
 _BASIS_STATES = ("00", "01", "10", "11")
 #: per kind, the columns its rows must fill (besides kind, repeat, point, A)
 _NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
           "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
-          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",)}
+          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",),
+          "detector_linearity": ()}
 #: per kind, the columns that must not change within one repeat
 _CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
              "time_scan": ("A", "dpd", "shots")}
@@ -161,13 +174,15 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
         df[col] = _numbers(df[col], col, name)
     _check_values(df, kind.to_numpy(), name)
     spam = _check_prepared(df, kind.to_numpy(), name)
+    linearity = _check_attenuation(df, kind.to_numpy(), name)
     _check_repeats(df, name)
     # counts as integers (empty where a kind has none), so that the table reads as written
     for col in ("repeat", "point"):
         df[col] = df[col].astype("int64")
     for col in ("dpd", "shots", "day"):
         df[col] = df[col].round().astype("Int64")
-    return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])]
+    return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])
+              + ([LINEARITY_COLUMN] if linearity else [])]
 
 
 def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
@@ -187,8 +202,26 @@ def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
     return True
 
 
+def _check_attenuation(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
+    """Each ``detector_linearity`` row's ``attenuation_db`` a number > 0 (NaN on the other
+    rows); whether the schedule has such rows."""
+    rows = np.isin(kind, LINEARITY_KINDS)
+    if not rows.any():
+        return False
+    if LINEARITY_COLUMN not in df.columns:
+        _fail(f"column '{LINEARITY_COLUMN}' is missing (the 'detector_linearity' rows need "
+              "it)", name)
+    v = _numbers(df[LINEARITY_COLUMN], LINEARITY_COLUMN, name).to_numpy(float)
+    bad = np.flatnonzero(rows & ~((v > 0) & np.isfinite(v)))
+    if bad.size:
+        _fail(f"attenuation {v[bad[0]]:g} dB must be > 0 (an attenuator attenuates)", name,
+              LINEARITY_COLUMN, bad[0])
+    df[LINEARITY_COLUMN] = np.where(rows, v, np.nan)
+    return True
+
+
 def _check_values(df: pd.DataFrame, kind: np.ndarray, name: str) -> None:
-    runs = np.isin(kind, RUN_KINDS)
+    runs = np.isin(kind, RUN_KINDS + LINEARITY_KINDS)
     ungated = np.isin(kind, CHARACTERISATION_KINDS)
     A = df["A"].to_numpy(float)
     bad = np.flatnonzero(~((A >= 0) & (A <= 1)) | (~runs & ~ungated & (A == 0))

@@ -184,6 +184,9 @@ def schedule_measurements(schedule) -> list:
         if kind in ("amplitude_run", "phase_run"):
             out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
             continue
+        if kind == "detector_linearity":
+            out += _linearity_measurements(rows)
+            continue
         if kind == "spam":
             for shots, reps in rows.groupby("shots", sort=False):
                 st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
@@ -214,6 +217,16 @@ def schedule_measurements(schedule) -> list:
                 st["points"] = int(m)
             out.append({"what": kind, "settings": st})
     return out
+
+
+def _linearity_measurements(rows: pd.DataFrame) -> list:
+    """A schedule's ``detector_linearity`` rows as measurements: repeats of one number of
+    drives become ``scans`` (the simulator records its own drives, as many, with its own
+    attenuator: those the schedule took from the proposal)."""
+    per = rows.groupby("repeat", sort=False).size()
+    return [{"what": "detector_linearity", "settings": {"points": int(n),
+                                                        "scans": int(len(reps))}}
+            for n, reps in per.groupby(per, sort=False)]
 
 
 def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:

@@ -35,6 +35,7 @@ _POINTS = {
     "time_scan": ("time_scans", {"A": "A", "dpd": "dpd", "t_us": "t_us", "shots": "shots"}),
     # the prepared state as a number (00 -> 0, 01 -> 1, 10 -> 10, 11 -> 11): distinct
     "spam": ("spam", {"prepared": "prepared", "shots": "shots"}),
+    "detector_linearity": ("detector_linearity", {"A": "A", "attenuation_db": "attenuation_db"}),
 }
 #: significant digits a point's values must share (the campaign's CSVs keep 10)
 _DIGITS = 8

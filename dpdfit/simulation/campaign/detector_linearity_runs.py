@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from dpdfit.core.defaults import LINEARITY_ATTENUATION_DB
+from dpdfit.recordings.detector_linearity import LOWEST_DRIVE, linearity_drives
 from dpdfit.simulation.aom_truth import BraggAOM
 
 from .config import CampaignConfig, rng_for
@@ -31,20 +33,11 @@ __all__ = ["ATTENUATION_DB", "LOWEST_DRIVE", "LINEARITY_COLUMNS", "linearity_dri
            "detector_reading", "expected_readings", "linearity_rows", "linearity_table",
            "linearity_truth"]
 
-#: the calibrated attenuator's attenuation (dB): an ND filter of optical density 1, the
-#: attenuated reading still ~100x the photodiode's noise floor at full drive
-ATTENUATION_DB = 10.0
-#: the weakest drive of the characterisation: its power, ~5 % of full scale, is where a
-#: nonlinear reading error has faded (the ratio's reference), its attenuated reading
-#: still ~20x the noise floor
-LOWEST_DRIVE = 0.2
+#: the calibrated attenuator's attenuation (dB), the lab's default
+#: (:data:`~dpdfit.core.defaults.LINEARITY_ATTENUATION_DB`)
+ATTENUATION_DB = LINEARITY_ATTENUATION_DB
 #: the columns the simulator writes (``power_err``: 1-sigma of ``power``)
 LINEARITY_COLUMNS = ("A", "power", "power_attenuated", "attenuation_db", "power_err")
-
-
-def linearity_drives(points: int) -> np.ndarray:
-    """``points`` drives from :data:`LOWEST_DRIVE` to full drive, evenly spaced."""
-    return np.round(np.linspace(LOWEST_DRIVE, 1.0, int(points)), 10)
 
 
 def detector_reading(cfg: CampaignConfig, power) -> np.ndarray:

@@ -21,7 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-__all__ = ["LinearityData", "linearity_data", "calibration_power_noise"]
+from dpdfit.errors import DpdfitError
+from dpdfit.fits.photodiode import PowerNoise
+from dpdfit.recordings.campaign_folder import CampaignFolder
+
+__all__ = ["LinearityData", "linearity_data", "calibration_power_noise",
+           "campaign_power_noise"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +56,21 @@ def calibration_power_noise(data, power_noise, amp_fit):
         return (lambda P: np.interp(P, v, e)), "the model run's power_err at the same power"
     s = float(np.std(value - amp_fit.power(np.asarray(data.A, dtype=float))))
     return (lambda P: np.full(np.shape(P), s)), "the model run's scatter about its fit"
+
+
+def campaign_power_noise(camp):
+    """``sigma(P)`` of a reading of the campaign ``camp``'s photodiode (a
+    :class:`~dpdfit.analyses.diagnosis.observables.campaign.Campaign`): the noise model
+    learnt from its runs, else its model run's (read again from its folder); None when
+    the folder cannot be read."""
+    learnt = (camp.calibration_noise or {}).get("photodiode")
+    if learnt:
+        return PowerNoise(**learnt).sigma
+    try:
+        data = CampaignFolder(camp.folder).amplitude_model
+    except (DpdfitError, OSError):
+        return None
+    return calibration_power_noise(data, None, camp.amplitude)[0]
 
 
 def linearity_data(table: pd.DataFrame | None, data, power_noise, amp_fit):

@@ -12,11 +12,13 @@ from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
+from dpdfit.analyses.diagnosis.model.linearity_block import predicted_attenuated
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
-from dpdfit.core.defaults import PHASE_MIN_A
+from dpdfit.core.defaults import LINEARITY_ATTENUATION_DB, LINEARITY_POINTS, PHASE_MIN_A
+from dpdfit.recordings.detector_linearity import linearity_drives, transmission
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
-           'PARAM_STEP']
+           'PARAM_STEP', 'LINEARITY_DRIVES', 'linearity_readings']
 
 
 #: amplitudes a spectra recording may choose from
@@ -31,6 +33,10 @@ RUN_AMPLITUDES = np.linspace(0.0, 1.0, 101)
 SPAM_STATES = ("00", "11")
 
 
+#: the drives a detector linearity characterisation reads (with and without the attenuator)
+LINEARITY_DRIVES = linearity_drives(LINEARITY_POINTS)
+
+
 #: finite-difference step (prior sigmas) of the calibration modes in the Jacobians
 MODE_STEP = 0.05
 
@@ -42,7 +48,7 @@ PARAM_STEP = 1e-3
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
 _SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
-                "spam": "gates"}
+                "spam": "gates", "linearity": "tones"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -84,8 +90,9 @@ class Hypothesis:
         :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
         next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
         :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
-        :data:`SPAM_STATES` prepared with no gate) at the parameter set ``p`` (default:
-        the fit's)."""
+        :data:`SPAM_STATES` prepared with no gate; ``"linearity"``: the attenuated
+        photodiode readings at :data:`LINEARITY_DRIVES`) at the parameter set ``p``
+        (default: the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -174,5 +181,18 @@ def _spam(h: Hypothesis, p: dict):
     return spam_probabilities(h.gate.preparation(p), SPAM_STATES)
 
 
+def linearity_readings(prob) -> np.ndarray:
+    """The plain photodiode readings at :data:`LINEARITY_DRIVES` (lab units): the model
+    run's amplitude curve there (a stale table or a drift moves them a few percent, not
+    what the attenuator's ratio says)."""
+    return np.asarray(prob.camp.amplitude.power(LINEARITY_DRIVES), dtype=float)
+
+
+def _linearity(h: Hypothesis, p: dict):
+    # the hypothesis's own tone model (its P_max) and the effects' photodiode
+    return predicted_attenuated(h, p, linearity_readings(h.prob),
+                                transmission(LINEARITY_ATTENUATION_DB))
+
+
 _SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
-            "spam": _spam}
+            "spam": _spam, "linearity": _linearity}

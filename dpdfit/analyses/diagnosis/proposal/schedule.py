@@ -18,7 +18,12 @@ fixes it:
   proposal lists ``k`` times is recorded in repeats 1..k, each trace with the tone
   repeatability the proposal assumed (``tone_sd_db``);
 * a SPAM characterisation records each prepared state (``prepared``) with the proposal's
-  shots, at ``A`` 0 (no gate), one point per state.
+  shots, at ``A`` 0 (no gate), one point per state;
+* a detector linearity characterisation records each of its drives
+  (:func:`~dpdfit.recordings.detector_linearity.linearity_drives`) once without and once
+  with the attenuator (``attenuation_db``), one point per drive; its ``lab_s`` is the
+  two readings (``2 linearity_reading_s``) and the drive's share of putting the
+  attenuator in (``attenuator_swap_s``).
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
 when it is taken:
@@ -51,11 +56,13 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES
+from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES, LINEARITY_ATTENUATION_DB
 from dpdfit.errors import InputError
 from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.recordings.campaign_folder import CampaignFolder
-from dpdfit.recordings.schedule import RUN_KINDS, SCHEDULE_COLUMNS, check_schedule
+from dpdfit.recordings.detector_linearity import linearity_drives
+from dpdfit.recordings.schedule import (LINEARITY_COLUMN, RUN_KINDS, SCHEDULE_COLUMNS,
+                                        check_schedule)
 
 __all__ = ["proposal_schedule", "run_interval", "DAY_S"]
 
@@ -137,6 +144,14 @@ def _spectra(st: dict) -> list:
     return rows
 
 
+def _linearity_rows(st: dict) -> list:
+    """One row per drive of each repeat of a detector linearity characterisation."""
+    att = float(st.get("attenuation_db", LINEARITY_ATTENUATION_DB))
+    return [{"repeat": r, "point": i, "A": float(a), "attenuation_db": att}
+            for r in range(1, int(st.get("scans", 1)) + 1)
+            for i, a in enumerate(linearity_drives(int(st["points"])))]
+
+
 def _parity_phases(camp: CampaignFolder) -> int:
     """The campaign's ``parity_phases`` (``campaign.json``; the lab's default without it)."""
     n = camp.meta.get("parity_phases", ERROR_MODEL.parity_phases)
@@ -185,6 +200,9 @@ def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
         return np.full(len(df), float(lab.spectrum_trace_s))
     if what == "spam":
         return df["shots"].to_numpy(float) * lab.spam_shot_s
+    if what == "detector_linearity":
+        per = df.groupby("repeat")["point"].transform("size").to_numpy(float)
+        return 2 * lab.linearity_reading_s + lab.attenuator_swap_s / per
     return df["shots"].to_numpy(float) * lab.shot_s
 
 
@@ -256,6 +274,8 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
                  "prepared": str(s)}
                 for r in range(1, int(st.get("scans", 1)) + 1)
                 for i, s in enumerate(st.get("states", ("00", "11")))]
+    elif what == "detector_linearity":
+        rows = _linearity_rows(st)
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}
@@ -271,4 +291,5 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
                                LAB_TIMES if lab is None else lab)
     df["day"], df["start_s"] = _timing(df, what, camp)
     cols = list(SCHEDULE_COLUMNS) + (["prepared"] if "prepared" in df.columns else [])
+    cols += [LINEARITY_COLUMN] if LINEARITY_COLUMN in df.columns else []
     return check_schedule(df[cols], "the proposal's schedule")
