@@ -72,3 +72,18 @@ def test_schedule_written_and_recorded(tmp_path):
     # a schedule without such rows keeps its columns
     other = df.drop(columns="attenuation_db").assign(kind="amplitude_run")
     assert "attenuation_db" not in check_schedule(other, "s.csv").columns
+
+
+def test_cheapest_decisive_when_the_spectra_are_slow():
+    """The bundled campaign, a stale table against a detector nonlinearity, a lab whose
+    spectra take a month: the linearity check (minutes) is proposed, decisive, before
+    two calibration runs (which the same lab without an attenuator is sent to,
+    tests/analyses/diagnosis/proposal/test_next_measurement.py)."""
+    from dpdfit.analyses.diagnosis.proposal.next_measurement import propose_next_measurement
+    from dpdfit.core.defaults import LabTimes
+    from tests.analyses.diagnosis.proposal import test_next_measurement as T
+    prob = T.tone_prob.__wrapped__()
+    nm = propose_next_measurement(prob, [T._stale((4.0,)), T.DETECTOR],
+                                  lab=LabTimes(spectrum_trace_s=30 * 86400.0))
+    assert nm.what == "detector_linearity"
+    assert nm.to_dict()["decisive"] and nm.lab_seconds < 600
