@@ -82,6 +82,9 @@ def check_constant(column: str, v, key: str, err, table: str) -> None:
                 f"got {shown(v)}", table, column)
     if column == "prepared":
         _check_states([v], key, err, table)
+    if column == "attenuation_db" and is_number(v) and not v > 0:
+        err.bad(key, f"an attenuation of {shown(v)} dB does not exist: a calibrated "
+                "attenuator attenuates (> 0 dB)", table, column)
 
 
 def _check_states(values, key: str, err, table: str) -> None:
