@@ -89,7 +89,7 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
         shots per point, points after the start; the scan also records ``t = 0``),
         ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
-        ``detector_linearity`` (``{"points"}``: drives, :func:`_with_linearity`).
+        ``detector_linearity`` (``{"points"}``: drives, ``_with_linearity``).
 
     Returns
     -------

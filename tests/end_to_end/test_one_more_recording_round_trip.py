@@ -43,12 +43,15 @@ PROPOSALS = {
                   "settings": {"A": 0.6, "dpd": 1, "shots": 300, "points": 6, "scans": 2}},
     "spam": {"what": "spam", "lab_seconds": 4.0,
              "settings": {"shots": 500, "states": ["00", "11"], "scans": 2}},
+    "detector_linearity": {"what": "detector_linearity", "lab_seconds": 2 * 160.0,
+                           "settings": {"points": 10, "attenuation_db": 10.0, "scans": 2}},
 }
 #: the columns that order a table's rows among themselves (repeats keep their order)
 KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
         "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
         "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
-        "time_scans": ["A", "dpd", "t_us"], "spam": ["prepared"]}
+        "time_scans": ["A", "dpd", "t_us"], "spam": ["prepared"],
+        "detector_linearity": ["A"]}
 
 
 def test_every_what_of_the_menu_has_a_round_trip():

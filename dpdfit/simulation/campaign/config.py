@@ -201,8 +201,9 @@ class CampaignConfig:
     #: ``("time_scan", A, dpd, shots, points)`` (shots per point; points with ``t = 0``,
     #: as ``time_scan_points``; parity shots per phase) or ``("spam", shots)`` (a SPAM
     #: characterisation, shots per prepared state) or ``("detector_linearity", points)``
-    #: (a detector linearity characterisation at ``points`` drives).  Item ``j`` draws only from its own
-    #: stream (purpose 8, ``j``), so every other recording is drawn as without it.
+    #: (a detector linearity characterisation at ``points`` drives).  Item ``j`` draws
+    #: only from its own stream (purpose 8, ``j``), so every other recording is drawn as
+    #: without it.
     further: tuple = ()
 
     @classmethod

@@ -1,9 +1,10 @@
 """The detector linearity characterisation of a campaign (``detector_linearity.csv``): the
 calibration photodiode read with and without a calibrated attenuator, at several drives.
 
-Its physics is the calibration runs' (:mod:`.calibration_runs`): at drive ``A`` the
-optical power is the true AOM's, ``p_full eta(A)/eta_ref`` (the day's AOM, after the
-injected drifts), read through the photodiode noise model of the calibration runs
+Its physics is the calibration runs'
+(:mod:`~dpdfit.simulation.campaign.calibration_runs`): at drive ``A`` the optical power
+is the true AOM's, ``p_full eta(A)/eta_ref`` (the day's AOM, after the injected
+drifts), read through the photodiode noise model of the calibration runs
 (:class:`~dpdfit.simulation.aom_truth.PhotodiodeNoise`, noise before the detector's
 response, as a calibration run records it) and the injected effects' photodiode
 response (:meth:`~dpdfit.simulation.injections.Injection.inject_photodiode`).  The

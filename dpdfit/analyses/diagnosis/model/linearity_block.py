@@ -13,7 +13,8 @@ changes it.
 
 Each pair gives one standardised residual, the attenuated reading's deviation over its
 noise with the plain reading's propagated: ``(P_att - pred) / sqrt(s_att^2 + (pred/P
-s)^2)`` (the noise of each reading: :mod:`~dpdfit.analyses.diagnosis.observables.detector_linearity`).
+s)^2)`` (the noise of each reading:
+:mod:`~dpdfit.analyses.diagnosis.observables.detector_linearity`).
 """
 
 from __future__ import annotations
