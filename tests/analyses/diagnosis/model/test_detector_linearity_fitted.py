@@ -13,6 +13,7 @@ from dpdfit.analyses.diagnosis.model.linearity_block import (linearity_block,
 from dpdfit.analyses.diagnosis.model.residuals import Problem
 from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
 from dpdfit.analyses.diagnosis.observables.detector_linearity import linearity_data
+from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.detector_linearity import transmission
 from dpdfit.simulation.campaign import simulate_campaign
 from dpdfit.simulation.campaign.calibration_runs import calibration_runs
@@ -47,8 +48,8 @@ def _with_table(prob, rows):
     """A shallow copy of ``prob`` whose campaign has ``rows`` as its detector_linearity.csv
     (the models and nuisances shared: only the data block differs)."""
     rows = rows.assign(transmission=transmission(rows["attenuation_db"]))
-    cf = load_campaign.__globals__["CampaignFolder"](prob.camp.folder)
-    data = linearity_data(rows, cf.amplitude_model, None, prob.camp.amplitude)
+    data = linearity_data(rows, CampaignFolder(prob.camp.folder).amplitude_model, None,
+                          prob.camp.amplitude)
     out = object.__new__(Problem)
     out.__dict__.update(prob.__dict__)
     out.camp = dataclasses.replace(prob.camp, detector_linearity=data)

@@ -79,10 +79,12 @@ def test_cheapest_decisive_when_the_spectra_are_slow():
     spectra take a month: the linearity check (minutes) is proposed, decisive, before
     two calibration runs (which the same lab without an attenuator is sent to,
     tests/analyses/diagnosis/proposal/test_next_measurement.py)."""
+    from dpdfit.analyses.diagnosis.model.residuals import Problem
+    from dpdfit.analyses.diagnosis.observables.campaign import load_campaign
     from dpdfit.analyses.diagnosis.proposal.next_measurement import propose_next_measurement
     from dpdfit.core.defaults import LabTimes
     from tests.analyses.diagnosis.proposal import test_next_measurement as T
-    prob = T.tone_prob.__wrapped__()
+    prob = Problem(load_campaign(T.BUNDLED_CAMPAIGN), with_gates=False)
     nm = propose_next_measurement(prob, [T._stale((4.0,)), T.DETECTOR],
                                   lab=LabTimes(spectrum_trace_s=30 * 86400.0))
     assert nm.what == "detector_linearity"
