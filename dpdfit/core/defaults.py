@@ -20,7 +20,8 @@ __all__ = ["NU_HZ", "XI0_SPECTRA_HZ", "NBAR", "ETA_REF", "ETA_LD", "AMPLITUDE_OR
            "PHASE_ORDER", "PHASE_MIN_A", "FORMULA", "FORMULAS", "DIAGNOSIS_PAIRS",
            "HARNESS_PER_EFFECT", "HARNESS_NULLS", "HARNESS_PAIRS", "HARNESS_TRIPLES",
            "HARNESS_PER_FORM", "HARNESS_SEED", "ErrorModel", "ERROR_MODEL", "LabTimes",
-           "LAB_TIMES", "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "MAX_INPUT_BYTES",
+           "LAB_TIMES", "LINEARITY_POINTS", "LINEARITY_ATTENUATION_DB",
+           "PHASE_RUN_NOISE_RAD", "MAX_DATASET_BYTES", "MAX_SCHEDULE_ROWS", "MAX_INPUT_BYTES",
            "MAX_INPUT_BYTES_VARIABLE", "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_CSV_COLUMNS", "INTEGER_MAX",
            "FORMAT_MAX_CHARS", "FORMAT_MAX_WIDTH", "EXPR_MAX_CHARS", "EXPR_MAX_DEPTH",
            "EXPR_MAX_NODES", "EXPR_MAX_INTEGER", "EXPR_MAX_ROUND_DIGITS", "PYON_MAX_CHARS",
@@ -235,12 +236,29 @@ class LabTimes:
     #: 20 waits x 2 sequences x 200 shots is then about 2 minutes with the waits of a
     #: scan to 1.5 T2 (T2 = 50 ms)
     ramsey_point_s: float = 0.5
+    #: one reading of the detector linearity characterisation (one drive, with or without
+    #: the attenuator): set the RF, let the photodiode settle and average, ~3 s as a point
+    #: of an amplitude calibration run, rounded up to 5 s for a longer average of the
+    #: weaker attenuated reading; 10 drives read twice are ~2 min
+    linearity_reading_s: float = 5.0
+    #: putting the calibrated attenuator into the beam and taking it out again (a flip
+    #: mount or a fibre attenuator: once for all drives, the beam's pointing on the
+    #: photodiode checked), about a minute; so 10 drives take ~3 min in all
+    attenuator_swap_s: float = 60.0
     #: the longest recording the diagnosis proposes (repeats included): a working day
     max_seconds: float = 8 * 3600.0
 
 
 #: the lab times of :class:`LabTimes` (the menu of next measurements)
 LAB_TIMES = LabTimes()
+#: drives of a detector linearity characterisation the menu proposes (the photodiode
+#: read with and without the attenuator at each): 10 span the calibration's powers
+#: from ~5 % of full scale to full scale, a few minutes of lab time (:class:`LabTimes`)
+LINEARITY_POINTS = 10
+#: the calibrated attenuator of a proposed detector linearity characterisation (dB): an
+#: ND filter of optical density 1, its attenuated reading still ~100x the calibration
+#: photodiode's noise floor at full drive
+LINEARITY_ATTENUATION_DB = 10.0
 #: noise (1 sigma, rad) of one point of a phase calibration run when the campaign has no
 #: phase runs to learn it from: the paper's run-to-run sd of phi(1), 0.0009 rad over six
 #: runs (Supplement, phase stability), rounded up

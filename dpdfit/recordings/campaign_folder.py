@@ -52,6 +52,10 @@ Required and optional (everything else in the layout is optional):
   :func:`~dpdfit.recordings.ramsey.read_ramsey`; its waits checked against the
   campaign's coherence time (:func:`~dpdfit.recordings.ramsey.check_ramsey_waits`).
   A characterisation table too.
+* ``detector_linearity.csv`` -- the detector linearity characterisation: ``A, power,
+  power_attenuated, attenuation_db`` (+ ``power_err``, ``run``, ``timestamp``),
+  :func:`~dpdfit.recordings.detector_linearity.read_detector_linearity`; a
+  characterisation table like ``spam.csv``.
 
 Nothing is ever written into the folder.
 
@@ -89,6 +93,7 @@ from .counts import read_parity, read_populations, read_time_scans
 from .gate_rates import read_gate_rates
 from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
+from .detector_linearity import read_detector_linearity
 from .input_files import check_inside, open_input, read_input_json
 from .pulse_response import read_pulse_response
 from .ramsey import check_ramsey_waits, read_ramsey
@@ -122,10 +127,13 @@ FILES = {
     "spam.csv": "SPAM characterisation (basis states prepared, detected with no gate)",
     "pulse_response.csv": "AOM pulse response (a fast photodiode trace of an RF step)",
     "ramsey.csv": "Ramsey and spin-echo characterisation (coherence with a variable wait)",
+    "detector_linearity.csv": "detector linearity (photodiode read with and without a "
+                              "calibrated attenuator)",
 }
 #: the lab's characterisation experiments: optional tables whose absence is not listed
 #: as left out (a campaign without them is analysed as it always was)
-CHARACTERISATION_FILES = ("spam.csv", "pulse_response.csv", "ramsey.csv")
+CHARACTERISATION_FILES = ("spam.csv", "pulse_response.csv", "ramsey.csv",
+                          "detector_linearity.csv")
 #: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
 OTHER_FILES = ("budget.toml",)
 
@@ -417,21 +425,40 @@ class CampaignFolder:
                            else "the paper's T2, campaign.json states none")
         return df
 
+    @functools.cached_property
+    def detector_linearity(self) -> pd.DataFrame | None:
+        """``A, power, power_attenuated, attenuation_db`` (+ ``power_err``, ``run``,
+        ``timestamp``, ``transmission``), one row per reading pair, its ``A`` checked
+        against the calibration runs' range
+        (:func:`~.detector_linearity.read_detector_linearity`), None without
+        ``detector_linearity.csv``."""
+        if not self.has("detector_linearity.csv"):
+            return None
+        try:
+            a = self.amplitude_runs["A"].to_numpy(dtype=float)
+            a_range = (float(a.min()), float(a.max()))
+        except InputError:          # no readable calibration: its own reader says so
+            a_range = None
+        return read_detector_linearity(self.file("detector_linearity.csv"), within=self.path,
+                                       a_range=a_range)
+
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
         :mod:`~dpdfit.recordings.plausibility`): such a campaign is refused as a whole.
         A file that is malformed is left to the analyses that read it, except
-        ``time_scans.csv``, ``spam.csv``, ``pulse_response.csv`` and ``ramsey.csv`` (counts
-        above the shots, say), which no analysis of its own reads: they are refused here,
-        at once, not after every analysis ran."""
+        ``time_scans.csv``, ``spam.csv``, ``pulse_response.csv``, ``ramsey.csv`` and
+        ``detector_linearity.csv`` (counts above the shots, say), which no analysis of its
+        own reads: they are refused here, at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
-                     "gate_rates", "time_scans", "traces", "spam", "pulse_response", "ramsey"):
+                     "gate_rates", "time_scans", "traces", "spam", "pulse_response", "ramsey",
+                     "detector_linearity"):
             try:
                 getattr(self, name)
             except InputError as exc:
                 if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
-                        name in ("time_scans", "spam", "pulse_response", "ramsey")):
+                        name in ("time_scans", "spam", "pulse_response", "ramsey",
+                                 "detector_linearity")):
                     raise
 
     # -------------------------------------------------------------- left out

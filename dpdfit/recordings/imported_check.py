@@ -26,7 +26,8 @@ __all__ = ["check_imported", "READERS"]
 READERS = {"calibration_amplitude": "amplitude_runs", "calibration_phase": "phase_runs",
            "spectra": "spectra", "populations": "populations", "parity": "parity",
            "time_scans": "time_scans", "gate_rates": "gate_rates", "spam": "spam",
-           "pulse_response": "pulse_response", "ramsey": "ramsey"}
+           "pulse_response": "pulse_response", "ramsey": "ramsey",
+           "detector_linearity": "detector_linearity"}
 #: the tables whose files' earliest start time each recording time defaults to
 _RECORDED_FROM = {"spectra_recorded": ("spectra",),
                   "gates_recorded": ("populations", "parity", "time_scans", "gate_rates")}

@@ -89,6 +89,9 @@ def check_constant(column: str, v, key: str, err, table: str) -> None:
         err.bad(key, f"a wait below zero ({shown(v)} us) is no wait", table, column)
     if table == "pulse_response" and is_number(v):
         _check_pulse_constant(column, v, key, err)
+    if column == "attenuation_db" and is_number(v) and not v > 0:
+        err.bad(key, f"an attenuation of {shown(v)} dB does not exist: a calibrated "
+                "attenuator attenuates (> 0 dB)", table, column)
 
 
 def _check_pulse_constant(column: str, v, key: str, err) -> None:

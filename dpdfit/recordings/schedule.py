@@ -5,7 +5,8 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
 
 ``kind``
     What is recorded: ``amplitude_run``, ``phase_run``, ``spectra``, ``populations``,
-    ``parity``, ``time_scan``, ``spam``, ``pulse_response`` or ``ramsey`` (the diagnosis's
+    ``parity``, ``time_scan``, ``spam``, ``pulse_response``, ``ramsey`` or
+    ``detector_linearity`` (the diagnosis's
     ``next_measurement.what``).
 ``repeat``
     Which repeat (run, scan, trace) the row belongs to: 1, 2, ...
@@ -15,15 +16,16 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     The amplitude of the point: a grid point of a calibration run, the amplitude of a
     trace, the gate setting of a scan (normalised RF amplitude, 0..1); 0 for a SPAM or
     Ramsey point (no gate is driven); the step's amplitude of a pulse response (one point
-    per trace: the drive switched from 0 to ``A``, traced by a fast photodiode).
+    per trace: the drive switched from 0 to ``A``, traced by a fast photodiode); the
+    drive of a detector linearity point.
 ``dpd``
-    0 or 1 (with or without predistortion); empty for calibration runs, SPAM and Ramsey
-    points and pulse responses.
+    0 or 1 (with or without predistortion); empty for calibration runs, SPAM, Ramsey and
+    detector linearity points and pulse responses.
 ``shots``
     Shots of the point: of the population scan, of one phase of a parity scan, of one
     time of a time scan, of one prepared state of a SPAM characterisation, of one
-    sequence and wait of a Ramsey scan; empty for calibration runs, spectra and pulse
-    responses.
+    sequence and wait of a Ramsey scan; empty for calibration runs, spectra, pulse
+    responses and detector linearity points.
 ``phase_rad``
     The analysis phase of a parity point (rad); empty otherwise.
 ``t_us``
@@ -57,6 +59,11 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     Only in a schedule with ``ramsey`` rows (after the others): the sequence of a Ramsey
     point, ``ramsey`` or ``echo``, and its free-precession wait (microseconds), as
     ``ramsey.csv`` records them; empty for the other kinds.
+``attenuation_db``
+    Only in a schedule with ``detector_linearity`` rows (after the columns above): the
+    calibrated attenuator (dB, > 0) the photodiode is read with at the point's drive,
+    after its reading without; empty for the other kinds.  Such a point's ``lab_s`` is
+    its two readings and its share of putting the attenuator in.
 
 The columns ``day``, ``start_s`` and ``tone_sd_db`` came later and are optional: a
 schedule without them is read with them empty.  Rows of every kind are taken back to
@@ -82,7 +89,7 @@ from dpdfit.recordings.tables import read_table
 
 __all__ = ["SCHEDULE_COLUMNS", "OPTIONAL_COLUMNS", "SCHEDULE_KINDS", "RUN_KINDS",
            "SCAN_KINDS", "CHARACTERISATION_KINDS", "read_schedule", "write_schedule",
-           "check_schedule"]
+           "check_schedule", "LINEARITY_KINDS", "LINEARITY_COLUMN"]
 
 #: the schedule's columns, in order (a contract: labs' experiments read them by name)
 SCHEDULE_COLUMNS = ("kind", "repeat", "point", "A", "dpd", "shots", "phase_rad", "t_us",
@@ -94,10 +101,17 @@ RUN_KINDS = ("amplitude_run", "phase_run")
 #: gate recordings: a setting (A, dpd) and shots per point
 SCAN_KINDS = ("populations", "parity", "time_scan")
 #: the lab's characterisation experiments: no flag; a SPAM or Ramsey point has no gate
-#: setting (``A`` 0) and shots, a pulse response the step's amplitude ``A`` and no shots
-CHARACTERISATION_KINDS = ("spam", "pulse_response", "ramsey")
+#: setting (``A`` 0) and shots, a pulse response the step's amplitude ``A`` and no shots,
+#: a detector linearity point a drive ``A`` (as a calibration run's grid point), no shots
+#: and an attenuator (:data:`LINEARITY_COLUMN`)
+CHARACTERISATION_KINDS = ("spam", "pulse_response", "ramsey", "detector_linearity")
 #: the characterisation kinds that drive no gate (``A`` 0)
 _UNGATED = ("spam", "ramsey")
+#: the detector linearity characterisation: a drive (``A``, no flag, no shots) read
+#: without and with an attenuator (:data:`LINEARITY_COLUMN`)
+LINEARITY_KINDS = ("detector_linearity",)
+#: the column a schedule has only when it holds ``detector_linearity`` rows (last)
+LINEARITY_COLUMN = "attenuation_db"
 #: every kind of recording a schedule may hold (the diagnosis's menu)
 SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS
 #: the column a schedule has only when it holds ``spam`` rows (after the others)
@@ -110,7 +124,7 @@ _SEQUENCES = ("ramsey", "echo")
 _NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
           "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
           "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",), "pulse_response": (),
-          "ramsey": ("shots", "wait_us")}
+          "ramsey": ("shots", "wait_us"), "detector_linearity": ()}
 #: per kind, the columns that must not change within one repeat
 _CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
              "time_scan": ("A", "dpd", "shots")}
@@ -179,6 +193,7 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
     _check_values(df, kind.to_numpy(), name)
     spam = _check_prepared(df, kind.to_numpy(), name)
     ramsey = _check_sequence(df, kind.to_numpy(), name)
+    linearity = _check_attenuation(df, kind.to_numpy(), name)
     _check_repeats(df, name)
     # counts as integers (empty where a kind has none), so that the table reads as written
     for col in ("repeat", "point"):
@@ -186,7 +201,8 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
     for col in ("dpd", "shots", "day"):
         df[col] = df[col].round().astype("Int64")
     return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])
-              + (list(_RAMSEY) if ramsey else [])]
+              + (list(_RAMSEY) if ramsey else [])
+              + ([LINEARITY_COLUMN] if linearity else [])]
 
 
 def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
@@ -230,8 +246,26 @@ def _check_sequence(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
     return True
 
 
+def _check_attenuation(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
+    """Each ``detector_linearity`` row's ``attenuation_db`` a number > 0 (NaN on the other
+    rows); whether the schedule has such rows."""
+    rows = np.isin(kind, LINEARITY_KINDS)
+    if not rows.any():
+        return False
+    if LINEARITY_COLUMN not in df.columns:
+        _fail(f"column '{LINEARITY_COLUMN}' is missing (the 'detector_linearity' rows need "
+              "it)", name)
+    v = _numbers(df[LINEARITY_COLUMN], LINEARITY_COLUMN, name).to_numpy(float)
+    bad = np.flatnonzero(rows & ~((v > 0) & np.isfinite(v)))
+    if bad.size:
+        _fail(f"attenuation {v[bad[0]]:g} dB must be > 0 (an attenuator attenuates)", name,
+              LINEARITY_COLUMN, bad[0])
+    df[LINEARITY_COLUMN] = np.where(rows, v, np.nan)
+    return True
+
+
 def _check_values(df: pd.DataFrame, kind: np.ndarray, name: str) -> None:
-    runs = np.isin(kind, RUN_KINDS)
+    runs = np.isin(kind, RUN_KINDS + LINEARITY_KINDS)
     ungated = np.isin(kind, _UNGATED)
     A = df["A"].to_numpy(float)
     bad = np.flatnonzero(~((A >= 0) & (A <= 1)) | (~runs & ~ungated & (A == 0))

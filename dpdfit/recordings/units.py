@@ -88,6 +88,7 @@ COLUMN_KINDS = {
     "run": ("label", ""), "timestamp": ("label", ""), "sideband": ("label", ""),
     "prepared": ("label", ""),
     "sequence": ("label", ""), "wait_us": ("time", "us"),
+    "power_attenuated": ("any", ""), "attenuation_db": ("dB", "dB"),
 }
 
 

@@ -24,7 +24,9 @@ import numpy as np
 from dpdfit.errors import DpdfitError
 from dpdfit.simulation.artiq_results_file import axis, channel, stored_in_si
 from dpdfit.simulation.ndscan_lab import (NdscanLab, duration_axis, epoch, time_scan_runs,
-                                          write_calibration_runs, write_campaign_pulse_runs,
+                                          write_calibration_runs,
+                                          write_campaign_linearity_runs,
+                                          write_campaign_pulse_runs,
                                           write_campaign_ramsey_runs,
                                           write_campaign_spam_runs,
                                           write_ndscan_gate_runs, write_spectra_runs)
@@ -50,13 +52,16 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     when the campaign has ``spam.csv``, one per SPAM recording (axis ``prepared``, a
     code: :func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`), with
     ``pulse_response.csv`` one per pulse-response trace (axis ``delay``:
-    :func:`~dpdfit.simulation.ndscan_lab.write_pulse_runs`) and with ``ramsey.csv`` one
+    :func:`~dpdfit.simulation.ndscan_lab.write_pulse_runs`), with ``ramsey.csv`` one
     per Ramsey scan (axes ``sequence``, a code, and ``wait``:
-    :func:`~dpdfit.simulation.ndscan_lab.write_ramsey_runs`).
+    :func:`~dpdfit.simulation.ndscan_lab.write_ramsey_runs`) and with
+    ``detector_linearity.csv`` one per linearity recording (axis ``amplitude``:
+    :func:`~dpdfit.simulation.ndscan_lab.write_linearity_runs`).
     Returns the path of ``out_dir/mapping.toml`` (a copy of ``ndscan_campaign.toml``;
     without ``spam.csv`` its ``[[spam]]`` source is left out, a glob that would match
-    no file, and so are ``[[pulse_response]]`` without ``pulse_response.csv`` and
-    ``[[ramsey]]`` without ``ramsey.csv``).
+    no file, and so are ``[[pulse_response]]`` without ``pulse_response.csv``,
+    ``[[ramsey]]`` without ``ramsey.csv`` and ``[[detector_linearity]]`` without
+    ``detector_linearity.csv``).
     """
     lab = NdscanLab(campaign_dir, out_dir)
     write_calibration_runs(lab, percent=False)
@@ -65,9 +70,11 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     write_campaign_spam_runs(lab)
     write_campaign_pulse_runs(lab)
     write_campaign_ramsey_runs(lab)
+    write_campaign_linearity_runs(lab)
     return copy_mapping("ndscan_campaign.toml", lab.campaign, out_dir,
                         [t for t, rows in lab.t.items()
-                         if t not in ("spam", "pulse_response", "ramsey") or len(rows)])
+                         if t not in ("spam", "pulse_response", "ramsey", "detector_linearity")
+                         or len(rows)])
 
 
 def _bright_ions(counts: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.core.defaults import ERROR_MODEL, LINEARITY_POINTS
 from dpdfit.errors import InputError
 from dpdfit.recordings.schedule import check_schedule
 from dpdfit.simulation.campaign import CampaignConfig
@@ -25,14 +25,13 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
-#: ``spam``, ``pulse_response`` and ``ramsey`` are drawn when the proposal's menu offers
-#: them;
-#: :func:`default_menu` (the menu of a proposal without one) leaves them out, so that a
-#: blind choice without a menu is drawn as before.
+#: ``spam``, ``pulse_response``, ``ramsey`` and ``detector_linearity`` are drawn when the
+#: proposal's menu offers them; :func:`default_menu` (the menu of a proposal without one)
+#: leaves them out, so that a blind choice without a menu is drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
                 "time_scan": "time_scan", "spam": "spam", "pulse_response": "pulse_response",
-                "ramsey": "ramsey"}
+                "ramsey": "ramsey", "detector_linearity": "detector_linearity"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -70,9 +69,12 @@ def _setting(cfg: CampaignConfig, st: dict) -> tuple:
 def _characterisation(cfg: CampaignConfig, what: str, st: dict, scans: int) -> CampaignConfig:
     """``cfg`` with ``scans`` further characterisation items of kind ``what`` (SPAM: its
     shots per prepared state; the pulse response: its step's amplitude; the Ramsey scan:
-    its shots per point)."""
+    its shots per point; the detector linearity: its drives, at least 2, default
+    :data:`~dpdfit.core.defaults.LINEARITY_POINTS`)."""
     if what in ("spam", "ramsey"):
         item = (what, _positive_int(st.get("shots", NOMINAL_SHOTS), "shots"))
+    elif what == "detector_linearity":
+        item = (what, _positive_int(st.get("points", LINEARITY_POINTS), "points", least=2))
     else:
         item = ("pulse_response", _amplitude(st.get("A", cfg.time_scan_A)))
     return dataclasses.replace(cfg, further=cfg.further + (item,) * scans)
@@ -95,7 +97,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
         ``pulse_response`` (``{"A"}``: a trace of a step to ``A``, else time_scan_A),
         ``ramsey`` (``{"shots"}``: shots per point of a Ramsey and spin-echo scan on the
-        simulator's waits, :func:`~dpdfit.models.ramsey.scan_waits`).
+        simulator's waits, :func:`~dpdfit.models.ramsey.scan_waits`),
+        ``detector_linearity`` (``{"points"}``: drives, at least 2).
 
     Returns
     -------
@@ -152,7 +155,7 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
-    if what in ("spam", "pulse_response", "ramsey"):
+    if what in ("spam", "pulse_response", "ramsey", "detector_linearity"):
         return _characterisation(cfg, what, st, scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
@@ -192,6 +195,9 @@ def schedule_measurements(schedule) -> list:
                 st = {"A": float(A), "scans": int(reps["repeat"].nunique())}
                 out.append({"what": kind, "settings": st})
             continue
+        if kind == "detector_linearity":
+            out += _linearity_measurements(rows)
+            continue
         if kind in ("spam", "ramsey"):
             for shots, reps in rows.groupby("shots", sort=False):
                 st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
@@ -224,6 +230,16 @@ def schedule_measurements(schedule) -> list:
     return out
 
 
+def _linearity_measurements(rows: pd.DataFrame) -> list:
+    """A schedule's ``detector_linearity`` rows as measurements: repeats of one number of
+    drives become ``scans`` (the simulator records its own drives, as many, with its own
+    attenuator: those the schedule took from the proposal)."""
+    per = rows.groupby("repeat", sort=False).size()
+    return [{"what": "detector_linearity", "settings": {"points": int(n),
+                                                        "scans": int(len(reps))}}
+            for n, reps in per.groupby(per, sort=False)]
+
+
 def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     """One measurement of every ``what`` with settings valid for ``cfg``.
 
@@ -239,8 +255,9 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     -------
     list of dict
         ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but the characterisations
-        ``spam``, ``pulse_response`` and ``ramsey`` (only a menu that offers them draws
-        them: the default menu's kinds, and so its draws, are those it had before them).
+        ``spam``, ``pulse_response``, ``ramsey`` and ``detector_linearity`` (only a menu
+        that offers them draws them: the default menu's kinds, and so its draws, are those
+        it had before them).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)

@@ -4,8 +4,9 @@
 (:func:`~dpdfit.simulation.artiq_results_file.write_results_file`) with the next rid.
 The runs every layout shares: one per calibration run (:func:`write_calibration_runs`),
 the spectra (:func:`write_spectra_runs`), and the ndscan set's gate runs
-(:func:`write_ndscan_gate_runs`), SPAM characterisations (:func:`write_spam_runs`) and
-AOM pulse responses (:func:`write_pulse_runs`);
+(:func:`write_ndscan_gate_runs`), SPAM characterisations (:func:`write_spam_runs`),
+AOM pulse responses (:func:`write_pulse_runs`), Ramsey scans (:func:`write_ramsey_runs`)
+and detector linearity characterisations (:func:`write_linearity_runs`);
 :mod:`dpdfit.simulation.artiq_results` writes whole campaigns with them and
 :mod:`dpdfit.simulation.recorded_artiq` continues one.
 """
@@ -36,7 +37,8 @@ __all__ = ["NdscanLab", "read_campaign_table", "read_campaign_json", "campaign_m
            "spam_code", "spam_runs", "write_spam_runs", "write_campaign_spam_runs",
            "PULSE_EXPERIMENT", "write_pulse_runs", "write_campaign_pulse_runs",
            "RAMSEY_EXPERIMENT", "RAMSEY_CODES", "ramsey_runs", "write_ramsey_runs",
-           "write_campaign_ramsey_runs"]
+           "write_campaign_ramsey_runs", "LINEARITY_EXPERIMENT", "linearity_runs",
+           "write_linearity_runs", "write_campaign_linearity_runs"]
 
 #: the ndscan fragment of the lab's SPAM characterisation (its results files end
 #: ``-SpamCharacterisation.h5``)
@@ -48,6 +50,9 @@ PULSE_EXPERIMENT = "lab.characterisation.PulseResponse"
 RAMSEY_EXPERIMENT = "lab.characterisation.RamseyEcho"
 #: the codes of the Ramsey scan's axis ``sequence`` (the mapping's labels turn them back)
 RAMSEY_CODES = {"ramsey": 0, "echo": 1}
+#: the ndscan fragment of the lab's detector linearity characterisation (its results
+#: files end ``-DetectorLinearity.h5``)
+LINEARITY_EXPERIMENT = "lab.characterisation.DetectorLinearity"
 
 
 def read_campaign_table(folder, table: str) -> pd.DataFrame:
@@ -337,3 +342,41 @@ def write_campaign_ramsey_runs(lab: NdscanLab) -> None:
     last run: a characterisation taken once the gates were recorded."""
     if len(lab.t["ramsey"]):
         write_ramsey_runs(lab, itertools.count(lab.last + 300.0, 300.0))
+
+
+def linearity_runs(rows: pd.DataFrame) -> list:
+    """The detector linearity rows as the runs a lab records them in, in order: a run
+    reads each drive once with one attenuator, so a drive read again (or another
+    attenuator) begins the next run.  Each run's rows, consecutive as in ``rows``."""
+    if not len(rows):
+        return []
+    A, att = rows["A"].to_numpy(float), rows["attenuation_db"].to_numpy(float)
+    starts, seen = [0], set()
+    for i, (a, d) in enumerate(zip(A, att)):
+        if a in seen or (i and d != att[starts[-1]]):
+            starts.append(i)
+            seen = set()
+        seen.add(a)
+    return [rows.iloc[a:b] for a, b in zip(starts, starts[1:] + [len(rows)])]
+
+
+def write_linearity_runs(lab: NdscanLab, clock) -> None:
+    """One run of :data:`LINEARITY_EXPERIMENT` per detector linearity recording
+    (:func:`linearity_runs`) of ``lab.t['detector_linearity']``, started at the times
+    ``clock`` gives: the drive the scan axis ``amplitude``, the readings without and with
+    the attenuator (and ``power_err``, when recorded) result channels, the attenuator
+    the argument ``attenuation_db``."""
+    for rows in linearity_runs(lab.t["detector_linearity"]):
+        ch = {"pd_power": channel(rows["power"]),
+              "pd_power_attenuated": channel(rows["power_attenuated"])}
+        if "power_err" in rows:
+            ch["pd_power_err"] = channel(rows["power_err"])
+        lab.scan(LINEARITY_EXPERIMENT, next(clock), [axis("amplitude", rows["A"].to_numpy(float))],
+                 ch, {"attenuation_db": float(rows["attenuation_db"].iloc[0])})
+
+
+def write_campaign_linearity_runs(lab: NdscanLab) -> None:
+    """The campaign's detector linearity recordings (``detector_linearity.csv``, if it has
+    one), 300 s apart after its last run."""
+    if len(lab.t["detector_linearity"]):
+        write_linearity_runs(lab, itertools.count(lab.last + 300.0, 300.0))

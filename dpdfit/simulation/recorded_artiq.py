@@ -13,7 +13,9 @@ mapping's ``[[spam]]`` into ``spam.csv``; an AOM pulse response is one run per t
 (:func:`~dpdfit.simulation.ndscan_lab.write_pulse_runs`), imported by its
 ``[[pulse_response]]``; a Ramsey scan is one run
 (:func:`~dpdfit.simulation.ndscan_lab.write_ramsey_runs`), imported by ``[[ramsey]]``
-into ``ramsey.csv``.  The mapping's ``[campaign]`` table is the
+into ``ramsey.csv``; a detector linearity characterisation is one run per recording
+(:func:`~dpdfit.simulation.ndscan_lab.write_linearity_runs`), imported by
+``[[detector_linearity]]``.  The mapping's ``[campaign]`` table is the
 campaign's ``campaign.json`` (without its recording times), so that the new files are
 seen as the same campaign's; tables without new rows are left out of it (a glob that
 matches nothing is an import error), so it is read as the mapping of further
@@ -45,11 +47,13 @@ from dpdfit.simulation.further_recordings import schedule_measurements
 from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_axis, epoch,
                                           campaign_meta, read_campaign_table,
                                           time_scan_runs, write_calibration_runs,
+                                          write_campaign_linearity_runs,
                                           write_campaign_pulse_runs,
                                           write_campaign_ramsey_runs,
                                           write_campaign_spam_runs, write_ndscan_gate_runs,
-                                          write_pulse_runs, write_ramsey_runs,
-                                          write_spam_runs, write_spectra_runs)
+                                          write_linearity_runs, write_pulse_runs,
+                                          write_ramsey_runs, write_spam_runs,
+                                          write_spectra_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
@@ -92,6 +96,7 @@ def campaign_files_end(tables: dict, campaign: dict) -> tuple:
     write_campaign_spam_runs(lab)
     write_campaign_pulse_runs(lab)
     write_campaign_ramsey_runs(lab)
+    write_campaign_linearity_runs(lab)
     times = [epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
              if k in campaign]
     return lab.rid, max([t for t in (lab.last,) if t is not None] + times)
@@ -204,6 +209,8 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
         write_pulse_runs(lab, clock)
         if len(t["ramsey"]):
             write_ramsey_runs(lab, clock)
+        if len(t["detector_linearity"]):
+            write_linearity_runs(lab, clock)
         text = _mapping_text(campaign, [n for n in CAMPAIGN_TABLES if len(t[n])], tmp)
         (tmp / "mapping.toml").write_text(text)
     return out / "mapping.toml"

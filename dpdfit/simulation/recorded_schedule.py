@@ -34,6 +34,7 @@ from dpdfit.core.display import Displayable
 from dpdfit.errors import InputError
 from dpdfit.simulation.campaign import CampaignConfig
 from dpdfit.simulation.campaign.calibration_runs import calibration_runs
+from dpdfit.simulation.campaign.detector_linearity_runs import linearity_table
 from dpdfit.simulation.campaign.folder import csv_text
 from dpdfit.simulation.campaign.gate_runs import further_gate_rows, gate_references, gate_tables
 from dpdfit.simulation.campaign.optics import dpd_lut
@@ -50,7 +51,7 @@ __all__ = ["TABLES", "CHARACTERISATION_TABLES", "StandInRecording", "extended_co
 TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
           "gate_rates", "time_scans")
 #: the lab's characterisation tables a further recording can add (a campaign may have none)
-CHARACTERISATION_TABLES = ("spam", "pulse_response", "ramsey")
+CHARACTERISATION_TABLES = ("spam", "pulse_response", "ramsey", "detector_linearity")
 #: agreement of a replayed value with the campaign's table: truth.json and the CSVs keep
 #: 10 significant digits, and the processor's BLAS kernel rounds differently in the last
 #: bits, which moves a float by ~1e-8 relative through the calibration fit and the
@@ -185,6 +186,7 @@ def record_further(cfg: CampaignConfig, measurements, *, original: dict | None =
             lut = dpd_lut(tf, ext.lut_points) if lut is None else lut
             new["ramsey"] = ramsey_table(ext, gate_references(ext, aom, lut),
                                          further_from=len(cfg.further))
+        new["detector_linearity"] = linearity_table(ext, aom, further_from=len(cfg.further))
     if original is not None:
         check_replayed(replayed, original, new)
     tables = {t: as_written(new[t]) for t in (*TABLES, *CHARACTERISATION_TABLES)
@@ -213,6 +215,9 @@ def simulated_tables(cfg: CampaignConfig, *, include_spectra: bool = True,
             out["pulse_response"] = pulse
         if cfg.ramsey_shots or any(item[0] == "ramsey" for item in cfg.further):
             out["ramsey"] = ramsey_table(cfg, gate_references(cfg, aom, lut))
+        linearity = linearity_table(cfg, aom)
+        if len(linearity):
+            out["detector_linearity"] = linearity
     return out
 
 

@@ -39,6 +39,7 @@ _POINTS = {
     "pulse_response": ("pulse_response", {"A": "A"}),
     # both sequences share the waits: the point is its wait, recorded once per sequence
     "ramsey": ("ramsey", {"wait_us": "wait_us", "shots": "shots"}),
+    "detector_linearity": ("detector_linearity", {"A": "A", "attenuation_db": "attenuation_db"}),
 }
 #: significant digits a point's values must share (the campaign's CSVs keep 10)
 _DIGITS = 8

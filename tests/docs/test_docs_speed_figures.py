@@ -63,6 +63,13 @@ ROW_NUMBER = re.compile(r"(?<![≤≥<>\w.-])(?<![≤≥<>] )\d+(?:[,.]\d+)*")
 ALLOWED = [
     ("docs/getting-started.md", "no gate (at least `00` and `11`; a few minutes of lab time)",
      "the lab time of a characterisation experiment, not dpdfit's"),
+    ("docs/getting-started.md", "(e.g. 10 drives, a few minutes of lab time)",
+     "the lab time of a characterisation experiment, not dpdfit's"),
+    ("docs/guide/schedule.md", "costs its two readings, 2 x `linearity_reading_s` (5 s each",
+     "defaults of LabTimes: the lab's readings of a detector linearity point, not dpdfit's"),
+    ("docs/guide/schedule.md", "`attenuator_swap_s` (60 s) over the repeat's points: 10 drives "
+                               "take about 3 minutes",
+     "a default of LabTimes: the lab's time to put an attenuator in, not dpdfit's"),
     ("docs/guide/schedule.md", "lab time 300.0 s",
      "the proposal's lab time, printed by the page's snippet (the lab's, not dpdfit's)"),
     ("docs/guide/schedule.md", "`shot_s` (10 ms a shot)",

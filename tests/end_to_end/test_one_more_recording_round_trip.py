@@ -47,13 +47,16 @@ PROPOSALS = {
                        "settings": {"A": 0.6, "scans": 2}},
     "ramsey": {"what": "ramsey", "lab_seconds": 100.0,
                "settings": {"shots": 120, "points": 20, "max_wait_us": 75000.0}},
+    "detector_linearity": {"what": "detector_linearity", "lab_seconds": 2 * 160.0,
+                           "settings": {"points": 10, "attenuation_db": 10.0, "scans": 2}},
 }
 #: the columns that order a table's rows among themselves (repeats keep their order)
 KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
         "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
         "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
         "time_scans": ["A", "dpd", "t_us"], "spam": ["prepared"],
-        "pulse_response": ["run", "t_us"], "ramsey": ["sequence", "wait_us"]}
+        "pulse_response": ["run", "t_us"], "ramsey": ["sequence", "wait_us"],
+        "detector_linearity": ["A"]}
 
 
 def test_every_what_of_the_menu_has_a_round_trip():

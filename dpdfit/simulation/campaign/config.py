@@ -188,6 +188,10 @@ class CampaignConfig:
     #: shots per point of the campaign's Ramsey and spin-echo scan (``ramsey.csv``: both
     #: sequences at every wait of ``ramsey_runs.ramsey_waits``); 0: none recorded
     ramsey_shots: int = 0
+    #: drives of the campaign's detector linearity characterisation
+    #: (``detector_linearity.csv``: the photodiode read with and without a calibrated
+    #: attenuator at each); 0: none recorded
+    detector_linearity_points: int = 0
     harmonics_gate: tuple = tuple(range(-2, 6))
     effects: dict = field(default_factory=dict)
     #: calibration runs recorded after the spectra and gates (the last ones)
@@ -203,9 +207,11 @@ class CampaignConfig:
     #: ``("time_scan", A, dpd, shots, points)`` (shots per point; points with ``t = 0``,
     #: as ``time_scan_points``; parity shots per phase) or ``("spam", shots)`` (a SPAM
     #: characterisation, shots per prepared state), ``("pulse_response", A)`` (an AOM
-    #: pulse response, one trace of a step to ``A``) or ``("ramsey", shots)`` (a Ramsey
-    #: and spin-echo scan, shots per point).  Item ``j`` draws only from its own
-    #: stream (purpose 8, ``j``), so every other recording is drawn as without it.
+    #: pulse response, one trace of a step to ``A``), ``("ramsey", shots)`` (a Ramsey
+    #: and spin-echo scan, shots per point) or ``("detector_linearity", points)`` (a
+    #: detector linearity characterisation at ``points`` drives).  Item ``j`` draws
+    #: only from its own stream (purpose 8, ``j``), so every other recording is drawn as
+    #: without it.
     further: tuple = ()
 
     @classmethod
@@ -356,6 +362,7 @@ TRUTH_CONTRACT = {
     "spam_shots": Integer(0, MAX_SHOTS),
     "pulse_traces": Integer(0, MAX_SIMULATED_RUNS),
     "ramsey_shots": Integer(0, MAX_SHOTS),
+    "detector_linearity_points": Integer(0, MAX_SIMULATED_POINTS),
     "harmonics_gate": ListOf(_HARMONIC, 1, 2 * MAX_PRODUCT_ORDER + 1, distinct=True,
                              holding=_GATE_TONES),
     "effects": Effects(lambda name: _effect_param(name), _FINITE),
@@ -372,7 +379,8 @@ TRUTH_CONTRACT = {
                            (_AMPLITUDE, _FLAG, _SHOTS, Integer(2, MAX_SIMULATED_POINTS))),
         "spam": Fixed(("shots",), (_SHOTS,)),
         "pulse_response": Fixed(("A",), (_AMPLITUDE,)),
-        "ramsey": Fixed(("shots",), (_SHOTS,))}),
+        "ramsey": Fixed(("shots",), (_SHOTS,)),
+        "detector_linearity": Fixed(("points",), (Integer(2, MAX_SIMULATED_POINTS),))}),
         0, MAX_SCHEDULE_ROWS),
 }
 
@@ -473,7 +481,8 @@ def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:
     Keys: 1 calibration drift, 2 amplitude run, 3 phase run, 4 trace, 5 gates,
     7 the drifted calibration behind the table (``table_drift``), 8 the
     further recordings (``further``, by index), 9 the SPAM characterisation
-    (``spam_shots``), 15 the AOM pulse response (``pulse_traces``, by trace), 21 the
-    Ramsey and spin-echo scan (``ramsey_shots``).
+    (``spam_shots``), 13 the detector linearity characterisation
+    (``detector_linearity_points``), 15 the AOM pulse response (``pulse_traces``, by
+    trace), 21 the Ramsey and spin-echo scan (``ramsey_shots``).
     """
     return np.random.default_rng(np.random.SeedSequence([cfg.seed, *key]))

@@ -18,6 +18,7 @@ from dpdfit.core.version import __version__
 
 from .calibration_runs import calibration_runs, table_index
 from .config import DEFAULT_SEED, RETIRED_TRUTH_KEYS, CampaignConfig
+from .detector_linearity_runs import linearity_table, linearity_truth
 from .folder import check_new_folder, csv_text, write_folder
 from .gate_runs import gate_references, gate_tables
 from .optics import dpd_lut
@@ -76,7 +77,8 @@ def _jsonable_config(cfg: CampaignConfig) -> dict:
     d = dict.fromkeys(RETIRED_TRUTH_KEYS, 0.0)
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
-        if f.name in ("further", "spam_shots", "pulse_traces", "ramsey_shots") and not v:
+        if f.name in ("further", "spam_shots", "pulse_traces", "ramsey_shots",
+                      "detector_linearity_points") and not v:
             continue        # keeps the truth.json of campaigns without them byte for byte
         if dataclasses.is_dataclass(v):
             v = {k: (abs(x) if isinstance(x, complex) else x)
@@ -152,6 +154,10 @@ def _simulated(cfg: CampaignConfig, progress, include_gates: bool):
         refs = gate_references(cfg, aom, lut)
         files["ramsey.csv"] = csv_text(ramsey_table(cfg, refs))
         truth["ramsey"] = ramsey_truth(cfg, refs)
+    linearity = linearity_table(cfg, aom)
+    if len(linearity):      # only then, as spam.csv
+        files["detector_linearity.csv"] = csv_text(linearity)
+        truth["detector_linearity"] = linearity_truth(cfg)
     files["campaign.json"] = json.dumps(_campaign_json(cfg, cal_truth), indent=2,
                                         sort_keys=True) + "\n"
     files["truth.json"] = _truth_json(truth)

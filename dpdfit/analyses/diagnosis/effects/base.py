@@ -220,6 +220,14 @@ class Effect:
         sample by sample (no memory)."""
         return y
 
+    def detector_reading(self, tm, v: dict, u: np.ndarray, inverse: bool = False):
+        """The calibration photodiode's reading of the relative true power ``u`` (in
+        units of the amplitude curve's largest reading ``P_max``); with ``inverse``, the
+        true power of the reading ``u``.  What a detector linearity characterisation
+        sees (:mod:`~dpdfit.analyses.diagnosis.model.linearity_block`); default: a
+        linear photodiode, ``u`` either way."""
+        return u
+
     def drive_filter(self, tm, v: dict, f: np.ndarray):
         """A linear filter ``H(f)`` of the complex drive envelope before the static
         transfer (None: none; needs the time-domain field)."""

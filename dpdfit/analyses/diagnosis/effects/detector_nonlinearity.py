@@ -66,6 +66,14 @@ class DetectorNonlinearity(Effect):
         u = (np.abs(y) / tm.y_max(cy)) ** 2
         return y * np.sqrt(true_over_read(u, k, v.get("q", 1.0)))
 
+    def detector_reading(self, tm, v, u, inverse=False):
+        # the same reading u_true (1 + k u_true^q) whose inverse the transfer applies
+        k, q = v.get("k", 0.0), v.get("q", 1.0)
+        u = np.asarray(u, dtype=float)
+        if inverse:
+            return u * true_over_read(u, k, q)
+        return u * (1 + k * np.maximum(u, 0.0) ** q)
+
     def size_values(self, ctx, p):
         v = self.values(p) or {}
         k, q = v.get("k", 0.0), v.get("q", 1.0)

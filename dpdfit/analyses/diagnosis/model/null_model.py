@@ -47,11 +47,16 @@ class NullModel(Record):
     #: (:func:`~dpdfit.analyses.diagnosis.model.ramsey_block.coherence_report`; None
     #: without the file)
     coherence: dict | None = None
+    #: where the detector linearity characterisation's noise comes from (one phrase,
+    #: :mod:`~dpdfit.analyses.diagnosis.observables.detector_linearity`; None without
+    #: ``detector_linearity.csv``)
+    detector_linearity_noise: str | None = None
 
     def to_dict(self) -> dict:
         """The JSON's ``null_model``: every attribute, ``tone_noise`` as its dict;
         ``fitted`` only once the baseline is fitted, ``coherence`` only with
-        ``ramsey.csv``."""
+        ``ramsey.csv``, ``detector_linearity_noise`` only with a detector linearity
+        table."""
         out = {"tone_noise": self.tone_noise.to_dict(),
                "calibration_noise": dict(self.calibration_noise),
                "phase_sign": self.phase_sign, "phase_sign_chi2": self.phase_sign_chi2,
@@ -62,6 +67,8 @@ class NullModel(Record):
             out["fitted"] = dict(self.fitted)
         if self.coherence is not None:
             out["coherence"] = dict(self.coherence)
+        if self.detector_linearity_noise is not None:
+            out["detector_linearity_noise"] = self.detector_linearity_noise
         return out
 
 

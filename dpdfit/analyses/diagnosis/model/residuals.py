@@ -28,6 +28,7 @@ from dpdfit.analyses.diagnosis.model.gates.gate_model import (DETECTION_PRIOR_SI
                                                               GateModel)
 from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
 from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
+from dpdfit.analyses.diagnosis.model.linearity_block import linearity_block
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
 from dpdfit.analyses.diagnosis.model.pulse_block import pulse_block
 from dpdfit.analyses.diagnosis.model.ramsey_block import coherence_report, ramsey_block
@@ -182,7 +183,9 @@ class Problem:
             fitted=None if base is None else {k: v for k, v in base.nuisances.items()
                                               if not k.startswith("cal_")},
             coherence=(coherence_report(self, base)
-                       if self.gate is not None and self.camp.ramsey is not None else None))
+                       if self.gate is not None and self.camp.ramsey is not None else None),
+            detector_linearity_noise=(None if self.camp.detector_linearity is None
+                                      else self.camp.detector_linearity.noise))
 
     # ------------------------------------------------------------ models in use
     def use_tone(self, tone: ToneModel) -> None:
@@ -228,7 +231,9 @@ class Problem:
         response with the tones
         (:func:`~dpdfit.analyses.diagnosis.model.pulse_block.pulse_block`), the Ramsey and
         spin-echo characterisation
-        (:func:`~dpdfit.analyses.diagnosis.model.ramsey_block.ramsey_block`) and,
+        (:func:`~dpdfit.analyses.diagnosis.model.ramsey_block.ramsey_block`), the detector
+        linearity characterisation with the tones
+        (:func:`~dpdfit.analyses.diagnosis.model.linearity_block.linearity_block`) and,
         ``with_prior``, the priors.  Each side sees its own parameters only.
         """
         tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
@@ -240,6 +245,8 @@ class Problem:
                 out.append(runs_after_block(self, p))
             if self.camp.pulse_response is not None:
                 out.append(pulse_block(self, tone_p))
+            if self.camp.detector_linearity is not None:
+                out.append(linearity_block(self, tone_p))
         if self.gate is not None:
             out += self.gate_residuals.gate_blocks(self.gate, gate_p, whiten)
             if self.camp.spam is not None:

@@ -34,6 +34,9 @@ contains every known noise source and nothing else:
 * **Ramsey and spin-echo characterisation** (``ramsey.csv``, optional): the detected
   counts of each sequence at each wait, pooled per point
   (:func:`dpdfit.recordings.ramsey.read_ramsey`).
+* **detector linearity** (``detector_linearity.csv``, optional): the photodiode's
+  reading pairs with and without a calibrated attenuator, with each reading's noise
+  (:mod:`~dpdfit.analyses.diagnosis.observables.detector_linearity`).
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.model.tones.tone_model`
 and :mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`.
@@ -49,6 +52,8 @@ import pandas as pd
 
 from dpdfit.analyses.diagnosis.observables.calibration_drift import (RunsAfter, drift_modes,
                                                                      runs_after_recordings)
+from dpdfit.analyses.diagnosis.observables.detector_linearity import (LinearityData,
+                                                                      linearity_data)
 from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS, debias_tones
 from dpdfit.analyses.diagnosis.observables.tone_grid import tone_grid
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
@@ -148,6 +153,10 @@ class Campaign:
     #: the Ramsey and spin-echo characterisation: ``sequence, wait_s, n00, n01_10, n11,
     #: shots``, one row per point (None without ``ramsey.csv``)
     ramsey: pd.DataFrame | None = None
+    #: the detector linearity characterisation: the reading pairs with each reading's
+    #: noise (:class:`~.detector_linearity.LinearityData`; None without
+    #: ``detector_linearity.csv``)
+    detector_linearity: LinearityData | None = None
 
     @property
     def nu(self) -> float:
@@ -322,6 +331,14 @@ def _ramsey(cf: CampaignFolder):
     return df[["sequence", "wait_s", "n00", "n01_10", "n11", "shots"]].reset_index(drop=True)
 
 
+def _linearity(cf: CampaignFolder, amp, cal_noise: dict):
+    """The detector linearity pairs with their noise (None without the table)."""
+    table = cf.detector_linearity
+    if table is None:
+        return None
+    return linearity_data(table, cf.amplitude_model, cal_noise.get("photodiode"), amp)
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -394,4 +411,5 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
                     recorded=recorded, runs_after=after, spam=_spam(cf),
-                    pulse_response=_pulse_response(cf), ramsey=_ramsey(cf))
+                    pulse_response=_pulse_response(cf), ramsey=_ramsey(cf),
+                    detector_linearity=_linearity(cf, amp, cal_noise))

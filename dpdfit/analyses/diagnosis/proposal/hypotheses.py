@@ -12,15 +12,18 @@ from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.analyses.diagnosis.model.gates.effect_terms import active_effects
+from dpdfit.analyses.diagnosis.model.linearity_block import predicted_attenuated
 from dpdfit.analyses.diagnosis.model.pulse_block import pulse_prediction
 from dpdfit.analyses.diagnosis.model.ramsey_block import ramsey_probabilities_of
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
+from dpdfit.core.defaults import LINEARITY_ATTENUATION_DB, LINEARITY_POINTS, PHASE_MIN_A
 from dpdfit.models.ramsey import SEQUENCES, scan_waits
-from dpdfit.core.defaults import PHASE_MIN_A
+from dpdfit.recordings.detector_linearity import linearity_drives, transmission
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
-           'PARAM_STEP', 'PULSE_TIMES_US', 'pulse_amplitude']
+           'PARAM_STEP', 'PULSE_TIMES_US', 'pulse_amplitude', 'LINEARITY_DRIVES',
+           'linearity_readings']
 
 
 #: amplitudes a spectra recording may choose from
@@ -40,6 +43,10 @@ SPAM_STATES = ("00", "11")
 PULSE_TIMES_US = np.round(np.arange(1, 4097) * 0.01, 2)
 
 
+#: the drives a detector linearity characterisation reads (with and without the attenuator)
+LINEARITY_DRIVES = linearity_drives(LINEARITY_POINTS)
+
+
 #: finite-difference step (prior sigmas) of the calibration modes in the Jacobians
 MODE_STEP = 0.05
 
@@ -51,7 +58,7 @@ PARAM_STEP = 1e-3
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
 _SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
-                "spam": "gates", "pulse": "tones", "ramsey": "gates"}
+                "spam": "gates", "pulse": "tones", "ramsey": "gates", "linearity": "tones"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -96,8 +103,9 @@ class Hypothesis:
         :data:`SPAM_STATES` prepared with no gate; ``"pulse"``: the AOM pulse response at
         :data:`PULSE_TIMES_US` normalised to its settled level, :func:`pulse_amplitude`;
         ``"ramsey"``: the detected outcomes of the Ramsey sequence, then the echo, at the
-        waits of :func:`~dpdfit.models.ramsey.scan_waits` for the stated T2) at the
-        parameter set ``p`` (default: the fit's)."""
+        waits of :func:`~dpdfit.models.ramsey.scan_waits` for the stated T2;
+        ``"linearity"``: the attenuated photodiode readings at :data:`LINEARITY_DRIVES`)
+        at the parameter set ``p`` (default: the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -211,5 +219,18 @@ def _ramsey(h: Hypothesis, p: dict):
                            for s in SEQUENCES])
 
 
+def linearity_readings(prob) -> np.ndarray:
+    """The plain photodiode readings at :data:`LINEARITY_DRIVES` (lab units): the model
+    run's amplitude curve there (a stale table or a drift moves them a few percent, not
+    what the attenuator's ratio says)."""
+    return np.asarray(prob.camp.amplitude.power(LINEARITY_DRIVES), dtype=float)
+
+
+def _linearity(h: Hypothesis, p: dict):
+    # the hypothesis's own tone model (its P_max) and the effects' photodiode
+    return predicted_attenuated(h, p, linearity_readings(h.prob),
+                                transmission(LINEARITY_ATTENUATION_DB))
+
+
 _SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
-            "spam": _spam, "pulse": _pulse, "ramsey": _ramsey}
+            "spam": _spam, "pulse": _pulse, "ramsey": _ramsey, "linearity": _linearity}

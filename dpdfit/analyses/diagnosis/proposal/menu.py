@@ -19,10 +19,13 @@ from typing import Callable
 import numpy as np
 
 from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
-from dpdfit.analyses.diagnosis.proposal.hypotheses import (SPAM_STATES, SPECTRA_GRID, Hypothesis,
+from dpdfit.analyses.diagnosis.observables.detector_linearity import campaign_power_noise
+from dpdfit.analyses.diagnosis.proposal.hypotheses import (LINEARITY_DRIVES, SPAM_STATES,
+                                                           SPECTRA_GRID, Hypothesis,
+                                                           linearity_readings,
                                                            pulse_amplitude)
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
-from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.core.defaults import ERROR_MODEL, LINEARITY_ATTENUATION_DB
 from dpdfit.models.ramsey import SCAN_POINTS, SEQUENCES, scan_waits
 
 __all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS', 'PULSE_REL_NOISE',
@@ -333,6 +336,32 @@ def _ramsey(prob, hyps, lab):
                  lambda r: np.asarray(r, float)[:, [0, 2]].ravel(), _spam_whitener(N))]
 
 
+def _detector_linearity(prob, hyps, lab):
+    """The detector linearity characterisation (``detector_linearity.csv``): the
+    calibration photodiode read at each of
+    :data:`~dpdfit.analyses.diagnosis.proposal.hypotheses.LINEARITY_DRIVES` without and
+    with a calibrated attenuator; a nonlinear photodiode changes the readings' ratio, an
+    AOM that moved (a stale table) does not.  Each pair's noise: the calibration runs'
+    photodiode noise at both readings
+    (:func:`~dpdfit.analyses.diagnosis.observables.detector_linearity.campaign_power_noise`).
+    Lab time: every drive read twice, the attenuator put in once
+    (:class:`~dpdfit.core.defaults.LabTimes`)."""
+    tone = getattr(prob, "tone", None)
+    sigma = campaign_power_noise(prob.camp) if tone is not None else None
+    if sigma is None:
+        return []
+    P = linearity_readings(prob)
+    n = len(LINEARITY_DRIVES)
+
+    def noise(ra, rb):
+        pa = np.maximum((np.asarray(ra, float) + np.asarray(rb, float)) / 2, 0.0)
+        return _inv_sd(np.sqrt(sigma(pa) ** 2 + (pa / np.maximum(P, 1e-300) * sigma(P)) ** 2))
+
+    return [Item("detector_linearity", {"points": n, "attenuation_db": LINEARITY_ATTENUATION_DB},
+                 lab.attenuator_swap_s + 2 * n * lab.linearity_reading_s, "linearity",
+                 lambda r: np.asarray(r, float), noise)]
+
+
 #: the builders of the menu, in the order the menu lists them
 BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans, _spam,
-            _pulse_response, _ramsey)
+            _pulse_response, _ramsey, _detector_linearity)

@@ -32,7 +32,10 @@ with the recording's noise:
   with the photodiode's relative noise; offered with the spectra;
 * ``ramsey``: the Ramsey and spin-echo characterisation (``ramsey.csv``), both
   sequences at a scan of waits to 1.5 times the stated T2, multinomial ``P00`` and
-  ``P11`` of each point; offered with gate recordings.
+  ``P11`` of each point; offered with gate recordings;
+* ``detector_linearity``: the calibration photodiode read with and without a calibrated
+  attenuator at each of ``points`` drives (``detector_linearity.csv``), the attenuated
+  readings with the calibration runs' photodiode noise of both readings.
 
 **Separating causes, not curves.**  A hypothesis is a group of fits: a family in
 each of its forms still in reach.  For two hypotheses, ``a`` true and ``b`` its
@@ -97,7 +100,7 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan",
-         "spam", "pulse_response", "ramsey")
+         "spam", "pulse_response", "ramsey", "detector_linearity")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
 #: the best candidates whose expected separation is confirmed by an exact refit
 #: (:meth:`~dpdfit.analyses.diagnosis.proposal.expected_separation.Direction.refit`, at most
@@ -525,6 +528,11 @@ def describe_recording(what: str, s: dict) -> str:
         listed = ", ".join(f"{a:g}" + (f" x{c}" if c > 1 and not each else "")
                            for a, c in zip(amps, counts))
         return f"spectra at A = {listed}{each} with and without DPD"
+    if what == "detector_linearity":
+        scans = int(s.get("scans", 1))
+        return (f"a detector linearity check (the photodiode read at {s['points']} drives "
+                f"without and with a {s.get('attenuation_db', 10.0):g} dB attenuator"
+                + (f", {scans} times" if scans > 1 else "") + ")")
     if what == "spam":
         scans = int(s.get("scans", 1))
         states = ", ".join(f"|{x}>" for x in s.get("states", ("00", "11")))

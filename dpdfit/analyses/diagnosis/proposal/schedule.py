@@ -22,7 +22,12 @@ fixes it:
 * an AOM pulse response records one trace of a step to ``A`` per repeat (one point);
 * a Ramsey and spin-echo scan records each sequence (``sequence``) at each wait
   (``wait_us``) of the scan the menu counted (the campaign's stated T2 sets it), with the
-  proposal's shots per point, at ``A`` 0 (no gate).
+  proposal's shots per point, at ``A`` 0 (no gate);
+* a detector linearity characterisation records each of its drives
+  (:func:`~dpdfit.recordings.detector_linearity.linearity_drives`) once without and once
+  with the attenuator (``attenuation_db``), one point per drive; its ``lab_s`` is the
+  two readings (``2 linearity_reading_s``) and the drive's share of putting the
+  attenuator in (``attenuator_swap_s``).
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
 when it is taken:
@@ -57,12 +62,14 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES
+from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES, LINEARITY_ATTENUATION_DB
 from dpdfit.errors import InputError
 from dpdfit.models.ramsey import SCAN_POINTS, SEQUENCES, scan_waits
 from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.recordings.campaign_folder import CampaignFolder
-from dpdfit.recordings.schedule import RUN_KINDS, SCHEDULE_COLUMNS, check_schedule
+from dpdfit.recordings.detector_linearity import linearity_drives
+from dpdfit.recordings.schedule import (LINEARITY_COLUMN, RUN_KINDS, SCHEDULE_COLUMNS,
+                                        check_schedule)
 
 __all__ = ["proposal_schedule", "run_interval", "DAY_S"]
 
@@ -144,6 +151,14 @@ def _spectra(st: dict) -> list:
     return rows
 
 
+def _linearity_rows(st: dict) -> list:
+    """One row per drive of each repeat of a detector linearity characterisation."""
+    att = float(st.get("attenuation_db", LINEARITY_ATTENUATION_DB))
+    return [{"repeat": r, "point": i, "A": float(a), "attenuation_db": att}
+            for r in range(1, int(st.get("scans", 1)) + 1)
+            for i, a in enumerate(linearity_drives(int(st["points"])))]
+
+
 def _parity_phases(camp: CampaignFolder) -> int:
     """The campaign's ``parity_phases`` (``campaign.json``; the lab's default without it)."""
     n = camp.meta.get("parity_phases", ERROR_MODEL.parity_phases)
@@ -211,6 +226,9 @@ def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
         return (df["shots"].to_numpy(float) * (lab.ramsey_shot_s
                                                + df["wait_us"].to_numpy(float) * 1e-6)
                 + lab.ramsey_point_s)
+    if what == "detector_linearity":
+        per = df.groupby("repeat")["point"].transform("size").to_numpy(float)
+        return 2 * lab.linearity_reading_s + lab.attenuator_swap_s / per
     return df["shots"].to_numpy(float) * lab.shot_s
 
 
@@ -287,6 +305,8 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
                 for r in range(1, int(st.get("scans", 1)) + 1)]
     elif what == "ramsey":
         rows = _ramsey_points(st, camp)
+    elif what == "detector_linearity":
+        rows = _linearity_rows(st)
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}
@@ -301,6 +321,6 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
     df["lab_s"] = _lab_seconds(df, what, p.get("lab_seconds"),
                                LAB_TIMES if lab is None else lab)
     df["day"], df["start_s"] = _timing(df, what, camp)
-    cols = list(SCHEDULE_COLUMNS) + [c for c in ("prepared", "sequence", "wait_us")
-                                     if c in df.columns]
+    cols = list(SCHEDULE_COLUMNS) + [c for c in ("prepared", "sequence", "wait_us",
+                                                 LINEARITY_COLUMN) if c in df.columns]
     return check_schedule(df[cols], "the proposal's schedule")

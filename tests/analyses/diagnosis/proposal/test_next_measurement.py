@@ -177,7 +177,9 @@ def test_lab_times_rank_the_menu(tone_prob):
     """A lab whose spectra take a month each is sent to the (decisive) calibration run."""
     hyps = [_stale((4.0,)), DETECTOR]
     assert propose_next_measurement(tone_prob, hyps).what == "spectra"
-    slow = LabTimes(spectrum_trace_s=30 * 86400.0)
+    # (a lab with an attenuator at hand is sent to the detector linearity check, minutes:
+    # tests/analyses/diagnosis/proposal/test_detector_linearity_menu.py; this one has none)
+    slow = LabTimes(spectrum_trace_s=30 * 86400.0, attenuator_swap_s=30 * 86400.0)
     nm = propose_next_measurement(tone_prob, hyps, lab=slow)
     # one run separates by 16, two by 32: the first that decides with 95 % probability
     assert decisive_target() == pytest.approx(27.14, abs=0.01)
