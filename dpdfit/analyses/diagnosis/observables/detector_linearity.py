@@ -39,6 +39,8 @@ class LinearityData:
     noise: str
 
     def to_dict(self) -> dict:
+        """The pairs' count and the noise's phrase (the table itself stays in the
+        campaign's file)."""
         return {"pairs": int(len(self.table)), "noise": self.noise}
 
 
