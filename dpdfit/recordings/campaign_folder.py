@@ -43,6 +43,9 @@ Required and optional (everything else in the layout is optional):
   (:data:`~dpdfit.recordings.campaign_folder.CHARACTERISATION_FILES`): its absence
   leaves nothing of the other recordings' analysis out, so
   :meth:`CampaignFolder.left_out` does not list it.
+* ``thermometry.csv`` -- sideband thermometry of the gate mode after a variable wait:
+  ``wait_us, sideband, n_bright, shots`` (+ ``run``, ``timestamp``),
+  :func:`~dpdfit.recordings.thermometry.read_thermometry`; a characterisation table.
 
 Nothing is ever written into the folder.
 
@@ -82,6 +85,7 @@ from .plausibility import check_gate_rates
 from .calibration_runs import CalibrationData, calibration_data, calibration_runs_data, list_runs
 from .input_files import check_inside, open_input, read_input_json
 from .spam import read_spam
+from .thermometry import read_thermometry
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
 from .traces import check_trace_file
@@ -109,10 +113,11 @@ FILES = {
     "time_scans.csv": "population time scans",
     "traces.csv": "raw heterodyne traces",
     "spam.csv": "SPAM characterisation (basis states prepared, detected with no gate)",
+    "thermometry.csv": "sideband thermometry of the gate mode after a variable wait",
 }
 #: the lab's characterisation experiments: optional tables whose absence is not listed
 #: as left out (a campaign without them is analysed as it always was)
-CHARACTERISATION_FILES = ("spam.csv",)
+CHARACTERISATION_FILES = ("spam.csv", "thermometry.csv")
 #: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
 OTHER_FILES = ("budget.toml",)
 
@@ -372,6 +377,15 @@ class CampaignFolder:
             return None
         return read_spam(self.file("spam.csv"), within=self.path)
 
+    @functools.cached_property
+    def thermometry(self) -> pd.DataFrame | None:
+        """``wait_us, sideband, n_bright, shots`` (+ ``run``, ``timestamp``), one row per
+        point (wait, sideband), repeated recordings pooled
+        (:func:`~.thermometry.read_thermometry`), None without ``thermometry.csv``."""
+        if not self.has("thermometry.csv"):
+            return None
+        return read_thermometry(self.file("thermometry.csv"), within=self.path)
+
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
@@ -380,12 +394,12 @@ class CampaignFolder:
         ``time_scans.csv`` and ``spam.csv`` (counts above the shots, say), which no analysis
         of its own reads: they are refused here, at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
-                     "gate_rates", "time_scans", "traces", "spam"):
+                     "gate_rates", "time_scans", "traces", "spam", "thermometry"):
             try:
                 getattr(self, name)
             except InputError as exc:
                 if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
-                        name in ("time_scans", "spam")):
+                        name in ("time_scans", "spam", "thermometry")):
                     raise
 
     # -------------------------------------------------------------- left out

@@ -5,7 +5,8 @@ Stated once: the readers (:func:`~dpdfit.recordings.tables.read_calibration_tabl
 ``time_scans``, :func:`~dpdfit.recordings.counts.read_populations`,
 :func:`~dpdfit.recordings.counts.read_parity`,
 :func:`~dpdfit.recordings.gate_rates.read_gate_rates`,
-:func:`~dpdfit.recordings.spam.read_spam`) read these, and the import
+:func:`~dpdfit.recordings.spam.read_spam`,
+:func:`~dpdfit.recordings.thermometry.read_thermometry`) read these, and the import
 mapping derives its columns from them (:data:`dpdfit.recordings.mapping.TABLE_COLUMNS`).
 Each entry is ``(required, optional)``; ``populations.csv`` needs ``n_even`` or the
 three counts ``n00, n01_10, n11`` besides its required columns.
@@ -33,6 +34,7 @@ CAMPAIGN_TABLES = {
     "time_scans": (("A", "dpd", "t_us", "n00", "n11", "shots"), ("n01_10",)),
     "gate_rates": (("A", "dpd", "xi0_khz"), ("xi0_err_khz",)),
     "spam": (("prepared", "n00", "n01_10", "n11", "shots"), ("run", "timestamp")),
+    "thermometry": (("wait_us", "sideband", "n_bright", "shots"), ("run", "timestamp")),
 }
 
 #: optional columns whose absence leaves nothing out (a label the reader can infer):
@@ -40,7 +42,7 @@ CAMPAIGN_TABLES = {
 LABELS_ONLY = ("repeat",)
 #: tables none of whose optional columns any analysis reads (labels of the lab's own):
 #: their absence is never listed either
-_LABELLED_ONLY = ("spam",)
+_LABELLED_ONLY = ("spam", "thermometry")
 
 
 def header_columns(path: str | os.PathLike, *, within=None) -> list[str]:

@@ -25,7 +25,8 @@ __all__ = ["check_imported", "READERS"]
 #: the CampaignFolder property that reads each imported table
 READERS = {"calibration_amplitude": "amplitude_runs", "calibration_phase": "phase_runs",
            "spectra": "spectra", "populations": "populations", "parity": "parity",
-           "time_scans": "time_scans", "gate_rates": "gate_rates", "spam": "spam"}
+           "time_scans": "time_scans", "gate_rates": "gate_rates", "spam": "spam",
+           "thermometry": "thermometry"}
 #: the tables whose files' earliest start time each recording time defaults to
 _RECORDED_FROM = {"spectra_recorded": ("spectra",),
                   "gates_recorded": ("populations", "parity", "time_scans", "gate_rates")}

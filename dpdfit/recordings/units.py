@@ -87,6 +87,7 @@ COLUMN_KINDS = {
     "power": ("any", ""), "power_err": ("any", ""),
     "run": ("label", ""), "timestamp": ("label", ""), "sideband": ("label", ""),
     "prepared": ("label", ""),
+    "wait_us": ("time", "us"), "n_bright": ("number", ""),
 }
 
 
