@@ -30,7 +30,7 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 #: drawn as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
-                "time_scan": "time_scan", "spam": "spam"}
+                "time_scan": "time_scan", "spam": "spam", "thermometry": "thermometry"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -79,7 +79,8 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         "shots"}``: parity shots are the scan's total over its phases, as the
         proposal counts them), ``time_scan`` (``{"A", "dpd", "shots", "points"}``:
         shots per point, points after the start; the scan also records ``t = 0``),
-        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``).
+        ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
+        ``thermometry`` (``{"shots"}``: shots per wait and sideband).
 
     Returns
     -------
@@ -139,6 +140,10 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
     if what == "spam":
         shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
         return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
+    if what == "thermometry":
+        shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
+        return dataclasses.replace(cfg, further=cfg.further + (("thermometry", shots),)
+                                   * scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")

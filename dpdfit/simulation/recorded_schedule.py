@@ -38,6 +38,7 @@ from dpdfit.simulation.campaign.folder import csv_text
 from dpdfit.simulation.campaign.gate_runs import further_gate_rows, gate_tables
 from dpdfit.simulation.campaign.optics import dpd_lut
 from dpdfit.simulation.campaign.spam_runs import spam_table
+from dpdfit.simulation.campaign.thermometry_runs import thermometry_table
 from dpdfit.simulation.campaign.spectra import spectra_tables
 from dpdfit.simulation.further_recordings import extend_config
 
@@ -48,7 +49,7 @@ __all__ = ["TABLES", "CHARACTERISATION_TABLES", "StandInRecording", "extended_co
 TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
           "gate_rates", "time_scans")
 #: the lab's characterisation tables a further recording can add (a campaign may have none)
-CHARACTERISATION_TABLES = ("spam",)
+CHARACTERISATION_TABLES = ("spam", "thermometry")
 #: agreement of a replayed value with the campaign's table: truth.json and the CSVs keep
 #: 10 significant digits, and the processor's BLAS kernel rounds differently in the last
 #: bits, which moves a float by ~1e-8 relative through the calibration fit and the
@@ -178,6 +179,7 @@ def record_further(cfg: CampaignConfig, measurements, *, original: dict | None =
             replayed.update(populations=done["pop"], parity=done["par"],
                             gate_rates=done["rates"])
         new["spam"] = spam_table(ext, further_from=len(cfg.further))
+        new["thermometry"] = thermometry_table(ext, further_from=len(cfg.further))
     if original is not None:
         check_replayed(replayed, original, new)
     tables = {t: as_written(new[t]) for t in (*TABLES, *CHARACTERISATION_TABLES)
@@ -201,6 +203,9 @@ def simulated_tables(cfg: CampaignConfig, *, include_spectra: bool = True,
         spam = spam_table(cfg)
         if len(spam):
             out["spam"] = spam
+        thermo = thermometry_table(cfg)
+        if len(thermo):
+            out["thermometry"] = thermo
     return out
 
 

@@ -182,6 +182,9 @@ class CampaignConfig:
     #: shots per prepared state of the campaign's SPAM characterisation (``spam.csv``:
     #: ``|00>`` and ``|11>`` prepared, detected with no gate); 0: none recorded
     spam_shots: int = 0
+    #: shots per wait and sideband of the campaign's sideband thermometry
+    #: (``thermometry.csv``, :mod:`~dpdfit.simulation.campaign.thermometry_runs`); 0: none
+    thermometry_shots: int = 0
     harmonics_gate: tuple = tuple(range(-2, 6))
     effects: dict = field(default_factory=dict)
     #: calibration runs recorded after the spectra and gates (the last ones)
@@ -196,7 +199,8 @@ class CampaignConfig:
     #: ``("phase_run",)``, ``("scan", A, dpd, shots_pop, shots_par)``,
     #: ``("time_scan", A, dpd, shots, points)`` (shots per point; points with ``t = 0``,
     #: as ``time_scan_points``; parity shots per phase) or ``("spam", shots)`` (a SPAM
-    #: characterisation, shots per prepared state).  Item ``j`` draws only from its own
+    #: characterisation, shots per prepared state) or ``("thermometry", shots)`` (a sideband
+    #: thermometry, shots per wait and sideband).  Item ``j`` draws only from its own
     #: stream (purpose 8, ``j``), so every other recording is drawn as without it.
     further: tuple = ()
 
@@ -346,6 +350,7 @@ TRUTH_CONTRACT = {
     "time_scan_points": Integer(2, MAX_SIMULATED_POINTS),
     "time_scan_max": Number(0.0, 10.0, lo_open=True),
     "spam_shots": Integer(0, MAX_SHOTS),
+    "thermometry_shots": Integer(0, MAX_SHOTS),
     "harmonics_gate": ListOf(_HARMONIC, 1, 2 * MAX_PRODUCT_ORDER + 1, distinct=True,
                              holding=_GATE_TONES),
     "effects": Effects(lambda name: _effect_param(name), _FINITE),
@@ -360,7 +365,8 @@ TRUTH_CONTRACT = {
                       (_AMPLITUDE, _FLAG, Integer(0, MAX_SHOTS), Integer(0, MAX_SHOTS))),
         "time_scan": Fixed(("A", "dpd", "shots", "points"),
                            (_AMPLITUDE, _FLAG, _SHOTS, Integer(2, MAX_SIMULATED_POINTS))),
-        "spam": Fixed(("shots",), (_SHOTS,))}),
+        "spam": Fixed(("shots",), (_SHOTS,)),
+        "thermometry": Fixed(("shots",), (_SHOTS,))}),
         0, MAX_SCHEDULE_ROWS),
 }
 
@@ -461,6 +467,6 @@ def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:
     Keys: 1 calibration drift, 2 amplitude run, 3 phase run, 4 trace, 5 gates,
     7 the drifted calibration behind the table (``table_drift``), 8 the
     further recordings (``further``, by index), 9 the SPAM characterisation
-    (``spam_shots``).
+    (``spam_shots``), 14 the sideband thermometry (``thermometry_shots``).
     """
     return np.random.default_rng(np.random.SeedSequence([cfg.seed, *key]))

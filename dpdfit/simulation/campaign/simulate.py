@@ -23,6 +23,7 @@ from .gate_runs import gate_tables
 from .optics import dpd_lut
 from .readme import campaign_readme
 from .spam_runs import spam_table, spam_truth
+from .thermometry_runs import thermometry_table, thermometry_truth
 from .spectra import spectra_tables
 
 __all__ = ["simulate_campaign"]
@@ -74,7 +75,7 @@ def _jsonable_config(cfg: CampaignConfig) -> dict:
     d = dict.fromkeys(RETIRED_TRUTH_KEYS, 0.0)
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
-        if f.name in ("further", "spam_shots") and not v:
+        if f.name in ("further", "spam_shots", "thermometry_shots") and not v:
             continue        # keeps the truth.json of campaigns without them byte for byte
         if dataclasses.is_dataclass(v):
             v = {k: (abs(x) if isinstance(x, complex) else x)
@@ -142,6 +143,10 @@ def _simulated(cfg: CampaignConfig, progress, include_gates: bool):
     if len(spam):           # only then: the files of campaigns without it stay as they were
         files["spam.csv"] = csv_text(spam)
         truth["spam"] = spam_truth(cfg)
+    thermo = thermometry_table(cfg)
+    if len(thermo):         # as spam.csv: only when recorded
+        files["thermometry.csv"] = csv_text(thermo)
+        truth["thermometry"] = thermometry_truth(cfg)
     files["campaign.json"] = json.dumps(_campaign_json(cfg, cal_truth), indent=2,
                                         sort_keys=True) + "\n"
     files["truth.json"] = _truth_json(truth)
