@@ -31,6 +31,7 @@ from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatte
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
+from dpdfit.analyses.diagnosis.model.thermometry_block import thermometry_block
 from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
 from dpdfit.analyses.diagnosis.model.tones.tone_noise import (learn_tone_noise, repeats_of,
                                                               trace_jitter_multiple)
@@ -220,7 +221,9 @@ class Problem:
         without it, for the deviation search and plots:
         :meth:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.gate_blocks`),
         the SPAM characterisation with the gates
-        (:func:`~dpdfit.analyses.diagnosis.model.spam_block.spam_block`) and,
+        (:func:`~dpdfit.analyses.diagnosis.model.spam_block.spam_block`), the sideband
+        thermometry with the gates
+        (:func:`~dpdfit.analyses.diagnosis.model.thermometry_block.thermometry_block`) and,
         ``with_prior``, the priors.  Each side sees its own parameters only.
         """
         tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
@@ -234,6 +237,8 @@ class Problem:
             out += self.gate_residuals.gate_blocks(self.gate, gate_p, whiten)
             if self.camp.spam is not None:
                 out.append(spam_block(self, gate_p))
+            if self.camp.thermometry is not None:
+                out.append(thermometry_block(self, gate_p))
         if with_prior:
             z = np.array([(p.get(k, self.center[k]) - self.center[k]) / s
                           for k, s in self.prior.items() if np.isfinite(s)])

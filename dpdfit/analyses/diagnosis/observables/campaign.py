@@ -28,6 +28,9 @@ contains every known noise source and nothing else:
 * **calibration residuals** of the model's own amplitude and phase runs.
 * **SPAM characterisation** (``spam.csv``, optional): the detected counts of each
   prepared basis state, pooled per state (:func:`dpdfit.recordings.spam.read_spam`).
+* **sideband thermometry** (``thermometry.csv``, optional): the bright counts of the
+  probed ion after each wait and sideband, pooled per point
+  (:func:`dpdfit.recordings.thermometry.read_thermometry`).
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.model.tones.tone_model`
 and :mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`.
@@ -136,6 +139,9 @@ class Campaign:
     #: the SPAM characterisation: ``prepared, n00, n01_10, n11, shots``, one row per
     #: prepared basis state (None without ``spam.csv``)
     spam: pd.DataFrame | None = None
+    #: the sideband thermometry: ``wait_us, wait_s, sideband, n_bright, shots``, one row
+    #: per point (None without ``thermometry.csv``)
+    thermometry: pd.DataFrame | None = None
 
     @property
     def nu(self) -> float:
@@ -278,6 +284,13 @@ def _spam(cf: CampaignFolder):
     return spam[["prepared", "n00", "n01_10", "n11", "shots"]].reset_index(drop=True)
 
 
+def _thermometry(cf: CampaignFolder):
+    th = cf.thermometry
+    if th is None:
+        return None
+    return th[["wait_us", "wait_s", "sideband", "n_bright", "shots"]].reset_index(drop=True)
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -321,6 +334,9 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     if gates is None and cf.spam is not None:
         left.append("spam.csv without gate recordings: not fitted (the preparation and "
                     "detection errors it measures are the gate model's)")
+    if gates is None and cf.thermometry is not None:
+        left.append("thermometry.csv without gate recordings: not fitted (the motional "
+                    "state it measures is the gate model's)")
     recorded = cf.recording_times
     if run_fits is None and "power_err" not in cf.amplitude_runs.columns:
         # the drift modes fit every run without errors at the campaign's order, as the
@@ -346,4 +362,5 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     drift_modes=modes, drift_significant=n_sig,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
-                    recorded=recorded, runs_after=after, spam=_spam(cf))
+                    recorded=recorded, runs_after=after, spam=_spam(cf),
+                    thermometry=_thermometry(cf))
