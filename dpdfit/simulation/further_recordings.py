@@ -137,13 +137,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
-    if what == "spam":
+    if what in ("spam", "thermometry"):       # characterisations: shots per state / point
         shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
-        return dataclasses.replace(cfg, further=cfg.further + (("spam", shots),) * scans)
-    if what == "thermometry":
-        shots = _positive_int(st.get("shots", NOMINAL_SHOTS), "shots")
-        return dataclasses.replace(cfg, further=cfg.further + (("thermometry", shots),)
-                                   * scans)
+        return dataclasses.replace(cfg, further=cfg.further + ((what, shots),) * scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
     raise InputError(f"unknown measurement '{what}'; known: {', '.join(MEASUREMENTS)}")
