@@ -220,6 +220,11 @@ class LabTimes:
     #: cooling and no gate, so ~2 ms per shot: 1000 shots of each of ``|00>`` and ``|11>`` in
     #: about 4 s, a few minutes with the repeats a decision needs
     spam_shot_s: float = 0.002
+    #: one shot of the sideband thermometry, its wait not counted: Doppler cooling and
+    #: sideband cooling of the gate mode (~1 ms), the ~0.1 ms sideband probe and the ~1 ms
+    #: detection, no gate, so ~2 ms per shot; each shot also waits its ``wait_us`` (added
+    #: by the menu): 8 waits up to 10 ms x 2 sidebands x 200 shots in about 16 s
+    thermometry_shot_s: float = 0.002
     #: the longest recording the diagnosis proposes (repeats included): a working day
     max_seconds: float = 8 * 3600.0
 

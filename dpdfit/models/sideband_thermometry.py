@@ -32,13 +32,17 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PROBE_PULSE_AREA", "SIDEBANDS", "sideband_excitation", "bright_probability",
-           "mean_occupation"]
+__all__ = ["PROBE_PULSE_AREA", "SIDEBANDS", "THERMOMETRY_WAITS_US", "sideband_excitation",
+           "bright_probability", "mean_occupation"]
 
 #: the probe's pulse area (rad) on the blue sideband of the ground state: a pi pulse
 PROBE_PULSE_AREA = np.pi
 #: the sidebands a probe drives
 SIDEBANDS = ("red", "blue")
+#: the waits (us) of a thermometry recording as the menu proposes it and the simulator
+#: records it: 0 to 10 ms, where a mode heating at the lab's 5 quanta/s gains 0.05
+#: quanta and one heating at 0.05 to 0.2 quanta/ms gains 0.5 to 2
+THERMOMETRY_WAITS_US = (0.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0, 7000.0, 10000.0)
 #: Fock states summed: up to where the thermal tail is below 1e-12, at most this many
 _MAX_FOCK = 200_000
 

@@ -47,6 +47,11 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     Only in a schedule with ``spam`` rows (the other schedules keep the columns above):
     the basis state a SPAM point prepares, ``00``, ``01``, ``10`` or ``11`` (as
     ``spam.csv`` records it); empty for the other kinds.
+``wait_us``, ``sideband``
+    Only in a schedule with ``thermometry`` rows (after the columns above): the wait after
+    cooling before the probe (us, at least 0) and the sideband probed (``red`` or
+    ``blue``) of a sideband-thermometry point, as ``thermometry.csv`` records them; empty
+    for the other kinds.
 
 The columns ``day``, ``start_s`` and ``tone_sd_db`` came later and are optional: a
 schedule without them is read with them empty.  Rows of every kind are taken back to
@@ -84,16 +89,20 @@ RUN_KINDS = ("amplitude_run", "phase_run")
 #: gate recordings: a setting (A, dpd) and shots per point
 SCAN_KINDS = ("populations", "parity", "time_scan")
 #: the lab's characterisation experiments: no gate setting (``A`` 0, no flag), shots
-CHARACTERISATION_KINDS = ("spam",)
+CHARACTERISATION_KINDS = ("spam", "thermometry")
 #: every kind of recording a schedule may hold (the diagnosis's menu)
 SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS
 #: the column a schedule has only when it holds ``spam`` rows (after the others)
 _PREPARED = "prepared"
 _BASIS_STATES = ("00", "01", "10", "11")
+#: the columns a schedule has only when it holds ``thermometry`` rows (after the others)
+_THERMOMETRY = ("wait_us", "sideband")
+_SIDEBANDS = ("red", "blue")
 #: per kind, the columns its rows must fill (besides kind, repeat, point, A)
 _NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
           "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
-          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",)}
+          "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",),
+          "thermometry": ("shots", "wait_us")}
 #: per kind, the columns that must not change within one repeat
 _CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
              "time_scan": ("A", "dpd", "shots")}
@@ -161,13 +170,38 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
         df[col] = _numbers(df[col], col, name)
     _check_values(df, kind.to_numpy(), name)
     spam = _check_prepared(df, kind.to_numpy(), name)
+    thermo = _check_thermometry(df, kind.to_numpy(), name)
     _check_repeats(df, name)
     # counts as integers (empty where a kind has none), so that the table reads as written
     for col in ("repeat", "point"):
         df[col] = df[col].astype("int64")
     for col in ("dpd", "shots", "day"):
         df[col] = df[col].round().astype("Int64")
-    return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])]
+    return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])
+              + (list(_THERMOMETRY) if thermo else [])]
+
+
+def _check_thermometry(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
+    """Each ``thermometry`` row's ``wait_us`` is ``>= 0`` and finite and its ``sideband``
+    ``red`` or ``blue`` (empty on the other rows); whether the schedule has such rows."""
+    rows = kind == "thermometry"
+    if not rows.any():
+        return False
+    if "sideband" not in df.columns:
+        _fail("column 'sideband' is missing (the 'thermometry' rows need it)", name)
+    w = df["wait_us"].to_numpy(float)
+    bad = np.flatnonzero(rows & ~(w >= 0))
+    if bad.size:
+        _fail(f"wait {w[bad[0]]:g} us must be >= 0", name, "wait_us", bad[0])
+    text = df["sideband"].astype("string").fillna("").str.strip().str.lower().to_numpy(
+        dtype=object)
+    bad = np.flatnonzero(rows & ~np.isin(text, _SIDEBANDS))
+    if bad.size:
+        _fail(f"sideband {text[bad[0]]!r} does not exist (the sidebands: "
+              f"{', '.join(_SIDEBANDS)})", name, "sideband", bad[0])
+    df["wait_us"] = np.where(rows, w, np.nan)
+    df["sideband"] = np.where(rows, text, "")
+    return True
 
 
 def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
@@ -269,7 +303,7 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
     """
     name = str(path)
     df = read_table(path, ["kind", "repeat", "point", "A"],
-                    list(OPTIONAL_COLUMNS) + [_PREPARED],
+                    list(OPTIONAL_COLUMNS) + [_PREPARED, *_THERMOMETRY],
                     numeric=["repeat", "point", "A"], max_rows=MAX_SCHEDULE_ROWS)
     return check_schedule(df, name)
 

@@ -173,7 +173,7 @@ def schedule_measurements(schedule) -> list:
         if kind in ("amplitude_run", "phase_run"):
             out.append({"what": kind, "settings": {"runs": int(rows["repeat"].nunique())}})
             continue
-        if kind == "spam":
+        if kind in ("spam", "thermometry"):      # the simulator's own states / waits
             for shots, reps in rows.groupby("shots", sort=False):
                 st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
                 out.append({"what": kind, "settings": st})

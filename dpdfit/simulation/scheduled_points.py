@@ -35,7 +35,21 @@ _POINTS = {
     "time_scan": ("time_scans", {"A": "A", "dpd": "dpd", "t_us": "t_us", "shots": "shots"}),
     # the prepared state as a number (00 -> 0, 01 -> 1, 10 -> 10, 11 -> 11): distinct
     "spam": ("spam", {"prepared": "prepared", "shots": "shots"}),
+    # the sideband as a number (red -> 0, blue -> 1)
+    "thermometry": ("thermometry", {"wait_us": "wait_us", "sideband": "sideband",
+                                    "shots": "shots"}),
 }
+#: text columns of a point's identity, as numbers
+_CODES = {"sideband": {"red": 0.0, "blue": 1.0}}
+
+
+def _numbers(frame: pd.DataFrame) -> np.ndarray:
+    """The columns of ``frame`` as floats, the text ones of :data:`_CODES` coded."""
+    frame = frame.copy()
+    for col, codes in _CODES.items():
+        if col in frame.columns:
+            frame[col] = frame[col].astype(str).str.strip().str.lower().map(codes)
+    return frame.to_numpy(float)
 #: significant digits a point's values must share (the campaign's CSVs keep 10)
 _DIGITS = 8
 
@@ -52,7 +66,7 @@ def _recorded(table: pd.DataFrame | None, columns: list, kind: str) -> Counter:
         traces = table.groupby(["A", "dpd", "sideband", "n"]).size().groupby(
             level=["A", "dpd"]).max()
         return Counter({_key(k): int(v) for k, v in traces.items()})
-    return Counter(_key(r) for r in table[columns].to_numpy(float))
+    return Counter(_key(r) for r in _numbers(table[columns]))
 
 
 def check_recorded_as_scheduled(schedule: pd.DataFrame, tables: dict,
@@ -62,7 +76,7 @@ def check_recorded_as_scheduled(schedule: pd.DataFrame, tables: dict,
     for kind, rows in schedule.groupby("kind", sort=False):
         table, cols = _POINTS[kind]
         have = _recorded(tables.get(table), list(cols.values()), kind)
-        want = rows[list(cols)].to_numpy(float)
+        want = _numbers(rows[list(cols)])
         for idx, values in zip(rows.index, want):
             k = _key(values)
             if have[k] > 0:

@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from dpdfit.models.sideband_thermometry import SIDEBANDS, bright_probability, mean_occupation
+from dpdfit.models.sideband_thermometry import (SIDEBANDS, THERMOMETRY_WAITS_US,
+                                                bright_probability, mean_occupation)
 
 from .config import CampaignConfig, rng_for
 from .spam_runs import spam_engine
@@ -27,10 +28,7 @@ from .spam_runs import spam_engine
 __all__ = ["THERMOMETRY_WAITS_US", "THERMOMETRY_PURPOSE", "thermometry_engine",
            "thermometry_rows", "thermometry_table", "thermometry_truth"]
 
-#: the waits (us) a thermometry recording probes after cooling: 0 to 10 ms, where a mode
-#: heating at the lab's 5 quanta/s gains 0.05 quanta and an injected heating of 0.05 to
-#: 0.2 quanta/ms gains 0.5 to 2
-THERMOMETRY_WAITS_US = (0.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0, 7000.0, 10000.0)
+# THERMOMETRY_WAITS_US: the waits a recording probes (the menu's, one definition)
 #: the random stream of the campaign's own thermometry (:func:`~.config.rng_for`)
 THERMOMETRY_PURPOSE = 14
 

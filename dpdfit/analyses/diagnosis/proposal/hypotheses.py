@@ -13,6 +13,8 @@ from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
+from dpdfit.analyses.diagnosis.model.thermometry_block import thermometry_probabilities
+from dpdfit.models.sideband_thermometry import SIDEBANDS, THERMOMETRY_WAITS_US
 from dpdfit.core.defaults import PHASE_MIN_A
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
@@ -42,7 +44,7 @@ PARAM_STEP = 1e-3
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
 _SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
-                "spam": "gates"}
+                "spam": "gates", "thermometry": "gates"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -84,8 +86,10 @@ class Hypothesis:
         :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
         next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
         :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
-        :data:`SPAM_STATES` prepared with no gate) at the parameter set ``p`` (default:
-        the fit's)."""
+        :data:`SPAM_STATES` prepared with no gate; ``"thermometry"``: the probed ion's
+        bright probability after each wait and sideband of
+        :data:`~dpdfit.models.sideband_thermometry.THERMOMETRY_WAITS_US`, red then blue
+        at each) at the parameter set ``p`` (default: the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -174,5 +178,11 @@ def _spam(h: Hypothesis, p: dict):
     return spam_probabilities(h.gate.preparation(p), SPAM_STATES)
 
 
+def _thermometry(h: Hypothesis, p: dict):
+    waits = np.repeat(np.asarray(THERMOMETRY_WAITS_US, float), len(SIDEBANDS)) * 1e-6
+    sidebands = np.tile(np.asarray(SIDEBANDS), len(THERMOMETRY_WAITS_US))
+    return thermometry_probabilities(h.gate, p, waits, sidebands)
+
+
 _SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
-            "spam": _spam}
+            "spam": _spam, "thermometry": _thermometry}

@@ -26,6 +26,9 @@ with the recording's noise:
   its ``points`` times after the start (the start, ``t = 0``, is not fitted);
 * ``spam``: the SPAM characterisation, ``|00>`` and ``|11>`` prepared and detected with no
   gate (``spam.csv``), multinomial ``P00`` and ``P11`` of each; offered with gate
+  recordings;
+* ``thermometry``: sideband thermometry after a variable wait (``thermometry.csv``), the
+  probed ion's binomial bright count after each wait and sideband; offered with gate
   recordings.
 
 **Separating causes, not curves.**  A hypothesis is a group of fits: a family in
@@ -91,7 +94,7 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan",
-         "spam")
+         "spam", "thermometry")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
 #: the best candidates whose expected separation is confirmed by an exact refit
 #: (:meth:`~dpdfit.analyses.diagnosis.proposal.expected_separation.Direction.refit`, at most
@@ -524,6 +527,12 @@ def describe_recording(what: str, s: dict) -> str:
         states = ", ".join(f"|{x}>" for x in s.get("states", ("00", "11")))
         return (f"a SPAM characterisation ({states} prepared, detected with no gate; "
                 f"{s['shots']} shots each" + (f", {scans} times" if scans > 1 else "") + ")")
+    if what == "thermometry":
+        scans = int(s.get("scans", 1))
+        waits = s.get("waits_us") or ()
+        span = f"{len(waits)} waits up to {max(waits) / 1e3:g} ms, " if waits else ""
+        return (f"a sideband thermometry ({span}red and blue sidebands; {s['shots']} shots "
+                "each" + (f", {scans} times" if scans > 1 else "") + ")")
     at = f"at A = {s['A']:g} {'with' if s['dpd'] else 'without'} DPD"
     if s.get("scans", 1) > 1:
         at += f", {s['scans']} scans"

@@ -18,14 +18,17 @@ fixes it:
   proposal lists ``k`` times is recorded in repeats 1..k, each trace with the tone
   repeatability the proposal assumed (``tone_sd_db``);
 * a SPAM characterisation records each prepared state (``prepared``) with the proposal's
-  shots, at ``A`` 0 (no gate), one point per state.
+  shots, at ``A`` 0 (no gate), one point per state;
+* a sideband thermometry records each wait (``wait_us``) on each sideband (``sideband``)
+  with the proposal's shots, at ``A`` 0, one point each (:func:`thermometry_rows`).
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
 when it is taken:
 
 * ``lab_s``: the row's own lab time by :class:`~dpdfit.core.defaults.LabTimes`, as the
   menu counts it (:mod:`~dpdfit.analyses.diagnosis.proposal.menu`): ``shots * shot_s``
-  for a scan point (``shots * spam_shot_s`` for a SPAM state), ``spectrum_trace_s`` for a trace, the run's time over its grid
+  for a scan point (``shots * spam_shot_s`` for a SPAM state, ``shots * (thermometry_shot_s
+  + wait)`` for a thermometry point), ``spectrum_trace_s`` for a trace, the run's time over its grid
   points for a calibration-run point; rescaled so that the column sums to the
   proposal's ``lab_seconds`` (a proposal made with the same lab times needs no rescaling).
 * Calibration runs are paced, not taken back to back: the proposal counts each further
@@ -55,9 +58,10 @@ from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES
 from dpdfit.errors import InputError
 from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.recordings.campaign_folder import CampaignFolder
+from dpdfit.models.sideband_thermometry import SIDEBANDS, THERMOMETRY_WAITS_US
 from dpdfit.recordings.schedule import RUN_KINDS, SCHEDULE_COLUMNS, check_schedule
 
-__all__ = ["proposal_schedule", "run_interval", "DAY_S"]
+__all__ = ["proposal_schedule", "run_interval", "DAY_S", "thermometry_rows"]
 
 #: seconds of a day: the unit of the schedule's ``day`` column
 DAY_S = 86400.0
@@ -185,6 +189,9 @@ def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
         return np.full(len(df), float(lab.spectrum_trace_s))
     if what == "spam":
         return df["shots"].to_numpy(float) * lab.spam_shot_s
+    if what == "thermometry":                    # each shot also waits its wait
+        return df["shots"].to_numpy(float) * (lab.thermometry_shot_s
+                                              + df["wait_us"].to_numpy(float) * 1e-6)
     return df["shots"].to_numpy(float) * lab.shot_s
 
 
@@ -256,6 +263,8 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
                  "prepared": str(s)}
                 for r in range(1, int(st.get("scans", 1)) + 1)
                 for i, s in enumerate(st.get("states", ("00", "11")))]
+    elif what == "thermometry":
+        rows = thermometry_rows(st)
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}
@@ -270,5 +279,18 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
     df["lab_s"] = _lab_seconds(df, what, p.get("lab_seconds"),
                                LAB_TIMES if lab is None else lab)
     df["day"], df["start_s"] = _timing(df, what, camp)
-    cols = list(SCHEDULE_COLUMNS) + (["prepared"] if "prepared" in df.columns else [])
+    cols = list(SCHEDULE_COLUMNS) + [c for c in ("prepared", "wait_us", "sideband")
+                                     if c in df.columns]
     return check_schedule(df[cols], "the proposal's schedule")
+
+
+def thermometry_rows(st: dict) -> list:
+    """The schedule rows of a proposed sideband thermometry ``st`` (``shots``,
+    ``waits_us``, ``sidebands``, ``scans``): each wait probed on each sideband, one point
+    each, at ``A`` 0 (no gate)."""
+    waits = st.get("waits_us") or THERMOMETRY_WAITS_US
+    sidebands = st.get("sidebands") or SIDEBANDS
+    return [{"repeat": r, "point": i, "A": 0.0, "shots": int(st["shots"]),
+             "wait_us": float(w), "sideband": str(s)}
+            for r in range(1, int(st.get("scans", 1)) + 1)
+            for i, (w, s) in enumerate((w, s) for w in waits for s in sidebands)]
