@@ -16,6 +16,7 @@ from dpdfit.core.defaults import INTEGER_MAX, ErrorModel
 from dpdfit.errors import InputError
 
 from .spam import BASIS_STATES
+from .thermometry import SIDEBANDS
 from .units import COLUMN_KINDS
 from .value_formats import FormatError, check_format
 
@@ -82,6 +83,26 @@ def check_constant(column: str, v, key: str, err, table: str) -> None:
                 f"got {shown(v)}", table, column)
     if column == "prepared":
         _check_states([v], key, err, table)
+    if table == "thermometry":
+        _check_thermometry_constant(column, v, key, err)
+
+
+def _check_thermometry_constant(column: str, v, key: str, err) -> None:
+    """Refuse a constant of ``thermometry`` that no recording can hold: a sideband other
+    than ``red`` or ``blue``, a negative wait."""
+    if column == "sideband":
+        _check_sidebands([v], key, err)
+    if column == "wait_us" and is_number(v) and v < 0:
+        err.bad(key, f"a wait of {shown(v)} us is negative: the probe follows the cooling",
+                "thermometry", column)
+
+
+def _check_sidebands(values, key: str, err) -> None:
+    """Refuse a thermometry ``sideband`` that does not exist (``red`` or ``blue``)."""
+    for v in values:
+        if not (isinstance(v, str) and v.strip().lower() in SIDEBANDS):
+            err.bad(key, f"sideband {shown(v)} does not exist: the sidebands are "
+                    f"{', '.join(SIDEBANDS)}", "thermometry", "sideband")
 
 
 def _check_states(values, key: str, err, table: str) -> None:
@@ -117,6 +138,8 @@ def column_modifiers(column: str, v: dict, key: str, err, table: str) -> dict:
                 table, column)
     if labels is not None and column == "prepared":
         _check_states(labels.values(), f"{key}.labels", err, table)
+    if isinstance(labels, dict) and column == "sideband" and table == "thermometry":
+        _check_sidebands(labels.values(), f"{key}.labels", err)
     fs = v.get("full_scale_dbm")
     if fs is not None and not (is_number(fs) and math.isfinite(fs)):
         err.bad(f"{key}.full_scale_dbm", f"must be a finite number (dBm), got {shown(fs)}",

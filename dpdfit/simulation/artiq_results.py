@@ -26,6 +26,7 @@ from dpdfit.simulation.artiq_results_file import axis, channel, stored_in_si
 from dpdfit.simulation.ndscan_lab import (NdscanLab, duration_axis, epoch, time_scan_runs,
                                           write_calibration_runs, write_campaign_spam_runs,
                                           write_ndscan_gate_runs, write_spectra_runs)
+from dpdfit.simulation.ndscan_thermometry import write_campaign_thermometry_runs
 
 __all__ = ["MAPPINGS", "copy_mapping", "mapping_sources", "write_ndscan_campaign",
            "write_per_shot_campaign"]
@@ -46,7 +47,9 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     the scans as repeats), per (A, dpd) for parity (axis ``phase``, rad) and time
     scans (axis ``duration``), one for the gate rates (axes ``amplitude``, ``dpd``), and,
     when the campaign has ``spam.csv``, one per SPAM recording (axis ``prepared``, a
-    code: :func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`).
+    code: :func:`~dpdfit.simulation.ndscan_lab.write_spam_runs`), and with
+    ``thermometry.csv`` one per thermometry recording
+    (:func:`~dpdfit.simulation.ndscan_thermometry.write_thermometry_runs`).
     Returns the path of ``out_dir/mapping.toml`` (a copy of ``ndscan_campaign.toml``;
     without ``spam.csv`` its ``[[spam]]`` source is left out, a glob that would match
     no file).
@@ -56,8 +59,10 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     write_spectra_runs(lab, False, 240.0)
     write_ndscan_gate_runs(lab)
     write_campaign_spam_runs(lab)
+    write_campaign_thermometry_runs(lab)
     return copy_mapping("ndscan_campaign.toml", lab.campaign, out_dir,
-                        [t for t, rows in lab.t.items() if t != "spam" or len(rows)])
+                        [t for t, rows in lab.t.items()
+                         if t not in ("spam", "thermometry") or len(rows)])
 
 
 def _bright_ions(counts: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -43,6 +43,8 @@ from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_ax
                                           time_scan_runs, write_calibration_runs,
                                           write_campaign_spam_runs, write_ndscan_gate_runs,
                                           write_spam_runs, write_spectra_runs)
+from dpdfit.simulation.ndscan_thermometry import (write_campaign_thermometry_runs,
+                                                  write_thermometry_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
@@ -83,6 +85,7 @@ def campaign_files_end(tables: dict, campaign: dict) -> tuple:
     if all(len(lab.t[t]) for t in ("gate_rates", "populations", "parity", "time_scans")):
         write_ndscan_gate_runs(lab)
     write_campaign_spam_runs(lab)
+    write_campaign_thermometry_runs(lab)
     times = [epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
              if k in campaign]
     return lab.rid, max([t for t in (lab.last,) if t is not None] + times)
@@ -192,6 +195,8 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
         _gates(lab, clock)
         if len(t["spam"]):
             write_spam_runs(lab, clock)
+        if len(t["thermometry"]):
+            write_thermometry_runs(lab, clock)
         text = _mapping_text(campaign, [n for n in CAMPAIGN_TABLES if len(t[n])], tmp)
         (tmp / "mapping.toml").write_text(text)
     return out / "mapping.toml"

@@ -41,17 +41,20 @@ PER_WHAT = {
     "time_scan": {"what": "time_scan",
                   "settings": {"A": 0.6, "dpd": 1, "shots": 100, "points": 4, "scans": 2}},
     "spam": {"what": "spam", "settings": {"shots": 500, "scans": 2}},
+    "thermometry": {"what": "thermometry", "settings": {"shots": 150, "scans": 2}},
 }
 #: the tables each kind simulates whole in the long way (the others cannot change)
 _WHOLE = {"amplitude_run": dict(include_spectra=False, include_gates=False),
           "phase_run": dict(include_spectra=False, include_gates=False),
           "spectra": dict(include_gates=False),
-          "spam": dict(include_spectra=False, include_gates=False)}
+          "spam": dict(include_spectra=False, include_gates=False),
+          "thermometry": dict(include_spectra=False, include_gates=False)}
 #: the columns that give a row's place among repeats (a stable sort keeps the repeats' order)
 _KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
          "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
          "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
-         "time_scans": ["A", "dpd"], "spam": ["prepared"]}
+         "time_scans": ["A", "dpd"], "spam": ["prepared"],
+         "thermometry": ["wait_us", "sideband"]}
 
 
 def test_every_what_is_covered():
