@@ -229,7 +229,8 @@ def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
-    assert set(rec.tables) == set(TABLES) | {"spam"} and not (folder / "spam.csv").exists()
+    assert set(rec.tables) == set(TABLES) | set(CHARACTERISATION_TABLES)
+    assert not any((folder / f"{t}.csv").exists() for t in CHARACTERISATION_TABLES)
     for t in rec.tables:
         merged = pd.read_csv(out / f"{t}.csv", dtype={"prepared": str})
         old = (pd.read_csv(folder / f"{t}.csv") if (folder / f"{t}.csv").exists() else
