@@ -43,6 +43,11 @@ class NullModel(Record):
     preparation_error_total: float | None
     #: the baseline's fitted nuisances, the calibration modes left out (None: not fitted)
     fitted: dict | None = None
+    #: with thermometry: the motional state the baseline recorded, ``nbar`` and
+    #: ``heating_q_per_ms``, each ``{"recorded", "error", "stated"}``
+    #: (:func:`~dpdfit.analyses.diagnosis.model.recorded_motion.recorded_motion`; None
+    #: without thermometry, and then not in the JSON)
+    recorded_motion: dict | None = None
 
     def to_dict(self) -> dict:
         """The JSON's ``null_model``: every attribute, ``tone_noise`` as its dict;
@@ -55,6 +60,8 @@ class NullModel(Record):
                "preparation_error_total": self.preparation_error_total}
         if self.fitted is not None:
             out["fitted"] = dict(self.fitted)
+        if self.recorded_motion is not None:
+            out["recorded_motion"] = {k: dict(v) for k, v in self.recorded_motion.items()}
         return out
 
 

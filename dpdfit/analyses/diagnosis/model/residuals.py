@@ -29,6 +29,8 @@ from dpdfit.analyses.diagnosis.model.gates.gate_model import (DETECTION_PRIOR_SI
 from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
 from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
+from dpdfit.analyses.diagnosis.model.recorded_motion import (MOTION_NUISANCES,
+                                                             RECORDED_MOTION, recorded_motion)
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
 from dpdfit.analyses.diagnosis.model.thermometry_block import thermometry_block
@@ -162,12 +164,27 @@ class Problem:
         for k in range(self.gate.n_time_scans):
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
             self.center[f"eps_ts{k}"] = 0.0
+        if camp.thermometry is not None:
+            self._init_recorded_motion()
         if camp.phase is not None:
             self.phase_sign_chi2 = choose_phase_sign(self)
         self.gate.compute_responses()
         for k in range(self.gate.n_time_scans):
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
         self.rate_scatter = learn_rate_scatter(self)
+
+    def _init_recorded_motion(self) -> None:
+        """With thermometry: the recorded motional state's nuisances (flat priors, bounded
+        to a state at least empty and still in the Lamb-Dicke range) and the knobs they
+        move (:mod:`~dpdfit.analyses.diagnosis.model.recorded_motion`)."""
+        nominal = self.gate.nominal
+        lows = {"thermo_dnbar": -float(nominal["nbar"]),
+                "thermo_dndot": -float(nominal["ndot"]) / 1e3}
+        for k in MOTION_NUISANCES:
+            self.prior[k], self.center[k] = np.inf, 0.0
+            self.bounds[k] = (lows[k], 5.0)
+        for knob in RECORDED_MOTION.knobs():
+            self.gate.knobs.setdefault(knob.key, knob)
 
     def null_model(self, base=None) -> NullModel:
         """What the baseline learnt from the campaign before any effect (``base``: the
@@ -179,7 +196,8 @@ class Problem:
             per_scan_power_jitter_db=None if self.gate is None else self.gate.sig_jit,
             preparation_error_total=None if self.gate is None else self.gate.p_total,
             fitted=None if base is None else {k: v for k, v in base.nuisances.items()
-                                              if not k.startswith("cal_")})
+                                              if not k.startswith("cal_")},
+            recorded_motion=recorded_motion(self, base))
 
     # ------------------------------------------------------------ models in use
     def use_tone(self, tone: ToneModel) -> None:

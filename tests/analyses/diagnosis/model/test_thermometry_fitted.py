@@ -99,3 +99,33 @@ def test_thermometry_tightens_the_fitted_heating_rate(heating_case):
         size = fit_hypothesis(th, hyp, fixed=tone).sizes["motional_heating"]["heating_q_per_ms"]
         assert abs(size.value - true_rate) < 3 * size.error
         assert size.error < 0.8 * alone.error
+
+
+def test_recorded_motion_replaces_the_stated_one(heating_case, tmp_path):
+    """With thermometry.csv in the folder: the baseline fits the recorded nbar and heating
+    rate as nuisances (the lab's stated ones not taken on trust) and the null model
+    reports them with errors beside the stated ones; the heating effect's forms replace
+    those nuisances.  Without it neither exists."""
+    import shutil
+    from dpdfit.analyses.diagnosis.effects import EFFECTS
+    from dpdfit.recordings.campaign_folder import CampaignFolder
+    cfg, prob = heating_case
+    assert "thermo_dndot" not in prob.prior
+    assert prob.null_model().to_dict().get("recorded_motion") is None
+    assert all(not f.replaces for f in EFFECTS["motional_heating"].forms_for(prob))
+    folder = tmp_path / "c"
+    shutil.copytree(CampaignFolder(prob.camp.folder).path, folder)
+    pd.DataFrame(thermometry_rows(cfg, 200, np.random.default_rng(0))).to_csv(
+        folder / "thermometry.csv", index=False)
+    withit = Problem(load_campaign(folder))
+    assert {"thermo_dnbar", "thermo_dndot"} <= set(withit.prior)
+    forms = {f.name: f.replaces for f in EFFECTS["motional_heating"].forms_for(withit)}
+    assert forms == {"during": ("thermo_dndot",), "initial": ("thermo_dnbar",),
+                     "both": ("thermo_dndot", "thermo_dnbar")}
+    base = fit_hypothesis(withit, ())
+    rec = withit.null_model(base).to_dict()["recorded_motion"]
+    true_rate = thermometry_engine(cfg)["ndot"] / 1e3
+    heat = rec["heating_q_per_ms"]
+    assert heat["stated"] == pytest.approx(cfg.ndot / 1e3)
+    assert 0 < heat["error"] < 0.02 and abs(heat["recorded"] - true_rate) < 3 * heat["error"]
+    assert rec["nbar"]["stated"] == pytest.approx(cfg.nbar) and rec["nbar"]["error"] > 0
