@@ -129,3 +129,14 @@ def test_recorded_motion_replaces_the_stated_one(heating_case, tmp_path):
     assert heat["stated"] == pytest.approx(cfg.ndot / 1e3)
     assert 0 < heat["error"] < 0.02 and abs(heat["recorded"] - true_rate) < 3 * heat["error"]
     assert rec["nbar"]["stated"] == pytest.approx(cfg.nbar) and rec["nbar"]["error"] > 0
+    # the heating effect, fitted in place of the nuisance, is measured as well as it
+    # (far better than by the gates alone), and explains no more than the baseline
+    tone = {k: v for k, v in base.nuisances.items() if withit.is_tone_key(k)}
+    hyp = (("motional_heating", "during"),)
+    fit = fit_hypothesis(withit, hyp, fixed=tone)
+    size = fit.sizes["motional_heating"]["heating_q_per_ms"]
+    assert size.error < 1.5 * heat["error"] and abs(size.value - true_rate) < 3 * size.error
+    assert fit.n_par == base.n_par and fit.chi2 >= base.chi2 - 1e-3
+    alone = fit_hypothesis(prob, hyp, fixed={k: v for k, v in fit_hypothesis(
+        prob, ()).nuisances.items() if prob.is_tone_key(k)})
+    assert size.error < 0.5 * alone.sizes["motional_heating"]["heating_q_per_ms"].error
