@@ -132,7 +132,7 @@ def test_recorded_motion_replaces_the_stated_one(heating_case, tmp_path):
     from dpdfit.analyses.diagnosis.rendering import _null_model_lines
     text = "\n".join(_null_model_lines(withit.null_model(base).to_dict()))
     assert f"recorded heating rate (quanta/ms) {heat['recorded']:.3g}" in text
-    assert "recorded" not in "\n".join(_null_model_lines(prob.null_model(
+    assert "recorded heating" not in "\n".join(_null_model_lines(prob.null_model(
         fit_hypothesis(prob, ())).to_dict()))
     # the heating effect, fitted in place of the nuisance, is measured as well as it
     # (far better than by the gates alone), and explains no more than the baseline
