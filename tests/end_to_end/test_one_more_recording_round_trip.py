@@ -43,12 +43,17 @@ PROPOSALS = {
                   "settings": {"A": 0.6, "dpd": 1, "shots": 300, "points": 6, "scans": 2}},
     "spam": {"what": "spam", "lab_seconds": 4.0,
              "settings": {"shots": 500, "states": ["00", "11"], "scans": 2}},
+    "thermometry": {"what": "thermometry", "lab_seconds": 16.0,
+                    "settings": {"shots": 200, "scans": 1,
+                                 "waits_us": [0.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0,
+                                              7000.0, 10000.0], "sidebands": ["red", "blue"]}},
 }
 #: the columns that order a table's rows among themselves (repeats keep their order)
 KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
         "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
         "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
-        "time_scans": ["A", "dpd", "t_us"], "spam": ["prepared"]}
+        "time_scans": ["A", "dpd", "t_us"], "spam": ["prepared"],
+        "thermometry": ["wait_us", "sideband"]}
 
 
 def test_every_what_of_the_menu_has_a_round_trip():
