@@ -6,8 +6,10 @@ sideband Rabi flopping of a fixed probe pulse: the simulator's own physics) at t
 occupation ``nbar0 + ndot t`` of the gate model (:func:`motional_state`: the lab's
 stated ``nbar`` and heating rate, moved by every active effect's knobs exactly as the
 gate engine's inputs are moved, the knob's ``perturb``
-(:class:`~dpdfit.analyses.diagnosis.effects.base.Knob`) with the effect's :meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.knob_coefficients`),
-read through the gate model's preparation and detection errors
+(:class:`~dpdfit.analyses.diagnosis.effects.base.Knob`) with the effect's
+:meth:`~dpdfit.analyses.diagnosis.effects.base.Effect.knob_coefficients`; with
+thermometry also by the baseline's recorded motional state,
+:mod:`~dpdfit.analyses.diagnosis.model.recorded_motion`), read through the gate model's preparation and detection errors
 (:meth:`~dpdfit.analyses.diagnosis.model.gates.gate_model.GateModel.preparation`).  So an
 effect that heats the mode or adds initial phonons is constrained by it, one that acts on
 the coherence (dephasing) or the drive is not, and a SPAM offset only through the
