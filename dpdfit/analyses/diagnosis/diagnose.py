@@ -69,7 +69,6 @@ from dpdfit.analyses.diagnosis.fitting.fit_result import FitResult
 from dpdfit.analyses.diagnosis.fitting.hypothesis_fit import fit_effects, fit_hypothesis
 from dpdfit.analyses.diagnosis.fitting.phase_sign import carry
 from dpdfit.analyses.diagnosis.model.gates.gate_model import GATE_NUISANCES
-from dpdfit.analyses.diagnosis.model.recorded_motion import MOTION_NUISANCES
 from dpdfit.analyses.diagnosis.model.residuals import (NUISANCES, Problem,
                                                        check_forms_left_out)
 from dpdfit.analyses.diagnosis.observables.campaign import Campaign, load_campaign
@@ -254,9 +253,7 @@ def _campaign_notes(prob: Problem, camp, dropped: list) -> dict:
     """The Diagnosis's attributes that describe the campaign and the run rather than the
     verdict."""
     out = {"nuisances": {**{k: NUISANCES[k][0] for k in NUISANCES},
-                         **{k: v[0] for k, v in GATE_NUISANCES.items()},
-                         **{k: v[0] for k, v in MOTION_NUISANCES.items()
-                            if k in prob.prior}},
+                         **{k: v[0] for k, v in GATE_NUISANCES.items()}},
            "recording_times": {k: v.isoformat() for k, v in camp.recorded.items()},
            "runs_after_recordings": (None if camp.runs_after is None
                                      else list(camp.runs_after.runs)),

@@ -25,9 +25,10 @@ _RECORDED = {"ndot": "thermo_dndot", "dnbar": "thermo_dnbar"}
 
 def replacing_recorded_motion(forms: tuple, ctx) -> tuple:
     """A heating effect's ``forms``, each replacing the recorded-motion nuisance of every
-    parameter it frees, when the campaign ``ctx`` has thermometry (else unchanged: the
-    lab's stated motional state is the baseline's)."""
-    if getattr(getattr(ctx, "camp", None), "thermometry", None) is None:
+    parameter it frees, when the problem ``ctx`` fits those nuisances (the diagnosis does
+    not: the lab's stated motional state stays the baseline's, and the heating the
+    thermometry records is the catalog's effect; unchanged then)."""
+    if not any(k in (getattr(ctx, "prior", None) or {}) for k in _RECORDED.values()):
         return forms
     return tuple(dataclasses.replace(f, replaces=tuple(dict.fromkeys(
         f.replaces + tuple(_RECORDED[k] for k in f.free if k in _RECORDED)))) for f in forms)

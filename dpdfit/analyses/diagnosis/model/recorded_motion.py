@@ -1,24 +1,22 @@
-"""What the sideband thermometry measures replaces the lab's stated motional state.
+"""The motional state the sideband thermometry records, beside the lab's stated one.
 
-With ``thermometry.csv`` the lab's stated initial mean phonon number and heating rate
-(``campaign.json`` ``error_model``: ``nbar``, ``heating_quanta_per_s``) are not taken on
-trust: the baseline has two nuisances, :data:`MOTION_NUISANCES` (``thermo_dnbar``,
-quanta, and ``thermo_dndot``, quanta/ms: the recorded state's offsets from the stated
-one; flat priors), constrained by the recording and acting on the gates exactly as the
-heating effects do (through the gate engine's knobs of
-:mod:`~dpdfit.analyses.diagnosis.effects.motional_heating`, :class:`RecordedMotion`).
-The heating effects' parameters then take their place
-(:func:`~dpdfit.analyses.diagnosis.effects.motional_heating.replacing_recorded_motion`: a
-form of ``motional_heating`` or ``higher_nbar`` replaces the nuisance of each parameter it
-frees), so an effect describes only what the
-baseline's recorded state does not.  :func:`recorded_motion` reports the recorded values
-with their errors beside the stated ones (the null model's ``recorded_motion``).
-Without ``thermometry.csv`` none of this exists and the diagnosis is as before.
+With ``thermometry.csv`` the recording is data of every hypothesis (the heating effects
+predict it through the gate engine's knobs of
+:mod:`~dpdfit.analyses.diagnosis.effects.motional_heating`).  The lab's stated initial
+mean phonon number and heating rate (``campaign.json`` ``error_model``: ``nbar``,
+``heating_quanta_per_s``) stay the baseline's: were the recorded state a free nuisance of
+the baseline, a heating the recording shows would be taken up by it and the catalog's
+``motional_heating`` never named.  :func:`recorded_motion` reports what the recording
+measures on its own (the offsets :data:`MOTION_NUISANCES` fitted to it alone, acting as
+:class:`RecordedMotion` does) beside the stated values (the null model's
+``recorded_motion``).  Without ``thermometry.csv`` none of this exists.
 """
 
 from __future__ import annotations
 
-import dataclasses
+
+import numpy as np
+from scipy.optimize import least_squares
 
 from dpdfit.analyses.diagnosis.effects.base import Effect, Param
 from dpdfit.analyses.diagnosis.effects.motional_heating import NBAR, NDOT
@@ -66,19 +64,31 @@ def motion_values(p: dict) -> dict | None:
 
 
 def recorded_motion(prob, base) -> dict | None:
-    """The motional state the baseline fit ``base`` recorded, beside the lab's stated one:
+    """The motional state the thermometry records on its own, beside the lab's stated one:
     ``nbar`` (quanta) and ``heating_q_per_ms``, each ``{"recorded", "error", "stated"}``
-    (None without thermometry or gates)."""
+    (None without thermometry or gates, or before the baseline is fitted).  The offsets
+    :data:`MOTION_NUISANCES` are fitted to the thermometry block alone, the other
+    parameters at the baseline's (Gauss-Newton errors).  Reported, not fitted with the
+    gates: the stated state stays the baseline's, so that a heating the recording shows is
+    named as the catalog's effect, with the gates' evidence."""
     gate = getattr(prob, "gate", None)
-    if gate is None or "thermo_dndot" not in prob.prior or base is None:
+    if gate is None or getattr(prob.camp, "thermometry", None) is None or base is None:
         return None
+    # here, not at the top: the block reads the gate model's effect terms, which import
+    # this module
+    from dpdfit.analyses.diagnosis.model.thermometry_block import thermometry_block
     stated = {"nbar": float(gate.nominal["nbar"]),
               "heating_q_per_ms": float(gate.nominal["ndot"]) / 1e3}
-    out = {}
-    for name, key in (("nbar", "thermo_dnbar"), ("heating_q_per_ms", "thermo_dndot")):
-        err = float("nan")
-        if key in base.parameters.names:
-            err = float(base.parameters[key].error)
-        out[name] = {"recorded": stated[name] + float(base.nuisances.get(key, 0.0)),
-                     "error": err, "stated": stated[name]}
-    return out
+    p0 = dict(base.all_params)
+
+    def z(x):
+        return thermometry_block(prob, {**p0, "thermo_dnbar": x[0], "thermo_dndot": x[1]})[1]
+    lo = [-stated["nbar"], -stated["heating_q_per_ms"]]
+    res = least_squares(z, [0.0, 0.0], bounds=(lo, [5.0, 5.0]), x_scale=[0.1, 0.05])
+    try:
+        err = np.sqrt(np.diag(np.linalg.inv(res.jac.T @ res.jac)))
+    except np.linalg.LinAlgError:
+        err = np.full(2, np.nan)
+    return {name: {"recorded": stated[name] + float(res.x[i]), "error": float(err[i]),
+                   "stated": stated[name]}
+            for i, name in enumerate(("nbar", "heating_q_per_ms"))}

@@ -29,8 +29,7 @@ from dpdfit.analyses.diagnosis.model.gates.gate_model import (DETECTION_PRIOR_SI
 from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
 from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
-from dpdfit.analyses.diagnosis.model.recorded_motion import (MOTION_NUISANCES,
-                                                             RECORDED_MOTION, recorded_motion)
+from dpdfit.analyses.diagnosis.model.recorded_motion import RECORDED_MOTION, recorded_motion
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
 from dpdfit.analyses.diagnosis.model.thermometry_block import thermometry_block
@@ -174,15 +173,9 @@ class Problem:
         self.rate_scatter = learn_rate_scatter(self)
 
     def _init_recorded_motion(self) -> None:
-        """With thermometry: the recorded motional state's nuisances (flat priors, bounded
-        to a state at least empty and still in the Lamb-Dicke range) and the knobs they
-        move (:mod:`~dpdfit.analyses.diagnosis.model.recorded_motion`)."""
-        nominal = self.gate.nominal
-        lows = {"thermo_dnbar": -float(nominal["nbar"]),
-                "thermo_dndot": -float(nominal["ndot"]) / 1e3}
-        for k in MOTION_NUISANCES:
-            self.prior[k], self.center[k] = np.inf, 0.0
-            self.bounds[k] = (lows[k], 5.0)
+        """With thermometry: the knobs the recorded motional state moves
+        (:mod:`~dpdfit.analyses.diagnosis.model.recorded_motion`), so that the state the
+        recording measures on its own can be reported whatever effects are considered."""
         for knob in RECORDED_MOTION.knobs():
             self.gate.knobs.setdefault(knob.key, knob)
 

@@ -101,27 +101,24 @@ def test_thermometry_tightens_the_fitted_heating_rate(heating_case):
         assert size.error < 0.8 * alone.error
 
 
-def test_recorded_motion_replaces_the_stated_one(heating_case, tmp_path):
-    """With thermometry.csv in the folder: the baseline fits the recorded nbar and heating
-    rate as nuisances (the lab's stated ones not taken on trust) and the null model
-    reports them with errors beside the stated ones; the heating effect's forms replace
-    those nuisances.  Without it neither exists."""
+def test_recorded_motion_is_reported_and_the_heating_named_from_it(heating_case, tmp_path):
+    """With thermometry.csv in the folder: the null model reports the nbar and heating rate
+    the recording measures on its own, with errors, beside the stated ones; the baseline
+    keeps the stated state (no nuisance replaces it), so the heating effect takes up what
+    the recording shows, measured far better than by the gates alone and decisively better
+    than the baseline.  Without it nothing is reported."""
     import shutil
     from dpdfit.analyses.diagnosis.effects import EFFECTS
     from dpdfit.recordings.campaign_folder import CampaignFolder
     cfg, prob = heating_case
-    assert "thermo_dndot" not in prob.prior
     assert prob.null_model().to_dict().get("recorded_motion") is None
-    assert all(not f.replaces for f in EFFECTS["motional_heating"].forms_for(prob))
     folder = tmp_path / "c"
     shutil.copytree(CampaignFolder(prob.camp.folder).path, folder)
     pd.DataFrame(thermometry_rows(cfg, 200, np.random.default_rng(0))).to_csv(
         folder / "thermometry.csv", index=False)
     withit = Problem(load_campaign(folder))
-    assert {"thermo_dnbar", "thermo_dndot"} <= set(withit.prior)
-    forms = {f.name: f.replaces for f in EFFECTS["motional_heating"].forms_for(withit)}
-    assert forms == {"during": ("thermo_dndot",), "initial": ("thermo_dnbar",),
-                     "both": ("thermo_dndot", "thermo_dnbar")}
+    assert not {"thermo_dnbar", "thermo_dndot"} & set(withit.prior)
+    assert all(not f.replaces for f in EFFECTS["motional_heating"].forms_for(withit))
     base = fit_hypothesis(withit, ())
     rec = withit.null_model(base).to_dict()["recorded_motion"]
     true_rate = thermometry_engine(cfg)["ndot"] / 1e3
@@ -134,14 +131,12 @@ def test_recorded_motion_replaces_the_stated_one(heating_case, tmp_path):
     assert f"recorded heating rate (quanta/ms) {heat['recorded']:.3g}" in text
     assert "recorded heating" not in "\n".join(_null_model_lines(prob.null_model(
         fit_hypothesis(prob, ())).to_dict()))
-    # the heating effect, fitted in place of the nuisance, is measured as well as it
-    # (far better than by the gates alone), and explains no more than the baseline
     tone = {k: v for k, v in base.nuisances.items() if withit.is_tone_key(k)}
     hyp = (("motional_heating", "during"),)
     fit = fit_hypothesis(withit, hyp, fixed=tone)
     size = fit.sizes["motional_heating"]["heating_q_per_ms"]
     assert size.error < 1.5 * heat["error"] and abs(size.value - true_rate) < 3 * size.error
-    assert fit.n_par == base.n_par and fit.chi2 >= base.chi2 - 1e-3
+    assert fit.n_par == base.n_par + 1 and base.chi2 - fit.chi2 > 25.0
     alone = fit_hypothesis(prob, hyp, fixed={k: v for k, v in fit_hypothesis(
         prob, ()).nuisances.items() if prob.is_tone_key(k)})
     assert size.error < 0.5 * alone.sizes["motional_heating"]["heating_q_per_ms"].error
