@@ -245,6 +245,11 @@ class LabTimes:
     #: mount or a fibre attenuator: once for all drives, the beam's pointing on the
     #: photodiode checked), about a minute; so 10 drives take ~3 min in all
     attenuator_swap_s: float = 60.0
+    #: one shot of the sideband thermometry, its wait not counted: Doppler cooling and
+    #: sideband cooling of the gate mode (~1 ms), the ~0.1 ms sideband probe and the ~1 ms
+    #: detection, no gate, so ~2 ms per shot; each shot also waits its ``wait_us`` (added
+    #: by the menu): 8 waits up to 10 ms x 2 sidebands x 200 shots in about 16 s
+    thermometry_shot_s: float = 0.002
     #: the longest recording the diagnosis proposes (repeats included): a working day
     max_seconds: float = 8 * 3600.0
 

@@ -56,6 +56,9 @@ Required and optional (everything else in the layout is optional):
   power_attenuated, attenuation_db`` (+ ``power_err``, ``run``, ``timestamp``),
   :func:`~dpdfit.recordings.detector_linearity.read_detector_linearity`; a
   characterisation table like ``spam.csv``.
+* ``thermometry.csv`` -- sideband thermometry of the gate mode after a variable wait:
+  ``wait_us, sideband, n_bright, shots`` (+ ``run``, ``timestamp``),
+  :func:`~dpdfit.recordings.thermometry.read_thermometry`; a characterisation table.
 
 Nothing is ever written into the folder.
 
@@ -98,6 +101,7 @@ from .input_files import check_inside, open_input, read_input_json
 from .pulse_response import read_pulse_response
 from .ramsey import check_ramsey_waits, read_ramsey
 from .spam import read_spam
+from .thermometry import read_thermometry
 from .spectra import pool_spectra, read_spectra
 from .tables import read_calibration_table, read_table
 from .traces import check_trace_file
@@ -129,11 +133,12 @@ FILES = {
     "ramsey.csv": "Ramsey and spin-echo characterisation (coherence with a variable wait)",
     "detector_linearity.csv": "detector linearity (photodiode read with and without a "
                               "calibrated attenuator)",
+    "thermometry.csv": "sideband thermometry of the gate mode after a variable wait",
 }
 #: the lab's characterisation experiments: optional tables whose absence is not listed
 #: as left out (a campaign without them is analysed as it always was)
 CHARACTERISATION_FILES = ("spam.csv", "pulse_response.csv", "ramsey.csv",
-                          "detector_linearity.csv")
+                          "detector_linearity.csv", "thermometry.csv")
 #: the other files of the folder dpdfit reads: ``budget.toml`` (``dpdfit analyze``'s budget)
 OTHER_FILES = ("budget.toml",)
 
@@ -442,6 +447,15 @@ class CampaignFolder:
         return read_detector_linearity(self.file("detector_linearity.csv"), within=self.path,
                                        a_range=a_range)
 
+    @functools.cached_property
+    def thermometry(self) -> pd.DataFrame | None:
+        """``wait_us, sideband, n_bright, shots`` (+ ``run``, ``timestamp``), one row per
+        point (wait, sideband), repeated recordings pooled
+        (:func:`~.thermometry.read_thermometry`), None without ``thermometry.csv``."""
+        if not self.has("thermometry.csv"):
+            return None
+        return read_thermometry(self.file("thermometry.csv"), within=self.path)
+
     def check_plausible(self) -> None:
         """Read every table the folder has and raise the first
         :class:`~dpdfit.errors.ImplausibleValueError` (a unit slip,
@@ -452,13 +466,13 @@ class CampaignFolder:
         own reads: they are refused here, at once, not after every analysis ran."""
         for name in ("amplitude_runs", "phase_runs", "spectra", "populations", "parity",
                      "gate_rates", "time_scans", "traces", "spam", "pulse_response", "ramsey",
-                     "detector_linearity"):
+                     "detector_linearity", "thermometry"):
             try:
                 getattr(self, name)
             except InputError as exc:
                 if isinstance(exc, (ImplausibleValueError, RefusedFileError)) or (
                         name in ("time_scans", "spam", "pulse_response", "ramsey",
-                                 "detector_linearity")):
+                                 "detector_linearity", "thermometry")):
                     raise
 
     # -------------------------------------------------------------- left out

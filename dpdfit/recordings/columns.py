@@ -8,7 +8,8 @@ Stated once: the readers (:func:`~dpdfit.recordings.tables.read_calibration_tabl
 :func:`~dpdfit.recordings.spam.read_spam`,
 :func:`~dpdfit.recordings.pulse_response.read_pulse_response`,
 :func:`~dpdfit.recordings.ramsey.read_ramsey`,
-:func:`~dpdfit.recordings.detector_linearity.read_detector_linearity`) read these, and the import
+:func:`~dpdfit.recordings.detector_linearity.read_detector_linearity`,
+:func:`~dpdfit.recordings.thermometry.read_thermometry`) read these, and the import
 mapping derives its columns from them (:data:`dpdfit.recordings.mapping.TABLE_COLUMNS`).
 Each entry is ``(required, optional)``; ``populations.csv`` needs ``n_even`` or the
 three counts ``n00, n01_10, n11`` besides its required columns.
@@ -40,6 +41,7 @@ CAMPAIGN_TABLES = {
     "ramsey": (("sequence", "wait_us", "n00", "n01_10", "n11", "shots"), ("run", "timestamp")),
     "detector_linearity": (("A", "power", "power_attenuated", "attenuation_db"),
                            ("power_err", "run", "timestamp")),
+    "thermometry": (("wait_us", "sideband", "n_bright", "shots"), ("run", "timestamp")),
 }
 
 #: optional columns whose absence leaves nothing out (a label the reader can infer):
@@ -47,7 +49,7 @@ CAMPAIGN_TABLES = {
 LABELS_ONLY = ("repeat",)
 #: tables none of whose optional columns any analysis reads (labels of the lab's own):
 #: their absence is never listed either
-_LABELLED_ONLY = ("spam", "pulse_response", "ramsey", "detector_linearity")
+_LABELLED_ONLY = ("spam", "pulse_response", "ramsey", "detector_linearity", "thermometry")
 #: what a table without one of its required columns lacks, where the column's name alone
 #: does not say it (the reader's and ``dpdfit add``'s line)
 MISSING_LINES = {("pulse_response", "t_us"): "pulse_response.csv has no time axis (column t_us)"}

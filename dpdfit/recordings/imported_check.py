@@ -27,7 +27,8 @@ READERS = {"calibration_amplitude": "amplitude_runs", "calibration_phase": "phas
            "spectra": "spectra", "populations": "populations", "parity": "parity",
            "time_scans": "time_scans", "gate_rates": "gate_rates", "spam": "spam",
            "pulse_response": "pulse_response", "ramsey": "ramsey",
-           "detector_linearity": "detector_linearity"}
+           "detector_linearity": "detector_linearity",
+           "thermometry": "thermometry"}
 #: the tables whose files' earliest start time each recording time defaults to
 _RECORDED_FROM = {"spectra_recorded": ("spectra",),
                   "gates_recorded": ("populations", "parity", "time_scans", "gate_rates")}

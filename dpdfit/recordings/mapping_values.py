@@ -17,6 +17,7 @@ from dpdfit.errors import InputError
 
 from .ramsey import SEQUENCES
 from .spam import BASIS_STATES
+from .thermometry import SIDEBANDS
 from .units import COLUMN_KINDS
 from .value_formats import FormatError, check_format
 
@@ -85,13 +86,15 @@ def check_constant(column: str, v, key: str, err, table: str) -> None:
         _check_states([v], key, err, table)
     if column == "sequence":
         _check_sequences([v], key, err, table)
-    if column == "wait_us" and is_number(v) and not v >= 0:
+    if column == "wait_us" and table != "thermometry" and is_number(v) and not v >= 0:
         err.bad(key, f"a wait below zero ({shown(v)} us) is no wait", table, column)
     if table == "pulse_response" and is_number(v):
         _check_pulse_constant(column, v, key, err)
     if column == "attenuation_db" and is_number(v) and not v > 0:
         err.bad(key, f"an attenuation of {shown(v)} dB does not exist: a calibrated "
                 "attenuator attenuates (> 0 dB)", table, column)
+    if table == "thermometry":
+        _check_thermometry_constant(column, v, key, err)
 
 
 def _check_pulse_constant(column: str, v, key: str, err) -> None:
@@ -116,6 +119,24 @@ def _check_sequences(values, key: str, err, table: str) -> None:
         if not (isinstance(v, str) and v.strip().lower() in SEQUENCES):
             err.bad(key, f"sequence {shown(v)} does not exist: the sequences are "
                     f"{', '.join(SEQUENCES)} (text)", table, "sequence")
+
+
+def _check_thermometry_constant(column: str, v, key: str, err) -> None:
+    """Refuse a constant of ``thermometry`` that no recording can hold: a sideband other
+    than ``red`` or ``blue``, a negative wait."""
+    if column == "sideband":
+        _check_sidebands([v], key, err)
+    if column == "wait_us" and is_number(v) and v < 0:
+        err.bad(key, f"a wait of {shown(v)} us is negative: the probe follows the cooling",
+                "thermometry", column)
+
+
+def _check_sidebands(values, key: str, err) -> None:
+    """Refuse a thermometry ``sideband`` that does not exist (``red`` or ``blue``)."""
+    for v in values:
+        if not (isinstance(v, str) and v.strip().lower() in SIDEBANDS):
+            err.bad(key, f"sideband {shown(v)} does not exist: the sidebands are "
+                    f"{', '.join(SIDEBANDS)}", "thermometry", "sideband")
 
 
 def _check_states(values, key: str, err, table: str) -> None:
@@ -153,6 +174,8 @@ def column_modifiers(column: str, v: dict, key: str, err, table: str) -> dict:
         _check_states(labels.values(), f"{key}.labels", err, table)
     if labels is not None and column == "sequence":
         _check_sequences(labels.values(), f"{key}.labels", err, table)
+    if isinstance(labels, dict) and column == "sideband" and table == "thermometry":
+        _check_sidebands(labels.values(), f"{key}.labels", err)
     fs = v.get("full_scale_dbm")
     if fs is not None and not (is_number(fs) and math.isfinite(fs)):
         err.bad(f"{key}.full_scale_dbm", f"must be a finite number (dBm), got {shown(fs)}",

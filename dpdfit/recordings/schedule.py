@@ -64,6 +64,12 @@ One row per point and repeat, plain enough that an ARTIQ experiment loops over i
     calibrated attenuator (dB, > 0) the photodiode is read with at the point's drive,
     after its reading without; empty for the other kinds.  Such a point's ``lab_s`` is
     its two readings and its share of putting the attenuator in.
+``wait_us``, ``sideband``
+    Only in a schedule with ``thermometry`` rows: the wait after cooling before the probe
+    (us, at least 0) and the sideband probed (``red`` or ``blue``) of a
+    sideband-thermometry point, as ``thermometry.csv`` records them; empty for the other
+    kinds.  ``wait_us`` is the one column the Ramsey rows fill too (after ``sequence``,
+    where a schedule with ``ramsey`` rows has it); ``sideband`` comes last.
 
 The columns ``day``, ``start_s`` and ``tone_sd_db`` came later and are optional: a
 schedule without them is read with them empty.  Rows of every kind are taken back to
@@ -100,17 +106,18 @@ OPTIONAL_COLUMNS = SCHEDULE_COLUMNS[4:]
 RUN_KINDS = ("amplitude_run", "phase_run")
 #: gate recordings: a setting (A, dpd) and shots per point
 SCAN_KINDS = ("populations", "parity", "time_scan")
-#: the lab's characterisation experiments: no flag; a SPAM or Ramsey point has no gate
-#: setting (``A`` 0) and shots, a pulse response the step's amplitude ``A`` and no shots,
-#: a detector linearity point a drive ``A`` (as a calibration run's grid point), no shots
-#: and an attenuator (:data:`LINEARITY_COLUMN`)
-CHARACTERISATION_KINDS = ("spam", "pulse_response", "ramsey", "detector_linearity")
+#: the lab's characterisation experiments: no flag; a SPAM, Ramsey or thermometry point
+#: has no gate setting (``A`` 0) and shots, a pulse response the step's amplitude ``A``
+#: and no shots, a detector linearity point a drive ``A`` (as a calibration run's grid
+#: point), no shots and an attenuator (:data:`LINEARITY_COLUMN`)
+CHARACTERISATION_KINDS = ("spam", "pulse_response", "ramsey", "detector_linearity",
+                          "thermometry")
 #: the characterisation kinds that drive no gate (``A`` 0)
-_UNGATED = ("spam", "ramsey")
+_UNGATED = ("spam", "ramsey", "thermometry")
 #: the detector linearity characterisation: a drive (``A``, no flag, no shots) read
 #: without and with an attenuator (:data:`LINEARITY_COLUMN`)
 LINEARITY_KINDS = ("detector_linearity",)
-#: the column a schedule has only when it holds ``detector_linearity`` rows (last)
+#: the column a schedule has only when it holds ``detector_linearity`` rows
 LINEARITY_COLUMN = "attenuation_db"
 #: every kind of recording a schedule may hold (the diagnosis's menu)
 SCHEDULE_KINDS = RUN_KINDS + ("spectra",) + SCAN_KINDS + CHARACTERISATION_KINDS
@@ -120,11 +127,17 @@ _BASIS_STATES = ("00", "01", "10", "11")
 #: the columns a schedule has only when it holds ``ramsey`` rows (after the others)
 _RAMSEY = ("sequence", "wait_us")
 _SEQUENCES = ("ramsey", "echo")
+#: the columns a schedule has only when it holds ``thermometry`` rows (after the others)
+_THERMOMETRY = ("wait_us", "sideband")
+_SIDEBANDS = ("red", "blue")
+#: the kinds whose rows fill ``wait_us`` (Ramsey and thermometry share the column)
+_WAITED = ("ramsey", "thermometry")
 #: per kind, the columns its rows must fill (besides kind, repeat, point, A)
 _NEEDS = {"amplitude_run": (), "phase_run": (), "spectra": ("dpd",),
           "populations": ("dpd", "shots"), "parity": ("dpd", "shots", "phase_rad"),
           "time_scan": ("dpd", "shots", "t_us"), "spam": ("shots",), "pulse_response": (),
-          "ramsey": ("shots", "wait_us"), "detector_linearity": ()}
+          "ramsey": ("shots", "wait_us"), "detector_linearity": (),
+          "thermometry": ("shots", "wait_us")}
 #: per kind, the columns that must not change within one repeat
 _CONSTANT = {"populations": ("A", "dpd", "shots"), "parity": ("A", "dpd", "shots"),
              "time_scan": ("A", "dpd", "shots")}
@@ -194,15 +207,40 @@ def check_schedule(df: pd.DataFrame, name: str = "schedule") -> pd.DataFrame:
     spam = _check_prepared(df, kind.to_numpy(), name)
     ramsey = _check_sequence(df, kind.to_numpy(), name)
     linearity = _check_attenuation(df, kind.to_numpy(), name)
+    thermo = _check_thermometry(df, kind.to_numpy(), name)
     _check_repeats(df, name)
     # counts as integers (empty where a kind has none), so that the table reads as written
     for col in ("repeat", "point"):
         df[col] = df[col].astype("int64")
     for col in ("dpd", "shots", "day"):
         df[col] = df[col].round().astype("Int64")
+    waited = ramsey or thermo      # ``wait_us`` is shared by both
     return df[list(SCHEDULE_COLUMNS) + ([_PREPARED] if spam else [])
-              + (list(_RAMSEY) if ramsey else [])
-              + ([LINEARITY_COLUMN] if linearity else [])]
+              + (["sequence"] if ramsey else []) + (["wait_us"] if waited else [])
+              + ([LINEARITY_COLUMN] if linearity else []) + (["sideband"] if thermo else [])]
+
+
+def _check_thermometry(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
+    """Each ``thermometry`` row's ``wait_us`` is ``>= 0`` and finite and its ``sideband``
+    ``red`` or ``blue`` (empty on the other rows); whether the schedule has such rows."""
+    rows = kind == "thermometry"
+    if not rows.any():
+        return False
+    if "sideband" not in df.columns:
+        _fail("column 'sideband' is missing (the 'thermometry' rows need it)", name)
+    w = df["wait_us"].to_numpy(float)
+    bad = np.flatnonzero(rows & ~(w >= 0))
+    if bad.size:
+        _fail(f"wait {w[bad[0]]:g} us must be >= 0", name, "wait_us", bad[0])
+    text = df["sideband"].astype("string").fillna("").str.strip().str.lower().to_numpy(
+        dtype=object)
+    bad = np.flatnonzero(rows & ~np.isin(text, _SIDEBANDS))
+    if bad.size:
+        _fail(f"sideband {text[bad[0]]!r} does not exist (the sidebands: "
+              f"{', '.join(_SIDEBANDS)})", name, "sideband", bad[0])
+    df["wait_us"] = np.where(np.isin(kind, _WAITED), w, np.nan)
+    df["sideband"] = np.where(rows, text, "")
+    return True
 
 
 def _check_prepared(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
@@ -242,7 +280,7 @@ def _check_sequence(df: pd.DataFrame, kind: np.ndarray, name: str) -> bool:
     if bad.size:
         _fail(f"wait {wait[bad[0]]:g} us is below zero", name, "wait_us", bad[0])
     df["sequence"] = np.where(rows, text, "")
-    df["wait_us"] = np.where(rows, wait, np.nan)
+    df["wait_us"] = np.where(np.isin(kind, _WAITED), wait, np.nan)
     return True
 
 
@@ -346,7 +384,7 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
     """
     name = str(path)
     df = read_table(path, ["kind", "repeat", "point", "A"],
-                    list(OPTIONAL_COLUMNS) + [_PREPARED, *_RAMSEY],
+                    list(OPTIONAL_COLUMNS) + [_PREPARED, *_RAMSEY, _THERMOMETRY[1]],
                     numeric=["repeat", "point", "A"], max_rows=MAX_SCHEDULE_ROWS)
     return check_schedule(df, name)
 

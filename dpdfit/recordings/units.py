@@ -89,6 +89,7 @@ COLUMN_KINDS = {
     "prepared": ("label", ""),
     "sequence": ("label", ""), "wait_us": ("time", "us"),
     "power_attenuated": ("any", ""), "attenuation_db": ("dB", "dB"),
+    "n_bright": ("number", ""),
 }
 
 

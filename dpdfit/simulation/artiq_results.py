@@ -30,6 +30,7 @@ from dpdfit.simulation.ndscan_lab import (NdscanLab, duration_axis, epoch, time_
                                           write_campaign_ramsey_runs,
                                           write_campaign_spam_runs,
                                           write_ndscan_gate_runs, write_spectra_runs)
+from dpdfit.simulation.ndscan_thermometry import write_campaign_thermometry_runs
 
 __all__ = ["MAPPINGS", "copy_mapping", "mapping_sources", "write_ndscan_campaign",
            "write_per_shot_campaign"]
@@ -56,7 +57,9 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     per Ramsey scan (axes ``sequence``, a code, and ``wait``:
     :func:`~dpdfit.simulation.ndscan_lab.write_ramsey_runs`) and with
     ``detector_linearity.csv`` one per linearity recording (axis ``amplitude``:
-    :func:`~dpdfit.simulation.ndscan_lab.write_linearity_runs`).
+    :func:`~dpdfit.simulation.ndscan_lab.write_linearity_runs`), and with
+    ``thermometry.csv`` one per thermometry recording
+    (:func:`~dpdfit.simulation.ndscan_thermometry.write_thermometry_runs`).
     Returns the path of ``out_dir/mapping.toml`` (a copy of ``ndscan_campaign.toml``;
     without ``spam.csv`` its ``[[spam]]`` source is left out, a glob that would match
     no file, and so are ``[[pulse_response]]`` without ``pulse_response.csv``,
@@ -71,9 +74,11 @@ def write_ndscan_campaign(campaign_dir, out_dir) -> Path:
     write_campaign_pulse_runs(lab)
     write_campaign_ramsey_runs(lab)
     write_campaign_linearity_runs(lab)
+    write_campaign_thermometry_runs(lab)
     return copy_mapping("ndscan_campaign.toml", lab.campaign, out_dir,
                         [t for t, rows in lab.t.items()
-                         if t not in ("spam", "pulse_response", "ramsey", "detector_linearity")
+                         if t not in ("spam", "pulse_response", "ramsey", "detector_linearity",
+                                      "thermometry")
                          or len(rows)])
 
 

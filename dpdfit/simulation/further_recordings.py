@@ -25,13 +25,15 @@ __all__ = ["MEASUREMENTS", "NOMINAL_SHOTS", "extend_config", "default_menu",
 
 #: What a measurement can be (``what``) -> its kind; the random choice is uniform over
 #: the kinds (a population scan and a parity scan are both one scan at a gate setting).
-#: ``spam``, ``pulse_response``, ``ramsey`` and ``detector_linearity`` are drawn when the
-#: proposal's menu offers them; :func:`default_menu` (the menu of a proposal without one)
-#: leaves them out, so that a blind choice without a menu is drawn as before.
+#: ``spam``, ``pulse_response``, ``ramsey``, ``detector_linearity`` and ``thermometry``
+#: are drawn when the proposal's menu offers them; :func:`default_menu` (the menu of a
+#: proposal without one) leaves them out, so that a blind choice without a menu is drawn
+#: as before.
 MEASUREMENTS = {"amplitude_run": "amplitude_run", "phase_run": "phase_run",
                 "spectra": "spectra", "populations": "scan", "parity": "scan",
                 "time_scan": "time_scan", "spam": "spam", "pulse_response": "pulse_response",
-                "ramsey": "ramsey", "detector_linearity": "detector_linearity"}
+                "ramsey": "ramsey", "detector_linearity": "detector_linearity",
+                "thermometry": "thermometry"}
 #: Shots per point of a scan of the default menu (the campaign's nominal shots).
 NOMINAL_SHOTS = 625
 
@@ -70,8 +72,9 @@ def _characterisation(cfg: CampaignConfig, what: str, st: dict, scans: int) -> C
     """``cfg`` with ``scans`` further characterisation items of kind ``what`` (SPAM: its
     shots per prepared state; the pulse response: its step's amplitude; the Ramsey scan:
     its shots per point; the detector linearity: its drives, at least 2, default
-    :data:`~dpdfit.core.defaults.LINEARITY_POINTS`)."""
-    if what in ("spam", "ramsey"):
+    :data:`~dpdfit.core.defaults.LINEARITY_POINTS`; the sideband thermometry: its shots
+    per wait and sideband)."""
+    if what in ("spam", "ramsey", "thermometry"):
         item = (what, _positive_int(st.get("shots", NOMINAL_SHOTS), "shots"))
     elif what == "detector_linearity":
         item = (what, _positive_int(st.get("points", LINEARITY_POINTS), "points", least=2))
@@ -96,9 +99,9 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         shots per point, points after the start; the scan also records ``t = 0``),
         ``spam`` (``{"shots"}``: shots per prepared state, ``|00>`` and ``|11>``),
         ``pulse_response`` (``{"A"}``: a trace of a step to ``A``, else time_scan_A),
-        ``ramsey`` (``{"shots"}``: shots per point of a Ramsey and spin-echo scan on the
-        simulator's waits, :func:`~dpdfit.models.ramsey.scan_waits`),
-        ``detector_linearity`` (``{"points"}``: drives, at least 2).
+        ``ramsey`` (``{"shots"}``: per point, waits :func:`~dpdfit.models.ramsey.scan_waits`),
+        ``detector_linearity`` (``{"points"}``: drives, at least 2), ``thermometry``
+        (``{"shots"}``: shots per wait and sideband).
 
     Returns
     -------
@@ -155,7 +158,7 @@ def extend_config(cfg: CampaignConfig, measurement: dict) -> CampaignConfig:
         points = _positive_int(st.get("points", cfg.time_scan_points - 1), "points")
         return dataclasses.replace(cfg, further=cfg.further + (("time_scan", A, d, shots,
                                                                  points + 1),))
-    if what in ("spam", "pulse_response", "ramsey", "detector_linearity"):
+    if what in ("spam", "pulse_response", "ramsey", "detector_linearity", "thermometry"):
         return _characterisation(cfg, what, st, scans)
     if what is None:
         raise InputError("no measurement was proposed (what is None): nothing to add")
@@ -198,7 +201,7 @@ def schedule_measurements(schedule) -> list:
         if kind == "detector_linearity":
             out += _linearity_measurements(rows)
             continue
-        if kind in ("spam", "ramsey"):
+        if kind in ("spam", "ramsey", "thermometry"):    # the simulator's own states / waits
             for shots, reps in rows.groupby("shots", sort=False):
                 st = {"shots": int(shots), "scans": int(reps["repeat"].nunique())}
                 out.append({"what": kind, "settings": st})
@@ -255,9 +258,9 @@ def default_menu(rng: np.random.Generator, cfg: CampaignConfig) -> list:
     -------
     list of dict
         ``{"what", "settings"}`` for each of :data:`MEASUREMENTS` but the characterisations
-        ``spam``, ``pulse_response``, ``ramsey`` and ``detector_linearity`` (only a menu
-        that offers them draws them: the default menu's kinds, and so its draws, are those
-        it had before them).
+        ``spam``, ``pulse_response``, ``ramsey``, ``detector_linearity`` and
+        ``thermometry`` (only a menu that offers them draws them: the default menu's
+        kinds, and so its draws, are those it had before them).
     """
     grid = np.sort(np.asarray(cfg.trace_amplitudes, dtype=float))
     mids = np.round(0.5 * (grid[1:] + grid[:-1]), 4)

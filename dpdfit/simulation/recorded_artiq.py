@@ -54,6 +54,8 @@ from dpdfit.simulation.ndscan_lab import (NdscanLab, count_channels, duration_ax
                                           write_linearity_runs, write_pulse_runs,
                                           write_ramsey_runs, write_spam_runs,
                                           write_spectra_runs)
+from dpdfit.simulation.ndscan_thermometry import (write_campaign_thermometry_runs,
+                                                  write_thermometry_runs)
 from dpdfit.simulation.recorded_schedule import StandInRecording, record_further
 from dpdfit.simulation.scheduled_points import check_recorded_as_scheduled
 
@@ -97,6 +99,7 @@ def campaign_files_end(tables: dict, campaign: dict) -> tuple:
     write_campaign_pulse_runs(lab)
     write_campaign_ramsey_runs(lab)
     write_campaign_linearity_runs(lab)
+    write_campaign_thermometry_runs(lab)
     times = [epoch(campaign[k]) for k in ("spectra_recorded", "gates_recorded")
              if k in campaign]
     return lab.rid, max([t for t in (lab.last,) if t is not None] + times)
@@ -211,6 +214,8 @@ def write_recorded_results(new: dict, campaign_tables: dict, campaign: dict, out
             write_ramsey_runs(lab, clock)
         if len(t["detector_linearity"]):
             write_linearity_runs(lab, clock)
+        if len(t["thermometry"]):
+            write_thermometry_runs(lab, clock)
         text = _mapping_text(campaign, [n for n in CAMPAIGN_TABLES if len(t[n])], tmp)
         (tmp / "mapping.toml").write_text(text)
     return out / "mapping.toml"

@@ -41,6 +41,7 @@ from dpdfit.simulation.campaign.optics import dpd_lut
 from dpdfit.simulation.campaign.pulse_runs import pulse_table
 from dpdfit.simulation.campaign.ramsey_runs import ramsey_table
 from dpdfit.simulation.campaign.spam_runs import spam_table
+from dpdfit.simulation.campaign.thermometry_runs import thermometry_table
 from dpdfit.simulation.campaign.spectra import spectra_tables
 from dpdfit.simulation.further_recordings import extend_config
 
@@ -51,7 +52,8 @@ __all__ = ["TABLES", "CHARACTERISATION_TABLES", "StandInRecording", "extended_co
 TABLES = ("calibration_amplitude", "calibration_phase", "spectra", "populations", "parity",
           "gate_rates", "time_scans")
 #: the lab's characterisation tables a further recording can add (a campaign may have none)
-CHARACTERISATION_TABLES = ("spam", "pulse_response", "ramsey", "detector_linearity")
+CHARACTERISATION_TABLES = ("spam", "pulse_response", "ramsey", "detector_linearity",
+                           "thermometry")
 #: agreement of a replayed value with the campaign's table: truth.json and the CSVs keep
 #: 10 significant digits, and the processor's BLAS kernel rounds differently in the last
 #: bits, which moves a float by ~1e-8 relative through the calibration fit and the
@@ -187,6 +189,7 @@ def record_further(cfg: CampaignConfig, measurements, *, original: dict | None =
             new["ramsey"] = ramsey_table(ext, gate_references(ext, aom, lut),
                                          further_from=len(cfg.further))
         new["detector_linearity"] = linearity_table(ext, aom, further_from=len(cfg.further))
+        new["thermometry"] = thermometry_table(ext, further_from=len(cfg.further))
     if original is not None:
         check_replayed(replayed, original, new)
     tables = {t: as_written(new[t]) for t in (*TABLES, *CHARACTERISATION_TABLES)
@@ -218,6 +221,9 @@ def simulated_tables(cfg: CampaignConfig, *, include_spectra: bool = True,
         linearity = linearity_table(cfg, aom)
         if len(linearity):
             out["detector_linearity"] = linearity
+        thermo = thermometry_table(cfg)
+        if len(thermo):
+            out["thermometry"] = thermo
     return out
 
 

@@ -39,8 +39,25 @@ _POINTS = {
     "pulse_response": ("pulse_response", {"A": "A"}),
     # both sequences share the waits: the point is its wait, recorded once per sequence
     "ramsey": ("ramsey", {"wait_us": "wait_us", "shots": "shots"}),
-    "detector_linearity": ("detector_linearity", {"A": "A", "attenuation_db": "attenuation_db"}),
+    "detector_linearity": ("detector_linearity", {"A": "A",
+                                                  "attenuation_db": "attenuation_db"}),
+    # the sideband as a number (red -> 0, blue -> 1)
+    "thermometry": ("thermometry", {"wait_us": "wait_us", "sideband": "sideband",
+                                    "shots": "shots"}),
 }
+#: text columns of a point's identity, as numbers
+_CODES = {"sideband": {"red": 0.0, "blue": 1.0}}
+
+
+def _numbers(frame: pd.DataFrame) -> np.ndarray:
+    """The columns of ``frame`` as floats, the text ones of :data:`_CODES` coded."""
+    frame = frame.copy()
+    for col, codes in _CODES.items():
+        if col in frame.columns:
+            frame[col] = frame[col].astype(str).str.strip().str.lower().map(codes)
+    return frame.to_numpy(float)
+
+
 #: significant digits a point's values must share (the campaign's CSVs keep 10)
 _DIGITS = 8
 
@@ -61,7 +78,7 @@ def _recorded(table: pd.DataFrame | None, columns: list, kind: str) -> Counter:
         # a trace is its run's samples: count traces, not samples
         traces = table.drop_duplicates(["run", "A"])[["A"]].to_numpy(float)
         return Counter(_key(r) for r in traces)
-    return Counter(_key(r) for r in table[columns].to_numpy(float))
+    return Counter(_key(r) for r in _numbers(table[columns]))
 
 
 def check_recorded_as_scheduled(schedule: pd.DataFrame, tables: dict,
@@ -71,7 +88,7 @@ def check_recorded_as_scheduled(schedule: pd.DataFrame, tables: dict,
     for kind, rows in schedule.groupby("kind", sort=False):
         table, cols = _POINTS[kind]
         have = _recorded(tables.get(table), list(cols.values()), kind)
-        want = rows[list(cols)].to_numpy(float)
+        want = _numbers(rows[list(cols)])
         for idx, values in zip(rows.index, want):
             k = _key(values)
             if have[k] > 0:

@@ -145,3 +145,26 @@ class ScheduledSpam(_ScheduledRecording):
     def measure_prepared(self, state, shots):
         """Prepare ``state``, no gate, detect, ``shots`` times: counts as above."""
         raise NotImplementedError("the lab's own sequence")
+
+
+class ScheduledThermometry(_ScheduledRecording):
+    """The sideband thermometry: for each row, cool the gate mode, wait ``wait_us``
+    microseconds, drive the fixed probe pulse on the ``sideband`` (``red`` or ``blue``),
+    read the probed ion (the first of the chain)."""
+
+    KIND = "thermometry"
+
+    def run(self):
+        out = {k: [] for k in ("wait_us", "sideband", "n_bright", "shots")}
+        for r in self.rows:
+            wait_us, sideband, shots = float(r["wait_us"]), r["sideband"], int(r["shots"])
+            n_bright = self.measure_sideband(wait_us, sideband, shots)
+            # the sideband archived as a number (red -> 0, blue -> 1), which the mapping's
+            # labels turn back into the text thermometry.csv records
+            for k, v in zip(out, (wait_us, {"red": 0, "blue": 1}[sideband], n_bright, shots)):
+                out[k].append(v)
+        self.archive(out)
+
+    def measure_sideband(self, wait_us, sideband, shots):
+        """Cool, wait, probe ``sideband``, detect, ``shots`` times: the bright count."""
+        raise NotImplementedError("the lab's own sequence")

@@ -36,12 +36,15 @@ PROPOSALS = [
                                        "scans": 2}},
     {"what": "amplitude_run", "settings": {"runs": 2}},
     {"what": "spam", "settings": {"shots": 800, "states": ["00", "11"], "scans": 2}},
+    {"what": "thermometry", "settings": {"shots": 200, "waits_us": [0.0, 500.0, 2000.0],
+                                         "sidebands": ["red", "blue"]}},
 ]
 CLASSES = {"populations": "ScheduledPopulations", "parity": "ScheduledParity",
            "time_scan": "ScheduledTimeScan", "amplitude_run": "ScheduledAmplitudeRun",
-           "spam": "ScheduledSpam"}
+           "spam": "ScheduledSpam", "thermometry": "ScheduledThermometry"}
 TABLES = {"populations": "populations", "parity": "parity", "time_scan": "time_scans",
-          "amplitude_run": "calibration_amplitude", "spam": "spam"}
+          "amplitude_run": "calibration_amplitude", "spam": "spam",
+          "thermometry": "thermometry"}
 
 
 def _artiq_stand_in():
@@ -106,6 +109,9 @@ def _lab(cls, rng):
         def measure_prepared(self, state, shots):
             return self._three(shots)
 
+        def measure_sideband(self, wait_us, sideband, shots):
+            return int(rng.binomial(shots, 0.8 if sideband == "red" else 0.1))
+
         def measure_power(self, A):
             return float(A ** 2 + 1e-3 * rng.standard_normal()), 1e-3
     return Lab
@@ -141,6 +147,14 @@ def test_experiment_records_what_the_mapping_imports(example, tmp_path):
             [(_, ds)] = recorded[what]
             assert df["prepared"].tolist() == frame["prepared"].tolist() == ["00", "11"] * 2
             for col in ("n00", "n01_10", "n11", "shots"):
+                np.testing.assert_array_equal(df[col].to_numpy(float), np.asarray(ds[col]))
+            continue
+        if what == "thermometry":          # the waits and sidebands as the schedule names them
+            [(_, ds)] = recorded[what]
+            assert df["sideband"].tolist() == frame["sideband"].tolist() == ["red", "blue"] * 3
+            np.testing.assert_array_equal(df["wait_us"].to_numpy(float),
+                                          frame["wait_us"].to_numpy(float))
+            for col in ("n_bright", "shots"):
                 np.testing.assert_array_equal(df[col].to_numpy(float), np.asarray(ds[col]))
             continue
         np.testing.assert_array_equal(df["A"].to_numpy(float), frame["A"].to_numpy(float))

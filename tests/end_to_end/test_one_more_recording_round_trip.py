@@ -49,6 +49,10 @@ PROPOSALS = {
                "settings": {"shots": 120, "points": 20, "max_wait_us": 75000.0}},
     "detector_linearity": {"what": "detector_linearity", "lab_seconds": 2 * 160.0,
                            "settings": {"points": 10, "attenuation_db": 10.0, "scans": 2}},
+    "thermometry": {"what": "thermometry", "lab_seconds": 16.0,
+                    "settings": {"shots": 200, "scans": 1,
+                                 "waits_us": [0.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0,
+                                              7000.0, 10000.0], "sidebands": ["red", "blue"]}},
 }
 #: the columns that order a table's rows among themselves (repeats keep their order)
 KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
@@ -56,7 +60,8 @@ KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
         "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
         "time_scans": ["A", "dpd", "t_us"], "spam": ["prepared"],
         "pulse_response": ["run", "t_us"], "ramsey": ["sequence", "wait_us"],
-        "detector_linearity": ["A"]}
+        "detector_linearity": ["A"],
+        "thermometry": ["wait_us", "sideband"]}
 
 
 def test_every_what_of_the_menu_has_a_round_trip():

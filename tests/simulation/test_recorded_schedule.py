@@ -45,6 +45,7 @@ PER_WHAT = {
     "pulse_response": {"what": "pulse_response", "settings": {"A": 0.6}},
     "ramsey": {"what": "ramsey", "settings": {"shots": 120}},
     "detector_linearity": {"what": "detector_linearity", "settings": {"points": 5, "scans": 2}},
+    "thermometry": {"what": "thermometry", "settings": {"shots": 150, "scans": 2}},
 }
 #: the tables each kind simulates whole in the long way (the others cannot change)
 _WHOLE = {"amplitude_run": dict(include_spectra=False, include_gates=False),
@@ -53,13 +54,15 @@ _WHOLE = {"amplitude_run": dict(include_spectra=False, include_gates=False),
           "spam": dict(include_spectra=False, include_gates=False),
           "pulse_response": dict(include_spectra=False, include_gates=False),
           "ramsey": dict(include_spectra=False, include_gates=False),
-          "detector_linearity": dict(include_spectra=False, include_gates=False)}
+          "detector_linearity": dict(include_spectra=False, include_gates=False),
+          "thermometry": dict(include_spectra=False, include_gates=False)}
 #: the columns that give a row's place among repeats (a stable sort keeps the repeats' order)
 _KEYS = {"calibration_amplitude": ["run"], "calibration_phase": ["run"],
          "spectra": ["A", "dpd", "sideband", "n"], "populations": ["A", "dpd", "scan"],
          "parity": ["A", "dpd", "scan", "phase_rad"], "gate_rates": ["A", "dpd"],
          "time_scans": ["A", "dpd"], "spam": ["prepared"], "pulse_response": ["run", "t_us"],
-         "ramsey": ["sequence", "wait_us"], "detector_linearity": ["A"]}
+         "ramsey": ["sequence", "wait_us"], "detector_linearity": ["A"],
+         "thermometry": ["wait_us", "sideband"]}
 
 
 def test_every_what_is_covered():
@@ -234,9 +237,8 @@ def test_added_to_a_copy_the_rows_are_the_simulators(campaign, tmp_path):
     rec = record_further(SMALL, list(PER_WHAT.values()), original=tables)
     mapping = write_recorded_results(rec.tables, tables, meta, tmp_path / "lab")
     out = add_recordings(folder, mapping, progress=False).write(tmp_path / "merged")
-    characterisations = {"spam", "pulse_response", "ramsey", "detector_linearity"}
-    assert set(rec.tables) == set(TABLES) | characterisations
-    assert not any((folder / f"{t}.csv").exists() for t in characterisations)
+    assert set(rec.tables) == set(TABLES) | set(CHARACTERISATION_TABLES)
+    assert not any((folder / f"{t}.csv").exists() for t in CHARACTERISATION_TABLES)
     for t in rec.tables:
         merged = pd.read_csv(out / f"{t}.csv", dtype={"prepared": str})
         old = (pd.read_csv(folder / f"{t}.csv") if (folder / f"{t}.csv").exists() else

@@ -197,4 +197,8 @@ def _null_model_lines(nm: dict) -> list:
     fitted = nm.get("fitted") or {}
     if fitted:
         lines.append("    fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in fitted.items()))
+    for name, r in (nm.get("recorded_motion") or {}).items():    # with thermometry only
+        what = {"nbar": "initial mean phonons", "heating_q_per_ms": "heating rate (quanta/ms)"}
+        lines.append(f"    recorded {what.get(name, name)} {r['recorded']:.3g} +/- "
+                     f"{r['error']:.2g} (stated {r['stated']:.3g})")
     return lines

@@ -192,6 +192,9 @@ class CampaignConfig:
     #: (``detector_linearity.csv``: the photodiode read with and without a calibrated
     #: attenuator at each); 0: none recorded
     detector_linearity_points: int = 0
+    #: shots per wait and sideband of the campaign's sideband thermometry
+    #: (``thermometry.csv``, :mod:`~dpdfit.simulation.campaign.thermometry_runs`); 0: none
+    thermometry_shots: int = 0
     harmonics_gate: tuple = tuple(range(-2, 6))
     effects: dict = field(default_factory=dict)
     #: calibration runs recorded after the spectra and gates (the last ones)
@@ -208,8 +211,9 @@ class CampaignConfig:
     #: as ``time_scan_points``; parity shots per phase) or ``("spam", shots)`` (a SPAM
     #: characterisation, shots per prepared state), ``("pulse_response", A)`` (an AOM
     #: pulse response, one trace of a step to ``A``), ``("ramsey", shots)`` (a Ramsey
-    #: and spin-echo scan, shots per point) or ``("detector_linearity", points)`` (a
-    #: detector linearity characterisation at ``points`` drives).  Item ``j`` draws
+    #: and spin-echo scan, shots per point), ``("detector_linearity", points)`` (a
+    #: detector linearity characterisation at ``points`` drives) or ``("thermometry",
+    #: shots)`` (a sideband thermometry, shots per wait and sideband).  Item ``j`` draws
     #: only from its own stream (purpose 8, ``j``), so every other recording is drawn as
     #: without it.
     further: tuple = ()
@@ -363,6 +367,7 @@ TRUTH_CONTRACT = {
     "pulse_traces": Integer(0, MAX_SIMULATED_RUNS),
     "ramsey_shots": Integer(0, MAX_SHOTS),
     "detector_linearity_points": Integer(0, MAX_SIMULATED_POINTS),
+    "thermometry_shots": Integer(0, MAX_SHOTS),
     "harmonics_gate": ListOf(_HARMONIC, 1, 2 * MAX_PRODUCT_ORDER + 1, distinct=True,
                              holding=_GATE_TONES),
     "effects": Effects(lambda name: _effect_param(name), _FINITE),
@@ -380,7 +385,8 @@ TRUTH_CONTRACT = {
         "spam": Fixed(("shots",), (_SHOTS,)),
         "pulse_response": Fixed(("A",), (_AMPLITUDE,)),
         "ramsey": Fixed(("shots",), (_SHOTS,)),
-        "detector_linearity": Fixed(("points",), (Integer(2, MAX_SIMULATED_POINTS),))}),
+        "detector_linearity": Fixed(("points",), (Integer(2, MAX_SIMULATED_POINTS),)),
+        "thermometry": Fixed(("shots",), (_SHOTS,))}),
         0, MAX_SCHEDULE_ROWS),
 }
 
@@ -482,7 +488,8 @@ def rng_for(cfg: CampaignConfig, *key: int) -> np.random.Generator:
     7 the drifted calibration behind the table (``table_drift``), 8 the
     further recordings (``further``, by index), 9 the SPAM characterisation
     (``spam_shots``), 13 the detector linearity characterisation
-    (``detector_linearity_points``), 15 the AOM pulse response (``pulse_traces``, by
-    trace), 21 the Ramsey and spin-echo scan (``ramsey_shots``).
+    (``detector_linearity_points``), 14 the sideband thermometry (``thermometry_shots``),
+    15 the AOM pulse response (``pulse_traces``, by trace), 21 the Ramsey and spin-echo
+    scan (``ramsey_shots``).
     """
     return np.random.default_rng(np.random.SeedSequence([cfg.seed, *key]))

@@ -27,6 +27,7 @@ from .ramsey_runs import ramsey_table, ramsey_truth
 from .readme import campaign_readme
 from .spam_runs import spam_table, spam_truth
 from .spectra import spectra_tables
+from .thermometry_runs import thermometry_table, thermometry_truth
 
 __all__ = ["simulate_campaign"]
 
@@ -78,7 +79,7 @@ def _jsonable_config(cfg: CampaignConfig) -> dict:
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
         if f.name in ("further", "spam_shots", "pulse_traces", "ramsey_shots",
-                      "detector_linearity_points") and not v:
+                      "detector_linearity_points", "thermometry_shots") and not v:
             continue        # keeps the truth.json of campaigns without them byte for byte
         if dataclasses.is_dataclass(v):
             v = {k: (abs(x) if isinstance(x, complex) else x)
@@ -158,6 +159,10 @@ def _simulated(cfg: CampaignConfig, progress, include_gates: bool):
     if len(linearity):      # only then, as spam.csv
         files["detector_linearity.csv"] = csv_text(linearity)
         truth["detector_linearity"] = linearity_truth(cfg)
+    thermo = thermometry_table(cfg)
+    if len(thermo):         # as spam.csv: only when recorded
+        files["thermometry.csv"] = csv_text(thermo)
+        truth["thermometry"] = thermometry_truth(cfg)
     files["campaign.json"] = json.dumps(_campaign_json(cfg, cal_truth), indent=2,
                                         sort_keys=True) + "\n"
     files["truth.json"] = _truth_json(truth)

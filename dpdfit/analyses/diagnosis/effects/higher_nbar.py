@@ -7,7 +7,7 @@ Prior: flat, 0 <= dnbar <= 5.  Size: ``mean_nbar``.
 from __future__ import annotations
 
 from .base import Effect, Param
-from .motional_heating import NBAR
+from .motional_heating import NBAR, replacing_recorded_motion
 
 __all__ = ["HigherNbar", "EFFECT"]
 
@@ -22,6 +22,9 @@ class HigherNbar(Effect):
     params = (Param("dnbar", "quanta", 0.0, 5.0, 0.05, 0.1, "extra initial mean phonons"),)
     default = False
     main = "mean_nbar"
+
+    def forms_for(self, ctx=None) -> tuple:
+        return replacing_recorded_motion(super().forms_for(ctx), ctx)
 
     def knobs(self):
         return (NBAR,)

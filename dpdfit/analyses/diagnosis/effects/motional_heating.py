@@ -12,9 +12,26 @@ harness's main quantity), ``extra_heating_q_per_ms``, ``mean_nbar`` (initial).
 
 from __future__ import annotations
 
+import dataclasses
+
 from .base import Effect, Form, Knob, Param
 
-__all__ = ["MotionalHeating", "EFFECT", "NDOT", "NBAR"]
+__all__ = ["MotionalHeating", "EFFECT", "NDOT", "NBAR", "replacing_recorded_motion"]
+
+#: with ``thermometry.csv``, the baseline's nuisance of the recorded motional state each
+#: heating parameter replaces (:mod:`~dpdfit.analyses.diagnosis.model.recorded_motion`)
+_RECORDED = {"ndot": "thermo_dndot", "dnbar": "thermo_dnbar"}
+
+
+def replacing_recorded_motion(forms: tuple, ctx) -> tuple:
+    """A heating effect's ``forms``, each replacing the recorded-motion nuisance of every
+    parameter it frees, when the problem ``ctx`` fits those nuisances (the diagnosis does
+    not: the lab's stated motional state stays the baseline's, and the heating the
+    thermometry records is the catalog's effect; unchanged then)."""
+    if not any(k in (getattr(ctx, "prior", None) or {}) for k in _RECORDED.values()):
+        return forms
+    return tuple(dataclasses.replace(f, replaces=tuple(dict.fromkeys(
+        f.replaces + tuple(_RECORDED[k] for k in f.free if k in _RECORDED)))) for f in forms)
 
 
 def _ndot(nominal, step):
@@ -44,6 +61,9 @@ class MotionalHeating(Effect):
              Form("initial", ("dnbar",), {"ndot": 0.0}, "extra initial phonons"),
              Form("both", ("ndot", "dnbar"), {}, "both", starts_from="during"))
     main = "heating_q_per_ms"
+
+    def forms_for(self, ctx=None) -> tuple:
+        return replacing_recorded_motion(super().forms_for(ctx), ctx)
 
     def knobs(self):
         return (NDOT, NBAR)

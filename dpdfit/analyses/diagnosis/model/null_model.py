@@ -51,6 +51,11 @@ class NullModel(Record):
     #: :mod:`~dpdfit.analyses.diagnosis.observables.detector_linearity`; None without
     #: ``detector_linearity.csv``)
     detector_linearity_noise: str | None = None
+    #: with thermometry: the motional state the baseline recorded, ``nbar`` and
+    #: ``heating_q_per_ms``, each ``{"recorded", "error", "stated"}``
+    #: (:func:`~dpdfit.analyses.diagnosis.model.thermometry_block.recorded_motion`; None
+    #: without thermometry, and then not in the JSON)
+    recorded_motion: dict | None = None
 
     def to_dict(self) -> dict:
         """The JSON's ``null_model``: every attribute, ``tone_noise`` as its dict;
@@ -69,6 +74,8 @@ class NullModel(Record):
             out["coherence"] = dict(self.coherence)
         if self.detector_linearity_noise is not None:
             out["detector_linearity_noise"] = self.detector_linearity_noise
+        if self.recorded_motion is not None:
+            out["recorded_motion"] = {k: dict(v) for k, v in self.recorded_motion.items()}
         return out
 
 

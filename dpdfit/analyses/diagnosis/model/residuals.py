@@ -32,8 +32,10 @@ from dpdfit.analyses.diagnosis.model.linearity_block import linearity_block
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
 from dpdfit.analyses.diagnosis.model.pulse_block import pulse_block
 from dpdfit.analyses.diagnosis.model.ramsey_block import coherence_report, ramsey_block
+from dpdfit.analyses.diagnosis.model.recorded_motion import RECORDED_MOTION
 from dpdfit.analyses.diagnosis.model.runs_after import runs_after_block
 from dpdfit.analyses.diagnosis.model.spam_block import spam_block
+from dpdfit.analyses.diagnosis.model.thermometry_block import recorded_motion, thermometry_block
 from dpdfit.analyses.diagnosis.model.tones.tone_model import ToneModel
 from dpdfit.analyses.diagnosis.model.tones.tone_noise import (learn_tone_noise, repeats_of,
                                                               trace_jitter_multiple)
@@ -164,12 +166,21 @@ class Problem:
         for k in range(self.gate.n_time_scans):
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
             self.center[f"eps_ts{k}"] = 0.0
+        if camp.thermometry is not None:
+            self._init_recorded_motion()
         if camp.phase is not None:
             self.phase_sign_chi2 = choose_phase_sign(self)
         self.gate.compute_responses()
         for k in range(self.gate.n_time_scans):
             self.prior[f"eps_ts{k}"] = self.gate.rate_error_db(self.gate.ts_keys[k])
         self.rate_scatter = learn_rate_scatter(self)
+
+    def _init_recorded_motion(self) -> None:
+        """With thermometry: the knobs the recorded motional state moves
+        (:mod:`~dpdfit.analyses.diagnosis.model.recorded_motion`), so that the state the
+        recording measures on its own can be reported whatever effects are considered."""
+        for knob in RECORDED_MOTION.knobs():
+            self.gate.knobs.setdefault(knob.key, knob)
 
     def null_model(self, base=None) -> NullModel:
         """What the baseline learnt from the campaign before any effect (``base``: the
@@ -185,7 +196,8 @@ class Problem:
             coherence=(coherence_report(self, base)
                        if self.gate is not None and self.camp.ramsey is not None else None),
             detector_linearity_noise=(None if self.camp.detector_linearity is None
-                                      else self.camp.detector_linearity.noise))
+                                      else self.camp.detector_linearity.noise),
+            recorded_motion=recorded_motion(self, base))
 
     # ------------------------------------------------------------ models in use
     def use_tone(self, tone: ToneModel) -> None:
@@ -233,7 +245,9 @@ class Problem:
         spin-echo characterisation
         (:func:`~dpdfit.analyses.diagnosis.model.ramsey_block.ramsey_block`), the detector
         linearity characterisation with the tones
-        (:func:`~dpdfit.analyses.diagnosis.model.linearity_block.linearity_block`) and,
+        (:func:`~dpdfit.analyses.diagnosis.model.linearity_block.linearity_block`), the
+        sideband thermometry with the gates
+        (:func:`~dpdfit.analyses.diagnosis.model.thermometry_block.thermometry_block`) and,
         ``with_prior``, the priors.  Each side sees its own parameters only.
         """
         tone_p = {k: v for k, v in p.items() if self.is_tone_key(k)}
@@ -253,6 +267,8 @@ class Problem:
                 out.append(spam_block(self, gate_p))
             if self.camp.ramsey is not None:
                 out.append(ramsey_block(self, gate_p))
+            if self.camp.thermometry is not None:
+                out.append(thermometry_block(self, gate_p))
         if with_prior:
             z = np.array([(p.get(k, self.center[k]) - self.center[k]) / s
                           for k, s in self.prior.items() if np.isfinite(s)])

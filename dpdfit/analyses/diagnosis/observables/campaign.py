@@ -37,6 +37,9 @@ contains every known noise source and nothing else:
 * **detector linearity** (``detector_linearity.csv``, optional): the photodiode's
   reading pairs with and without a calibrated attenuator, with each reading's noise
   (:mod:`~dpdfit.analyses.diagnosis.observables.detector_linearity`).
+* **sideband thermometry** (``thermometry.csv``, optional): the bright counts of the
+  probed ion after each wait and sideband, pooled per point
+  (:func:`dpdfit.recordings.thermometry.read_thermometry`).
 
 Everything here is measured; predictions live in :mod:`dpdfit.analyses.diagnosis.model.tones.tone_model`
 and :mod:`dpdfit.analyses.diagnosis.model.gates.gate_model`.
@@ -157,6 +160,9 @@ class Campaign:
     #: noise (:class:`~.detector_linearity.LinearityData`; None without
     #: ``detector_linearity.csv``)
     detector_linearity: LinearityData | None = None
+    #: the sideband thermometry: ``wait_us, wait_s, sideband, n_bright, shots``, one row
+    #: per point (None without ``thermometry.csv``)
+    thermometry: pd.DataFrame | None = None
 
     @property
     def nu(self) -> float:
@@ -339,6 +345,13 @@ def _linearity(cf: CampaignFolder, amp, cal_noise: dict):
     return linearity_data(table, cf.amplitude_model, cal_noise.get("photodiode"), amp)
 
 
+def _thermometry(cf: CampaignFolder):
+    th = cf.thermometry
+    if th is None:
+        return None
+    return th[["wait_us", "wait_s", "sideband", "n_bright", "shots"]].reset_index(drop=True)
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -385,6 +398,9 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     if gates is None and cf.spam is not None:
         left.append("spam.csv without gate recordings: not fitted (the preparation and "
                     "detection errors it measures are the gate model's)")
+    if gates is None and cf.thermometry is not None:
+        left.append("thermometry.csv without gate recordings: not fitted (the motional "
+                    "state it measures is the gate model's)")
     recorded = cf.recording_times
     if run_fits is None and "power_err" not in cf.amplitude_runs.columns:
         # the drift modes fit every run without errors at the campaign's order, as the
@@ -412,4 +428,5 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                                        for k, v in cal_noise.items()},
                     recorded=recorded, runs_after=after, spam=_spam(cf),
                     pulse_response=_pulse_response(cf), ramsey=_ramsey(cf),
-                    detector_linearity=_linearity(cf, amp, cal_noise))
+                    detector_linearity=_linearity(cf, amp, cal_noise),
+                    thermometry=_thermometry(cf))

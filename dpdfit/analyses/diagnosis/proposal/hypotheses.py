@@ -17,8 +17,10 @@ from dpdfit.analyses.diagnosis.model.pulse_block import pulse_prediction
 from dpdfit.analyses.diagnosis.model.ramsey_block import ramsey_probabilities_of
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
+from dpdfit.analyses.diagnosis.model.thermometry_block import thermometry_probabilities
 from dpdfit.core.defaults import LINEARITY_ATTENUATION_DB, LINEARITY_POINTS, PHASE_MIN_A
 from dpdfit.models.ramsey import SEQUENCES, scan_waits
+from dpdfit.models.sideband_thermometry import SIDEBANDS, THERMOMETRY_WAITS_US
 from dpdfit.recordings.detector_linearity import linearity_drives, transmission
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
@@ -58,7 +60,8 @@ PARAM_STEP = 1e-3
 #: which parameters can move each source: the tone side's for the spectra, the phase
 #: curve and the runs' drift, the gate side's for the gate recordings
 _SOURCE_SIDE = {"powers": "tones", "phase": "tones", "drift": "tones", "gates": "gates",
-                "spam": "gates", "pulse": "tones", "ramsey": "gates", "linearity": "tones"}
+                "spam": "gates", "pulse": "tones", "ramsey": "gates", "linearity": "tones",
+                "thermometry": "gates"}
 
 
 # ----------------------------------------------------------------- hypotheses
@@ -104,8 +107,10 @@ class Hypothesis:
         :data:`PULSE_TIMES_US` normalised to its settled level, :func:`pulse_amplitude`;
         ``"ramsey"``: the detected outcomes of the Ramsey sequence, then the echo, at the
         waits of :func:`~dpdfit.models.ramsey.scan_waits` for the stated T2;
-        ``"linearity"``: the attenuated photodiode readings at :data:`LINEARITY_DRIVES`)
-        at the parameter set ``p`` (default: the fit's)."""
+        ``"linearity"``: the attenuated photodiode readings at :data:`LINEARITY_DRIVES`;
+        ``"thermometry"``: the probed ion's bright probability after each wait and
+        sideband of :data:`~dpdfit.models.sideband_thermometry.THERMOMETRY_WAITS_US`, red
+        then blue at each) at the parameter set ``p`` (default: the fit's)."""
         p = self.p if p is None else p
         key = (source, tuple(sorted(p.items())))
         if key not in self._memo:
@@ -232,5 +237,12 @@ def _linearity(h: Hypothesis, p: dict):
                                 transmission(LINEARITY_ATTENUATION_DB))
 
 
+def _thermometry(h: Hypothesis, p: dict):
+    waits = np.repeat(np.asarray(THERMOMETRY_WAITS_US, float), len(SIDEBANDS)) * 1e-6
+    sidebands = np.tile(np.asarray(SIDEBANDS), len(THERMOMETRY_WAITS_US))
+    return thermometry_probabilities(h.gate, p, waits, sidebands)
+
+
 _SOURCES = {"powers": _powers, "gates": _gates, "drift": _drift, "phase": _phase,
-            "spam": _spam, "pulse": _pulse, "ramsey": _ramsey, "linearity": _linearity}
+            "spam": _spam, "pulse": _pulse, "ramsey": _ramsey, "linearity": _linearity,
+            "thermometry": _thermometry}

@@ -27,9 +27,10 @@ from dpdfit.analyses.diagnosis.proposal.hypotheses import (LINEARITY_DRIVES, SPA
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
 from dpdfit.core.defaults import ERROR_MODEL, LINEARITY_ATTENUATION_DB
 from dpdfit.models.ramsey import SCAN_POINTS, SEQUENCES, scan_waits
+from dpdfit.models.sideband_thermometry import SIDEBANDS, THERMOMETRY_WAITS_US
 
 __all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS', 'PULSE_REL_NOISE',
-           'pulse_relative_noise', 'RAMSEY_SHOTS', 'ramsey_seconds']
+           'pulse_relative_noise', 'RAMSEY_SHOTS', 'ramsey_seconds', 'THERMOMETRY_SHOTS']
 
 
 #: numbers of amplitudes of the spectra items of the menu (each with and without DPD)
@@ -42,6 +43,8 @@ SPAM_SHOTS = 1000
 PULSE_REL_NOISE = 1.1e-3
 #: shots per point (sequence and wait) of one Ramsey and spin-echo scan of the menu
 RAMSEY_SHOTS = 200
+#: shots per wait and sideband of one sideband thermometry of the menu
+THERMOMETRY_SHOTS = 200
 
 
 # ----------------------------------------------------------------- items
@@ -362,6 +365,30 @@ def _detector_linearity(prob, hyps, lab):
                  lambda r: np.asarray(r, float), noise)]
 
 
+def _thermometry(prob, hyps, lab):
+    """The sideband thermometry (``thermometry.csv``): each wait of
+    :data:`~dpdfit.models.sideband_thermometry.THERMOMETRY_WAITS_US` probed on the red and
+    the blue sideband,
+    :data:`~dpdfit.analyses.diagnosis.proposal.menu.THERMOMETRY_SHOTS` shots each
+    (binomial bright counts); its lab time the shots' own and their waits.  Offered with
+    gate recordings, whose mode's occupation and heating rate it measures directly
+    (heating acts on it, dephasing does not)."""
+    if getattr(prob, "gate", None) is None or prob.gate.gates is None \
+            or len(prob.gate.gates) == 0 or not hasattr(prob.gate, "preparation"):
+        return []
+    N = THERMOMETRY_SHOTS
+    waits = np.asarray(THERMOMETRY_WAITS_US, float)
+    seconds = N * len(SIDEBANDS) * float(np.sum(lab.thermometry_shot_s + waits * 1e-6))
+
+    def noise(pa, pb):
+        pm = np.clip((np.asarray(pa, float) + np.asarray(pb, float)) / 2, 0.5 / N, 1 - 0.5 / N)
+        return _inv_sd(np.sqrt(pm * (1 - pm) / N))
+
+    return [Item("thermometry", {"shots": N, "waits_us": waits.tolist(),
+                                 "sidebands": list(SIDEBANDS)},
+                 seconds, "thermometry", lambda r: np.asarray(r, float), noise)]
+
+
 #: the builders of the menu, in the order the menu lists them
 BUILDERS = (_amplitude_run, _phase_run, _spectra, _gate_scans, _time_scans, _spam,
-            _pulse_response, _ramsey, _detector_linearity)
+            _pulse_response, _ramsey, _detector_linearity, _thermometry)

@@ -35,7 +35,10 @@ with the recording's noise:
   ``P11`` of each point; offered with gate recordings;
 * ``detector_linearity``: the calibration photodiode read with and without a calibrated
   attenuator at each of ``points`` drives (``detector_linearity.csv``), the attenuated
-  readings with the calibration runs' photodiode noise of both readings.
+  readings with the calibration runs' photodiode noise of both readings;
+* ``thermometry``: sideband thermometry after a variable wait (``thermometry.csv``), the
+  probed ion's binomial bright count after each wait and sideband; offered with gate
+  recordings.
 
 **Separating causes, not curves.**  A hypothesis is a group of fits: a family in
 each of its forms still in reach.  For two hypotheses, ``a`` true and ``b`` its
@@ -100,7 +103,7 @@ __all__ = ["NextMeasurement", "propose_next_measurement", "decisive_target",
 
 #: what a proposal may be
 KINDS = ("amplitude_run", "phase_run", "spectra", "populations", "parity", "time_scan",
-         "spam", "pulse_response", "ramsey", "detector_linearity")
+         "spam", "pulse_response", "ramsey", "detector_linearity", "thermometry")
 _KEYS = ("what", "settings", "expected_delta_bic", "separates", "lab_seconds", "per_hour")
 #: the best candidates whose expected separation is confirmed by an exact refit
 #: (:meth:`~dpdfit.analyses.diagnosis.proposal.expected_separation.Direction.refit`, at most
@@ -547,6 +550,12 @@ def describe_recording(what: str, s: dict) -> str:
         return (f"a Ramsey and spin-echo scan ({s['points']} waits to "
                 f"{s['max_wait_us'] / 1e3:g} ms, {s['shots']} shots each"
                 + (f", {scans} times" if scans > 1 else "") + ")")
+    if what == "thermometry":
+        scans = int(s.get("scans", 1))
+        waits = s.get("waits_us") or ()
+        span = f"{len(waits)} waits up to {max(waits) / 1e3:g} ms, " if waits else ""
+        return (f"a sideband thermometry ({span}red and blue sidebands; {s['shots']} shots "
+                "each" + (f", {scans} times" if scans > 1 else "") + ")")
     at = f"at A = {s['A']:g} {'with' if s['dpd'] else 'without'} DPD"
     if s.get("scans", 1) > 1:
         at += f", {s['scans']} scans"

@@ -27,7 +27,9 @@ fixes it:
   (:func:`~dpdfit.recordings.detector_linearity.linearity_drives`) once without and once
   with the attenuator (``attenuation_db``), one point per drive; its ``lab_s`` is the
   two readings (``2 linearity_reading_s``) and the drive's share of putting the
-  attenuator in (``attenuator_swap_s``).
+  attenuator in (``attenuator_swap_s``);
+* a sideband thermometry records each wait (``wait_us``) on each sideband (``sideband``)
+  with the proposal's shots, at ``A`` 0, one point each (:func:`thermometry_rows`).
 
 Repeats (``scans``, ``runs``) become the ``repeat`` column.  What each row costs and
 when it is taken:
@@ -35,9 +37,10 @@ when it is taken:
 * ``lab_s``: the row's own lab time by :class:`~dpdfit.core.defaults.LabTimes`, as the
   menu counts it (:mod:`~dpdfit.analyses.diagnosis.proposal.menu`): ``shots * shot_s``
   for a scan point (``shots * spam_shot_s`` for a SPAM state, ``shots * (ramsey_shot_s +
-  wait) + ramsey_point_s`` for a Ramsey point), ``spectrum_trace_s`` for a trace
-  (``pulse_trace_s`` for a pulse response), the run's time over its grid points for a
-  calibration-run point; rescaled so that the column sums to the
+  wait) + ramsey_point_s`` for a Ramsey point, ``shots * (thermometry_shot_s + wait)``
+  for a thermometry point), ``spectrum_trace_s`` for a trace (``pulse_trace_s`` for a
+  pulse response), the run's time over its grid points for a calibration-run point;
+  rescaled so that the column sums to the
   proposal's ``lab_seconds`` (a proposal made with the same lab times needs no rescaling).
 * Calibration runs are paced, not taken back to back: the proposal counts each further
   run as an independent draw of the campaign's run-to-run scatter (the drift modes' sd,
@@ -65,13 +68,14 @@ import pandas as pd
 from dpdfit.core.defaults import ERROR_MODEL, LAB_TIMES, LINEARITY_ATTENUATION_DB
 from dpdfit.errors import InputError
 from dpdfit.models.ramsey import SCAN_POINTS, SEQUENCES, scan_waits
+from dpdfit.models.sideband_thermometry import SIDEBANDS, THERMOMETRY_WAITS_US
 from dpdfit.recordings.calibration_runs import list_runs
 from dpdfit.recordings.campaign_folder import CampaignFolder
 from dpdfit.recordings.detector_linearity import linearity_drives
 from dpdfit.recordings.schedule import (LINEARITY_COLUMN, RUN_KINDS, SCHEDULE_COLUMNS,
                                         check_schedule)
 
-__all__ = ["proposal_schedule", "run_interval", "DAY_S"]
+__all__ = ["proposal_schedule", "run_interval", "DAY_S", "thermometry_rows"]
 
 #: seconds of a day: the unit of the schedule's ``day`` column
 DAY_S = 86400.0
@@ -229,6 +233,9 @@ def _row_seconds(df: pd.DataFrame, what: str, lab) -> np.ndarray:
     if what == "detector_linearity":
         per = df.groupby("repeat")["point"].transform("size").to_numpy(float)
         return 2 * lab.linearity_reading_s + lab.attenuator_swap_s / per
+    if what == "thermometry":                    # each shot also waits its wait
+        return df["shots"].to_numpy(float) * (lab.thermometry_shot_s
+                                              + df["wait_us"].to_numpy(float) * 1e-6)
     return df["shots"].to_numpy(float) * lab.shot_s
 
 
@@ -307,6 +314,8 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
         rows = _ramsey_points(st, camp)
     elif what == "detector_linearity":
         rows = _linearity_rows(st)
+    elif what == "thermometry":
+        rows = thermometry_rows(st)
     elif what in ("populations", "parity", "time_scan"):
         one = _scan_points(what, st, camp)
         rows = [{"repeat": r, "A": float(st["A"]), "dpd": int(st["dpd"]), **pt}
@@ -322,5 +331,18 @@ def proposal_schedule(proposal, campaign, lab=None) -> pd.DataFrame:
                                LAB_TIMES if lab is None else lab)
     df["day"], df["start_s"] = _timing(df, what, camp)
     cols = list(SCHEDULE_COLUMNS) + [c for c in ("prepared", "sequence", "wait_us",
-                                                 LINEARITY_COLUMN) if c in df.columns]
+                                                 LINEARITY_COLUMN, "sideband")
+                                     if c in df.columns]
     return check_schedule(df[cols], "the proposal's schedule")
+
+
+def thermometry_rows(st: dict) -> list:
+    """The schedule rows of a proposed sideband thermometry ``st`` (``shots``,
+    ``waits_us``, ``sidebands``, ``scans``): each wait probed on each sideband, one point
+    each, at ``A`` 0 (no gate)."""
+    waits = st.get("waits_us") or THERMOMETRY_WAITS_US
+    sidebands = st.get("sidebands") or SIDEBANDS
+    return [{"repeat": r, "point": i, "A": 0.0, "shots": int(st["shots"]),
+             "wait_us": float(w), "sideband": str(s)}
+            for r in range(1, int(st.get("scans", 1)) + 1)
+            for i, (w, s) in enumerate((w, s) for w in waits for s in sidebands)]

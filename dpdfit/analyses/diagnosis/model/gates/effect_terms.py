@@ -16,13 +16,16 @@ import numpy as np
 
 from dpdfit.analyses.diagnosis.effects import EFFECTS, Prep
 from dpdfit.analyses.diagnosis.model.gates.observe import knob_terms
+from dpdfit.analyses.diagnosis.model.recorded_motion import RECORDED_MOTION, motion_values
 
 __all__ = ["active_effects", "preparation", "coherence", "weights", "effect_terms"]
 
 
 def active_effects(names, p: dict) -> list:
     """``[(effect, values)]``: the effects of ``names`` present in the parameter set ``p``,
-    each with its values by its own parameter names."""
+    each with its values by its own parameter names; then the baseline's recorded motional
+    state when ``p`` has its nuisances (a campaign with thermometry,
+    :mod:`~dpdfit.analyses.diagnosis.model.recorded_motion`)."""
     out = []
     present = {k.partition(".")[0] for k in p if "." in k}     # cheaper than each's values
     for name in names:
@@ -31,6 +34,9 @@ def active_effects(names, p: dict) -> list:
         v = EFFECTS[name].values(p)
         if v is not None:
             out.append((EFFECTS[name], v))
+    motion = motion_values(p)
+    if motion is not None:
+        out.append((RECORDED_MOTION, motion))
     return out
 
 
