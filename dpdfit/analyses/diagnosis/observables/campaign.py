@@ -26,6 +26,9 @@ contains every known noise source and nothing else:
 * **time scans**: ``P00`` and ``P11`` at each scan time (binomial; a point
   recorded again has its counts summed).
 * **calibration residuals** of the model's own amplitude and phase runs.
+* **phase runs after the recordings** (optional: recording times and such runs), each
+  whitened for its noise and the run-to-run drift of ``phi``
+  (:mod:`~dpdfit.analyses.diagnosis.observables.phase_runs_after`).
 * **SPAM characterisation** (``spam.csv``, optional): the detected counts of each
   prepared basis state, pooled per state (:func:`dpdfit.recordings.spam.read_spam`).
 
@@ -43,6 +46,8 @@ import pandas as pd
 
 from dpdfit.analyses.diagnosis.observables.calibration_drift import (RunsAfter, drift_modes,
                                                                      runs_after_recordings)
+from dpdfit.analyses.diagnosis.observables.phase_runs_after import (PhaseRunsAfter,
+                                                                    phase_runs_after)
 from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS, debias_tones
 from dpdfit.analyses.diagnosis.observables.tone_grid import tone_grid
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
@@ -136,6 +141,9 @@ class Campaign:
     #: the SPAM characterisation: ``prepared, n00, n01_10, n11, shots``, one row per
     #: prepared basis state (None without ``spam.csv``)
     spam: pd.DataFrame | None = None
+    #: the phase runs taken after the recordings, whitened for their noise and the
+    #: run-to-run drift of ``phi`` (None: no phase file, recording times or such run)
+    phase_runs_after: "PhaseRunsAfter | None" = None
 
     @property
     def nu(self) -> float:
@@ -346,4 +354,6 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     drift_modes=modes, drift_significant=n_sig,
                     calibration_noise={k: None if v is None else v.to_dict()
                                        for k, v in cal_noise.items()},
-                    recorded=recorded, runs_after=after, spam=_spam(cf))
+                    recorded=recorded, runs_after=after, spam=_spam(cf),
+                    phase_runs_after=phase_runs_after(cf, ph, cal_noise.get("phase"),
+                                                      recorded))
