@@ -11,6 +11,7 @@ import numpy as np
 from dpdfit.analyses.diagnosis.effects import effect_of_key
 from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
+from dpdfit.analyses.diagnosis.model.phase_runs_block import recorded_phase
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
 from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
 from dpdfit.core.defaults import PHASE_MIN_A
@@ -165,9 +166,8 @@ def _drift(h: Hypothesis, p: dict):
 
 
 def _phase(h: Hypothesis, p: dict):
-    A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
-    cp = h.tone.coefficients(p)[1]
-    return h.tone.phase_sign * (np.polynomial.polynomial.polyval(A, cp) - cp[0])
+    # the phase a run records, as the diagnosis fits the runs after the recordings
+    return recorded_phase(h.tone, p, RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A])
 
 
 def _spam(h: Hypothesis, p: dict):

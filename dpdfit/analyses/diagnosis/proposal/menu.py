@@ -18,10 +18,12 @@ from typing import Callable
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.observables.phase_runs_after import drift_shape, phase_whitener
 from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
-from dpdfit.analyses.diagnosis.proposal.hypotheses import SPAM_STATES, SPECTRA_GRID, Hypothesis
+from dpdfit.analyses.diagnosis.proposal.hypotheses import (RUN_AMPLITUDES, SPAM_STATES,
+                                                           SPECTRA_GRID, Hypothesis)
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
-from dpdfit.core.defaults import ERROR_MODEL
+from dpdfit.core.defaults import ERROR_MODEL, PHASE_MIN_A, PHASE_RUN_NOISE_RAD
 
 __all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS']
 
@@ -93,12 +95,31 @@ def _amplitude_run(prob, hyps, lab):
 
 
 def _phase_run(prob, hyps, lab):
-    """No phase run is offered: the diagnosis's likelihood has no phase-run term (phase
-    runs only locate a mismatch, :meth:`~dpdfit.analyses.diagnosis.model.residuals.Problem.series`),
-    so a further run cannot separate two hypotheses, whatever their predicted phases (in
-    the closed loop every phase run proposed achieved a separation of exactly 0 and was
-    proposed again).  Once the phase runs are fitted as data, this builds their item."""
-    return []
+    """One phase calibration run now, after the recordings: the phase the hypotheses'
+    phase transfers predict on
+    :data:`~dpdfit.analyses.diagnosis.proposal.hypotheses.RUN_AMPLITUDES` (``A >=
+    PHASE_MIN_A``), with the runs' noise (learnt, else
+    :data:`~dpdfit.core.defaults.PHASE_RUN_NOISE_RAD`) and their run-to-run drift of
+    ``phi``, as the diagnosis fits such a run
+    (:mod:`~dpdfit.analyses.diagnosis.model.phase_runs_block`).  Offered only when a
+    further run enters that fit: the campaign has a phase calibration with errors and
+    recording times (a run taken after them is data; before these were fitted, every
+    phase run the closed loop took achieved a separation of exactly 0).  It separates
+    hypotheses that differ in the AOM's own phase transfer (the modulator's AM-to-PM
+    left out of the model), not a phase after the AOM."""
+    camp = getattr(prob, "camp", None)
+    if getattr(prob, "tone", None) is None or camp is None or camp.phase is None \
+            or not camp.recorded or camp.phase.sigma_source != "given":
+        return []
+    A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
+    noise = (camp.calibration_noise or {}).get("phase")
+    sd = (np.hypot(noise["c"], noise["d"] / A) if noise
+          else np.full(A.size, PHASE_RUN_NOISE_RAD))
+    after = camp.phase_runs_after
+    drift = after.drift_sd if after is not None else PHASE_RUN_NOISE_RAD
+    W = phase_whitener(sd, drift_shape(camp.phase, A), drift)
+    return [Item("phase_run", {"runs": 1}, lab.phase_run_s, "phase",
+                 lambda r: r, lambda a, b: W)]
 
 
 # ----------------------------------------------------------------- spectra
