@@ -47,6 +47,7 @@ import pandas as pd
 from dpdfit.analyses.diagnosis.observables.calibration_drift import (RunsAfter, drift_modes,
                                                                      runs_after_recordings)
 from dpdfit.analyses.diagnosis.observables.phase_runs_after import (PhaseRunsAfter,
+                                                                    model_run_points,
                                                                     phase_runs_after)
 from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS, debias_tones
 from dpdfit.analyses.diagnosis.observables.tone_grid import tone_grid
@@ -144,6 +145,9 @@ class Campaign:
     #: the phase runs taken after the recordings, whitened for their noise and the
     #: run-to-run drift of ``phi`` (None: no phase file, recording times or such run)
     phase_runs_after: "PhaseRunsAfter | None" = None
+    #: the model's phase run's amplitudes (``A >= PHASE_MIN_A``) and their errors (rad;
+    #: None without errors), the points a further phase run repeats (None: no phase file)
+    phase_points: tuple | None = None
 
     @property
     def nu(self) -> float:
@@ -356,4 +360,5 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                                        for k, v in cal_noise.items()},
                     recorded=recorded, runs_after=after, spam=_spam(cf),
                     phase_runs_after=phase_runs_after(cf, ph, cal_noise.get("phase"),
-                                                      recorded))
+                                                      recorded),
+                    phase_points=model_run_points(cf, cal_noise.get("phase")))

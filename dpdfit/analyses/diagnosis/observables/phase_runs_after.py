@@ -27,7 +27,8 @@ import pandas as pd
 
 from dpdfit.core.defaults import PHASE_MIN_A, PHASE_RUN_NOISE_RAD
 
-__all__ = ["PhaseRunsAfter", "phase_runs_after", "phase_whitener", "drift_shape"]
+__all__ = ["PhaseRunsAfter", "phase_runs_after", "phase_whitener", "drift_shape",
+           "model_run_points"]
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,19 @@ def _sd_points(data, noise) -> np.ndarray | None:
     if data.error is not None:
         return np.asarray(data.error, dtype=float)
     return None if noise is None else np.asarray(noise.sigma(data.A), dtype=float)
+
+
+def model_run_points(cf, noise) -> tuple | None:
+    """``(A, sd)``: the amplitudes ``A >= PHASE_MIN_A`` of the model's phase run and their
+    errors (rad; as recorded, else the learnt ``noise``; None without either), the points
+    a further run repeats (the schedule writes the latest run's amplitudes); None without
+    a phase file."""
+    data = cf.phase_model
+    if data is None:
+        return None
+    use = data.A >= PHASE_MIN_A
+    sd = _sd_points(data, noise)
+    return np.asarray(data.A[use], dtype=float), None if sd is None else sd[use]
 
 
 def phase_runs_after(cf, phase_cal, noise, recorded: dict) -> PhaseRunsAfter | None:

@@ -1,7 +1,7 @@
 """A hypothesis in reach as the proposal sees it: one fit's parameter set, its tone
 and gate models, its predictions of every source a recording reads (tone powers on
-:data:`SPECTRA_GRID`, the gates, the next amplitude run's drift, the phase curve on
-:data:`RUN_AMPLITUDES`) and the parameters that can absorb a recording, with their
+:data:`SPECTRA_GRID`, the gates, the next amplitude run's drift, the phase a further run records at the model's run's
+amplitudes: :func:`phase_run_amplitudes`) and the parameters that can absorb a recording, with their
 covariance from the recordings so far."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from dpdfit.analyses.diagnosis.model.spam_block import spam_probabilities
 from dpdfit.core.defaults import PHASE_MIN_A
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
-           'PARAM_STEP']
+           'PARAM_STEP', 'phase_run_amplitudes']
 
 
 #: amplitudes a spectra recording may choose from
@@ -83,8 +83,8 @@ class Hypothesis:
     def raw(self, source: str, p: dict | None = None):
         """The prediction of ``source`` (``"powers"``: tone powers on
         :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
-        next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
-        :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
+        next amplitude run's shift in the drift modes; ``"phase"``: the phase a further run
+        records (:func:`phase_run_amplitudes`); ``"spam"``: the detected outcomes of each of
         :data:`SPAM_STATES` prepared with no gate) at the parameter set ``p`` (default:
         the fit's)."""
         p = self.p if p is None else p
@@ -165,9 +165,16 @@ def _drift(h: Hypothesis, p: dict):
     return run_drift(h.prob, p, days)[0]
 
 
+def phase_run_amplitudes(prob) -> np.ndarray:
+    """The amplitudes a further phase run records and the diagnosis fits: the model's
+    run's (``A >= PHASE_MIN_A``), else :data:`RUN_AMPLITUDES` there."""
+    pts = getattr(getattr(prob, "camp", None), "phase_points", None)
+    return pts[0] if pts is not None else RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
+
+
 def _phase(h: Hypothesis, p: dict):
     # the phase a run records, as the diagnosis fits the runs after the recordings
-    return recorded_phase(h.tone, p, RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A])
+    return recorded_phase(h.tone, p, phase_run_amplitudes(h.prob))
 
 
 def _spam(h: Hypothesis, p: dict):

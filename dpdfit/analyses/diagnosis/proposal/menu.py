@@ -20,10 +20,10 @@ import numpy as np
 
 from dpdfit.analyses.diagnosis.observables.phase_runs_after import drift_shape, phase_whitener
 from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
-from dpdfit.analyses.diagnosis.proposal.hypotheses import (RUN_AMPLITUDES, SPAM_STATES,
-                                                           SPECTRA_GRID, Hypothesis)
+from dpdfit.analyses.diagnosis.proposal.hypotheses import (SPAM_STATES, SPECTRA_GRID,
+                                                           Hypothesis, phase_run_amplitudes)
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
-from dpdfit.core.defaults import ERROR_MODEL, PHASE_MIN_A, PHASE_RUN_NOISE_RAD
+from dpdfit.core.defaults import ERROR_MODEL, PHASE_RUN_NOISE_RAD
 
 __all__ = ['Item', 'white', 'BUILDERS', 'SPECTRA_COUNTS', 'SPAM_SHOTS']
 
@@ -96,10 +96,10 @@ def _amplitude_run(prob, hyps, lab):
 
 def _phase_run(prob, hyps, lab):
     """One phase calibration run now, after the recordings: the phase the hypotheses'
-    phase transfers predict on
-    :data:`~dpdfit.analyses.diagnosis.proposal.hypotheses.RUN_AMPLITUDES` (``A >=
-    PHASE_MIN_A``), with the runs' noise (learnt, else
-    :data:`~dpdfit.core.defaults.PHASE_RUN_NOISE_RAD`) and their run-to-run drift of
+    phase transfers predict at the model's run's amplitudes (``A >= PHASE_MIN_A``,
+    :func:`~dpdfit.analyses.diagnosis.proposal.hypotheses.phase_run_amplitudes`), with
+    that run's errors (as recorded or learnt, else
+    :data:`~dpdfit.core.defaults.PHASE_RUN_NOISE_RAD`) and the runs' run-to-run drift of
     ``phi``, as the diagnosis fits such a run
     (:mod:`~dpdfit.analyses.diagnosis.model.phase_runs_block`).  Offered only when a
     further run enters that fit: the campaign has a phase calibration with errors and
@@ -111,9 +111,9 @@ def _phase_run(prob, hyps, lab):
     if getattr(prob, "tone", None) is None or camp is None or camp.phase is None \
             or not camp.recorded or camp.phase.sigma_source != "given":
         return []
-    A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
-    noise = (camp.calibration_noise or {}).get("phase")
-    sd = (np.hypot(noise["c"], noise["d"] / A) if noise
+    A = phase_run_amplitudes(prob)
+    pts = camp.phase_points
+    sd = (pts[1] if pts is not None and pts[1] is not None
           else np.full(A.size, PHASE_RUN_NOISE_RAD))
     after = camp.phase_runs_after
     drift = after.drift_sd if after is not None else PHASE_RUN_NOISE_RAD

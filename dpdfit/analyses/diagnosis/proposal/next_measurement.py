@@ -14,7 +14,7 @@ with the recording's noise:
 * ``amplitude_run``: one more amplitude calibration run now, in the run-to-run
   drift modes (the effects' ``run_drift``); sigma: the modes' run-to-run sd;
 * ``phase_run``: one more phase calibration run now, after the recordings, the phase
-  each hypothesis's phase transfer predicts on ``RUN_AMPLITUDES`` (``A >= PHASE_MIN_A``);
+  each hypothesis's phase transfer predicts at the model's run's amplitudes (``A >= PHASE_MIN_A``);
   sigma: the runs' learnt noise with their run-to-run drift of ``phi``, as the diagnosis
   fits such runs (:mod:`~dpdfit.analyses.diagnosis.model.phase_runs_block`); offered
   when the campaign has a phase calibration with errors and recording times;
