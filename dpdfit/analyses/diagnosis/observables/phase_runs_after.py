@@ -112,7 +112,8 @@ def phase_runs_after(cf, phase_cal, noise, recorded: dict) -> PhaseRunsAfter | N
     data = cf.phase_run_data
     model = str(cf.phase_model.run)
     before = [r for r, t in starts.items() if t <= t_rec and r != model]
-    after = [r for r, t in starts.items() if t > t_rec]
+    # the model's run is in the likelihood already (module doc), wherever it lies
+    after = [r for r, t in starts.items() if t > t_rec and r != model]
     if not after:
         return None
     drift = []
