@@ -18,6 +18,9 @@ campaign: :meth:`~dpdfit.recordings.campaign_folder.CampaignFolder.check_plausib
 * phases (parity ``phase_rad`` per scan, ``calibration_phase.csv``
   ``phase_rad`` per run) spanning more than :data:`DEGREES_SPAN_RAD`: degrees
   stored as radians (:func:`check_phase_span`);
+* a phase calibration run whose phases are :data:`DEGREES_RUN_RATIO` times the other
+  runs' (a run added in degrees to a campaign in radians, its AM-to-PM too small for its
+  span to show it): :func:`check_phase_run_scale`;
 * shots below 1 and amplitudes ``A`` outside [0, 1] are refused by the
   readers' own checks (:func:`dpdfit.recordings.counts.check_counts`,
   :func:`dpdfit.recordings.tables.read_table`), whose messages name the slip too.
@@ -32,7 +35,8 @@ import pandas as pd
 
 from dpdfit.errors import ImplausibleValueError, InputError
 
-__all__ = ["DEGREES_SPAN_RAD", "RATE_SPECTRA_FACTOR", "check_gate_rates", "check_phase_span"]
+__all__ = ["DEGREES_SPAN_RAD", "DEGREES_RUN_RATIO", "RATE_SPECTRA_FACTOR", "check_gate_rates",
+           "check_phase_span", "check_phase_run_scale"]
 
 #: Phases spanning more than this (rad) within one parity scan or one calibration run
 #: look like degrees.  A parity fringe (period pi in phi) is fully sampled by a span
@@ -43,6 +47,14 @@ __all__ = ["DEGREES_SPAN_RAD", "RATE_SPECTRA_FACTOR", "check_gate_rates", "check
 #: even a quarter fringe (45 deg), or an AM-to-PM of 0.22 rad (12.6 deg) written in
 #: degrees, already spans more than 4*pi = 12.6.
 DEGREES_SPAN_RAD = 4 * math.pi
+
+#: A phase calibration run whose typical phase (the median ``|phase_rad|`` at ``A >=
+#: 0.5``, where the beat is strong and the AM-to-PM largest) is more than this factor above
+#: the median of the other runs' looks like degrees (a factor 180/pi = 57.3).  The runs of
+#: one AOM drift by a percent from run to run (the paper's phi(1): 0.0009 rad of 0.28); an
+#: AOM with no AM-to-PM to speak of reads its noise in every run, a few mrad, and an
+#: AM-to-PM of 0.02 rad appearing in one run is still below 20 times that.
+DEGREES_RUN_RATIO = 20.0
 
 #: A gate rate more than this factor above or below the spectra's gate detuning
 #: ``xi0_spectra_hz`` is refused: the spectra are recorded with the gate's own drive
@@ -121,3 +133,34 @@ def check_phase_span(df: pd.DataFrame, column: str, keys, file: str, label) -> N
         f"the phases of {label(key)} span {lo[i]:.4g} to {hi[i]:.4g} ({hi[i] - lo[i]:.4g}), "
         f"more than 4*pi = {DEGREES_SPAN_RAD:.4g} rad: in degrees? (radians expected; "
         "phase_rad = phase_deg * pi / 180)", file=file, column=column, row=i + 1)
+
+
+def check_phase_run_scale(df: pd.DataFrame, column: str, file: str) -> None:
+    """Refuse a phase calibration run whose phases are more than :data:`DEGREES_RUN_RATIO`
+    times the other runs' (module doc): degrees among runs in radians, which no span
+    check sees when the AM-to-PM is small (0.1 rad is 5.7 degrees).  ``df``: a validated
+    ``calibration_phase.csv`` with a ``run`` column; the row named is the run's largest
+    ``|phase|``."""
+    if "run" not in df.columns or df.empty:
+        return
+    A = df["A"].to_numpy(dtype=float)
+    vals = np.abs(df[column].to_numpy(dtype=float))
+    runs = df["run"].to_numpy()
+    strong = A >= 0.5
+    level = {}
+    for r in dict.fromkeys(runs.tolist()):
+        sel = strong & (runs == r)
+        if sel.sum() >= 3:
+            level[r] = float(np.median(vals[sel]))
+    if len(level) < 2:
+        return
+    for r, v in level.items():
+        others = float(np.median([x for k, x in level.items() if k != r]))
+        if others > 0 and v > DEGREES_RUN_RATIO * others:
+            rows = np.flatnonzero(runs == r)
+            i = int(rows[np.argmax(vals[rows])])
+            raise ImplausibleValueError(
+                f"the phases of run {r} are {v / others:.3g}x those of the other runs "
+                f"(median |phase| at A >= 0.5: {v:.4g} against {others:.4g} rad), more than "
+                f"{DEGREES_RUN_RATIO:g}x: in degrees? (radians expected; phase_rad = "
+                "phase_deg * pi / 180)", file=file, column=column, row=i + 1)

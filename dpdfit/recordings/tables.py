@@ -40,7 +40,7 @@ from dpdfit.recordings.columns import CAMPAIGN_TABLES
 from dpdfit.recordings.csv_text import parse_csv_table
 from dpdfit.recordings.input_files import max_input_bytes, read_input_bytes, read_input_chunks
 from dpdfit.recordings.outputs import remember_sha256
-from dpdfit.recordings.plausibility import check_phase_span
+from dpdfit.recordings.plausibility import check_phase_run_scale, check_phase_span
 
 __all__ = ["read_table", "table_source", "read_calibration", "read_calibration_runs",
            "read_calibration_table", "check_repeated_rows", "read_csv_strings", "require_file",
@@ -360,10 +360,12 @@ def _calibration_table(path: str | os.PathLike, kind: str, within=None
 def check_calibration_phases(df: pd.DataFrame, name: str) -> None:
     """Refuse a phase calibration whose ``phase_rad`` spans degrees within a run
     (:func:`~dpdfit.recordings.plausibility.check_phase_span`; the whole file without
-    a ``run`` column)."""
+    a ``run`` column), or one of whose runs is in degrees among runs in radians
+    (:func:`~dpdfit.recordings.plausibility.check_phase_run_scale`)."""
     keys = ["run"] if "run" in df.columns else []
     check_phase_span(df, "phase_rad", keys, name,
                      lambda k: f"run {k[0]}" if k else "the calibration")
+    check_phase_run_scale(df, "phase_rad", name)
 
 
 def read_calibration_table(path: str | os.PathLike, kind: str, *, within=None

@@ -163,17 +163,27 @@ def _phase_runs(cfg, rng, t0, grid, gate_day, A_corr_day, gain_day=1.0):
 def _further_phase_runs(cfg, t0, grid, gate_day, A_corr_day, hours, phi1, rows, truth,
                         gain_day=1.0):
     """The ``further`` phase runs, appended to ``rows`` and ``truth``: each one step of
-    the phase-run schedule after the previous, ``phi(1)`` drifting on from there.  The
-    day's truth stays the last phase run of the campaign (the model's run)."""
-    step = cfg.phase_span_hours / max(cfg.n_phase_runs - 1, 1)
-    h, x, k = float(hours[-1]), float(phi1[-1]) - cfg.phi1_mean, cfg.n_phase_runs
+    the phase-run schedule after the previous one or after the recordings (a further run
+    is taken now, after the diagnosis), ``phi(1)`` drifting on from the last run, the
+    AOM's own phase of the injected effects added
+    (:meth:`~dpdfit.simulation.injections.base.Injection.inject_phase_run`).  The day's
+    truth stays the last phase run of the campaign (the model's run)."""
+    step = cfg.phase_span_hours / max(cfg.n_phase_runs - 1, 1) or 0.5
+    last = float(hours[-1])
+    h = max(last, float(cfg.recording_hours[-1]))
+    x, k = float(phi1[-1]) - cfg.phi1_mean, cfg.n_phase_runs
     for j, item in enumerate(cfg.further):
         if item[0] != "phase_run":
             continue
         rng = rng_for(cfg, 8, j)
-        x, h = _ou_step(x, step, cfg.phi1_sigma, cfg.phi1_tau_hours, rng), h + step
+        h += step
+        x, last = _ou_step(x, h - last, cfg.phi1_sigma, cfg.phi1_tau_hours, rng), h
         aom = _aom(cfg, A_corr_day, cfg.phi1_mean + x, gain_day)
         df = simulate_phase_run(aom, grid, rng, cfg.heterodyne_phase)
+        extra = sum((e.inject_phase_run(v, grid) for e, v in cfg.injections()),
+                    np.zeros(grid.size))
+        if np.any(extra):
+            df["phase_rad"] = np.angle(np.exp(1j * (df["phase_rad"].to_numpy() + extra)))
         df.insert(0, "timestamp", _iso(t0, gate_day + h / 24))
         df.insert(0, "run", f"P{k + 1:03d}")
         rows.append(df)

@@ -160,6 +160,12 @@ class Injection:
         :meth:`inject_aom` (a drift of another shape than ``A_corr``'s)."""
         return np.zeros(np.shape(days_after_table))
 
+    def inject_phase_run(self, v: dict, A: np.ndarray) -> np.ndarray:
+        """Simulator: extra phase (rad) of the AOM's own transfer at drive amplitudes
+        ``A`` that a phase run taken after the recordings records (the AOM as it is at
+        the recordings; the runs before them, the model's among them, do not have it)."""
+        return np.zeros(np.shape(A))
+
     def inject_table(self, v: dict) -> float:
         """Simulator: relative change of ``A_corr`` of the calibration the predistortion
         table was built from, against the run the records name (0: that run's)."""

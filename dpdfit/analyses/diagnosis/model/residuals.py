@@ -7,7 +7,8 @@
 nuisances with their priors, and gives the standardised residuals of any
 parameter set (:meth:`Problem.blocks`, :meth:`Problem.residuals`: the tone features'
 :class:`~dpdfit.analyses.diagnosis.model.tones.tone_residuals.ToneResiduals`, the runs
-after the recordings' :mod:`~dpdfit.analyses.diagnosis.model.runs_after`, the gates'
+after the recordings' :mod:`~dpdfit.analyses.diagnosis.model.runs_after` and
+:mod:`~dpdfit.analyses.diagnosis.model.phase_runs_block`, the gates'
 :class:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals` and the
 priors) and the series the deviation search reads (:meth:`Problem.series`).
 
@@ -30,6 +31,7 @@ from dpdfit.analyses.diagnosis.model.gates.gate_residuals import GateResiduals
 from dpdfit.analyses.diagnosis.model.gates.rate_scatter import learn_rate_scatter
 from dpdfit.analyses.diagnosis.model.linearity_block import linearity_block
 from dpdfit.analyses.diagnosis.model.null_model import NullModel, choose_phase_sign
+from dpdfit.analyses.diagnosis.model.phase_runs_block import phase_runs_block
 from dpdfit.analyses.diagnosis.model.pulse_block import pulse_block
 from dpdfit.analyses.diagnosis.model.ramsey_block import coherence_report, ramsey_block
 from dpdfit.analyses.diagnosis.model.recorded_motion import RECORDED_MOTION
@@ -234,7 +236,9 @@ class Problem:
                with_tones: bool = True):
         """(label, z) blocks; labels are dicts of observable/sideband/dpd/x.
 
-        The tone features, the runs after the recordings, the gates (whitened per
+        The tone features, the runs after the recordings (amplitude:
+        :mod:`~dpdfit.analyses.diagnosis.model.runs_after`; phase:
+        :mod:`~dpdfit.analyses.diagnosis.model.phase_runs_block`), the gates (whitened per
         setting with ``whiten``, the fits; each observable standardised on its own
         without it, for the deviation search and plots:
         :meth:`~dpdfit.analyses.diagnosis.model.gates.gate_residuals.GateResiduals.gate_blocks`),
@@ -261,6 +265,8 @@ class Problem:
                 out.append(pulse_block(self, tone_p))
             if self.camp.detector_linearity is not None:
                 out.append(linearity_block(self, tone_p))
+            if self.camp.phase_runs_after is not None:
+                out.append(phase_runs_block(self, tone_p))
         if self.gate is not None:
             out += self.gate_residuals.gate_blocks(self.gate, gate_p, whiten)
             if self.camp.spam is not None:

@@ -26,6 +26,9 @@ contains every known noise source and nothing else:
 * **time scans**: ``P00`` and ``P11`` at each scan time (binomial; a point
   recorded again has its counts summed).
 * **calibration residuals** of the model's own amplitude and phase runs.
+* **phase runs after the recordings** (optional: recording times and such runs), each
+  whitened for its noise and the run-to-run drift of ``phi``
+  (:mod:`~dpdfit.analyses.diagnosis.observables.phase_runs_after`).
 * **SPAM characterisation** (``spam.csv``, optional): the detected counts of each
   prepared basis state, pooled per state (:func:`dpdfit.recordings.spam.read_spam`).
 * **AOM pulse response** (``pulse_response.csv``, optional): the photodiode trace of each
@@ -57,6 +60,9 @@ from dpdfit.analyses.diagnosis.observables.calibration_drift import (RunsAfter, 
                                                                      runs_after_recordings)
 from dpdfit.analyses.diagnosis.observables.detector_linearity import (LinearityData,
                                                                       linearity_data)
+from dpdfit.analyses.diagnosis.observables.phase_runs_after import (PhaseRunsAfter,
+                                                                    model_run_points,
+                                                                    phase_runs_after)
 from dpdfit.analyses.diagnosis.observables.tone_features import TONE_HARMONICS, debias_tones
 from dpdfit.analyses.diagnosis.observables.tone_grid import tone_grid
 from dpdfit.core.defaults import ERROR_MODEL, ErrorModel
@@ -163,6 +169,12 @@ class Campaign:
     #: the sideband thermometry: ``wait_us, wait_s, sideband, n_bright, shots``, one row
     #: per point (None without ``thermometry.csv``)
     thermometry: pd.DataFrame | None = None
+    #: the phase runs taken after the recordings, whitened for their noise and the
+    #: run-to-run drift of ``phi`` (None: no phase file, recording times or such run)
+    phase_runs_after: "PhaseRunsAfter | None" = None
+    #: the model's phase run's amplitudes (``A >= PHASE_MIN_A``) and their errors (rad;
+    #: None without errors), the points a further phase run repeats (None: no phase file)
+    phase_points: tuple | None = None
 
     @property
     def nu(self) -> float:
@@ -352,6 +364,22 @@ def _thermometry(cf: CampaignFolder):
     return th[["wait_us", "wait_s", "sideband", "n_bright", "shots"]].reset_index(drop=True)
 
 
+def _unfitted_characterisations(cf: CampaignFolder) -> list:
+    """The ``left_out`` lines of the characterisations of the gate model a campaign
+    without gate recordings has (their tables are read, not fitted)."""
+    left = []
+    if cf.ramsey is not None:
+        left.append("ramsey.csv without gate recordings: not fitted (the coherence time it "
+                    "measures is the gate model's)")
+    if cf.spam is not None:
+        left.append("spam.csv without gate recordings: not fitted (the preparation and "
+                    "detection errors it measures are the gate model's)")
+    if cf.thermometry is not None:
+        left.append("thermometry.csv without gate recordings: not fitted (the motional "
+                    "state it measures is the gate model's)")
+    return left
+
+
 def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                   noise=None) -> Campaign:
     """Read and validate a campaign folder for the diagnosis.
@@ -392,15 +420,8 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
     left = cf.left_out(_CONSEQUENCES)
     if ph is None:
         left.append("no phase calibration: the model has no AM-to-PM")
-    if gates is None and cf.ramsey is not None:
-        left.append("ramsey.csv without gate recordings: not fitted (the coherence time it "
-                    "measures is the gate model's)")
-    if gates is None and cf.spam is not None:
-        left.append("spam.csv without gate recordings: not fitted (the preparation and "
-                    "detection errors it measures are the gate model's)")
-    if gates is None and cf.thermometry is not None:
-        left.append("thermometry.csv without gate recordings: not fitted (the motional "
-                    "state it measures is the gate model's)")
+    if gates is None:
+        left += _unfitted_characterisations(cf)
     recorded = cf.recording_times
     if run_fits is None and "power_err" not in cf.amplitude_runs.columns:
         # the drift modes fit every run without errors at the campaign's order, as the
@@ -429,4 +450,7 @@ def load_campaign(folder, run_fits: dict | None = None, calibration=None,
                     recorded=recorded, runs_after=after, spam=_spam(cf),
                     pulse_response=_pulse_response(cf), ramsey=_ramsey(cf),
                     detector_linearity=_linearity(cf, amp, cal_noise),
-                    thermometry=_thermometry(cf))
+                    thermometry=_thermometry(cf),
+                    phase_runs_after=phase_runs_after(cf, ph, cal_noise.get("phase"),
+                                                      recorded),
+                    phase_points=model_run_points(cf, cal_noise.get("phase")))

@@ -1,7 +1,7 @@
 """A hypothesis in reach as the proposal sees it: one fit's parameter set, its tone
 and gate models, its predictions of every source a recording reads (tone powers on
-:data:`SPECTRA_GRID`, the gates, the next amplitude run's drift, the phase curve on
-:data:`RUN_AMPLITUDES`) and the parameters that can absorb a recording, with their
+:data:`SPECTRA_GRID`, the gates, the next amplitude run's drift, the phase a further run records at the model's run's
+amplitudes: :func:`phase_run_amplitudes`) and the parameters that can absorb a recording, with their
 covariance from the recordings so far."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from dpdfit.analyses.diagnosis.fitting.fit_result import param_side
 from dpdfit.analyses.diagnosis.fitting.phase_sign import tone_held
 from dpdfit.analyses.diagnosis.model.gates.effect_terms import active_effects
 from dpdfit.analyses.diagnosis.model.linearity_block import predicted_attenuated
+from dpdfit.analyses.diagnosis.model.phase_runs_block import recorded_phase
 from dpdfit.analyses.diagnosis.model.pulse_block import pulse_prediction
 from dpdfit.analyses.diagnosis.model.ramsey_block import ramsey_probabilities_of
 from dpdfit.analyses.diagnosis.model.runs_after import run_drift
@@ -25,7 +26,7 @@ from dpdfit.recordings.detector_linearity import linearity_drives, transmission
 
 __all__ = ['Hypothesis', 'SPECTRA_GRID', 'RUN_AMPLITUDES', 'SPAM_STATES', 'MODE_STEP',
            'PARAM_STEP', 'PULSE_TIMES_US', 'pulse_amplitude', 'LINEARITY_DRIVES',
-           'linearity_readings']
+           'linearity_readings', 'phase_run_amplitudes']
 
 
 #: amplitudes a spectra recording may choose from
@@ -101,8 +102,8 @@ class Hypothesis:
     def raw(self, source: str, p: dict | None = None):
         """The prediction of ``source`` (``"powers"``: tone powers on
         :data:`SPECTRA_GRID`; ``"gates"``: the gate model's predictions; ``"drift"``: the
-        next amplitude run's shift in the drift modes; ``"phase"``: the phase curve on
-        :data:`RUN_AMPLITUDES`; ``"spam"``: the detected outcomes of each of
+        next amplitude run's shift in the drift modes; ``"phase"``: the phase a further run
+        records (:func:`phase_run_amplitudes`); ``"spam"``: the detected outcomes of each of
         :data:`SPAM_STATES` prepared with no gate; ``"pulse"``: the AOM pulse response at
         :data:`PULSE_TIMES_US` normalised to its settled level, :func:`pulse_amplitude`;
         ``"ramsey"``: the detected outcomes of the Ramsey sequence, then the echo, at the
@@ -189,10 +190,16 @@ def _drift(h: Hypothesis, p: dict):
     return run_drift(h.prob, p, days)[0]
 
 
+def phase_run_amplitudes(prob) -> np.ndarray:
+    """The amplitudes a further phase run records and the diagnosis fits: the model's
+    run's (``A >= PHASE_MIN_A``), else :data:`RUN_AMPLITUDES` there."""
+    pts = getattr(getattr(prob, "camp", None), "phase_points", None)
+    return pts[0] if pts is not None else RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
+
+
 def _phase(h: Hypothesis, p: dict):
-    A = RUN_AMPLITUDES[RUN_AMPLITUDES >= PHASE_MIN_A]
-    cp = h.tone.coefficients(p)[1]
-    return h.tone.phase_sign * (np.polynomial.polynomial.polyval(A, cp) - cp[0])
+    # the phase a run records, as the diagnosis fits the runs after the recordings
+    return recorded_phase(h.tone, p, phase_run_amplitudes(h.prob))
 
 
 def _spam(h: Hypothesis, p: dict):

@@ -18,14 +18,16 @@ from typing import Callable
 
 import numpy as np
 
+from dpdfit.analyses.diagnosis.observables.phase_runs_after import drift_shape, phase_whitener
 from dpdfit.analyses.diagnosis.observables.tone_features import MIN_SNR_DB, tone_features
 from dpdfit.analyses.diagnosis.observables.detector_linearity import campaign_power_noise
 from dpdfit.analyses.diagnosis.proposal.hypotheses import (LINEARITY_DRIVES, SPAM_STATES,
                                                            SPECTRA_GRID, Hypothesis,
                                                            linearity_readings,
+                                                           phase_run_amplitudes,
                                                            pulse_amplitude)
 from dpdfit.analyses.diagnosis.proposal.pooled_scans import pooled_whitener, scan_whitener
-from dpdfit.core.defaults import ERROR_MODEL, LINEARITY_ATTENUATION_DB
+from dpdfit.core.defaults import ERROR_MODEL, LINEARITY_ATTENUATION_DB, PHASE_RUN_NOISE_RAD
 from dpdfit.models.ramsey import SCAN_POINTS, SEQUENCES, scan_waits
 from dpdfit.models.sideband_thermometry import SIDEBANDS, THERMOMETRY_WAITS_US
 
@@ -108,12 +110,31 @@ def _amplitude_run(prob, hyps, lab):
 
 
 def _phase_run(prob, hyps, lab):
-    """No phase run is offered: the diagnosis's likelihood has no phase-run term (phase
-    runs only locate a mismatch, :meth:`~dpdfit.analyses.diagnosis.model.residuals.Problem.series`),
-    so a further run cannot separate two hypotheses, whatever their predicted phases (in
-    the closed loop every phase run proposed achieved a separation of exactly 0 and was
-    proposed again).  Once the phase runs are fitted as data, this builds their item."""
-    return []
+    """One phase calibration run now, after the recordings: the phase the hypotheses'
+    phase transfers predict at the model's run's amplitudes (``A >= PHASE_MIN_A``,
+    :func:`~dpdfit.analyses.diagnosis.proposal.hypotheses.phase_run_amplitudes`), with
+    that run's errors (as recorded or learnt, else
+    :data:`~dpdfit.core.defaults.PHASE_RUN_NOISE_RAD`) and the runs' run-to-run drift of
+    ``phi``, as the diagnosis fits such a run
+    (:mod:`~dpdfit.analyses.diagnosis.model.phase_runs_block`).  Offered only when a
+    further run enters that fit: the campaign has a phase calibration with errors and
+    recording times (a run taken after them is data; before these were fitted, every
+    phase run the closed loop took achieved a separation of exactly 0).  It separates
+    hypotheses that differ in the AOM's own phase transfer (the modulator's AM-to-PM
+    left out of the model), not a phase after the AOM."""
+    camp = getattr(prob, "camp", None)
+    if getattr(prob, "tone", None) is None or camp is None or camp.phase is None \
+            or not camp.recorded or camp.phase.sigma_source != "given":
+        return []
+    A = phase_run_amplitudes(prob)
+    pts = camp.phase_points
+    sd = (pts[1] if pts is not None and pts[1] is not None
+          else np.full(A.size, PHASE_RUN_NOISE_RAD))
+    after = camp.phase_runs_after
+    drift = after.drift_sd if after is not None else PHASE_RUN_NOISE_RAD
+    W = phase_whitener(sd, drift_shape(camp.phase, A), drift)
+    return [Item("phase_run", {"runs": 1}, lab.phase_run_s, "phase",
+                 lambda r: r, lambda a, b: W)]
 
 
 # ----------------------------------------------------------------- spectra

@@ -13,8 +13,11 @@ with the recording's noise:
 
 * ``amplitude_run``: one more amplitude calibration run now, in the run-to-run
   drift modes (the effects' ``run_drift``); sigma: the modes' run-to-run sd;
-* ``phase_run``: not offered while the diagnosis does not fit phase runs as data (they
-  only locate a mismatch), since such a run cannot separate two hypotheses;
+* ``phase_run``: one more phase calibration run now, after the recordings, the phase
+  each hypothesis's phase transfer predicts at the model's run's amplitudes (``A >= PHASE_MIN_A``);
+  sigma: the runs' learnt noise with their run-to-run drift of ``phi``, as the diagnosis
+  fits such runs (:mod:`~dpdfit.analyses.diagnosis.model.phase_runs_block`); offered
+  when the campaign has a phase calibration with errors and recording times;
 * ``spectra``: traces at ``k`` (:data:`SPECTRA_COUNTS`) amplitudes of
   :data:`SPECTRA_GRID`, chosen greedily, with and without DPD, through the
   per-trace tone features (the learnt repeatability, which the settings state as

@@ -64,8 +64,8 @@ def test_tone_side_difference_picks_a_tone_side_recording(tone_prob):
     assert nm.separates == ["baseline", "detector_nonlinearity"]
     by_kind = {m["what"]: m for m in nm.menu}
     assert by_kind["amplitude_run"]["expected_delta_bic"] == 0.0
-    # phase runs are not data of the diagnosis's fit: a further one separates nothing
-    assert "phase_run" not in by_kind
+    # a further phase run is fitted as data, but neither hypothesis moves the AOM's phase
+    assert by_kind["phase_run"]["expected_delta_bic"] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_more_amplitudes_separate_more(tone_prob):
@@ -129,7 +129,9 @@ def test_without_gates_no_gate_recording_is_proposed(tone_prob):
     nm = propose_next_measurement(tone_prob, [BASE, DETECTOR, _stale((1.0,))])
     assert not GATE_KINDS & {m["what"] for m in nm.menu}
     assert {"amplitude_run", "spectra"} <= {m["what"] for m in nm.menu}
-    assert "phase_run" not in {m["what"] for m in nm.menu}
+    # offered (fitted as data), separating nothing: no hypothesis moves the AOM's phase
+    assert all(m["expected_delta_bic"] == pytest.approx(0.0, abs=1e-9)
+               for m in nm.menu if m["what"] == "phase_run")
     # three hypotheses: the smallest separation of the first from the others counts
     assert nm.separates == ["baseline", "detector_nonlinearity", "stale_calibration"]
 
