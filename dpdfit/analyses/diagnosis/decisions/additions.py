@@ -86,6 +86,22 @@ def _held_other_side(prob, f: FitResult, side: str) -> dict:
             if param_side(prob, k) != side and k in _fit_keys(prob, f)}
 
 
+def _candidates(ranking: list, named: set, left: set, located: set, pairs: int) -> list:
+    """The effects tried as an addition to the ``named`` ones, at most ``pairs``: those
+    decisive on their own against the baseline on a side still searched (``left``),
+    best first; then, in the room left, those that were not, on a side where the named
+    model itself leaves a located mismatch (``located``).  An effect can be masked in
+    the baseline: a gate-side one whose signature the baseline's field hides, seen only
+    once a tone-side effect carries its own field to the gates (the parity contrast the
+    baseline fitted, misfitted under the named field)."""
+    others = [r for r in ranking if "+" not in r["effect"] and r["effect"] not in named]
+    alone = [r["effect"] for r in others if EFFECTS[r["effect"]].side in left
+             and r["delta_bic"] < -BIC_DECISIVE]
+    masked = [r["effect"] for r in others if EFFECTS[r["effect"]].side in located
+              and r["effect"] not in alone]
+    return (alone + masked)[:pairs]
+
+
 def add_effects(prob, base: FitResult, chosen: FitResult, fits: dict, form_fits: dict,
                 ranking: list, pairs: int, sides: set):
     """Forward selection (module doc).  Returns the final fit, the steps (ranking entries
@@ -99,13 +115,11 @@ def add_effects(prob, base: FitResult, chosen: FitResult, fits: dict, form_fits:
         named = set(chosen.effects)
         # a side is searched again while the named model leaves a mismatch there; the
         # gates also while the campaign's gates showed one (the targeted test again)
-        left = side_evidence(chosen, locate_mismatches(prob, chosen.all_params), []) & sides
+        located = side_evidence(chosen, locate_mismatches(prob, chosen.all_params), [])
+        left = located & sides
         if prob.gate is not None and "gates" in sides:
             left = left | {"gates"}
-        cands = [r["effect"] for r in ranking
-                 if "+" not in r["effect"] and r["effect"] not in named
-                 and EFFECTS[r["effect"]].side in left
-                 and r["delta_bic"] < -BIC_DECISIVE][:pairs]
+        cands = _candidates(ranking, named, left, located, pairs)
         if not cands:
             break
         done = _joint_fits(prob, base, chosen, fits, cands, rebased)

@@ -53,3 +53,10 @@ def test_a_gate_side_addition_is_refitted_on_the_named_field(diagnosed):
                                                "forms": ["post", "coherence_mixed"]})
     assert both <= alone * (1 + 1e-4)
     assert alone - both > 10.0
+
+
+def test_the_masked_dephasing_is_tried_as_an_addition(diagnosed):
+    # dephasing alone does not beat the baseline (the baseline's field fits the contrast);
+    # under the named AM-to-PM's field the contrast is misfitted and dephasing is tried
+    tried = [e["effect"] for step in diagnosed.steps for e in step]
+    assert "am_pm_omitted+dephasing" in tried
