@@ -14,7 +14,8 @@ from dpdfit.recordings.schedule import (SCHEDULE_COLUMNS, check_schedule, read_s
 def _mixed() -> pd.DataFrame:
     return pd.DataFrame([
         dict(kind="spam", repeat=1, point=0, A=0.0, shots=10, prepared="00"),
-        dict(kind="ramsey", repeat=1, point=0, A=0.0, shots=10, sequence="echo", wait_us=5.0),
+        dict(kind="ramsey", repeat=1, point=0, A=0.0, shots=10, sequence="echo",
+             wait_us=5.0),
         dict(kind="detector_linearity", repeat=1, point=0, A=0.5, attenuation_db=10.0),
         dict(kind="thermometry", repeat=1, point=0, A=0.0, shots=10, wait_us=100.0,
              sideband="blue"),
