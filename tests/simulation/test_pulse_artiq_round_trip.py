@@ -22,8 +22,8 @@ from dpdfit.recordings.schedule import read_schedule, write_schedule
 from dpdfit.simulation.artiq_results import MAPPINGS
 from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import schedule_measurements
-from dpdfit.simulation.recorded_artiq import campaign_files_end, read_campaign_tables
 from dpdfit.simulation.recorded_schedule import record_further
+from tests.helpers.artiq_round_trip import cli_ok as _cli, own_table_round_trip
 from tests.helpers.standin import SMALL
 
 pytest.importorskip("h5py")
@@ -47,13 +47,6 @@ def campaign(tmp_path_factory):
     schedule = root / "schedule.csv"
     write_schedule(pd.DataFrame(rows), schedule)
     return folder, schedule
-
-
-def _cli(args, capsys) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_scheduled_traces_recorded_as_artiq_results_import_as_recorded(campaign, tmp_path,
@@ -80,18 +73,7 @@ def test_scheduled_traces_recorded_as_artiq_results_import_as_recorded(campaign,
 
 def test_a_campaigns_own_trace_written_whole_and_imported_back(tmp_path, capsys):
     cfg = dataclasses.replace(SMALL, pulse_traces=1)
-    folder = tmp_path / "campaign"
-    simulate_campaign(folder, config=cfg, progress=False)
-    lab, imported = tmp_path / "lab", tmp_path / "imported"
-    _cli(["write-artiq-results", folder, lab], capsys)
-    _cli(["import", lab / "mapping.toml", "-o", imported], capsys)
-    want = pd.read_csv(folder / "pulse_response.csv")
-    got = pd.read_csv(imported / "pulse_response.csv")
-    pd.testing.assert_frame_equal(got[list(want.columns)], want, check_exact=True)
-    files = sorted(lab.glob("results/*/*/*.h5"))
-    assert files[-1].name.endswith("-PulseResponse.h5")
-    tables, meta = read_campaign_tables(folder)
-    assert campaign_files_end(tables, meta)[0] == len(files)
+    own_table_round_trip(cfg, tmp_path, capsys, "pulse_response", "PulseResponse")
 
 
 def test_the_mapping_written_for_a_campaign_without_it_has_no_pulse_source(tmp_path):

@@ -22,8 +22,8 @@ from dpdfit.simulation.campaign import CampaignConfig, simulate_campaign
 from dpdfit.simulation.further_recordings import (default_menu, random_menu_choice,
                                                   schedule_measurements)
 from dpdfit.simulation.ndscan_lab import spam_code, spam_runs
-from dpdfit.simulation.recorded_artiq import campaign_files_end, read_campaign_tables
 from dpdfit.simulation.recorded_schedule import record_further
+from tests.helpers.artiq_round_trip import cli_ok as _cli, own_table_round_trip
 from tests.helpers.standin import SMALL
 
 pytest.importorskip("h5py")
@@ -48,13 +48,6 @@ def campaign(tmp_path_factory):
     schedule = root / "schedule.csv"
     write_schedule(pd.DataFrame(rows), schedule)
     return folder, schedule
-
-
-def _cli(args, capsys) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_scheduled_spam_recorded_as_artiq_results_imports_as_recorded(campaign, tmp_path,
@@ -94,18 +87,8 @@ def test_a_campaigns_own_spam_written_whole_and_imported_back(tmp_path, capsys):
     its gate runs) and ``dpdfit import``: spam.csv back exactly; the rids the new
     recordings of a schedule continue after count those files."""
     cfg = dataclasses.replace(SMALL, spam_shots=1000)
-    folder = tmp_path / "campaign"
-    simulate_campaign(folder, config=cfg, progress=False)
-    lab, imported = tmp_path / "lab", tmp_path / "imported"
-    _cli(["write-artiq-results", folder, lab], capsys)
-    _cli(["import", lab / "mapping.toml", "-o", imported], capsys)
-    want = pd.read_csv(folder / "spam.csv", dtype={"prepared": str})
-    got = pd.read_csv(imported / "spam.csv", dtype={"prepared": str})
-    pd.testing.assert_frame_equal(got[list(want.columns)], want, check_exact=True)
-    files = sorted(lab.glob("results/*/*/*.h5"))
-    assert files[-1].name.endswith("-SpamCharacterisation.h5")
-    tables, meta = read_campaign_tables(folder)
-    assert campaign_files_end(tables, meta)[0] == len(files)
+    own_table_round_trip(cfg, tmp_path, capsys, "spam", "SpamCharacterisation",
+                         dtype={"prepared": str})
 
 
 def test_the_mapping_written_for_a_campaign_without_spam_has_no_spam_source(tmp_path):
